@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages ftid needs (scripts/packages.txt), then configures and builds.
+# Usage: scripts/setup.sh [BUILD_DIR]   (run as root, or with sudo, on Debian 12)
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+root="$(dirname "$here")"
+build="${1:-$root/build}"
+
+mapfile -t pkgs < <(grep -vE '^\s*(#|$)' "$here/packages.txt")
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "== setup: installing ${#missing[@]} Debian packages: ${missing[*]}"
+  if [ "$(id -u)" -ne 0 ]; then
+    echo "setup: need root to install packages (run with sudo)" >&2
+    exit 1
+  fi
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "== setup: all ${#pkgs[@]} Debian packages present"
+fi
+
+echo "== setup: configuring $build"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DFTID_BUILD_TESTS=ON >/dev/null
+echo "== setup: building (this takes a few minutes on 2 cores)"
+cmake --build "$build" -j"$(nproc)"

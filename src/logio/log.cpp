@@ -1,0 +1,405 @@
+// CSV log reader/writer (docs/log-format.md). The reader loads the file in one piece and parses
+// fields in place with std::from_chars (no iostream per field); every error names
+// FILE:LINE:COLUMN, where COLUMN is the 1-based character position of the offending field.
+#include "ftid/logio/log.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string_view>
+#include <system_error>
+#include <tuple>
+
+#include "ftid/common/error.hpp"
+
+namespace ftid::logio {
+
+int LogData::extraIndex(const std::string& name) const {
+  for (std::size_t i = 0; i < extra_names.size(); ++i) {
+    if (extra_names[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+namespace {
+
+// Slot of every known column in the sample.
+enum Group { kCore, kWrench, kImu, kTemp };
+struct KnownColumn {
+  const char* name;
+  Group group;
+};
+
+constexpr int kNumKnown = 1 + 18 + 6 + 9 + 1;
+const std::array<KnownColumn, kNumKnown>& knownColumns() {
+  static const std::array<KnownColumn, kNumKnown> cols = {{
+      {"t", kCore},     {"q1", kCore},    {"q2", kCore},    {"q3", kCore},    {"q4", kCore},
+      {"q5", kCore},    {"q6", kCore},    {"qd1", kCore},   {"qd2", kCore},   {"qd3", kCore},
+      {"qd4", kCore},   {"qd5", kCore},   {"qd6", kCore},   {"qdd1", kCore},  {"qdd2", kCore},
+      {"qdd3", kCore},  {"qdd4", kCore},  {"qdd5", kCore},  {"qdd6", kCore},  {"fx", kWrench},
+      {"fy", kWrench},  {"fz", kWrench},  {"tx", kWrench},  {"ty", kWrench},  {"tz", kWrench},
+      {"ax", kImu},     {"ay", kImu},     {"az", kImu},     {"wx", kImu},     {"wy", kImu},
+      {"wz", kImu},     {"alx", kImu},    {"aly", kImu},    {"alz", kImu},    {"temp", kTemp},
+  }};
+  return cols;
+}
+
+double* slotOf(LogSample& s, int known) {
+  if (known == 0) return &s.t;
+  if (known <= 6) return &s.q[known - 1];
+  if (known <= 12) return &s.qd[known - 7];
+  if (known <= 18) return &s.qdd[known - 13];
+  if (known <= 24) return &s.wrench_S[known - 19];
+  if (known <= 27) return &s.acc_S[known - 25];
+  if (known <= 30) return &s.w_S[known - 28];
+  if (known <= 33) return &s.alpha_S[known - 31];
+  return &s.temp_degC;
+}
+
+double valueOf(const LogSample& s, int known) { return *slotOf(const_cast<LogSample&>(s), known); }
+
+std::string_view trim(std::string_view v) {
+  while (!v.empty() && (v.front() == ' ' || v.front() == '\t')) v.remove_prefix(1);
+  while (!v.empty() && (v.back() == ' ' || v.back() == '\t' || v.back() == '\r')) v.remove_suffix(1);
+  return v;
+}
+
+[[noreturn]] void dataError(const std::string& file, std::size_t line, std::size_t column,
+                            const std::string& message) {
+  throw DataError(file + ":" + std::to_string(line) + ":" + std::to_string(column) + ": " + message);
+}
+
+// Parses one number; returns false with a reason if it is not a finite number.
+bool parseNumber(std::string_view field, double& out, std::string& why) {
+  std::string_view v = trim(field);
+  if (v.empty()) {
+    why = "empty field";
+    return false;
+  }
+  std::string_view body = v;
+  if (body.front() == '+') body.remove_prefix(1);
+  const char* first = body.data();
+  const char* last = body.data() + body.size();
+  auto res = std::from_chars(first, last, out);
+  if (res.ec == std::errc::result_out_of_range) {
+    why = "number '" + std::string(v) + "' is out of the range of a double";
+    return false;
+  }
+  if (res.ec != std::errc() || res.ptr != last) {
+    why = "not a number: '" + std::string(v) + "'";
+    return false;
+  }
+  if (!std::isfinite(out)) {
+    why = "non-finite value '" + std::string(v) + "' (NaN and infinity are not allowed)";
+    return false;
+  }
+  return true;
+}
+
+std::string readWholeFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DataError(path + ":0:0: cannot open log file: " + std::strerror(errno));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct LineCursor {
+  std::string_view text;
+  std::size_t pos = 0;
+  std::size_t line_no = 0;
+  /// Next line (without the newline); false at the end.
+  bool next(std::string_view& line) {
+    if (pos >= text.size()) return false;
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    line = text.substr(pos, end - pos);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    pos = end + 1;
+    ++line_no;
+    return true;
+  }
+};
+
+bool isBlankOrComment(std::string_view line) {
+  std::string_view v = trim(line);
+  return v.empty() || v.front() == '#';
+}
+
+}  // namespace
+
+LogData readLog(const std::string& path, LogKind kind) {
+  const std::string text = readWholeFile(path);
+  LogData log;
+  log.source = path;
+  LineCursor cur{text};
+  std::string_view line;
+
+  // Header.
+  bool have_header = false;
+  while (cur.next(line)) {
+    if (!isBlankOrComment(line)) {
+      have_header = true;
+      break;
+    }
+  }
+  if (!have_header) dataError(path, cur.line_no == 0 ? 1 : cur.line_no, 1, "empty log: no header row");
+  const std::size_t header_line = cur.line_no;
+
+  const auto& known = knownColumns();
+  std::vector<int> field_known;       // per field: known column index or -1
+  std::vector<int> field_extra;       // per field: extra column index or -1
+  std::array<int, kNumKnown> known_field;
+  known_field.fill(-1);
+  {
+    std::size_t start = 0;
+    int field = 0;
+    while (true) {
+      std::size_t comma = line.find(',', start);
+      std::string_view name = trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+      if (name.empty()) dataError(path, header_line, start + 1, "empty column name in header");
+      int k = -1;
+      for (int i = 0; i < kNumKnown; ++i) {
+        if (name == known[static_cast<std::size_t>(i)].name) k = i;
+      }
+      for (std::size_t e = 0; e < log.extra_names.size(); ++e) {
+        if (log.extra_names[e] == name) dataError(path, header_line, start + 1, "duplicate column '" + std::string(name) + "'");
+      }
+      if (k >= 0) {
+        if (known_field[static_cast<std::size_t>(k)] >= 0) {
+          dataError(path, header_line, start + 1, "duplicate column '" + std::string(name) + "'");
+        }
+        known_field[static_cast<std::size_t>(k)] = field;
+        field_known.push_back(k);
+        field_extra.push_back(-1);
+      } else {
+        field_known.push_back(-1);
+        field_extra.push_back(static_cast<int>(log.extra_names.size()));
+        log.extra_names.emplace_back(name);
+      }
+      ++field;
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
+  }
+  // Required columns and all-or-nothing groups.
+  auto missingOf = [&](Group g) {
+    std::string missing;
+    int present = 0, total = 0;
+    for (int i = 0; i < kNumKnown; ++i) {
+      if (known[static_cast<std::size_t>(i)].group != g) continue;
+      ++total;
+      if (known_field[static_cast<std::size_t>(i)] >= 0) {
+        ++present;
+      } else {
+        missing += (missing.empty() ? "" : ", ") + std::string(known[static_cast<std::size_t>(i)].name);
+      }
+    }
+    return std::make_tuple(missing, present, total);
+  };
+  {
+    auto [missing, present, total] = missingOf(kCore);
+    if (present != total) dataError(path, header_line, 1, "missing required column(s): " + missing);
+  }
+  {
+    auto [missing, present, total] = missingOf(kWrench);
+    if (kind == LogKind::kMeasurement && present != total) {
+      dataError(path, header_line, 1, "missing required wrench column(s): " + missing);
+    }
+    if (present != 0 && present != total) {
+      dataError(path, header_line, 1, "incomplete wrench columns, missing: " + missing);
+    }
+    log.has_wrench = present == total;
+  }
+  {
+    auto [missing, present, total] = missingOf(kImu);
+    if (present != 0 && present != total) {
+      dataError(path, header_line, 1,
+                "incomplete IMU columns (ax..alz must be all present or all absent), missing: " + missing);
+    }
+    log.has_imu = present == total;
+  }
+  log.has_temp = known_field[kNumKnown - 1] >= 0;
+  log.extra_columns.assign(log.extra_names.size(), {});
+
+  // Rows.
+  const std::size_t n_fields = field_known.size();
+  const std::size_t rows_estimate = text.size() / (n_fields * 8 + 1) + 1;
+  log.samples.reserve(rows_estimate);
+  for (auto& c : log.extra_columns) c.reserve(rows_estimate);
+  double previous_t = 0.0;
+  std::size_t previous_t_line = 0;
+  std::string why;
+  while (cur.next(line)) {
+    if (isBlankOrComment(line)) continue;
+    LogSample sample;
+    std::size_t t_column = 1;
+    std::size_t start = 0;
+    std::size_t field = 0;
+    while (true) {
+      const std::size_t comma = line.find(',', start);
+      const std::string_view f = line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+      if (field >= n_fields) {
+        dataError(path, cur.line_no, start + 1,
+                  "too many fields: expected " + std::to_string(n_fields) + " (as in the header on line " +
+                      std::to_string(header_line) + ")");
+      }
+      double v = 0.0;
+      if (!parseNumber(f, v, why)) {
+        const int k = field_known[field];
+        const std::string name = k >= 0 ? known[static_cast<std::size_t>(k)].name
+                                        : log.extra_names[static_cast<std::size_t>(field_extra[field])];
+        dataError(path, cur.line_no, start + 1, "column '" + name + "': " + why);
+      }
+      const int k = field_known[field];
+      if (k == 0) t_column = start + 1;
+      if (k >= 0) {
+        *slotOf(sample, k) = v;
+      } else {
+        log.extra_columns[static_cast<std::size_t>(field_extra[field])].push_back(v);
+      }
+      ++field;
+      if (comma == std::string_view::npos) break;
+      start = comma + 1;
+    }
+    if (field != n_fields) {
+      dataError(path, cur.line_no, line.size() + 1,
+                "too few fields: expected " + std::to_string(n_fields) + " (as in the header on line " +
+                    std::to_string(header_line) + "), found " + std::to_string(field));
+    }
+    if (!log.samples.empty() && !(sample.t > previous_t)) {
+      char buf[160];
+      std::snprintf(buf, sizeof buf, "column 't': time %.17g is not greater than %.17g on line %zu (t must be strictly increasing)",
+                    sample.t, previous_t, previous_t_line);
+      dataError(path, cur.line_no, t_column, buf);
+    }
+    previous_t = sample.t;
+    previous_t_line = cur.line_no;
+    log.samples.push_back(sample);
+  }
+  if (log.samples.empty()) dataError(path, header_line, 1, "log has a header but no data rows");
+  return log;
+}
+
+namespace {
+
+void appendNumber(std::string& out, double v) {
+  char buf[32];
+  auto res = std::to_chars(buf, buf + sizeof buf, v);  // shortest representation that round-trips
+  out.append(buf, res.ptr);
+}
+
+void writeAll(int fd, const std::string& data, const std::string& tmp) {
+  const char* p = data.data();
+  std::size_t left = data.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw DataError(tmp + ": write failed: " + std::strerror(errno));
+    }
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+}
+
+}  // namespace
+
+void writeLog(const std::string& path, const LogData& log) {
+  const auto& known = knownColumns();
+  std::vector<int> cols;
+  for (int i = 0; i < kNumKnown; ++i) {
+    const Group g = known[static_cast<std::size_t>(i)].group;
+    if (g == kCore || (g == kWrench && log.has_wrench) || (g == kImu && log.has_imu) ||
+        (g == kTemp && log.has_temp)) {
+      cols.push_back(i);
+    }
+  }
+  if (log.extra_columns.size() != log.extra_names.size()) {
+    throw DataError(path + ": extra_names and extra_columns differ in size");
+  }
+  for (std::size_t e = 0; e < log.extra_columns.size(); ++e) {
+    if (log.extra_columns[e].size() != log.samples.size()) {
+      throw DataError(path + ": extra column '" + log.extra_names[e] + "' has " +
+                      std::to_string(log.extra_columns[e].size()) + " values for " +
+                      std::to_string(log.samples.size()) + " samples");
+    }
+  }
+  std::string out;
+  out.reserve(64 + log.samples.size() * (cols.size() + log.extra_names.size()) * 20);
+  for (std::size_t c = 0; c < cols.size(); ++c) {
+    if (c) out += ',';
+    out += known[static_cast<std::size_t>(cols[c])].name;
+  }
+  for (const auto& name : log.extra_names) {
+    if (name.empty() || name.find_first_of(",\n\r") != std::string::npos) {
+      throw DataError(path + ": invalid extra column name '" + name + "'");
+    }
+    out += ',';
+    out += name;
+  }
+  out += '\n';
+  for (std::size_t i = 0; i < log.samples.size(); ++i) {
+    const LogSample& s = log.samples[i];
+    if (i > 0 && !(s.t > log.samples[i - 1].t)) {
+      throw DataError(path + ": sample " + std::to_string(i) + ": t is not strictly increasing");
+    }
+    for (std::size_t c = 0; c < cols.size(); ++c) {
+      const double v = valueOf(s, cols[c]);
+      if (!std::isfinite(v)) {
+        throw DataError(path + ": sample " + std::to_string(i) + ", column '" +
+                        known[static_cast<std::size_t>(cols[c])].name + "': non-finite value");
+      }
+      if (c) out += ',';
+      appendNumber(out, v);
+    }
+    for (std::size_t e = 0; e < log.extra_columns.size(); ++e) {
+      const double v = log.extra_columns[e][i];
+      if (!std::isfinite(v)) {
+        throw DataError(path + ": sample " + std::to_string(i) + ", column '" + log.extra_names[e] +
+                        "': non-finite value");
+      }
+      out += ',';
+      appendNumber(out, v);
+    }
+    out += '\n';
+  }
+
+  // Atomic replace: temporary file in the same directory, fsync, rename.
+  std::string tmp_template = path + ".tmp-XXXXXX";
+  std::vector<char> name(tmp_template.begin(), tmp_template.end());
+  name.push_back('\0');
+  const int fd = ::mkstemp(name.data());
+  const std::string tmp(name.data());
+  if (fd < 0) throw DataError(path + ": cannot create temporary file: " + std::strerror(errno));
+  try {
+    writeAll(fd, out, tmp);
+    if (::fchmod(fd, 0644) != 0 || ::fsync(fd) != 0) {
+      throw DataError(tmp + ": fsync failed: " + std::strerror(errno));
+    }
+  } catch (...) {
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    throw;
+  }
+  if (::close(fd) != 0) {
+    ::unlink(tmp.c_str());
+    throw DataError(tmp + ": close failed: " + std::strerror(errno));
+  }
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    throw DataError(path + ": cannot rename temporary file into place: " + std::strerror(err));
+  }
+}
+
+}  // namespace ftid::logio
