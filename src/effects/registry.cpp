@@ -18,7 +18,15 @@
   X("offsets", makeOffsetsEffect, "constant zero offsets F0, T0 of the sensor")                   \
   X("gravity", makeGravityEffect, "payload weight m g_S at the centre of mass")                   \
   X("tilt", makeTiltEffect, "robot base mounted off level (angles U, V)")                         \
-  X("linear_inertia", makeLinearInertiaEffect, "inertial force -m a_S of the payload (paper)")
+  X("linear_inertia", makeLinearInertiaEffect, "inertial force -m a_S of the payload (paper)")   \
+  X("rigid_body", makeRigidBodyEffect, "full Newton-Euler: m(alpha x c + w x (w x c)), I alpha + w x I w") \
+  X("cable", makeCableEffect, "cable/hose pulling the tool toward a fixed anchor (linear spring)")  \
+  X("temperature_drift", makeTemperatureDriftEffect, "offsets linear in the sensor temperature")    \
+  X("time_drift", makeTimeDriftEffect, "offsets drifting linearly with time")                        \
+  X("sensor_delay", makeSensorDelayEffect, "wrench lags the kinematics by tau: -tau dw/dt")          \
+  X("crosstalk", makeCrosstalkEffect, "gain and cross-axis errors: reading = (I + E) wrench")       \
+  X("harmonic", makeHarmonicEffect, "harmonic(s,n): Fourier series in signal s on every axis")       \
+  X("poly", makePolyEffect, "poly(s,n[,ref]): polynomial in signal s on every axis")
 
 namespace ftid::effects {
 

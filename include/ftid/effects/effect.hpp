@@ -49,6 +49,12 @@ struct SampleContext {
   double temp_degC = 0.0;                ///< (if has_temp)
   Wrench dwrench_model_dt = Wrench::Zero();  ///< d/dt of the current modelled wrench (fitter)
   const double* extra = nullptr;         ///< this sample's extra log columns, or nullptr
+  /// Names of the extra columns (same order as `extra`), or nullptr; read by generic effects such
+  /// as poly(<column>,n). Set by whoever owns the names (e.g. the ContextSet's owner).
+  const std::vector<std::string>* extra_names = nullptr;
+  /// The current modelled wrench (fitter, like dwrench_model_dt), without the effects that read it.
+  /// Read by `crosstalk` (kSignalModelDerivative).
+  Wrench wrench_model_S = Wrench::Zero();
   bool has_imu = false;
   bool has_temp = false;
 };

@@ -34,6 +34,7 @@ struct ContextOptions {
 /// SampleContext::extra points into; copying re-points the copies.
 struct ContextSet {
   std::string source;                    ///< log file (for messages)
+  double t_origin = 0.0;                 ///< log t of the first sample (SampleContext::t is relative)
   std::vector<SampleContext> samples;
   std::vector<std::string> extra_names;  ///< names of the extra columns, in order
   std::vector<double> extra_rows;        ///< extra_rows[i * extra_names.size() + k]
@@ -50,8 +51,7 @@ struct ContextSet {
   /// Index of an extra column by name, or -1.
   int extraIndex(const std::string& name) const;
   std::size_t size() const { return samples.size(); }
-
- private:
+  /// Points every SampleContext::extra at its row of extra_rows (after editing either).
   void repoint();
 };
 

@@ -51,6 +51,7 @@ struct FitResult {
   /// Covariance of [theta; U; V] (tilt rows/cols only when estimated) including the tilt coupling.
   Eigen::MatrixXd covariance;
   bool tilt_estimated = false;
+  bool tilt_applied = false;            ///< g_S was recomputed from the tilt (else ctx.g_S used)
   double tilt_u_rad = 0.0;              ///< tilt used (estimated, given, or 0)
   double tilt_v_rad = 0.0;
   double tilt_u_std = 0.0;

@@ -1,0 +1,44 @@
+// `ftid compensate`: remove the identified payload wrench from a recorded log.
+#include <cstdio>
+#include <iostream>
+
+#include "command.hpp"
+#include "ftid/identify/offline.hpp"
+
+namespace {
+
+const char* const kUsage =
+    "usage: ftid compensate --log FILE --params PARAMS.yaml --out OUT.csv [--robot URDF]\n"
+    "\n"
+    "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
+    "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
+    "columns t, fx..tz (contact wrench, in S) and model_fx..model_tz (modelled wrench).\n"
+    "\n"
+    "  --log FILE        the log (docs/log-format.md)\n"
+    "  --params FILE     parameters written by `ftid identify --out`\n"
+    "  --out FILE        the output CSV (written atomically)\n"
+    "  --robot URDF      robot description (default config/ur10.urdf)";
+
+int runCompensate(const std::vector<std::string>& argv) {
+  ftid::cli::Args args(argv, kUsage);
+  ftid::identify::CompensateRequest req;
+  req.log_path = args.value("--log");
+  req.params_path = args.value("--params");
+  req.out_csv = args.value("--out");
+  req.robot_urdf = args.value("--robot");
+  args.finish();
+  if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
+    throw ftid::cli::UsageError("--log, --params and --out are required");
+  }
+  const auto s = ftid::identify::compensateLogFile(req);
+  std::printf("%d samples compensated -> %s\n%-6s %12s %12s\n", s.n_samples, req.out_csv.c_str(), "axis",
+              "raw RMS", "contact RMS");
+  const char* axes[6] = {"fx", "fy", "fz", "tx", "ty", "tz"};
+  for (int a = 0; a < 6; ++a) std::printf("%-6s %12.4g %12.4g\n", axes[a], s.raw_rms(a), s.contact_rms(a));
+  return 0;
+}
+
+ftid::cli::Registrar reg{{"compensate", "remove the payload wrench from a log (contact wrench CSV)", kUsage,
+                          &runCompensate}};
+
+}  // namespace

@@ -1,0 +1,56 @@
+// `ftid identify`: identify the payload parameters from a recorded log.
+#include <iostream>
+
+#include "command.hpp"
+#include "ftid/identify/offline.hpp"
+
+namespace {
+
+const char* const kUsage =
+    "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
+    "                     [--out PARAMS.yaml] [--json]\n"
+    "\n"
+    "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
+    "\n"
+    "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...)\n"
+    "  --method M        the paper's method: 'dynamic' (default; with the inertial term -m a, for\n"
+    "                    excitation runs) or 'static' (gravity only: rest poses or slow motion)\n"
+    "  --model M         instead of the paper's method, fit a composed model by weighted least\n"
+    "                    squares, e.g. 'paper' or 'paper+rigid_body' (docs/effects.md)\n"
+    "  --robot URDF      robot description (default config/ur10.urdf)\n"
+    "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
+    "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
+    "\n"
+    "Prints each parameter with its standard error, the residual RMS per axis and the condition\n"
+    "number. Exit code 1 with a one-line reason if the log is malformed or does not determine the\n"
+    "parameters (the message names those not excited).";
+
+int runIdentify(const std::vector<std::string>& argv) {
+  ftid::cli::Args args(argv, kUsage);
+  ftid::identify::IdentifyRequest req;
+  req.log_path = args.value("--log");
+  req.method = args.value("--method", "dynamic");
+  req.model = args.value("--model");
+  req.robot_urdf = args.value("--robot");
+  const std::string out = args.value("--out");
+  const bool json = args.flag("--json");
+  args.finish();
+  if (req.log_path.empty()) throw ftid::cli::UsageError("--log FILE is required");
+  if (req.method != "static" && req.method != "dynamic") {
+    throw ftid::cli::UsageError("--method must be 'static' or 'dynamic'");
+  }
+  if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
+  const ftid::identify::ParameterSet set = ftid::identify::identifyLogFile(req);
+  if (!out.empty()) ftid::identify::writeParameterFile(out, set);
+  if (json) {
+    std::cout << ftid::identify::toJson(set) << "\n";
+  } else {
+    std::cout << ftid::identify::formatParameterTable(set);
+    if (!out.empty()) std::cout << "parameters written to " << out << "\n";
+  }
+  return 0;
+}
+
+ftid::cli::Registrar reg{{"identify", "identify payload parameters from a recorded log", kUsage, &runIdentify}};
+
+}  // namespace

@@ -1,0 +1,117 @@
+// `ftid sim-robot`: a simulated UR10 / UR10e controller on loopback (ftid::simrobot).
+#include <pthread.h>
+
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+
+#include "command.hpp"
+#include "ftid/common/error.hpp"
+#include "ftid/simrobot/sim_robot.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: ftid sim-robot [--model ur10|ur10e] [--host 127.0.0.1] [--rtde-port 30004]\n"
+    "                      [--dashboard-port 29999] [--script-port 30003] [--q0 q1,q2,q3,q4,q5,q6]\n"
+    "                      [--fault-after SECONDS:KIND[:COUNT]] [--verbose]\n"
+    "\n"
+    "Runs a simulated Universal Robots controller until SIGINT/SIGTERM (Ctrl-C):\n"
+    "  RTDE (protocol v2) on --rtde-port, the dashboard server subset on --dashboard-port and a\n"
+    "  script port that accepts ftid's servo program and ur_rtde's rtde_control program.\n"
+    "  ur10  = CB3, software 3.15.8, 125 Hz;  ur10e = e-Series, software 5.11.1, 500 Hz.\n"
+    "  Port 0 picks a free port; the ports in use are printed at start.\n"
+    "\n"
+    "options:\n"
+    "  --q0 LIST           initial joint angles [rad] (default 0,-1.5708,1.5708,-1.5708,-1.5708,0)\n"
+    "  --fault-after S:K   inject fault K S seconds (controller time) after a program first starts;\n"
+    "                      K = protective_stop | estop | program_stop | drop | late | disconnect | stall,\n"
+    "                      COUNT = packages for drop/late/stall (default 10). May be repeated.\n"
+    "  --verbose           log connections, programs and faults to stderr\n"
+    "\n"
+    "Faults can also be injected at run time through the dashboard port, e.g.\n"
+    "  echo 'sim protective_stop' | nc 127.0.0.1 29999     (also: sim drop 20, sim disconnect)\n"
+    "Tracking model, limits and protocol details: docs/robot.md.";
+
+std::uint16_t parsePort(const std::string& key, const std::string& v) {
+  try {
+    const long p = std::stol(v);
+    if (p < 0 || p > 65535) throw std::out_of_range("port");
+    return static_cast<std::uint16_t>(p);
+  } catch (const std::exception&) {
+    throw ftid::cli::UsageError(key + ": not a port number: '" + v + "'");
+  }
+}
+
+int runSimRobot(const std::vector<std::string>& argv) {
+  ftid::cli::Args args(argv, kUsage);
+  ftid::simrobot::SimRobotConfig cfg;
+  cfg.model = ftid::simrobot::parseRobotModel(args.value("--model", "ur10"));
+  cfg.host = args.value("--host", "127.0.0.1");
+  cfg.rtde_port = parsePort("--rtde-port", args.value("--rtde-port", "30004"));
+  cfg.dashboard_port = parsePort("--dashboard-port", args.value("--dashboard-port", "29999"));
+  cfg.script_port = parsePort("--script-port", args.value("--script-port", "30003"));
+  const std::string q0 = args.value("--q0");
+  if (!q0.empty()) {
+    std::stringstream ss(q0);
+    std::string item;
+    int i = 0;
+    while (std::getline(ss, item, ',')) {
+      if (i >= 6) throw ftid::cli::UsageError("--q0 needs exactly 6 comma-separated values");
+      try {
+        cfg.q0[i++] = std::stod(item);
+      } catch (const std::exception&) {
+        throw ftid::cli::UsageError("--q0: not a number: '" + item + "'");
+      }
+    }
+    if (i != 6) throw ftid::cli::UsageError("--q0 needs exactly 6 comma-separated values");
+  }
+  while (args.has("--fault-after")) {
+    const std::string f = args.value("--fault-after");
+    std::stringstream ss(f);
+    std::string when, kind, count;
+    std::getline(ss, when, ':');
+    std::getline(ss, kind, ':');
+    std::getline(ss, count, ':');
+    ftid::simrobot::ScheduledFault sf;
+    try {
+      sf.after_s = std::stod(when);
+      if (!count.empty()) sf.count = std::stoi(count);
+    } catch (const std::exception&) {
+      throw ftid::cli::UsageError("--fault-after: expected SECONDS:KIND[:COUNT], got '" + f + "'");
+    }
+    sf.kind = ftid::simrobot::parseFaultKind(kind);
+    cfg.scheduled_faults.push_back(sf);
+  }
+  cfg.verbose = args.flag("--verbose");
+  args.finish();
+
+  // Block the signals before any thread starts so only sigwait() below receives them.
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+
+  ftid::simrobot::SimRobot sim(cfg);
+  sim.start();
+  std::printf("sim-robot: %s (software %s, %.0f Hz) listening on %s: RTDE %u, dashboard %u, scripts %u\n",
+              cfg.model == ftid::simrobot::RobotModel::kUR10 ? "UR10 CB3" : "UR10e e-Series",
+              sim.versionString().c_str(), 1.0 / sim.period(), cfg.host.c_str(), sim.rtdePort(), sim.dashboardPort(),
+              sim.scriptPort());
+  std::printf("sim-robot: Ctrl-C to stop\n");
+  std::fflush(stdout);
+  int sig = 0;
+  sigwait(&set, &sig);
+  const auto snap = sim.snapshot();
+  sim.stop();
+  std::printf("sim-robot: stopped after %llu ticks (last event: %s)\n", static_cast<unsigned long long>(snap.ticks),
+              snap.last_event.empty() ? "none" : snap.last_event.c_str());
+  return 0;
+}
+
+}  // namespace
+
+static ftid::cli::Registrar reg{{"sim-robot", "simulated UR10/UR10e controller (RTDE, dashboard, scripts)",
+                                 kUsage, &runSimRobot}};

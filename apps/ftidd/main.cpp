@@ -1,0 +1,107 @@
+// ftidd: the long-running compensation daemon (docs/daemon.md). Parses arguments, loads and
+// validates the configuration, and runs ftid::daemon::Daemon. No logic here.
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <string>
+
+#include "ftid/common/error.hpp"
+#include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/daemon.hpp"
+
+namespace {
+
+constexpr const char* kDefaultConfig = "/etc/ftid/ftidd.yaml";
+
+void printHelp() {
+  std::printf(
+      "usage: ftidd [--config FILE] [--check-config] [--record FILE] [--connect-timeout S]\n"
+      "\n"
+      "Real-time payload compensation daemon. Every robot state packet (UR RTDE, the loop's\n"
+      "clock) it takes the newest F/T+IMU sensor sample (CAN), removes the identified payload's\n"
+      "gravity and inertia with the parameters from parameters.path, and publishes over LCM:\n"
+      "  FTID_WRENCH  compensated_wrench_t  raw, modelled and contact wrench, validity, faults\n"
+      "  FTID_CYCLE   cycle_sample_t        robot state + raw sensor sample (for identification)\n"
+      "  FTID_STATS   loop_stats_t          loop statistics, once per lcm.stats_period_s\n"
+      "  FTID_ACK     ack_t                 answers to command_t on FTID_COMMAND\n"
+      "(channel names are configurable; message fields are documented in docs/daemon.md).\n"
+      "\n"
+      "options:\n"
+      "  --config FILE        configuration (default %s); see config/ftidd.yaml\n"
+      "  --check-config       load and validate the configuration, print it, exit 0 (or 2)\n"
+      "  --record FILE        record every published message to an LCM log (strftime patterns\n"
+      "                       allowed); convert it with `ftid lcm-to-csv FILE --out run.csv`\n"
+      "  --connect-timeout S  keep retrying the robot and sensor connections for S seconds (10)\n"
+      "  --help               this text\n"
+      "\n"
+      "signals: SIGHUP reloads the parameter file without missing a cycle (a bad file is\n"
+      "rejected and the current parameters stay); SIGTERM/SIGINT stop cleanly.\n"
+      "systemd: Type=notify; READY, WATCHDOG (only while the loop runs), RELOADING, STOPPING.\n"
+      "exit codes: 0 stopped by a signal, 1 runtime failure (robot connection lost, device or\n"
+      "real-time set-up error), 2 bad command line or configuration.\n",
+      kDefaultConfig);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string config_path = kDefaultConfig;
+  bool check_only = false;
+  ftid::daemon::DaemonRunOptions options;
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&](const char* name) -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "ftidd: %s needs a value (see ftidd --help)\n", name);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (arg == "--help" || arg == "-h") {
+      printHelp();
+      return 0;
+    } else if (arg == "--config") {
+      config_path = value("--config");
+    } else if (arg.rfind("--config=", 0) == 0) {
+      config_path = arg.substr(9);
+    } else if (arg == "--check-config") {
+      check_only = true;
+    } else if (arg == "--record") {
+      options.record_path = value("--record");
+    } else if (arg == "--connect-timeout") {
+      const std::string v = value("--connect-timeout");
+      char* end = nullptr;
+      options.connect_timeout_s = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end != '\0' || !(options.connect_timeout_s >= 0.0)) {
+        std::fprintf(stderr, "ftidd: --connect-timeout: expected seconds >= 0, got '%s'\n", v.c_str());
+        return 2;
+      }
+    } else {
+      std::fprintf(stderr, "ftidd: unknown argument '%s' (see ftidd --help)\n", arg.c_str());
+      return 2;
+    }
+  }
+
+  ftid::config::DaemonConfig config;
+  try {
+    config = ftid::config::loadDaemonConfig(config_path);
+  } catch (const ftid::ConfigError& e) {
+    std::fprintf(stderr, "ftidd: %s\n", e.what());
+    return 2;
+  }
+  if (check_only) {
+    std::printf("%sconfiguration OK\n", ftid::config::describeDaemonConfig(config).c_str());
+    return 0;
+  }
+  try {
+    ftid::daemon::Daemon daemon(config, options);
+    return daemon.run();
+  } catch (const ftid::ConfigError& e) {
+    std::fprintf(stderr, "ftidd: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ftidd: %s\n", e.what());
+    return 1;
+  }
+}

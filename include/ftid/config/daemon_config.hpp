@@ -1,0 +1,117 @@
+#pragma once
+// ftidd configuration: plain structs with defaults, loaded and validated once at start-up by
+// loadDaemonConfig() and never read again inside the loop. The YAML keys are the member names
+// grouped by section (e.g. `robot.rtde_frequency_hz`); config/ftidd.yaml documents every key.
+// Relative paths in a config file are resolved against the directory of that file.
+#include <chrono>
+#include <string>
+
+#include "ftid/common/types.hpp"
+
+namespace ftid::config {
+
+struct RobotConfig {
+  std::string host = "127.0.0.1";      ///< UR controller address (RTDE and dashboard)
+  int rtde_port = 30004;               ///< RTDE port
+  int dashboard_port = 29999;          ///< dashboard server port (status queries only)
+  double rtde_frequency_hz = 125.0;    ///< RTDE output frequency (CB3: 125, e-Series: <= 500)
+  std::string urdf_path = "/usr/share/ftid/config/ur10.urdf";  ///< robot model (must exist)
+  std::string base_link = "base";      ///< URDF base link (frame B)
+  std::string tip_link = "tool0";      ///< URDF flange link (frame F)
+  /// A cycle is missed if no state packet arrives within this time; 0 = 1.5 RTDE periods.
+  double receive_timeout_ms = 0.0;
+
+  /// The effective receive timeout.
+  std::chrono::microseconds receiveTimeout() const {
+    const double ms = receive_timeout_ms > 0.0 ? receive_timeout_ms : 1500.0 / rtde_frequency_hz;
+    return std::chrono::microseconds(static_cast<long long>(ms * 1000.0));
+  }
+};
+
+struct SensorConfig {
+  /// "seqpacket": CAN frames over a Unix SOCK_SEQPACKET socket (ftid sim-sensor, kernels without
+  /// AF_CAN); "socketcan": a SocketCAN interface.
+  std::string transport = "seqpacket";
+  std::string socket_path = "/run/ftid/ftsensor.sock";  ///< for transport seqpacket
+  std::string can_interface = "can0";                 ///< for transport socketcan
+  std::string dbc_path = "/usr/share/ftid/config/ftsensor.dbc";  ///< frame layout (must exist)
+  /// A sample older than this (no new frame) is stale: flagged, never compensated as valid.
+  double stale_timeout_ms = 20.0;
+  /// Sensor mount X_FS: position of S in the flange frame F [m] and orientation as roll, pitch,
+  /// yaw [rad] (R_FS = Rz(yaw) * Ry(pitch) * Rx(roll), as in URDF).
+  Vec3 mount_xyz = Vec3::Zero();
+  Vec3 mount_rpy = Vec3::Zero();
+
+  Mat3 R_FS() const;
+  Vec3 p_FS_F() const { return mount_xyz; }
+};
+
+struct ParametersConfig {
+  /// Payload parameter file written by `ftid --identify` (reloaded on SIGHUP).
+  std::string path = "/var/lib/ftid/parameters.yaml";
+  /// If true, ftidd refuses to start without a valid parameter file; if false it starts and
+  /// publishes the raw wrench with valid = false until parameters are loaded.
+  bool required = false;
+};
+
+struct LcmChannels {
+  std::string cycle = "FTID_CYCLE";
+  std::string wrench = "FTID_WRENCH";
+  std::string stats = "FTID_STATS";
+  std::string command = "FTID_COMMAND";
+  std::string ack = "FTID_ACK";
+};
+
+struct LcmConfig {
+  /// LCM provider URL. Default: UDP multicast that never leaves this host (ttl=0).
+  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  LcmChannels channels;
+  bool publish_cycle = true;  ///< publish cycle_sample_t (raw synchronised data)
+  double stats_period_s = 1.0;  ///< loop_stats_t period
+};
+
+struct RtConfig {
+  /// If true, failure to get SCHED_FIFO / locked memory / CPU affinity stops ftidd;
+  /// if false it warns, reports realtime = false and continues.
+  bool require_rt = false;
+  bool lock_memory = true;  ///< mlockall at start
+  int priority = 80;        ///< SCHED_FIFO priority of the loop thread (1..99)
+  int cpu = -1;             ///< CPU to pin the loop thread to; -1 = no pinning
+  /// Cycle computation time above which the cycle counts as an overrun [ms]; 0 = half a period.
+  double overrun_budget_ms = 0.0;
+};
+
+struct RecordConfig {
+  bool enabled = false;  ///< record every published message to an LCM log
+  /// Log file name; strftime patterns are expanded at start (e.g. %Y%m%d-%H%M%S).
+  std::string path = "/var/lib/ftid/ftidd-%Y%m%d-%H%M%S.lcm";
+};
+
+struct DaemonConfig {
+  RobotConfig robot;
+  SensorConfig sensor;
+  ParametersConfig parameters;
+  LcmConfig lcm;
+  RtConfig rt;
+  RecordConfig record;
+  std::string source;  ///< the file this was loaded from ("" for defaults)
+};
+
+/// Loads and validates a config file. Keys not given keep their defaults. Throws ConfigError
+/// "FILE:LINE: key 'section.name': problem" for unknown keys, wrong types and bad values, or
+/// "FILE: ..." if the file cannot be read or parsed.
+DaemonConfig loadDaemonConfig(const std::string& path);
+
+/// Same, from YAML text; source_name is used in messages and relative paths resolve against
+/// base_dir.
+DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& source_name,
+                               const std::string& base_dir);
+
+/// Checks cross-field consistency of a config built in code (the loaders call it). Throws
+/// ConfigError naming the key.
+void validateDaemonConfig(const DaemonConfig& config);
+
+/// Human-readable dump of the effective configuration (for `ftidd --check-config`).
+std::string describeDaemonConfig(const DaemonConfig& config);
+
+}  // namespace ftid::config

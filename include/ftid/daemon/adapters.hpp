@@ -1,0 +1,103 @@
+#pragma once
+// Production implementations of the daemon seams (ftid/daemon/seams.hpp): thin adapters over
+// the UR RTDE client (drivers_ur), the CAN F/T+IMU sensor (drivers_can), RobotKinematics
+// (model), the compensator (compensate) with parameters from a parameter file (identify), and
+// the LcmOutbox (transport). Constructors do set-up and may throw; the loop-side methods are
+// noexcept and allocation-free.
+#include <chrono>
+#include <memory>
+#include <string>
+
+#include "ftid/compensate/compensator.hpp"
+#include "ftid/daemon/reloader.hpp"
+#include "ftid/daemon/seams.hpp"
+#include "ftid/drivers/can/ft_imu_sensor.hpp"
+#include "ftid/drivers/ur/rtde_client.hpp"
+#include "ftid/model/kinematics.hpp"
+#include "ftid/transport/lcm_outbox.hpp"
+
+namespace ftid::daemon {
+
+/// Robot state from RTDE (read-only streaming; nothing is ever sent to the robot).
+/// q = actual_q, qd = actual_qd, qdd = target_qdd (the controller's acceleration; if the recipe
+/// lacks it, the difference quotient of actual_qd over the controller timestamps).
+class RtdeArmSource final : public ArmStateSource {
+ public:
+  /// Connects, negotiates protocol v2, sets up the output recipe at frequency_hz and starts
+  /// streaming. Throws DriverError naming host:port.
+  RtdeArmSource(const std::string& host, int port, double frequency_hz);
+  ~RtdeArmSource() override;
+  Status waitForState(std::chrono::nanoseconds timeout,
+                      transport::RobotStateRecord* out) noexcept override;
+  bool robotStopped() const noexcept override { return stopped_; }
+  drivers::ur::RtdeClient& client() noexcept { return client_; }
+
+ private:
+  drivers::ur::RtdeClient client_;
+  drivers::ur::RobotState state_;
+  JointVector prev_qd_ = JointVector::Zero();
+  double prev_time_ = 0.0;
+  bool have_prev_ = false;
+  bool stopped_ = false;
+};
+
+/// Converts a can::SensorSample (the CAN driver's) into the published record.
+void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept;
+
+/// The CAN sensor, drained to its newest sample each cycle.
+class CanSensorSource final : public SensorSource {
+ public:
+  explicit CanSensorSource(std::unique_ptr<can::FtImuSensor> sensor);
+  void tryReadLatest(std::int64_t now_utime, transport::SensorSampleRecord* out) noexcept override;
+  const can::FtImuSensor& sensor() const noexcept { return *sensor_; }
+
+ private:
+  std::unique_ptr<can::FtImuSensor> sensor_;
+  can::SensorSample sample_;
+};
+
+/// Sensor-frame kinematics from RobotKinematics (with the sensor mount already set).
+class KinematicsMotionModel final : public MotionModel {
+ public:
+  explicit KinematicsMotionModel(model::RobotKinematics kinematics);
+  model::SensorMotion computeSensorMotion(const JointVector& q, const JointVector& qd,
+                                          const JointVector& qdd) const noexcept override;
+
+ private:
+  model::RobotKinematics kinematics_;
+};
+
+/// A compensate::Compensator built from a parameter file (model name, theta, tilt).
+class ParameterFileCompensation final : public Compensation {
+ public:
+  /// Reads and validates the file; throws ConfigError naming the file and key.
+  explicit ParameterFileCompensation(const std::string& path);
+  double tiltU() const noexcept override { return tilt_u_; }
+  double tiltV() const noexcept override { return tilt_v_; }
+  bool compute(const effects::SampleContext& ctx, Wrench* contact,
+               Wrench* modelled) noexcept override;
+  const std::string& modelName() const noexcept { return model_name_; }
+
+ private:
+  std::unique_ptr<compensate::Compensator> compensator_;
+  double tilt_u_ = 0.0;
+  double tilt_v_ = 0.0;
+  std::string model_name_;
+};
+
+/// Factory for the reloader: path -> ParameterFileCompensation.
+CompensationFactory parameterFileFactory();
+
+/// Hands cycles to an LcmOutbox (tryPush: wait-free).
+class OutboxSink final : public CycleSink {
+ public:
+  explicit OutboxSink(transport::LcmOutbox* outbox) : outbox_(outbox) {}
+  bool tryPush(const transport::CycleRecord& record) noexcept override {
+    return outbox_->tryPush(record);
+  }
+
+ private:
+  transport::LcmOutbox* outbox_;
+};
+
+}  // namespace ftid::daemon

@@ -1,0 +1,46 @@
+#pragma once
+// ftidd's wiring (architecture P15): the process owns real-time set-up, threads own their
+// scheduling, and only this class composes drivers, math and transport.
+//
+//   Daemon d(config);        // nothing opened yet
+//   return d.run();          // opens everything, runs until SIGTERM/SIGINT, returns an exit code
+//
+// Threads: the loop thread (SCHED_FIFO if permitted; runs DaemonCycle under the device-clocked
+// executor), the LcmOutbox publisher thread, and the calling thread as supervisor: it waits for
+// signals (SIGHUP = reload parameters, SIGTERM/SIGINT = stop), handles LCM commands, publishes
+// loop statistics, and talks to systemd (READY, WATCHDOG only while the loop heartbeat advances,
+// RELOADING, STOPPING, STATUS). run() blocks SIGHUP/SIGTERM/SIGINT in the calling thread before
+// it starts any thread, so every thread inherits the mask and the supervisor takes them with
+// sigtimedwait().
+#include <atomic>
+#include <string>
+
+#include "ftid/config/daemon_config.hpp"
+
+namespace ftid::daemon {
+
+struct DaemonRunOptions {
+  /// If not empty: record to this LCM log (overrides record.enabled/record.path).
+  std::string record_path;
+  /// Print a one-line status every this many seconds to stderr (0 = never).
+  double status_period_s = 10.0;
+  /// How long to keep retrying to connect to the robot and the sensor at start [s].
+  double connect_timeout_s = 10.0;
+};
+
+class Daemon {
+ public:
+  explicit Daemon(config::DaemonConfig config, DaemonRunOptions options = {});
+  /// Runs until SIGTERM/SIGINT (exit code 0) or a fatal loop error (robot connection lost,
+  /// real-time set-up failed with rt.require_rt: exit code 1). Set-up errors throw ftid::Error.
+  int run();
+
+ private:
+  config::DaemonConfig config_;
+  DaemonRunOptions options_;
+};
+
+/// Expands strftime patterns in a path with the current local time.
+std::string expandTimePattern(const std::string& pattern);
+
+}  // namespace ftid::daemon

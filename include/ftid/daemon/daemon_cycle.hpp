@@ -1,0 +1,112 @@
+#pragma once
+// DaemonCycle: one cycle of ftidd (architecture §9.5), written against the seams of
+// ftid/daemon/seams.hpp so that it runs in unit tests without threads or hardware.
+//
+//   waitForTick(timeout)  arm->waitForState()                    (the robot is the clock)
+//   onTick()              step(): swap in new parameters if a reload posted them
+//                               -> drain the sensor to its newest sample
+//                               -> flag stale/invalid data (never compensated as valid)
+//                               -> sensor motion from the joint state (kinematics)
+//                               -> compensation with the current parameters
+//                               -> hand the CycleRecord to the sink (LcmOutbox queue)
+//   onMissed(n)           count, raise kFaultRobotTimeout
+//
+// onTick(), onMissed() and step() are noexcept and allocation-free (test/rt_safety proves it).
+// Counters are atomics read by the supervisor thread.
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+
+#include "ftid/common/status.hpp"
+#include "ftid/daemon/seams.hpp"
+#include "ftid/daemon/swap_slot.hpp"
+#include "ftid/rt/cyclic_executor.hpp"
+#include "ftid/rt/loop_stats.hpp"
+#include "ftid/rt/mailbox.hpp"
+#include "ftid/transport/records.hpp"
+
+namespace ftid::daemon {
+
+using rt::CycleAction;
+
+/// CLOCK_REALTIME in microseconds (the clock of LCM utime fields and sensor receive times).
+std::int64_t realtimeNowUs() noexcept;
+
+struct CycleOptions {
+  /// A sensor sample older than this at the start of a cycle is stale [us].
+  std::int64_t stale_timeout_us = 20'000;
+  /// Clock used for utime and sensor ages (tests inject a fake). Must be noexcept and RT-safe.
+  std::int64_t (*now_us)() noexcept = &realtimeNowUs;
+};
+
+/// Counters of the loop, written by the loop thread, read by anyone.
+struct CycleCounters {
+  std::atomic<std::uint64_t> cycles{0};          ///< onTick() calls (the heartbeat)
+  std::atomic<std::uint64_t> missed{0};          ///< onMissed() calls
+  std::atomic<std::uint64_t> valid{0};           ///< cycles with a valid compensated wrench
+  std::atomic<std::uint64_t> invalid{0};         ///< cycles without
+  std::atomic<std::uint64_t> stale_sensor{0};    ///< cycles with a stale sensor sample
+  std::atomic<std::uint64_t> invalid_sensor{0};  ///< cycles with an invalid (not stale) sample
+  std::atomic<std::uint64_t> invalid_robot{0};   ///< cycles with an unusable robot state
+  std::atomic<std::uint64_t> no_parameters{0};   ///< cycles without parameters loaded
+  std::atomic<std::uint64_t> model_failures{0};  ///< compensation returned non-finite values
+  std::atomic<std::uint64_t> sink_dropped{0};    ///< records the sink refused (queue full)
+  std::atomic<std::uint64_t> param_swaps{0};     ///< parameter objects taken into use
+  std::atomic<std::int64_t> last_utime{0};       ///< utime of the last cycle
+};
+
+class DaemonCycle {
+ public:
+  /// All pointers must outlive the cycle. params may hold no object yet (then every cycle is
+  /// published with wrench_valid = false and kFaultNone for the parameters).
+  DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
+              OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options = {});
+
+  // ftid::rt executor interface (runDeviceClocked).
+  Status waitForTick(std::chrono::nanoseconds timeout) noexcept;
+  CycleAction onTick() noexcept;
+  CycleAction onMissed(std::uint32_t consecutive_missed) noexcept;
+
+  /// One cycle for the given robot state (what onTick() does after waitForTick()); the result
+  /// is also handed to the sink. `out` may be nullptr.
+  void step(const transport::RobotStateRecord& robot, transport::CycleRecord* out) noexcept;
+
+  /// Every `every_n_cycles` ticks, onTick() copies *stats (the executor's, updated by the loop
+  /// thread) into *box for the supervisor. Call before the loop starts.
+  void attachLoopStats(const rt::LoopStats* stats, rt::Mailbox<rt::LoopStats>* box,
+                       std::uint32_t every_n_cycles) noexcept {
+    loop_stats_ = stats;
+    stats_box_ = box;
+    stats_every_ = every_n_cycles > 0 ? every_n_cycles : 1;
+  }
+
+  const CycleCounters& counters() const noexcept { return counters_; }
+  /// Fault bits raised since the supervisor last cleared them.
+  FaultWord& faults() noexcept { return faults_; }
+  /// Version of the parameters in use (0 = none).
+  std::uint32_t paramVersion() const noexcept { return params_->version(); }
+  /// The record of the most recent cycle (loop thread / tests only).
+  const transport::CycleRecord& lastRecord() const noexcept { return record_; }
+
+ private:
+  ArmStateSource* arm_;
+  SensorSource* sensor_;
+  const MotionModel* motion_;
+  OwnedSwapSlot<Compensation>* params_;
+  CycleSink* sink_;
+  CycleOptions options_;
+  CycleCounters counters_;
+  FaultWord faults_;
+  transport::RobotStateRecord robot_;  // filled by waitForTick
+  transport::CycleRecord record_;
+  effects::SampleContext ctx_;
+  const rt::LoopStats* loop_stats_ = nullptr;
+  rt::Mailbox<rt::LoopStats>* stats_box_ = nullptr;
+  std::uint32_t stats_every_ = 1;
+  std::uint32_t since_stats_ = 0;
+  std::int64_t cycle_number_ = 0;
+  double first_robot_time_ = 0.0;
+  bool have_first_time_ = false;
+};
+
+}  // namespace ftid::daemon

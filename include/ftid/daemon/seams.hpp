@@ -1,0 +1,68 @@
+#pragma once
+// The seams ftidd's cycle is written against (architecture P10): one per piece of hardware and
+// one for each piece of math, so that a whole cycle runs in a unit test against fakes. The
+// production implementations are thin adapters (ftid/daemon/adapters.hpp) over the UR RTDE
+// client, the CAN sensor, RobotKinematics and the compensator. Every method the loop calls is
+// noexcept, allocation-free and non-blocking (except waitForState, which is the loop's clock).
+#include <chrono>
+#include <cstdint>
+
+#include "ftid/common/status.hpp"
+#include "ftid/common/types.hpp"
+#include "ftid/effects/effect.hpp"
+#include "ftid/model/kinematics.hpp"
+#include "ftid/transport/records.hpp"
+
+namespace ftid::daemon {
+
+/// The robot is the clock: waitForState() blocks until the next state packet (or the timeout).
+class ArmStateSource {
+ public:
+  virtual ~ArmStateSource() = default;
+  /// kOk (out filled, out->valid tells whether the values are usable), kTimeout, or kFault
+  /// (connection lost). Real-time safe.
+  virtual Status waitForState(std::chrono::nanoseconds timeout,
+                              transport::RobotStateRecord* out) noexcept = 0;
+  /// True if the last state reported a protective/emergency stop or a stopped program.
+  virtual bool robotStopped() const noexcept { return false; }
+};
+
+/// The F/T+IMU sensor, drained to its newest sample each cycle.
+class SensorSource {
+ public:
+  virtual ~SensorSource() = default;
+  /// Drains pending data and writes the newest sample (always written; out->valid and
+  /// out->health_flags tell whether it may be used). now_utime: CLOCK_REALTIME [us].
+  /// Never blocks, never allocates.
+  virtual void tryReadLatest(std::int64_t now_utime, transport::SensorSampleRecord* out) noexcept = 0;
+};
+
+/// Sensor-frame kinematics from the joint state.
+class MotionModel {
+ public:
+  virtual ~MotionModel() = default;
+  virtual model::SensorMotion computeSensorMotion(const JointVector& q, const JointVector& qd,
+                                                  const JointVector& qdd) const noexcept = 0;
+};
+
+/// The identified payload model with its parameters: reading -> modelled and contact wrench.
+/// One instance is used by the loop thread only; a reload builds a new one off the loop.
+class Compensation {
+ public:
+  virtual ~Compensation() = default;
+  /// Base tilt (U, V) [rad] of the parameter set: the cycle fills ctx.g_S with it.
+  virtual double tiltU() const noexcept = 0;
+  virtual double tiltV() const noexcept = 0;
+  /// contact = ctx.wrench_S - modelled. Returns false if the result is unusable (non-finite).
+  virtual bool compute(const effects::SampleContext& ctx, Wrench* contact,
+                       Wrench* modelled) noexcept = 0;
+};
+
+/// Where the loop hands its output (the LcmOutbox in production). Must not block.
+class CycleSink {
+ public:
+  virtual ~CycleSink() = default;
+  virtual bool tryPush(const transport::CycleRecord& record) noexcept = 0;
+};
+
+}  // namespace ftid::daemon

@@ -1,0 +1,52 @@
+#pragma once
+// Offline pipelines behind `ftid identify` and `ftid compensate`: log file in, parameters or a
+// compensated CSV out. The CLI only parses arguments and calls these.
+#include <functional>
+#include <string>
+
+#include "ftid/identify/context.hpp"
+#include "ftid/identify/parameter_set.hpp"
+
+namespace ftid::identify {
+
+using ProgressFn = std::function<void(const std::string& line)>;
+
+struct IdentifyRequest {
+  std::string log_path;
+  std::string method = "dynamic";  ///< paper method: "static" or "dynamic" (ignored with `model`)
+  std::string model;               ///< non-empty: general fit of this model (e.g. "paper+rigid_body")
+  std::string robot_urdf;          ///< URDF of the robot (config/ur10.urdf)
+  ContextOptions context;          ///< sensor mount
+  ProgressFn progress;             ///< optional progress lines
+};
+
+/// Reads the log, builds the contexts, identifies. Throws DataError (bad log), ConfigError (bad
+/// robot/model/method), IdentificationError (data do not determine the parameters).
+ParameterSet identifyLogFile(const IdentifyRequest& request);
+
+/// Human-readable table: parameter, value, std, unit; residual RMS per axis; condition number.
+std::string formatParameterTable(const ParameterSet& set);
+
+struct CompensateRequest {
+  std::string log_path;
+  std::string params_path;
+  std::string out_csv;
+  std::string robot_urdf;
+  ContextOptions context;
+};
+
+struct CompensateSummary {
+  int n_samples = 0;
+  Vec6 raw_rms = Vec6::Zero();      ///< RMS of the reading
+  Vec6 contact_rms = Vec6::Zero();  ///< RMS of the compensated (contact) wrench
+};
+
+/// Writes OUT.csv (atomically) with columns t, fx..tz (contact wrench = reading - modelled) and
+/// model_fx..model_tz (modelled wrench), one row per log sample.
+CompensateSummary compensateLogFile(const CompensateRequest& request);
+
+/// Default robot description: `config/ur10.urdf` relative to the working directory, else next to
+/// the installed/built binary (share/ftid/config, or the source tree's config/).
+std::string defaultRobotUrdf();
+
+}  // namespace ftid::identify

@@ -1,0 +1,67 @@
+#pragma once
+// The identified parameters in a form that outlives the fit: what a parameter file holds
+// (docs/identification.md) and what `ftid identify --json` prints.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ftid/common/types.hpp"
+
+namespace ftid::effects {
+class Model;
+}
+
+namespace ftid::identify {
+
+struct FitResult;
+
+struct NamedValue {
+  std::string name;
+  double value = 0.0;
+  double std = 0.0;
+  std::string unit;
+};
+
+struct Provenance {
+  std::string date_utc;      ///< ISO 8601
+  std::string data_file;
+  std::string method;        ///< "paper-static", "paper-dynamic", "fit"
+  std::string trajectory;    ///< if known
+  int n_samples = 0;
+};
+
+struct ParameterSet {
+  std::string model;                 ///< canonical model name, e.g. "paper"
+  std::vector<NamedValue> params;    ///< the model's linear parameters (theta), in any order
+  std::vector<NamedValue> derived;   ///< mass-derived quantities (com_*, weight), informational
+  bool tilt_estimated = false;
+  double tilt_u_rad = 0.0;
+  double tilt_v_rad = 0.0;
+  double tilt_u_std = 0.0;
+  double tilt_v_std = 0.0;
+  Vec6 residual_rms = Vec6::Zero();  ///< fx..tz
+  double condition_number = 0.0;
+  std::vector<NamedValue> extras;    ///< e.g. per-stage condition numbers (JSON "extras")
+  Provenance provenance;
+
+  /// Finds a parameter in params, derived or tilt ("tilt_u"/"tilt_v"); nullptr if absent.
+  const NamedValue* find(const std::string& name) const;
+};
+
+/// Parameter set of a general fit.
+ParameterSet toParameterSet(const FitResult& fit);
+
+/// theta for `model` (ordered as model.paramIndex()) from the set. Throws ConfigError naming the
+/// source (file) and the missing parameter.
+Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set,
+                         const std::string& source = "parameter set");
+
+/// Reads a parameter file (YAML). Throws ConfigError naming the file and the key.
+ParameterSet readParameterFile(const std::string& path);
+/// Writes it atomically (temporary file + rename); an existing file is kept as PATH.bak.
+void writeParameterFile(const std::string& path, const ParameterSet& set);
+
+/// The `ftid identify --json` object (one line of JSON, no trailing newline).
+std::string toJson(const ParameterSet& set);
+
+}  // namespace ftid::identify

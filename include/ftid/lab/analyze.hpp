@@ -1,0 +1,149 @@
+#pragma once
+// The model laboratory behind `ftid analyze` (docs/analyze.md): fit a composed model with held-out
+// validation, show per axis how far the held-out residual is above the sensor noise floor, where
+// (in time) and with what (measured signals) the residual goes, rank the effects the model lacks by
+// how much each reduces the held-out residual (with a significance test that keeps quiet on clean
+// data), and walk forward adding the best significant effect until nothing significant is left.
+//
+// Everything here is offline (not real-time). Frames and units: docs/conventions.md.
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ftid/common/types.hpp"
+#include "ftid/effects/effect.hpp"
+#include "ftid/effects/rigid_body.hpp"
+
+namespace ftid::lab {
+
+using effects::SampleContext;
+
+struct AnalyzeOptions {
+  std::string model = "paper";      ///< starting model, e.g. "paper" or "paper+rigid_body"
+  int folds = 5;                    ///< contiguous time blocks for k-fold validation (>= 2)
+  bool explain = false;             ///< forward selection until nothing significant is left
+  int max_explain_steps = 6;
+  /// Candidate effects to try; empty = every registered named effect not in the model plus the
+  /// default generic menu (defaultGenericMenu()).
+  std::vector<std::string> candidates;
+  double family_alpha = 1e-3;       ///< false-alarm rate per ranking (Bonferroni over candidates)
+  double min_relative_reduction = 0.01;  ///< a significant effect must cut the held-out residual
+                                         ///< (sum of squares) by at least this fraction
+  int top_windows = 3;              ///< failing time windows reported
+  int window_count = 20;            ///< the log is cut into this many windows
+  int top_correlations = 8;
+  /// Progress lines (stderr in the CLI); may be empty.
+  std::function<void(const std::string&)> progress;
+};
+
+/// Generic effects tried by default besides the named ones.
+std::vector<std::string> defaultGenericMenu();
+
+/// Sensor noise floor of one channel from its high-frequency content: the robust (MAD) standard
+/// deviation of the 4th-order differences divided by sqrt(70) (the sum of the squared binomial
+/// coefficients 1 4 6 4 1), which equals the white-noise std while any smooth signal (motion at a
+/// few Hz sampled at >= 100 Hz) is suppressed by (2 pi f dt)^4. Needs >= 8 samples.
+double estimateNoiseStd(const std::vector<double>& x);
+
+/// p-value of a chi-square statistic with `dof` degrees of freedom (upper tail).
+double chiSquareSurvival(double statistic, double dof);
+
+struct ParamEstimate {
+  std::string name;
+  std::string unit;
+  double value = 0.0;
+  double std = 0.0;
+};
+
+struct FailWindow {
+  double t_start = 0.0;   ///< [s] since the first sample (of the evaluated log)
+  double t_end = 0.0;
+  double ratio = 0.0;     ///< RMS of the noise-normalised residual over the axes (1 = noise floor)
+  int worst_axis = 0;     ///< 0..5 = fx..tz
+};
+
+struct SignalCorrelation {
+  std::string signal;     ///< e.g. "alz", "q6", "temp", "dfx/dt"
+  int axis = 0;           ///< residual axis 0..5
+  double r = 0.0;         ///< Pearson correlation of the held-out residual with the signal
+  bool significant = false;  ///< |r| above 5 / sqrt(N)
+};
+
+struct CandidateResult {
+  std::string effect;               ///< as typed on the command line, e.g. "rigid_body"
+  std::string description;          ///< physical meaning in words
+  int added_params = 0;             ///< rank gained
+  double relative_reduction = 0.0;  ///< of the held-out (noise-weighted) sum of squares, clamped to 0..1
+  Vec6 residual_rms = Vec6::Zero(); ///< held-out, per axis, with the effect added
+  double f_statistic = 0.0;         ///< nested-model F on the fitting data
+  double p_value = 1.0;
+  bool significant = false;
+  double delta_bic = 0.0;           ///< held-out BIC change (negative = better); ranking key
+  std::string next_command;
+  std::string note;                 ///< why it was skipped, if it was
+  bool skipped = false;
+};
+
+struct ExplainStep {
+  std::string model;
+  std::string added;                ///< effect added at this step ("" for the start)
+  Vec6 residual_rms = Vec6::Zero(); ///< held-out per axis
+  double total_ratio = 0.0;         ///< RMS over axes of residual / noise floor
+  double p_value = 1.0;             ///< of the added effect
+};
+
+/// One fitted model with held-out residuals (the core of every step).
+struct ModelReport {
+  std::string model;
+  std::vector<ParamEstimate> params;          ///< linear parameters + tilt_u, tilt_v + derived
+  double tilt_u_rad = 0.0, tilt_v_rad = 0.0;
+  bool tilt_estimated = false;
+  Vec6 raw_rms = Vec6::Zero();                ///< of the evaluated reading
+  Vec6 residual_rms = Vec6::Zero();           ///< held-out
+  Vec6 fit_residual_rms = Vec6::Zero();       ///< in-sample (all fitting data)
+  double condition_number = 0.0;
+  std::optional<effects::InertiaAboutCom> inertia;  ///< when the model has rigid_body
+};
+
+struct AnalysisResult {
+  std::string log;                       ///< the analysed log (for commands)
+  std::string validate_log;              ///< "" for k-fold
+  int n_samples = 0;                     ///< fitting samples
+  int n_eval = 0;                        ///< held-out samples evaluated
+  int folds = 0;
+  Vec6 noise_floor = Vec6::Zero();
+  ModelReport report;                    ///< the starting model
+  std::vector<FailWindow> windows;       ///< largest held-out residual first
+  std::vector<double> window_ratio;      ///< every window's ratio, in time order
+  double window_length_s = 0.0;
+  std::vector<SignalCorrelation> correlations;  ///< strongest first
+  std::vector<CandidateResult> candidates;      ///< best first (significant ones first)
+  std::vector<ExplainStep> steps;               ///< with explain: the path, first = start
+  std::optional<ModelReport> final_report;      ///< with explain: the last model of the path
+  // Time series of the evaluated data for the report (starting model).
+  std::vector<double> t;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> measured;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> predicted;   ///< held-out prediction
+  std::vector<double> top_signal;                       ///< values of correlations[0].signal
+  double seconds = 0.0;                                 ///< wall time of the analysis
+};
+
+/// Runs the analysis on contexts built from the log (identify::buildContexts). `validate`, if
+/// given, is evaluated with the model fitted on all of `fit` (instead of k-fold). `log_name` and
+/// `validate_name` are used in messages and next commands. Contexts need not have g_S set (the
+/// tilt is estimated when the model has `tilt`, else g_S is computed for zero tilt).
+/// Throws ConfigError for an unknown model/effect, IdentificationError if the data cannot
+/// determine the starting model, DataError for too little data.
+AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<SampleContext>* validate,
+                       const AnalyzeOptions& options, const std::string& log_name = "LOG",
+                       const std::string& validate_name = "");
+
+/// Human-readable report (the table, the failing windows and signals, the ranking, the path).
+std::string formatText(const AnalysisResult& result);
+/// One JSON object: model, residual_rms, noise_floor, raw_rms, candidates, steps, parameters, ...
+std::string formatJson(const AnalysisResult& result);
+/// One self-contained HTML file with inline SVG plots (no scripts, no network references).
+std::string renderHtml(const AnalysisResult& result);
+
+}  // namespace ftid::lab

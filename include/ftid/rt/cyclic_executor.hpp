@@ -1,0 +1,108 @@
+#pragma once
+// Cyclic executors for ONE loop thread (architecture P1, §9.5). Templated on the cycle type: no
+// std::function, no virtual calls, nothing allocates, nothing throws.
+//
+// Device-clocked (the robot is the clock): each cycle starts when the device delivers the state
+// for that tick. The Cycle type provides
+//     Status      waitForTick(std::chrono::nanoseconds timeout) noexcept;  // kOk/kTimeout/kFault
+//     CycleAction onTick() noexcept;                                       // compute + send
+//     CycleAction onMissed(std::uint32_t consecutive_missed) noexcept;     // e.g. hold the arm
+// A wait that times out (timeout = timeout_periods x period, default 1.5) is a missed cycle.
+// Wake-up latency is the arrival time minus the expected arrival (previous arrival + period),
+// floored at 0; compute time is arrival to the end of onTick().
+//
+// Timer-clocked (no device clock): absolute-deadline clock_nanosleep(CLOCK_MONOTONIC,
+// TIMER_ABSTIME); the Cycle provides  CycleAction onTimer(std::int64_t deadline_ns) noexcept;
+// Wake-up latency is wake time minus the deadline. On an overrun the skipped periods are counted
+// as missed and the schedule re-anchors instead of bursting.
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <ctime>
+
+#include "ftid/common/status.hpp"
+#include "ftid/rt/loop_stats.hpp"
+
+namespace ftid::rt {
+
+enum class CycleAction : std::uint8_t { kContinue, kStop };
+
+enum class LoopExit : std::uint8_t {
+  kCycleStopped,   ///< the cycle returned kStop
+  kStopRequested,  ///< the external stop flag was set
+  kTooManyMissed,  ///< max_consecutive_missed timeouts in a row
+  kDeviceFault,    ///< waitForTick() returned kFault
+};
+const char* loopExitName(LoopExit e) noexcept;
+
+struct ExecutorConfig {
+  std::chrono::nanoseconds period{8'000'000};
+  double timeout_periods = 1.5;               ///< device wait timeout in periods
+  std::uint32_t max_consecutive_missed = 3;   ///< device-clocked: give up after this many
+};
+
+/// CLOCK_MONOTONIC in ns.
+inline std::int64_t monotonicNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
+}
+
+/// Sleeps until an absolute CLOCK_MONOTONIC time (retries on EINTR).
+void sleepUntilNs(std::int64_t deadline_ns) noexcept;
+
+template <class Cycle>
+LoopExit runDeviceClocked(Cycle& cycle, const ExecutorConfig& cfg, LoopStats* stats,
+                          const std::atomic<bool>* stop_requested = nullptr) noexcept {
+  const std::int64_t period_ns = cfg.period.count();
+  const auto timeout = std::chrono::nanoseconds(
+      static_cast<std::int64_t>(static_cast<double>(period_ns) * cfg.timeout_periods));
+  std::int64_t last_arrival = 0;
+  std::uint32_t consecutive_missed = 0;
+  for (;;) {
+    if (stop_requested && stop_requested->load(std::memory_order_relaxed)) return LoopExit::kStopRequested;
+    const Status s = cycle.waitForTick(timeout);
+    const std::int64_t arrival = monotonicNs();
+    if (s == Status::kFault) return LoopExit::kDeviceFault;
+    if (s != Status::kOk) {
+      stats->recordMissed();
+      ++consecutive_missed;
+      if (consecutive_missed > stats->max_consecutive_missed) stats->max_consecutive_missed = consecutive_missed;
+      if (cycle.onMissed(consecutive_missed) == CycleAction::kStop) return LoopExit::kCycleStopped;
+      if (consecutive_missed >= cfg.max_consecutive_missed) return LoopExit::kTooManyMissed;
+      last_arrival = 0;
+      continue;
+    }
+    consecutive_missed = 0;
+    const std::int64_t wake = last_arrival ? arrival - (last_arrival + period_ns) : 0;
+    last_arrival = arrival;
+    const CycleAction action = cycle.onTick();
+    const std::int64_t end = monotonicNs();
+    stats->recordCycle(wake > 0 ? wake : 0, end - arrival, period_ns);
+    if (action == CycleAction::kStop) return LoopExit::kCycleStopped;
+  }
+}
+
+template <class Cycle>
+LoopExit runTimerClocked(Cycle& cycle, const ExecutorConfig& cfg, LoopStats* stats,
+                         const std::atomic<bool>* stop_requested = nullptr) noexcept {
+  const std::int64_t period_ns = cfg.period.count();
+  std::int64_t next = monotonicNs() + period_ns;
+  for (;;) {
+    if (stop_requested && stop_requested->load(std::memory_order_relaxed)) return LoopExit::kStopRequested;
+    sleepUntilNs(next);
+    const std::int64_t wake = monotonicNs();
+    const CycleAction action = cycle.onTimer(next);
+    const std::int64_t end = monotonicNs();
+    stats->recordCycle(wake - next, end - wake, period_ns);
+    if (action == CycleAction::kStop) return LoopExit::kCycleStopped;
+    next += period_ns;
+    if (end > next) {  // overran one or more deadlines: skip them, do not burst
+      const std::int64_t skipped = (end - next) / period_ns + 1;
+      stats->missed += static_cast<std::uint64_t>(skipped);
+      next += skipped * period_ns;
+    }
+  }
+}
+
+}  // namespace ftid::rt

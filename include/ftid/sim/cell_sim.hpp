@@ -1,0 +1,213 @@
+#pragma once
+// Cell simulator: a UR arm moving a payload on a wrist F/T+IMU sensor, producing logs
+// (docs/log-format.md) from first-principles rigid-body physics. Physics and every switch with its
+// equations: docs/simulator.md. Frames, units and signs: docs/conventions.md.
+//
+// The simulator computes the wrench by its own route (direct Newton-Euler of the payload given
+// the sensor-frame motion from model::RobotKinematics); it never calls the identification
+// regressors, so tests can compare two independent formulations.
+//
+// Typical use:
+//   sim::CellSimConfig cfg = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile("config/ur10.urdf"));
+//   cfg.seed = 7; cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+//   cfg.sensor_delay.enabled = true;
+//   logio::LogData log = sim::CellSim(cfg).run();
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <random>
+#include <string>
+
+#include "ftid/common/types.hpp"
+#include "ftid/logio/log.hpp"
+#include "ftid/model/kinematics.hpp"
+#include "ftid/trajectory/fourier_trajectory.hpp"
+
+namespace ftid::sim {
+
+/// True payload: mass, centre of mass c = p_SC_S and rotational inertia about C (axes of S).
+struct PayloadTruth {
+  double mass_kg = 0.0;
+  Vec3 p_SC_S = Vec3::Zero();       ///< [m]
+  Mat3 I_C_S = Mat3::Zero();        ///< inertia tensor about C, in S [kg m^2] (symmetric, PSD)
+};
+
+/// White Gaussian noise (standard deviations). Zero means noise-free for that channel.
+struct NoiseConfig {
+  Vec6 wrench_std = Vec6::Zero();   ///< per axis fx..tz [N, Nm]
+  double acc_std = 0.0;             ///< accelerometer, each axis [m/s^2]
+  double gyro_std = 0.0;            ///< angular velocity, each axis [rad/s]
+  double alpha_std = 0.0;           ///< angular acceleration, each axis [rad/s^2]
+  double temp_std = 0.0;            ///< temperature reading [degC]
+};
+
+/// Sensor temperature over time: warm-up exponential plus a slow sinusoid (not monotonic, so
+/// temperature and time can be told apart):
+///   T(t) = start + warmup_rise (1 - exp(-t / warmup_tau)) + sine_amplitude sin(2 pi t / sine_period)
+struct TemperatureProfile {
+  double start_degC = 24.0;
+  double warmup_rise_degC = 6.0;
+  double warmup_tau_s = 4.0;
+  double sine_amplitude_degC = 1.5;
+  double sine_period_s = 7.0;
+  /// Optional override: T(t) from any function (e.g. a measured profile).
+  std::function<double(double t_s)> custom;
+  double at(double t_s) const;
+};
+
+/// Hidden effects (docs/simulator.md). Each switch is off by default.
+struct CableSwitch {
+  bool enabled = false;
+  double stiffness_N_per_m = 3.0;                ///< k; linear spring, rest length 0
+  Vec3 p_SA_S = Vec3(0.0, 0.03, 0.05);           ///< attachment point on the tool, in S [m]
+  Vec3 p_BA_B = Vec3(-0.7, -0.3, 1.4);           ///< fixed anchor in the base frame B [m]
+};
+struct TemperatureDriftSwitch {
+  bool enabled = false;
+  double reference_degC = 25.0;                  ///< offsets equal F0, T0 at this temperature
+  Vec3 dF0_dT_N_per_degC = Vec3(0.05, -0.04, 0.08);
+  Vec3 dT0_dT_Nm_per_degC = Vec3(0.002, -0.003, 0.0015);
+};
+struct TimeDriftSwitch {
+  bool enabled = false;                          ///< offsets drift linearly from t = 0
+  Vec3 dF0_dt_N_per_s = Vec3(0.02, -0.015, 0.03);
+  Vec3 dT0_dt_Nm_per_s = Vec3(0.001, 0.0008, -0.0012);
+};
+struct SensorDelaySwitch {
+  bool enabled = false;
+  double tau_s = 0.012;                          ///< wrench stream lags kinematics/IMU by tau
+};
+struct CrosstalkSwitch {
+  bool enabled = false;
+  Mat6 E = defaultMatrix();                      ///< reading = (I + E) * load wrench + offsets
+  static Mat6 defaultMatrix();
+};
+struct ContactSwitch {
+  bool enabled = false;
+  double t_start_s = 4.0;                        ///< push window [t_start, t_end]
+  double t_end_s = 6.0;
+  Vec3 force_B = Vec3(0.0, 0.0, -8.0);           ///< peak force on the tool, in B [N]
+  Vec3 p_SP_S = Vec3(0.0, 0.0, 0.12);            ///< point of application on the tool, in S [m]
+  /// Window shape s(t) = sin^2(pi (t - t_start) / (t_end - t_start)) inside, 0 outside.
+  double profile(double t_s) const;
+};
+
+struct CellSimConfig {
+  std::optional<model::RobotKinematics> robot;   ///< required
+  Mat3 R_FS = Mat3::Identity();                  ///< sensor mount X_FS
+  Vec3 p_FS_F = Vec3::Zero();
+  trajectory::FourierTrajectory trajectory;      ///< used unless `motion` is set
+  std::function<trajectory::TrajectoryPoint(double t_s)> motion;  ///< optional q(t) provider
+  double rate_hz = 125.0;                        ///< samples t_k = k / rate_hz, k = 0..N-1
+  double duration_s = 10.0;                      ///< N = floor(duration * rate) + 1
+  PayloadTruth payload;
+  double tilt_u_rad = 0.0;                       ///< R_WB = Rx(U) Ry(V)
+  double tilt_v_rad = 0.0;
+  Vec3 F0_N = Vec3::Zero();                      ///< sensor force offsets
+  Vec3 T0_Nm = Vec3::Zero();                     ///< sensor torque offsets
+  NoiseConfig noise;
+  std::uint64_t seed = 1;                        ///< std::mt19937_64 seed
+  /// true: full Newton-Euler. false: the paper's model only (f = m(g_S - a_S), t = c x f).
+  bool full_rigid_body = true;
+  TemperatureProfile temperature;
+  CableSwitch cable;
+  TemperatureDriftSwitch temperature_drift;
+  TimeDriftSwitch time_drift;
+  SensorDelaySwitch sensor_delay;
+  CrosstalkSwitch crosstalk;
+  ContactSwitch contact;
+};
+
+/// One noise-free (or noisy, after addNoise) sensor sample.
+struct SensorReading {
+  Wrench wrench_S = Wrench::Zero();   ///< what the sensor reports (offsets, effects included)
+  Vec3 acc_S = Vec3::Zero();          ///< IMU specific force R_WS^T (a_W - g_W)
+  Vec3 w_S = Vec3::Zero();
+  Vec3 alpha_S = Vec3::Zero();
+  double temp_degC = 0.0;
+  Wrench contact_S = Wrench::Zero();  ///< true contact wrench [F; p x F] in S (zero if no contact)
+};
+
+class CellSim {
+ public:
+  /// Validates the configuration; throws ConfigError naming the field.
+  explicit CellSim(CellSimConfig config);
+
+  /// Simulates the whole run: columns t, q, qd, qdd, wrench, IMU, temp (+ contact_fx..contact_tz
+  /// truth columns when the contact switch is on). Same config and seed -> identical log.
+  logio::LogData run() const;
+
+  // --- Per-instant API (e.g. for a sensor simulator fed by a robot simulator) -----------------
+  // All noise-free and deterministic; thread-compatible (const, no shared mutable state except
+  // KDL's internal joint-pose cache: use one CellSim per thread).
+
+  /// Load wrench on the sensor (payload Newton-Euler + cable + contact), in S, before crosstalk
+  /// and offsets, for the robot state (q, qd, qdd) at time t_s.
+  Wrench loadWrenchAt(const JointVector& q, const JointVector& qd, const JointVector& qdd,
+                      double t_s) const;
+
+  /// The undelayed sensor reading for the robot state (q, qd, qdd) at time t_s and sensor
+  /// temperature temp_degC: wrench = (I + E) load + F0/T0 (+ drift terms); IMU from the same state.
+  /// The sensor_delay switch is NOT applied here (it needs the state at t - tau: callers holding a
+  /// state history call this with the state of t - tau for the wrench; see sensorDelay()).
+  SensorReading readingAt(const JointVector& q, const JointVector& qd, const JointVector& qdd,
+                          double t_s, double temp_degC) const;
+  /// As above with the temperature from the configured profile.
+  SensorReading readingAt(const JointVector& q, const JointVector& qd, const JointVector& qdd,
+                          double t_s) const;
+
+  /// The noise-free sample at time t_s of the configured trajectory, with every switch applied
+  /// exactly (sensor_delay: the wrench is readingAt(state(t - tau), t - tau).wrench_S).
+  SensorReading sampleAt(double t_s) const;
+
+  /// Adds the configured white noise to a reading (draw order: 6 wrench, 3 acc, 3 gyro,
+  /// 3 alpha, 1 temp; always drawn, so switching effects on does not change the noise).
+  void addNoise(SensorReading& reading, std::mt19937_64& rng) const;
+
+  /// Sensor offsets at time t and temperature T, including drift switches.
+  Wrench offsetsAt(double t_s, double temp_degC) const;
+  double temperatureAt(double t_s) const { return config_.temperature.at(t_s); }
+  /// Delay of the wrench stream (0 when the switch is off).
+  double sensorDelay() const { return config_.sensor_delay.enabled ? config_.sensor_delay.tau_s : 0.0; }
+  trajectory::TrajectoryPoint stateAt(double t_s) const;
+  std::size_t sampleCount() const;
+
+  const CellSimConfig& config() const { return config_; }
+  const model::RobotKinematics& robot() const { return *config_.robot; }
+
+ private:
+  Wrench loadWrenchFor(const model::SensorMotion& m, double t_s) const;
+  CellSimConfig config_;
+  Vec3 g_B_;
+};
+
+/// The truth of a configuration as YAML text (parameter names of docs/conventions.md plus every
+/// switch with its magnitudes), and an atomic file writer for it (tmp file + fsync + rename).
+std::string truthYaml(const CellSimConfig& config);
+void writeTruthYaml(const std::string& path, const CellSimConfig& config);
+
+/// The paper's Table 2 payload (Duan et al. 2022): offsets, centre of mass, weight, tilt.
+struct PaperPayload {
+  static constexpr double kWeight_N = 8.862;
+  static constexpr double kMass_kg = 8.862 / kStandardGravity;
+  static constexpr double kTiltU_deg = -9.8716;
+  static constexpr double kTiltV_deg = -5.3709;
+  static Vec3 forceOffset() { return Vec3(-0.6672, 0.8565, 0.3538); }
+  static Vec3 torqueOffset() { return Vec3(0.0228, 0.0084, 0.0080); }
+  static Vec3 centreOfMass() { return Vec3(0.005, 0.002, 0.051); }
+  /// Mass and centre of mass of Table 2, with a nominal inertia (solid cylinder r = 0.04 m,
+  /// h = 0.10 m about its centre; the paper gives none).
+  static PayloadTruth payload();
+  /// Sets payload, F0, T0 and tilt of `config`.
+  static void apply(CellSimConfig& config);
+};
+
+/// Start pose of the paper-style excitation: (0, -1.57, 1.57, -1.57, -1.57, 0) rad.
+JointVector paperStartPose();
+/// Paper-style excitation: 10 s, 5 harmonics, 0.1 Hz base, joints 4-6 excited, rest-to-rest,
+/// within UR10 velocity limits (hand-picked coefficients; docs/simulator.md).
+trajectory::FourierTrajectory paperExcitationTrajectory();
+/// A complete paper cell: robot, PaperPayload, paper trajectory, 125 Hz, 10 s, no noise, no effects.
+CellSimConfig paperCellConfig(model::RobotKinematics robot);
+
+}  // namespace ftid::sim

@@ -1,0 +1,64 @@
+#pragma once
+// Codec between the domain records (ftid/transport/records.hpp) and the generated LCM types
+// (lcmtypes/*.lcm, package ftid_lcm). The to*/from* conversions and encodeInto() are
+// real-time safe: no allocation, no exceptions (every message they touch has fixed-size
+// fields only). Call warmUpCodec() once outside the loop: lcm-gen's getHash() initialises a
+// function-local static on first use.
+#include <cstddef>
+#include <cstdint>
+
+// lcm-gen's decode() trips GCC's -Wmaybe-uninitialized (a false positive on msg_hash) where it
+// is inlined; the warning is attributed to the generated headers, so silence it for them only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <ftid_lcm/ack_t.hpp>
+#include <ftid_lcm/command_t.hpp>
+#include <ftid_lcm/compensated_wrench_t.hpp>
+#include <ftid_lcm/cycle_sample_t.hpp>
+#include <ftid_lcm/identification_result_t.hpp>
+#include <ftid_lcm/loop_stats_t.hpp>
+#include <ftid_lcm/robot_state_t.hpp>
+#include <ftid_lcm/sensor_sample_t.hpp>
+#pragma GCC diagnostic pop
+
+#include "ftid/transport/records.hpp"
+
+namespace ftid::transport {
+
+void toLcm(const RobotStateRecord& in, ftid_lcm::robot_state_t* out) noexcept;
+void toLcm(const SensorSampleRecord& in, ftid_lcm::sensor_sample_t* out) noexcept;
+void toLcm(const CycleRecord& in, ftid_lcm::cycle_sample_t* out) noexcept;
+void toLcm(const CycleRecord& in, ftid_lcm::compensated_wrench_t* out) noexcept;
+void toLcm(const LoopStatsRecord& in, ftid_lcm::loop_stats_t* out) noexcept;
+
+void fromLcm(const ftid_lcm::robot_state_t& in, RobotStateRecord* out) noexcept;
+void fromLcm(const ftid_lcm::sensor_sample_t& in, SensorSampleRecord* out) noexcept;
+/// Restores the cycle_sample_t part of a CycleRecord (robot, sensor, age, faults).
+void fromLcm(const ftid_lcm::cycle_sample_t& in, CycleRecord* out) noexcept;
+/// Restores the compensated_wrench_t part of a CycleRecord (wrenches, validity, versions,
+/// sensor receive time and the robot timestamp).
+void fromLcm(const ftid_lcm::compensated_wrench_t& in, CycleRecord* out) noexcept;
+void fromLcm(const ftid_lcm::loop_stats_t& in, LoopStatsRecord* out) noexcept;
+
+/// Encodes msg (with its type fingerprint) into buf. Returns the number of bytes written, or -1
+/// if capacity is too small. Allocation-free for messages without strings or variable arrays.
+template <class Msg>
+int encodeInto(const Msg& msg, std::uint8_t* buf, std::size_t capacity) noexcept {
+  return msg.encode(buf, 0, static_cast<int>(capacity));
+}
+
+/// Decodes a message (checking its fingerprint). Returns false on a short buffer or a wrong type.
+template <class Msg>
+bool decodeFrom(const void* buf, std::size_t size, Msg* msg) noexcept {
+  return msg->decode(buf, 0, static_cast<int>(size)) >= 0;
+}
+
+/// Initialises the lcm-gen fingerprints of every ftid_lcm type (call once, before the loop).
+void warmUpCodec() noexcept;
+
+/// Wire size of the fixed-size messages, for preallocating buffers.
+int encodedSize(const ftid_lcm::cycle_sample_t&) noexcept;
+int encodedSize(const ftid_lcm::compensated_wrench_t&) noexcept;
+int encodedSize(const ftid_lcm::loop_stats_t&) noexcept;
+
+}  // namespace ftid::transport

@@ -1,0 +1,86 @@
+#pragma once
+// Domain records handed from the daemon's loop to the publishing side. Fixed size, no heap:
+// copying one into a queue slot is real-time safe. The LCM messages mirror them field for field
+// (lcmtypes/*.lcm, encoded by ftid/transport/codec.hpp). Frames, units and signs:
+// docs/conventions.md.
+#include <cstdint>
+
+#include "ftid/common/types.hpp"
+
+namespace ftid::transport {
+
+/// Sensor health flags (bit set = problem); sensor_sample_t.health_flags on the wire.
+enum SensorHealth : std::uint32_t {
+  kHealthOk = 0,
+  kHealthStale = 1u << 0,         ///< no frame within the stale timeout
+  kHealthCounterGap = 1u << 1,    ///< rolling counter skipped values
+  kHealthErrorFrame = 1u << 2,    ///< CAN error frame seen
+  kHealthOutOfRange = 1u << 3,    ///< a value outside the DBC/configured range
+  kHealthNonFinite = 1u << 4,     ///< NaN or inf in a value
+  kHealthStatusError = 1u << 5,   ///< the sensor's status word reports an error
+  kHealthTransportDown = 1u << 6, ///< the CAN transport failed or closed
+};
+
+/// Robot joint state that clocked one cycle (robot_state_t).
+struct RobotStateRecord {
+  std::int64_t recv_utime = 0;          ///< host receive time [us since epoch]
+  double robot_time = 0.0;              ///< controller timestamp [s]
+  JointVector q = JointVector::Zero();  ///< [rad]
+  JointVector qd = JointVector::Zero(); ///< [rad/s]
+  JointVector qdd = JointVector::Zero();///< [rad/s^2]
+  bool valid = false;
+};
+
+/// One raw sensor sample (sensor_sample_t).
+struct SensorSampleRecord {
+  std::int64_t recv_utime = 0;      ///< host receive time of the sample's last frame [us since epoch]
+  std::int32_t counter = 0;         ///< sensor rolling counter
+  Wrench wrench_S = Wrench::Zero(); ///< raw reading in S [N, Nm]
+  Vec3 imu_acc_S = Vec3::Zero();    ///< specific force [m/s^2]
+  Vec3 imu_w_S = Vec3::Zero();      ///< [rad/s]
+  Vec3 imu_alpha_S = Vec3::Zero();  ///< [rad/s^2]
+  double temp_degC = 0.0;
+  bool has_imu = false;
+  bool has_temp = false;
+  std::int32_t status_word = 0;
+  std::uint32_t health_flags = kHealthOk;  ///< SensorHealth bits
+  bool valid = false;
+};
+
+/// Everything one loop cycle produces (cycle_sample_t + compensated_wrench_t).
+struct CycleRecord {
+  std::int64_t utime = 0;         ///< cycle start (robot packet received) [us since epoch]
+  std::int64_t cycle = 0;         ///< cycle number since start
+  RobotStateRecord robot;
+  SensorSampleRecord sensor;
+  std::int64_t sensor_age_us = 0; ///< utime - sensor.recv_utime
+  std::uint32_t fault_bits = 0;   ///< ftid::FaultBit
+  Wrench modelled_S = Wrench::Zero();  ///< model prediction [N, Nm]
+  Wrench contact_S = Wrench::Zero();   ///< raw - modelled, zero when !wrench_valid
+  bool wrench_valid = false;
+  std::int32_t param_version = 0;
+};
+
+/// Loop statistics for one report interval (loop_stats_t).
+struct LoopStatsRecord {
+  std::int64_t utime = 0;
+  double uptime_s = 0.0;
+  std::int64_t cycles = 0;
+  std::int64_t missed_cycles = 0;
+  std::int64_t overruns = 0;
+  double compute_p50_us = 0.0;
+  double compute_p999_us = 0.0;
+  double compute_max_us = 0.0;
+  std::int64_t valid_cycles = 0;
+  std::int64_t invalid_cycles = 0;
+  std::int64_t stale_sensor_cycles = 0;
+  std::int64_t publish_dropped = 0;
+  std::int64_t published = 0;
+  std::int32_t reloads_applied = 0;
+  std::int32_t reloads_failed = 0;
+  std::int32_t param_version = 0;
+  std::uint32_t fault_bits = 0;
+  bool realtime = false;
+};
+
+}  // namespace ftid::transport

@@ -1,0 +1,390 @@
+#include "ftid/config/daemon_config.hpp"
+
+#include <sys/stat.h>
+
+#include <cctype>
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "ftid/common/error.hpp"
+
+namespace ftid::config {
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Reading typed values with messages "FILE:LINE: key 'a.b': problem".
+
+class Reader {
+ public:
+  Reader(std::string source, std::string base_dir)
+      : source_(std::move(source)), base_dir_(std::move(base_dir)) {}
+
+  [[noreturn]] void fail(const YAML::Node& node, const std::string& key,
+                         const std::string& what) const {
+    std::ostringstream os;
+    os << source_;
+    if (node.IsDefined() && node.Mark().line >= 0) os << ':' << node.Mark().line + 1;
+    os << ": key '" << key << "': " << what;
+    throw ConfigError(os.str());
+  }
+
+  std::string scalarText(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsScalar()) fail(node, key, "expected a single value");
+    return node.Scalar();
+  }
+
+  double number(const YAML::Node& node, const std::string& key) const {
+    const std::string text = scalarText(node, key);
+    double v = 0.0;
+    try {
+      std::size_t used = 0;
+      v = std::stod(text, &used);
+      if (used != text.size()) throw std::invalid_argument(text);
+    } catch (const std::exception&) {
+      fail(node, key, "expected a number, got '" + text + "'");
+    }
+    if (!std::isfinite(v)) fail(node, key, "must be finite, got '" + text + "'");
+    return v;
+  }
+
+  int integer(const YAML::Node& node, const std::string& key) const {
+    const std::string text = scalarText(node, key);
+    long v = 0;
+    try {
+      std::size_t used = 0;
+      v = std::stol(text, &used);
+      if (used != text.size()) throw std::invalid_argument(text);
+    } catch (const std::exception&) {
+      fail(node, key, "expected an integer, got '" + text + "'");
+    }
+    if (v < -1000000000L || v > 1000000000L) fail(node, key, "integer out of range: " + text);
+    return static_cast<int>(v);
+  }
+
+  bool boolean(const YAML::Node& node, const std::string& key) const {
+    const std::string text = scalarText(node, key);
+    if (text == "true" || text == "yes" || text == "on") return true;
+    if (text == "false" || text == "no" || text == "off") return false;
+    fail(node, key, "expected true or false, got '" + text + "'");
+  }
+
+  std::string string(const YAML::Node& node, const std::string& key) const {
+    const std::string text = scalarText(node, key);
+    if (text.empty()) fail(node, key, "must not be empty");
+    return text;
+  }
+
+  std::string path(const YAML::Node& node, const std::string& key) const {
+    std::string p = string(node, key);
+    if (p[0] != '/' && !base_dir_.empty()) p = base_dir_ + "/" + p;
+    return p;
+  }
+
+  Vec3 vec3(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsSequence() || node.size() != 3) fail(node, key, "expected a list of 3 numbers");
+    Vec3 v;
+    for (std::size_t i = 0; i < 3; ++i) v(static_cast<int>(i)) = number(node[i], key);
+    return v;
+  }
+
+  const std::string& source() const { return source_; }
+
+ private:
+  std::string source_;
+  std::string base_dir_;
+};
+
+using Handler = std::function<void(const YAML::Node&, const std::string& key)>;
+
+// Applies handlers to the keys of a map; unknown keys are errors listing the known ones.
+void readSection(const Reader& r, const YAML::Node& map, const std::string& prefix,
+                 const std::vector<std::pair<std::string, Handler>>& handlers) {
+  if (!map.IsMap()) r.fail(map, prefix, "expected a mapping of keys");
+  for (const auto& kv : map) {
+    const std::string name = kv.first.Scalar();
+    const std::string key = prefix.empty() ? name : prefix + "." + name;
+    bool found = false;
+    for (const auto& h : handlers) {
+      if (h.first == name) {
+        if (kv.second.IsNull()) r.fail(kv.first, key, "has no value");
+        h.second(kv.second, key);
+        found = true;
+        break;
+      }
+    }
+    if (!found) {
+      std::string known;
+      for (const auto& h : handlers) known += (known.empty() ? "" : ", ") + h.first;
+      r.fail(kv.first, key, "unknown key (known keys here: " + known + ")");
+    }
+  }
+}
+
+bool fileReadable(const std::string& path) {
+  std::ifstream f(path);
+  return f.good();
+}
+
+bool isDirectory(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+std::string dirOf(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  if (slash == 0) return "/";
+  return path.substr(0, slash);
+}
+
+// Cross-field and file checks. `where(key)` gives the location prefix for a key.
+void validate(const DaemonConfig& c, const std::function<std::string(const std::string&)>& where) {
+  auto fail = [&](const std::string& key, const std::string& what) {
+    throw ConfigError(where(key) + ": key '" + key + "': " + what);
+  };
+  if (c.robot.host.empty()) fail("robot.host", "must not be empty");
+  if (c.robot.rtde_port < 1 || c.robot.rtde_port > 65535) fail("robot.rtde_port", "must be 1..65535");
+  if (c.robot.dashboard_port < 1 || c.robot.dashboard_port > 65535) {
+    fail("robot.dashboard_port", "must be 1..65535");
+  }
+  if (!(c.robot.rtde_frequency_hz >= 1.0 && c.robot.rtde_frequency_hz <= 500.0)) {
+    fail("robot.rtde_frequency_hz", "must be in 1..500 Hz");
+  }
+  if (!(c.robot.receive_timeout_ms >= 0.0 && c.robot.receive_timeout_ms <= 1000.0)) {
+    fail("robot.receive_timeout_ms", "must be in 0..1000 ms (0 = 1.5 periods)");
+  }
+  if (!fileReadable(c.robot.urdf_path)) {
+    fail("robot.urdf_path", "cannot read '" + c.robot.urdf_path + "'");
+  }
+  if (c.robot.base_link.empty()) fail("robot.base_link", "must not be empty");
+  if (c.robot.tip_link.empty()) fail("robot.tip_link", "must not be empty");
+  if (c.sensor.transport != "seqpacket" && c.sensor.transport != "socketcan") {
+    fail("sensor.transport", "must be 'seqpacket' or 'socketcan', got '" + c.sensor.transport + "'");
+  }
+  if (c.sensor.transport == "seqpacket") {
+    if (c.sensor.socket_path.empty() || c.sensor.socket_path.size() > 107) {
+      fail("sensor.socket_path", "must be 1..107 characters (Unix socket path)");
+    }
+  } else if (c.sensor.can_interface.empty() || c.sensor.can_interface.size() > 15) {
+    fail("sensor.can_interface", "must be 1..15 characters (network interface name)");
+  }
+  if (!fileReadable(c.sensor.dbc_path)) fail("sensor.dbc_path", "cannot read '" + c.sensor.dbc_path + "'");
+  if (!(c.sensor.stale_timeout_ms > 0.0 && c.sensor.stale_timeout_ms <= 10000.0)) {
+    fail("sensor.stale_timeout_ms", "must be in (0, 10000] ms");
+  }
+  if (!c.sensor.mount_xyz.allFinite() || c.sensor.mount_xyz.norm() > 2.0) {
+    fail("sensor.mount_xyz", "must be finite and within 2 m of the flange");
+  }
+  if (!c.sensor.mount_rpy.allFinite() || c.sensor.mount_rpy.cwiseAbs().maxCoeff() > 2.0 * M_PI) {
+    fail("sensor.mount_rpy", "must be finite angles in radians (|angle| <= 2 pi)");
+  }
+  if (c.parameters.path.empty()) fail("parameters.path", "must not be empty");
+  if (c.parameters.required && !fileReadable(c.parameters.path)) {
+    fail("parameters.path", "cannot read '" + c.parameters.path + "' (parameters.required is true)");
+  }
+  if (c.lcm.url.empty()) fail("lcm.url", "must not be empty");
+  const auto scheme = c.lcm.url.substr(0, c.lcm.url.find("://"));
+  if (c.lcm.url.find("://") == std::string::npos ||
+      (scheme != "udpm" && scheme != "memq" && scheme != "file" && scheme != "tcpq")) {
+    fail("lcm.url", "must be an LCM provider URL (udpm://, memq://, file://, tcpq://), got '" +
+                        c.lcm.url + "'");
+  }
+  const std::pair<const char*, const std::string*> channels[] = {
+      {"lcm.channels.cycle", &c.lcm.channels.cycle},   {"lcm.channels.wrench", &c.lcm.channels.wrench},
+      {"lcm.channels.stats", &c.lcm.channels.stats},   {"lcm.channels.command", &c.lcm.channels.command},
+      {"lcm.channels.ack", &c.lcm.channels.ack}};
+  for (const auto& ch : channels) {
+    if (ch.second->empty() || ch.second->size() > 63) fail(ch.first, "must be 1..63 characters");
+    for (char ch_c : *ch.second) {
+      if (!(std::isalnum(static_cast<unsigned char>(ch_c)) || ch_c == '_' || ch_c == '-' ||
+            ch_c == '/' || ch_c == '.')) {
+        fail(ch.first, "channel names use letters, digits and _ - / . only (a channel is also a "
+                       "regular expression for subscribers), got '" + *ch.second + "'");
+      }
+    }
+  }
+  for (std::size_t i = 0; i < 5; ++i) {
+    for (std::size_t j = i + 1; j < 5; ++j) {
+      if (*channels[i].second == *channels[j].second) {
+        fail(channels[j].first, "same channel as " + std::string(channels[i].first));
+      }
+    }
+  }
+  if (!(c.lcm.stats_period_s >= 0.1 && c.lcm.stats_period_s <= 60.0)) {
+    fail("lcm.stats_period_s", "must be in 0.1..60 s");
+  }
+  if (c.rt.priority < 1 || c.rt.priority > 99) fail("rt.priority", "must be 1..99");
+  if (c.rt.cpu < -1 || c.rt.cpu > 1023) fail("rt.cpu", "must be -1 (no pinning) or a CPU number");
+  if (!(c.rt.overrun_budget_ms >= 0.0 && c.rt.overrun_budget_ms <= 1000.0)) {
+    fail("rt.overrun_budget_ms", "must be in 0..1000 ms (0 = half a period)");
+  }
+  if (c.record.enabled) {
+    if (c.record.path.empty()) fail("record.path", "must not be empty when record.enabled");
+    if (!isDirectory(dirOf(c.record.path))) {
+      fail("record.path", "directory '" + dirOf(c.record.path) + "' does not exist");
+    }
+  }
+}
+
+}  // namespace
+
+Mat3 SensorConfig::R_FS() const {
+  const Eigen::AngleAxisd rx(mount_rpy.x(), Vec3::UnitX());
+  const Eigen::AngleAxisd ry(mount_rpy.y(), Vec3::UnitY());
+  const Eigen::AngleAxisd rz(mount_rpy.z(), Vec3::UnitZ());
+  return (rz * ry * rx).toRotationMatrix();
+}
+
+DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& source_name,
+                               const std::string& base_dir) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(yaml_text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) +
+                      ": YAML syntax error: " + e.msg);
+  }
+  DaemonConfig c;
+  c.source = source_name;
+  const Reader r(source_name, base_dir);
+  std::map<std::string, int> lines;  // key -> line, for validation messages
+  auto mark = [&](const YAML::Node& n, const std::string& key) { lines[key] = n.Mark().line + 1; };
+
+  if (root.IsNull()) {
+    // empty file: all defaults
+  } else {
+    auto S = [&](auto&& fn) {  // wraps a setter so that the key's line is remembered
+      return [&, fn](const YAML::Node& n, const std::string& key) {
+        mark(n, key);
+        fn(n, key);
+      };
+    };
+    readSection(r, root, "", {
+      {"robot", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"host", S([&](const YAML::Node& v, const std::string& key) { c.robot.host = r.string(v, key); })},
+          {"rtde_port", S([&](const YAML::Node& v, const std::string& key) { c.robot.rtde_port = r.integer(v, key); })},
+          {"dashboard_port", S([&](const YAML::Node& v, const std::string& key) { c.robot.dashboard_port = r.integer(v, key); })},
+          {"rtde_frequency_hz", S([&](const YAML::Node& v, const std::string& key) { c.robot.rtde_frequency_hz = r.number(v, key); })},
+          {"urdf_path", S([&](const YAML::Node& v, const std::string& key) { c.robot.urdf_path = r.path(v, key); })},
+          {"base_link", S([&](const YAML::Node& v, const std::string& key) { c.robot.base_link = r.string(v, key); })},
+          {"tip_link", S([&](const YAML::Node& v, const std::string& key) { c.robot.tip_link = r.string(v, key); })},
+          {"receive_timeout_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.receive_timeout_ms = r.number(v, key); })},
+        });
+      }},
+      {"sensor", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"transport", S([&](const YAML::Node& v, const std::string& key) { c.sensor.transport = r.string(v, key); })},
+          {"socket_path", S([&](const YAML::Node& v, const std::string& key) { c.sensor.socket_path = r.path(v, key); })},
+          {"can_interface", S([&](const YAML::Node& v, const std::string& key) { c.sensor.can_interface = r.string(v, key); })},
+          {"dbc_path", S([&](const YAML::Node& v, const std::string& key) { c.sensor.dbc_path = r.path(v, key); })},
+          {"stale_timeout_ms", S([&](const YAML::Node& v, const std::string& key) { c.sensor.stale_timeout_ms = r.number(v, key); })},
+          {"mount_xyz", S([&](const YAML::Node& v, const std::string& key) { c.sensor.mount_xyz = r.vec3(v, key); })},
+          {"mount_rpy", S([&](const YAML::Node& v, const std::string& key) { c.sensor.mount_rpy = r.vec3(v, key); })},
+        });
+      }},
+      {"parameters", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"path", S([&](const YAML::Node& v, const std::string& key) { c.parameters.path = r.path(v, key); })},
+          {"required", S([&](const YAML::Node& v, const std::string& key) { c.parameters.required = r.boolean(v, key); })},
+        });
+      }},
+      {"lcm", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"url", S([&](const YAML::Node& v, const std::string& key) { c.lcm.url = r.string(v, key); })},
+          {"publish_cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.publish_cycle = r.boolean(v, key); })},
+          {"stats_period_s", S([&](const YAML::Node& v, const std::string& key) { c.lcm.stats_period_s = r.number(v, key); })},
+          {"channels", [&](const YAML::Node& cn, const std::string& ck) {
+            readSection(r, cn, ck, {
+              {"cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.cycle = r.string(v, key); })},
+              {"wrench", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.wrench = r.string(v, key); })},
+              {"stats", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.stats = r.string(v, key); })},
+              {"command", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.command = r.string(v, key); })},
+              {"ack", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.ack = r.string(v, key); })},
+            });
+          }},
+        });
+      }},
+      {"rt", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"require_rt", S([&](const YAML::Node& v, const std::string& key) { c.rt.require_rt = r.boolean(v, key); })},
+          {"lock_memory", S([&](const YAML::Node& v, const std::string& key) { c.rt.lock_memory = r.boolean(v, key); })},
+          {"priority", S([&](const YAML::Node& v, const std::string& key) { c.rt.priority = r.integer(v, key); })},
+          {"cpu", S([&](const YAML::Node& v, const std::string& key) { c.rt.cpu = r.integer(v, key); })},
+          {"overrun_budget_ms", S([&](const YAML::Node& v, const std::string& key) { c.rt.overrun_budget_ms = r.number(v, key); })},
+        });
+      }},
+      {"record", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"enabled", S([&](const YAML::Node& v, const std::string& key) { c.record.enabled = r.boolean(v, key); })},
+          {"path", S([&](const YAML::Node& v, const std::string& key) { c.record.path = r.path(v, key); })},
+        });
+      }},
+    });
+  }
+  validate(c, [&](const std::string& key) {
+    const auto it = lines.find(key);
+    if (it == lines.end()) return source_name + " (default value)";
+    return source_name + ":" + std::to_string(it->second);
+  });
+  return c;
+}
+
+DaemonConfig loadDaemonConfig(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open config file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parseDaemonConfig(ss.str(), path, dirOf(path));
+}
+
+void validateDaemonConfig(const DaemonConfig& config) {
+  const std::string src = config.source.empty() ? std::string("<config>") : config.source;
+  validate(config, [&](const std::string&) { return src; });
+}
+
+std::string describeDaemonConfig(const DaemonConfig& c) {
+  std::ostringstream os;
+  auto b = [](bool v) { return v ? "true" : "false"; };
+  os << "config: " << (c.source.empty() ? "<defaults>" : c.source) << "\n"
+     << "robot.host: " << c.robot.host << "\n"
+     << "robot.rtde_port: " << c.robot.rtde_port << "\n"
+     << "robot.dashboard_port: " << c.robot.dashboard_port << "\n"
+     << "robot.rtde_frequency_hz: " << c.robot.rtde_frequency_hz << "\n"
+     << "robot.urdf_path: " << c.robot.urdf_path << "\n"
+     << "robot.base_link: " << c.robot.base_link << "\n"
+     << "robot.tip_link: " << c.robot.tip_link << "\n"
+     << "robot.receive_timeout_ms: " << c.robot.receive_timeout_ms << " (effective "
+     << static_cast<double>(c.robot.receiveTimeout().count()) / 1000.0 << " ms)\n"
+     << "sensor.transport: " << c.sensor.transport << "\n"
+     << "sensor.socket_path: " << c.sensor.socket_path << "\n"
+     << "sensor.can_interface: " << c.sensor.can_interface << "\n"
+     << "sensor.dbc_path: " << c.sensor.dbc_path << "\n"
+     << "sensor.stale_timeout_ms: " << c.sensor.stale_timeout_ms << "\n"
+     << "sensor.mount_xyz: [" << c.sensor.mount_xyz.transpose() << "]\n"
+     << "sensor.mount_rpy: [" << c.sensor.mount_rpy.transpose() << "]\n"
+     << "parameters.path: " << c.parameters.path << "\n"
+     << "parameters.required: " << b(c.parameters.required) << "\n"
+     << "lcm.url: " << c.lcm.url << "\n"
+     << "lcm.channels: cycle=" << c.lcm.channels.cycle << " wrench=" << c.lcm.channels.wrench
+     << " stats=" << c.lcm.channels.stats << " command=" << c.lcm.channels.command
+     << " ack=" << c.lcm.channels.ack << "\n"
+     << "lcm.publish_cycle: " << b(c.lcm.publish_cycle) << "\n"
+     << "lcm.stats_period_s: " << c.lcm.stats_period_s << "\n"
+     << "rt.require_rt: " << b(c.rt.require_rt) << "\n"
+     << "rt.lock_memory: " << b(c.rt.lock_memory) << "\n"
+     << "rt.priority: " << c.rt.priority << "\n"
+     << "rt.cpu: " << c.rt.cpu << "\n"
+     << "rt.overrun_budget_ms: " << c.rt.overrun_budget_ms << "\n"
+     << "record.enabled: " << b(c.record.enabled) << "\n"
+     << "record.path: " << c.record.path << "\n";
+  return os.str();
+}
+
+}  // namespace ftid::config

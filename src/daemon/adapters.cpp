@@ -1,0 +1,135 @@
+#include "ftid/daemon/adapters.hpp"
+
+#include <cmath>
+
+#include "ftid/common/error.hpp"
+#include "ftid/effects/model.hpp"
+#include "ftid/identify/parameter_set.hpp"
+
+namespace ftid::daemon {
+
+namespace ur = drivers::ur;
+
+// ---------------------------------------------------------------------------------------------
+RtdeArmSource::RtdeArmSource(const std::string& host, int port, double frequency_hz) {
+  client_.connect(host, static_cast<std::uint16_t>(port));
+  client_.negotiateProtocolVersion();
+  client_.setupOutputs(frequency_hz, ur::RtdeClient::defaultOutputNames());
+  client_.start();
+}
+
+RtdeArmSource::~RtdeArmSource() { client_.disconnect(); }
+
+Status RtdeArmSource::waitForState(std::chrono::nanoseconds timeout,
+                                   transport::RobotStateRecord* out) noexcept {
+  const Status s = client_.tryReceiveState(timeout, &state_);
+  if (s != Status::kOk) return s;
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  out->recv_utime = static_cast<std::int64_t>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;
+  out->robot_time = state_.timestamp;
+  for (int j = 0; j < 6; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    out->q(j) = state_.actual_q[k];
+    out->qd(j) = state_.actual_qd[k];
+  }
+  if ((state_.present & ur::kFieldTargetQdd) != 0) {
+    for (int j = 0; j < 6; ++j) out->qdd(j) = state_.target_qdd[static_cast<std::size_t>(j)];
+  } else if (have_prev_ && state_.timestamp > prev_time_) {
+    out->qdd = (out->qd - prev_qd_) / (state_.timestamp - prev_time_);
+  } else {
+    out->qdd.setZero();
+  }
+  prev_qd_ = out->qd;
+  prev_time_ = state_.timestamp;
+  have_prev_ = true;
+  const std::uint32_t present = state_.present;
+  out->valid = (present & ur::kFieldActualQ) != 0 && (present & ur::kFieldActualQd) != 0 &&
+               (present & ur::kFieldTimestamp) != 0;
+  stopped_ = (state_.safety_status_bits &
+              (ur::rtde::kSafetyStatusProtectiveStopped | ur::rtde::kSafetyStatusSafeguardStopped |
+               ur::rtde::kSafetyStatusSystemEmergencyStopped |
+               ur::rtde::kSafetyStatusRobotEmergencyStopped |
+               ur::rtde::kSafetyStatusEmergencyStopped | ur::rtde::kSafetyStatusFault |
+               ur::rtde::kSafetyStatusViolation)) != 0;
+  return Status::kOk;
+}
+
+// ---------------------------------------------------------------------------------------------
+void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept {
+  out->recv_utime = in.rx_time_ns / 1000;
+  out->counter = static_cast<std::int32_t>(in.counter);
+  out->wrench_S = in.wrench_S;
+  out->has_imu = in.has_imu;
+  if (in.has_imu) {
+    out->imu_acc_S = in.acc_S;
+    out->imu_w_S = in.w_S;
+    out->imu_alpha_S = in.alpha_S;
+  } else {
+    out->imu_acc_S.setZero();
+    out->imu_w_S.setZero();
+    out->imu_alpha_S.setZero();
+  }
+  out->has_temp = in.has_temperature;
+  out->temp_degC = in.has_temperature ? in.temp_degC : 0.0;
+  out->status_word = static_cast<std::int32_t>(in.status_word);
+  std::uint32_t h = transport::kHealthOk;
+  if ((in.flags & (can::kSampleFlagNoData | can::kSampleFlagStale)) != 0) h |= transport::kHealthStale;
+  if ((in.flags & (can::kSampleFlagCounterGap | can::kSampleFlagCounterRepeat)) != 0) {
+    h |= transport::kHealthCounterGap;
+  }
+  if ((in.flags & (can::kSampleFlagErrorFrame | can::kSampleFlagBusOff)) != 0) {
+    h |= transport::kHealthErrorFrame;
+  }
+  if ((in.flags & can::kSampleFlagOutOfRange) != 0) h |= transport::kHealthOutOfRange;
+  if ((in.flags & can::kSampleFlagStatusFault) != 0) h |= transport::kHealthStatusError;
+  if ((in.flags & can::kSampleFlagTransportDown) != 0) h |= transport::kHealthTransportDown;
+  out->health_flags = h;
+  out->valid = in.valid;
+}
+
+CanSensorSource::CanSensorSource(std::unique_ptr<can::FtImuSensor> sensor)
+    : sensor_(std::move(sensor)) {}
+
+void CanSensorSource::tryReadLatest(std::int64_t now_utime,
+                                    transport::SensorSampleRecord* out) noexcept {
+  (void)sensor_->tryReadLatest(sample_, now_utime * 1000);
+  toSensorRecord(sample_, out);
+}
+
+// ---------------------------------------------------------------------------------------------
+KinematicsMotionModel::KinematicsMotionModel(model::RobotKinematics kinematics)
+    : kinematics_(std::move(kinematics)) {}
+
+model::SensorMotion KinematicsMotionModel::computeSensorMotion(const JointVector& q,
+                                                               const JointVector& qd,
+                                                               const JointVector& qdd) const noexcept {
+  return kinematics_.computeSensorMotion(q, qd, qdd);
+}
+
+// ---------------------------------------------------------------------------------------------
+ParameterFileCompensation::ParameterFileCompensation(const std::string& path) {
+  const identify::ParameterSet set = identify::readParameterFile(path);
+  const effects::Model model = effects::Model::fromName(set.model);
+  const Eigen::VectorXd theta = identify::thetaFor(model, set, path);
+  if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_v_rad)) {
+    throw ConfigError(path + ": key 'tilt': tilt angles must be finite");
+  }
+  tilt_u_ = set.tilt_u_rad;
+  tilt_v_ = set.tilt_v_rad;
+  model_name_ = model.name();
+  compensator_ = std::make_unique<compensate::Compensator>(model, theta, tilt_u_, tilt_v_);
+}
+
+bool ParameterFileCompensation::compute(const effects::SampleContext& ctx, Wrench* contact,
+                                        Wrench* modelled) noexcept {
+  return compensator_->compute(ctx, contact, modelled) == Status::kOk;
+}
+
+CompensationFactory parameterFileFactory() {
+  return [](const std::string& path) -> std::unique_ptr<Compensation> {
+    return std::make_unique<ParameterFileCompensation>(path);
+  };
+}
+
+}  // namespace ftid::daemon

@@ -1,0 +1,159 @@
+#include "ftid/daemon/daemon_cycle.hpp"
+
+#include <cmath>
+#include <ctime>
+
+#include "ftid/model/frames.hpp"
+
+namespace ftid::daemon {
+
+std::int64_t realtimeNowUs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;
+}
+
+namespace {
+
+bool robotUsable(const transport::RobotStateRecord& r) noexcept {
+  return r.valid && std::isfinite(r.robot_time) && r.q.allFinite() && r.qd.allFinite() &&
+         r.qdd.allFinite();
+}
+
+bool sensorFinite(const transport::SensorSampleRecord& s) noexcept {
+  if (!s.wrench_S.allFinite()) return false;
+  if (s.has_imu && !(s.imu_acc_S.allFinite() && s.imu_w_S.allFinite() && s.imu_alpha_S.allFinite())) {
+    return false;
+  }
+  return !s.has_temp || std::isfinite(s.temp_degC);
+}
+
+}  // namespace
+
+DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
+                         OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
+    : arm_(arm), sensor_(sensor), motion_(motion), params_(params), sink_(sink), options_(options) {}
+
+Status DaemonCycle::waitForTick(std::chrono::nanoseconds timeout) noexcept {
+  return arm_->waitForState(timeout, &robot_);
+}
+
+CycleAction DaemonCycle::onTick() noexcept {
+  step(robot_, nullptr);
+  if (loop_stats_ != nullptr && ++since_stats_ >= stats_every_) {
+    stats_box_->tryPush(*loop_stats_);
+    since_stats_ = 0;
+  }
+  return CycleAction::kContinue;
+}
+
+CycleAction DaemonCycle::onMissed(std::uint32_t /*consecutive_missed*/) noexcept {
+  counters_.missed.fetch_add(1, std::memory_order_relaxed);
+  faults_.raise(kFaultRobotTimeout);
+  return CycleAction::kContinue;
+}
+
+void DaemonCycle::step(const transport::RobotStateRecord& robot,
+                       transport::CycleRecord* out) noexcept {
+  using transport::CycleRecord;
+  const std::int64_t now = options_.now_us();
+  if (params_->tryAcquire() != nullptr) {
+    counters_.param_swaps.fetch_add(1, std::memory_order_relaxed);
+  }
+  Compensation* comp = params_->current();
+
+  CycleRecord& rec = record_;
+  rec.utime = now;
+  rec.cycle = cycle_number_++;
+  rec.robot = robot;
+  rec.fault_bits = 0;
+  rec.param_version = static_cast<std::int32_t>(params_->version());
+
+  // Robot state.
+  const bool robot_ok = robotUsable(robot);
+  rec.robot.valid = robot_ok;
+  if (!robot_ok) {
+    rec.fault_bits |= kFaultRobotStopped;
+    counters_.invalid_robot.fetch_add(1, std::memory_order_relaxed);
+  }
+  if (arm_ != nullptr && arm_->robotStopped()) rec.fault_bits |= kFaultRobotStopped;
+
+  // Sensor: newest sample, flagged if stale, invalid or non-finite.
+  sensor_->tryReadLatest(now, &rec.sensor);
+  rec.sensor_age_us = now - rec.sensor.recv_utime;
+  if (rec.sensor.recv_utime <= 0 || rec.sensor_age_us > options_.stale_timeout_us) {
+    rec.sensor.health_flags |= transport::kHealthStale;
+  }
+  if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= transport::kHealthNonFinite;
+  if ((rec.sensor.health_flags & (transport::kHealthStale | transport::kHealthNonFinite)) != 0) {
+    rec.sensor.valid = false;
+  }
+  if (!rec.sensor.valid) {
+    if ((rec.sensor.health_flags & transport::kHealthStale) != 0) {
+      rec.fault_bits |= kFaultSensorStale;
+      counters_.stale_sensor.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      rec.fault_bits |= kFaultSensorInvalid;
+      counters_.invalid_sensor.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+
+  // Compensation, only from valid inputs.
+  rec.wrench_valid = false;
+  rec.modelled_S.setZero();
+  rec.contact_S.setZero();
+  if (comp == nullptr) {
+    counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
+  } else if (robot_ok && rec.sensor.valid) {
+    if (!have_first_time_) {
+      first_robot_time_ = robot.robot_time;
+      have_first_time_ = true;
+    }
+    const model::SensorMotion m = motion_->computeSensorMotion(robot.q, robot.qd, robot.qdd);
+    ctx_.t = robot.robot_time - first_robot_time_;
+    ctx_.q = robot.q;
+    ctx_.qd = robot.qd;
+    ctx_.R_BS = m.R_BS;
+    ctx_.p_BS_B = m.p_BS_B;
+    ctx_.w_S = m.w_S;
+    ctx_.alpha_S = m.alpha_S;
+    ctx_.a_S = m.a_S;
+    ctx_.g_S = model::gravityInSensor(m.R_BS, comp->tiltU(), comp->tiltV());
+    ctx_.wrench_S = rec.sensor.wrench_S;
+    ctx_.has_imu = rec.sensor.has_imu;
+    ctx_.imu_acc_S = rec.sensor.imu_acc_S;
+    ctx_.imu_w_S = rec.sensor.imu_w_S;
+    ctx_.imu_alpha_S = rec.sensor.imu_alpha_S;
+    ctx_.has_temp = rec.sensor.has_temp;
+    ctx_.temp_degC = rec.sensor.temp_degC;
+    ctx_.extra = nullptr;
+    Wrench contact;
+    Wrench modelled;
+    const bool ok = comp->compute(ctx_, &contact, &modelled) && contact.allFinite() &&
+                    modelled.allFinite();
+    if (ok) {
+      rec.contact_S = contact;
+      rec.modelled_S = modelled;
+      rec.wrench_valid = true;
+    } else {
+      counters_.model_failures.fetch_add(1, std::memory_order_relaxed);
+      rec.fault_bits |= kFaultSensorInvalid;
+    }
+  }
+
+  if (rec.wrench_valid) {
+    counters_.valid.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    counters_.invalid.fetch_add(1, std::memory_order_relaxed);
+  }
+  if (sink_ != nullptr && !sink_->tryPush(rec)) {
+    counters_.sink_dropped.fetch_add(1, std::memory_order_relaxed);
+    rec.fault_bits |= kFaultPublishDropped;
+  }
+  faults_.raise(rec.fault_bits);
+  counters_.last_utime.store(now, std::memory_order_relaxed);
+  counters_.cycles.fetch_add(1, std::memory_order_release);
+  if (out != nullptr) *out = rec;
+}
+
+}  // namespace ftid::daemon

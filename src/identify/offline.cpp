@@ -1,0 +1,175 @@
+// Offline pipelines (include/ftid/identify/offline.hpp).
+#include "ftid/identify/offline.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
+
+#include "ftid/common/error.hpp"
+#include "ftid/compensate/compensator.hpp"
+#include "ftid/identify/fit.hpp"
+#include "ftid/identify/paper_method.hpp"
+#include "ftid/logio/log.hpp"
+#include "ftid/model/kinematics.hpp"
+
+namespace ftid::identify {
+
+namespace {
+
+bool fileExists(const std::string& p) { return std::ifstream(p).good(); }
+
+std::string exeDir() {
+  char buf[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
+  if (n <= 0) return ".";
+  std::string path(buf, static_cast<std::size_t>(n));
+  const auto slash = path.rfind('/');
+  return slash == std::string::npos ? "." : path.substr(0, slash);
+}
+
+void say(const ProgressFn& progress, const std::string& line) {
+  if (progress) progress(line);
+}
+
+ContextSet loadContexts(const std::string& log_path, const std::string& robot_urdf,
+                        const ContextOptions& options, const ProgressFn& progress) {
+  say(progress, "reading " + log_path);
+  const logio::LogData log = logio::readLog(log_path);
+  const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
+  say(progress, "robot " + urdf + ", " + std::to_string(log.samples.size()) + " samples");
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
+  return buildContexts(log, kin, options);
+}
+
+}  // namespace
+
+std::string defaultRobotUrdf() {
+  const std::string rel = "config/ur10.urdf";
+  if (fileExists(rel)) return rel;
+  const std::string dir = exeDir();
+  for (const std::string& c : {dir + "/../share/ftid/config/ur10.urdf", dir + "/../../config/ur10.urdf",
+                               dir + "/../../../config/ur10.urdf"}) {
+    if (fileExists(c)) return c;
+  }
+  return rel;  // the error then names the relative path
+}
+
+ParameterSet identifyLogFile(const IdentifyRequest& request) {
+  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+  ParameterSet set;
+  if (!request.model.empty()) {
+    const Model model = Model::fromName(request.model);
+    say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
+                              " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
+    const FitResult fit = fitModel(model, contexts.samples);
+    set = toParameterSet(fit);
+  } else {
+    PaperOptions o;
+    if (request.method == "static") {
+      o.method = PaperMethod::kStatic;
+    } else if (request.method == "dynamic") {
+      o.method = PaperMethod::kDynamic;
+    } else {
+      throw ConfigError("--method must be 'static' or 'dynamic', not '" + request.method + "'");
+    }
+    say(request.progress, std::string("paper method (") + toString(o.method) + "): force stage, torque stage");
+    const PaperResult r = identifyPaper(contexts.samples, o);
+    set = r.toParameterSet();
+  }
+  set.provenance.data_file = request.log_path;
+  return set;
+}
+
+std::string formatParameterTable(const ParameterSet& set) {
+  std::ostringstream os;
+  char line[160];
+  os << "model " << set.model << ", method " << set.provenance.method << ", " << set.provenance.n_samples
+     << " samples\n";
+  std::snprintf(line, sizeof(line), "%-14s %14s %12s  %s\n", "parameter", "value", "std", "unit");
+  os << line;
+  auto row = [&](const std::string& name, double value, double sd, const std::string& unit) {
+    std::snprintf(line, sizeof(line), "%-14s %14.6g %12.3g  %s\n", name.c_str(), value, sd, unit.c_str());
+    os << line;
+  };
+  for (const auto& p : set.params) row(p.name, p.value, p.std, p.unit);
+  for (const auto& p : set.derived) row(p.name, p.value, p.std, p.unit);
+  if (set.tilt_estimated) {
+    constexpr double kDeg = 180.0 / 3.141592653589793;
+    row("tilt_u", set.tilt_u_rad, set.tilt_u_std, "rad");
+    row("tilt_v", set.tilt_v_rad, set.tilt_v_std, "rad");
+    std::snprintf(line, sizeof(line), "  (tilt U = %.4f deg, V = %.4f deg)\n", set.tilt_u_rad * kDeg,
+                  set.tilt_v_rad * kDeg);
+    os << line;
+  }
+  os << "residual RMS:";
+  for (int a = 0; a < 6; ++a) {
+    std::snprintf(line, sizeof(line), " %s %.4g%s", kWrenchAxisNames[a], set.residual_rms(a), a < 3 ? " N," : (a < 5 ? " Nm," : " Nm"));
+    os << line;
+  }
+  std::snprintf(line, sizeof(line), "\ncondition number: %.4g\n", set.condition_number);
+  os << line;
+  for (const auto& e : set.extras) {
+    std::snprintf(line, sizeof(line), "  %s: %.4g\n", e.name.c_str(), e.value);
+    os << line;
+  }
+  return os.str();
+}
+
+CompensateSummary compensateLogFile(const CompensateRequest& request) {
+  const ParameterSet set = readParameterFile(request.params_path);
+  const Model model = Model::fromName(set.model);
+  const Eigen::VectorXd theta = thetaFor(model, set, request.params_path);
+  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, nullptr);
+  compensate::Compensator comp(model, theta, set.tilt_u_rad, set.tilt_v_rad);
+
+  CompensateSummary summary;
+  summary.n_samples = static_cast<int>(contexts.size());
+  std::ostringstream os;
+  os << "t,fx,fy,fz,tx,ty,tz,model_fx,model_fy,model_fz,model_tx,model_ty,model_tz\n";
+  char buf[64];
+  for (std::size_t i = 0; i < contexts.size(); ++i) {
+    const SampleContext& ctx = contexts.samples[i];
+    Wrench contact, modelled;
+    if (comp.compute(ctx, &contact, &modelled) != Status::kOk) {
+      throw DataError(request.log_path + ": sample " + std::to_string(i) + " cannot be compensated (non-finite)");
+    }
+    summary.raw_rms += ctx.wrench_S.cwiseAbs2();
+    summary.contact_rms += contact.cwiseAbs2();
+    std::snprintf(buf, sizeof(buf), "%.9f", ctx.t + contexts.t_origin);
+    os << buf;
+    for (int a = 0; a < 6; ++a) {
+      std::snprintf(buf, sizeof(buf), ",%.9g", contact(a));
+      os << buf;
+    }
+    for (int a = 0; a < 6; ++a) {
+      std::snprintf(buf, sizeof(buf), ",%.9g", modelled(a));
+      os << buf;
+    }
+    os << "\n";
+  }
+  if (summary.n_samples > 0) {
+    summary.raw_rms = (summary.raw_rms / summary.n_samples).cwiseSqrt();
+    summary.contact_rms = (summary.contact_rms / summary.n_samples).cwiseSqrt();
+  }
+  const std::string tmp = request.out_csv + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) throw ConfigError(request.out_csv + ": cannot write");
+    out << os.str();
+    out.flush();
+    if (!out) {
+      std::remove(tmp.c_str());
+      throw ConfigError(request.out_csv + ": write failed");
+    }
+  }
+  if (std::rename(tmp.c_str(), request.out_csv.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw ConfigError(request.out_csv + ": cannot rename the temporary file into place");
+  }
+  return summary;
+}
+
+}  // namespace ftid::identify

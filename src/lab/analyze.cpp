@@ -1,0 +1,442 @@
+// The model laboratory: held-out validation, diagnostics, candidate ranking, forward selection
+// (include/ftid/lab/analyze.hpp, docs/analyze.md).
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "engine.hpp"
+#include "ftid/common/error.hpp"
+#include "ftid/effects/cable.hpp"
+#include "ftid/effects/model.hpp"
+#include "ftid/effects/signal_source.hpp"
+#include "ftid/lab/analyze.hpp"
+
+namespace ftid::lab {
+
+namespace {
+
+using detail::Dataset;
+using detail::Engine;
+using detail::Linearization;
+using detail::Mat6X;
+using detail::Solution;
+using effects::Model;
+
+/// Paper effects are the base of every model: never offered as candidates unless missing.
+bool isGenericBase(const std::string& name) { return name == "harmonic" || name == "poly"; }
+
+void say(const AnalyzeOptions& o, const std::string& line) {
+  if (o.progress) o.progress(line);
+}
+
+std::string fmt(double v, int precision = 4) {
+  std::ostringstream s;
+  s.precision(precision);
+  s << v;
+  return s.str();
+}
+
+/// Checks the signals a model needs against the data; "" if fine, else the reason.
+std::string missingSignal(const Model& model, const std::vector<SampleContext>& ctx) {
+  const std::uint32_t s = model.signals();
+  if ((s & effects::kSignalTemperature) && !ctx.front().has_temp) return "the log has no temp column";
+  for (const auto& e : model.effectList()) {
+    const std::string n = e->name();
+    const auto open = n.find('(');
+    if (open == std::string::npos) continue;
+    const auto comma = n.find(',', open);
+    const std::string sig = n.substr(open + 1, (comma == std::string::npos ? n.size() - 1 : comma) - open - 1);
+    if (sig.empty()) continue;
+    try {
+      const auto src = effects::SignalSource::parse(sig);
+      if (!src.available(ctx.front())) return "the log has no signal '" + sig + "'";
+    } catch (const ConfigError&) {
+      // Effect arguments that are not signals (temperature_drift(20)) are the effect's business.
+    }
+  }
+  return "";
+}
+
+ModelReport makeReport(const Engine& eng, const Model& model, const Linearization& lin, const Solution& sol) {
+  ModelReport r;
+  r.model = model.name();
+  const auto params = model.params();
+  const int p = model.numParams();
+  const auto stdOf = [&](int k) { return std::sqrt(std::max(0.0, sol.covariance(k, k))); };
+  for (int k = 0; k < p; ++k) {
+    r.params.push_back({params[static_cast<std::size_t>(k)].name, params[static_cast<std::size_t>(k)].unit,
+                        sol.theta(k), stdOf(k)});
+  }
+  r.tilt_estimated = lin.tilt_columns;
+  r.tilt_u_rad = lin.u + (lin.tilt_columns ? sol.theta(p) : 0.0);
+  r.tilt_v_rad = lin.v + (lin.tilt_columns ? sol.theta(p + 1) : 0.0);
+  if (lin.tilt_columns) {
+    r.params.push_back({"tilt_u", "rad", r.tilt_u_rad, stdOf(p)});
+    r.params.push_back({"tilt_v", "rad", r.tilt_v_rad, stdOf(p + 1)});
+  }
+  const auto& idx = model.paramIndex();
+  const int cm = idx.column("mass");
+  if (cm >= 0 && sol.theta(cm) > 0.0) {
+    const double m = sol.theta(cm);
+    r.params.push_back({"weight", "N", m * kStandardGravity, stdOf(cm) * kStandardGravity});
+    const char* axes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      const int cc = idx.column(std::string("mass_com_") + axes[a]);
+      if (cc < 0) continue;
+      // com = mc / m: gradient (-mc/m^2, 1/m).
+      const double mc = sol.theta(cc);
+      const double g0 = -mc / (m * m), g1 = 1.0 / m;
+      const double var = g0 * g0 * sol.covariance(cm, cm) + 2.0 * g0 * g1 * sol.covariance(cm, cc) +
+                         g1 * g1 * sol.covariance(cc, cc);
+      r.params.push_back({std::string("com_") + axes[a], "m", mc / m, std::sqrt(std::max(0.0, var))});
+    }
+    if (model.contains("rigid_body")) {
+      std::vector<int> cols = {cm, idx.column("mass_com_x"), idx.column("mass_com_y"), idx.column("mass_com_z")};
+      for (const char* n : effects::kInertiaParamNames) cols.push_back(idx.column(n));
+      Eigen::Matrix<double, 10, 1> pv;
+      Eigen::Matrix<double, 10, 10> cv;
+      for (int i = 0; i < 10; ++i) {
+        pv(i) = sol.theta(cols[static_cast<std::size_t>(i)]);
+        for (int j = 0; j < 10; ++j) cv(i, j) = sol.covariance(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
+      }
+      r.inertia = effects::inertiaAboutCom(pv, cv);
+      const char* in[6] = {"i_c_xx", "i_c_yy", "i_c_zz", "i_c_xy", "i_c_xz", "i_c_yz"};
+      for (int k = 0; k < 6; ++k) r.params.push_back({in[k], "kg*m^2", r.inertia->value(k), r.inertia->std(k)});
+    }
+  }
+  const int ck = idx.column(effects::kCableStiffnessParam);
+  if (ck >= 0 && std::abs(sol.theta(ck)) > 0.0) {
+    const double k = sol.theta(ck);
+    const char* axes[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      const int cu = idx.column(effects::kCableAttachParams[a]);
+      const double u = sol.theta(cu);
+      const double g0 = -u / (k * k), g1 = 1.0 / k;
+      const double var = g0 * g0 * sol.covariance(ck, ck) + 2.0 * g0 * g1 * sol.covariance(ck, cu) +
+                         g1 * g1 * sol.covariance(cu, cu);
+      r.params.push_back({std::string("cable_attach_") + axes[a], "m", u / k, std::sqrt(std::max(0.0, var))});
+    }
+  }
+  // RMS per axis.
+  const auto& tests = eng.testSamples();
+  for (int i : tests) r.raw_rms += eng.data().ctx[static_cast<std::size_t>(i)].wrench_S.cwiseAbs2();
+  r.raw_rms = (r.raw_rms / std::max<double>(1.0, static_cast<double>(tests.size()))).cwiseSqrt();
+  r.residual_rms = (sol.sse_heldout_axis / std::max(1, sol.n_heldout)).cwiseSqrt();
+  r.fit_residual_rms = (sol.sse_fit_axis / std::max(1, eng.data().n_fit)).cwiseSqrt();
+  r.condition_number = sol.condition_number;
+  return r;
+}
+
+double totalRatio(const Vec6& rms, const Vec6& noise) {
+  return std::sqrt(rms.cwiseQuotient(noise).cwiseAbs2().mean());
+}
+
+struct Fitted {
+  Model model;
+  Linearization lin;
+  Solution sol;
+};
+
+/// Ranks the candidates against the fitted model `base`.
+std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& base, const std::vector<std::string>& menu,
+                                            const AnalyzeOptions& options, const std::string& log_cmd) {
+  std::vector<CandidateResult> out;
+  std::vector<std::string> todo;
+  for (const auto& name : menu) {
+    CandidateResult c;
+    c.effect = name;
+    try {
+      auto e = effects::createEffect(name);
+      c.description = e->description();
+      if (base.model.contains(e->name())) continue;
+    } catch (const ConfigError& err) {
+      c.skipped = true;
+      c.note = err.what();
+      out.push_back(c);
+      continue;
+    }
+    out.push_back(c);
+  }
+  const int tested = static_cast<int>(std::count_if(out.begin(), out.end(), [](const auto& c) { return !c.skipped; }));
+  const double alpha_each = options.family_alpha / std::max(1, tested);
+  const int rows_ho = 6 * base.sol.n_heldout;
+  for (auto& c : out) {
+    if (c.skipped) continue;
+    say(options, "  trying " + c.effect);
+    Model cand = base.model;
+    try {
+      cand = base.model.withEffect(c.effect);
+    } catch (const ConfigError& err) {
+      c.skipped = true;
+      c.note = err.what();
+      continue;
+    }
+    const std::string miss = missingSignal(cand, eng.data().ctx);
+    if (!miss.empty()) {
+      c.skipped = true;
+      c.note = miss;
+      continue;
+    }
+    Linearization lin = base.lin;
+    if (cand.estimatesTilt() && !lin.tilt_columns) {
+      eng.tiltColumns(base.model, lin, base.sol.theta);
+      lin.tilt_columns = true;
+    }
+    // The base model's columns must keep their meaning in the candidate (nested models).
+    const Solution s = eng.solve(eng.design(cand, lin));
+    c.added_params = s.rank - base.sol.rank;
+    c.residual_rms = (s.sse_heldout_axis / std::max(1, s.n_heldout)).cwiseSqrt();
+    const double rr = 1.0 - s.sse_heldout / base.sol.sse_heldout;
+    c.relative_reduction = std::clamp(rr, 0.0, 1.0);
+    c.delta_bic = rows_ho * std::log(std::max(1e-300, s.sse_heldout / base.sol.sse_heldout)) +
+                  std::max(0, c.added_params) * std::log(static_cast<double>(rows_ho));
+    c.next_command = "ftid analyze " + log_cmd + " --model " + base.model.name() + "+" + c.effect;
+    if (c.added_params <= 0) {
+      c.note = "adds nothing the data can determine";
+      c.p_value = 1.0;
+      continue;
+    }
+    const double dof2 = std::max(1, s.rows_fit - s.rank);
+    c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
+    c.p_value = chiSquareSurvival(c.f_statistic * c.added_params, c.added_params);
+    c.significant = c.p_value < alpha_each && rr >= options.min_relative_reduction;
+  }
+  std::stable_sort(out.begin(), out.end(), [](const CandidateResult& a, const CandidateResult& b) {
+    if (a.skipped != b.skipped) return !a.skipped;
+    if (a.significant != b.significant) return a.significant;
+    return a.delta_bic < b.delta_bic;
+  });
+  return out;
+}
+
+std::vector<std::string> candidateMenu(const AnalyzeOptions& options) {
+  if (!options.candidates.empty()) return options.candidates;
+  std::vector<std::string> menu;
+  for (const auto& e : effects::registeredEffects()) {
+    if (isGenericBase(e.base_name)) continue;
+    menu.push_back(e.base_name);
+  }
+  for (const auto& g : defaultGenericMenu()) menu.push_back(g);
+  return menu;
+}
+
+/// Signals the residual is correlated against: name and per-sample value.
+struct SignalSeries {
+  std::string name;
+  std::vector<double> values;
+};
+
+std::vector<SignalSeries> diagnosticSignals(const Engine& eng, const Linearization& lin) {
+  const auto& tests = eng.testSamples();
+  const auto& ctx = eng.data().ctx;
+  std::vector<std::string> names = {"t", "q1", "q2", "q3", "q4", "q5", "q6", "qd1", "qd2", "qd3", "qd4", "qd5", "qd6",
+                                    "wx", "wy", "wz", "alx", "aly", "alz", "ax", "ay", "az"};
+  if (ctx.front().has_temp) names.push_back("temp");
+  std::vector<SignalSeries> out;
+  for (const auto& n : names) {
+    const auto src = effects::SignalSource::parse(n);
+    SignalSeries s{n, {}};
+    for (int i : tests) s.values.push_back(src.read(ctx[static_cast<std::size_t>(i)]));
+    out.push_back(std::move(s));
+  }
+  const char* sq[3] = {"wx^2", "wy^2", "wz^2"};
+  for (int a = 0; a < 3; ++a) {
+    SignalSeries s{sq[a], {}};
+    for (int i : tests) s.values.push_back(std::pow(ctx[static_cast<std::size_t>(i)].w_S(a), 2));
+    out.push_back(std::move(s));
+  }
+  if (lin.dw_dt.cols() == eng.data().size()) {
+    for (int a = 0; a < 6; ++a) {
+      SignalSeries s{std::string("d") + kWrenchAxisNames[a] + "/dt (model)", {}};
+      for (int i : tests) s.values.push_back(lin.dw_dt(a, i));
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+double pearson(const std::vector<double>& x, const Eigen::RowVectorXd& y) {
+  const std::size_t n = x.size();
+  double mx = 0.0, my = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    mx += x[i];
+    my += y(static_cast<Eigen::Index>(i));
+  }
+  mx /= static_cast<double>(n);
+  my /= static_cast<double>(n);
+  double sxy = 0.0, sxx = 0.0, syy = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = x[i] - mx;
+    const double dy = y(static_cast<Eigen::Index>(i)) - my;
+    sxy += dx * dy;
+    sxx += dx * dx;
+    syy += dy * dy;
+  }
+  if (sxx <= 0.0 || syy <= 0.0) return 0.0;
+  return sxy / std::sqrt(sxx * syy);
+}
+
+}  // namespace
+
+std::vector<std::string> defaultGenericMenu() {
+  return {"harmonic(q4,1)", "harmonic(q5,1)", "harmonic(q6,1)", "poly(t,2)", "poly(temp,2)"};
+}
+
+AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<SampleContext>* validate,
+                       const AnalyzeOptions& options, const std::string& log_name, const std::string& validate_name) {
+  const auto t_start = std::chrono::steady_clock::now();
+  AnalysisResult result;
+  result.log = log_name;
+  result.validate_log = validate != nullptr ? validate_name : "";
+  const int n_fit = static_cast<int>(fit.size());
+  if (validate == nullptr && options.folds < 2) throw ConfigError("--folds must be at least 2");
+  const int min_samples = validate != nullptr ? 20 : 20 * options.folds;
+  if (n_fit < min_samples) {
+    throw DataError(log_name + ": " + std::to_string(n_fit) + " samples are too few for the analysis (need " +
+                    std::to_string(min_samples) + ")");
+  }
+  if (validate != nullptr && validate->size() < 8) throw DataError(validate_name + ": too few samples to validate on");
+
+  Dataset d;
+  d.ctx = fit;
+  d.n_fit = n_fit;
+  d.segment_start = {0};
+  if (validate != nullptr) {
+    d.external = true;
+    d.ctx.insert(d.ctx.end(), validate->begin(), validate->end());
+    d.blocks = {{0, n_fit, true}, {n_fit, static_cast<int>(d.ctx.size()), false}};
+    d.segment_start.push_back(n_fit);
+    if (validate->front().has_temp != fit.front().has_temp) {
+      throw DataError(validate_name + ": the validation log must have the same columns (temp) as " + log_name);
+    }
+  } else {
+    for (int f = 0; f < options.folds; ++f) {
+      d.blocks.push_back({static_cast<int>(static_cast<long long>(n_fit) * f / options.folds),
+                          static_cast<int>(static_cast<long long>(n_fit) * (f + 1) / options.folds), true});
+    }
+  }
+  // Noise floor per axis from the fitting log's readings.
+  for (int a = 0; a < 6; ++a) {
+    std::vector<double> x(static_cast<std::size_t>(n_fit));
+    for (int i = 0; i < n_fit; ++i) x[static_cast<std::size_t>(i)] = fit[static_cast<std::size_t>(i)].wrench_S(a);
+    result.noise_floor(a) = estimateNoiseStd(x);
+  }
+  {
+    // Guard noise-free data: a floor far below the signal would make the weights meaningless.
+    const double tiny = 1e-9;
+    for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(result.noise_floor(a), tiny);
+  }
+  result.n_samples = n_fit;
+  result.folds = validate != nullptr ? 1 : options.folds;
+  Engine eng(std::move(d));
+  result.n_eval = static_cast<int>(eng.testSamples().size());
+
+  Model model = Model::fromName(options.model);
+  const std::string miss = missingSignal(model, eng.data().ctx);
+  if (!miss.empty()) throw DataError("model '" + model.name() + "' cannot be fitted: " + miss);
+  const std::string log_cmd = log_name + (validate != nullptr ? " --validate " + validate_name : "");
+
+  say(options, "fitting " + model.name() + " (" + std::to_string(model.numParams()) + " parameters) on " +
+                   std::to_string(n_fit) + " samples, " +
+                   (validate != nullptr ? "validating on " + validate_name
+                                        : std::to_string(options.folds) + "-fold held-out blocks"));
+  auto [lin, sol] = eng.fitFully(model, eng.initial(model));
+  if (sol.rank < sol.p) {
+    throw IdentificationError("model '" + model.name() + "': the data determine only " + std::to_string(sol.rank) +
+                              " of its " + std::to_string(sol.p) +
+                              " parameters (too little excitation for this model; see docs/analyze.md)");
+  }
+  Fitted base{model, lin, sol};
+  result.report = makeReport(eng, model, lin, sol);
+
+  // Time series of the evaluated data.
+  const auto& tests = eng.testSamples();
+  result.measured.resize(6, static_cast<Eigen::Index>(tests.size()));
+  for (std::size_t k = 0; k < tests.size(); ++k) {
+    const auto& c = eng.data().ctx[static_cast<std::size_t>(tests[k])];
+    result.t.push_back(c.t);
+    result.measured.col(static_cast<Eigen::Index>(k)) = c.wrench_S;
+  }
+  result.predicted = result.measured - sol.heldout_residual;
+
+  // Where it fails: windows.
+  const Vec6 w = eng.data().weights;
+  const int n_eval = result.n_eval;
+  const int nw = std::max(1, std::min(options.window_count, n_eval / 4));
+  std::vector<FailWindow> windows;
+  for (int k = 0; k < nw; ++k) {
+    const int a = static_cast<int>(static_cast<long long>(n_eval) * k / nw);
+    const int b = static_cast<int>(static_cast<long long>(n_eval) * (k + 1) / nw);
+    Vec6 ss = Vec6::Zero();
+    for (int i = a; i < b; ++i) ss += sol.heldout_residual.col(i).cwiseProduct(w).cwiseAbs2();
+    ss /= std::max(1, b - a);
+    FailWindow fw;
+    fw.t_start = result.t[static_cast<std::size_t>(a)];
+    fw.t_end = result.t[static_cast<std::size_t>(b - 1)];
+    fw.ratio = std::sqrt(ss.mean());
+    ss.maxCoeff(&fw.worst_axis);
+    result.window_ratio.push_back(fw.ratio);
+    windows.push_back(fw);
+  }
+  result.window_length_s = n_eval > 1 ? (result.t.back() - result.t.front()) / nw : 0.0;
+  std::sort(windows.begin(), windows.end(), [](const FailWindow& x, const FailWindow& y) { return x.ratio > y.ratio; });
+  windows.resize(std::min<std::size_t>(windows.size(), static_cast<std::size_t>(std::max(0, options.top_windows))));
+  result.windows = windows;
+
+  // ... and with what: correlations of the held-out residual with measured signals.
+  const auto signals = diagnosticSignals(eng, lin);
+  std::vector<SignalCorrelation> corr;
+  const double thresh = 5.0 / std::sqrt(std::max(1.0, static_cast<double>(n_eval)));
+  for (const auto& s : signals) {
+    for (int a = 0; a < 6; ++a) {
+      const double r = pearson(s.values, sol.heldout_residual.row(a));
+      corr.push_back({s.name, a, r, std::abs(r) > thresh});
+    }
+  }
+  std::sort(corr.begin(), corr.end(), [](const auto& x, const auto& y) { return std::abs(x.r) > std::abs(y.r); });
+  corr.resize(std::min<std::size_t>(corr.size(), static_cast<std::size_t>(std::max(1, options.top_correlations))));
+  result.correlations = corr;
+  if (!corr.empty()) {
+    for (const auto& s : signals) {
+      if (s.name == corr.front().signal) result.top_signal = s.values;
+    }
+  }
+
+  // Which effect is missing.
+  const auto menu = candidateMenu(options);
+  say(options, "ranking " + std::to_string(menu.size()) + " candidate effects");
+  result.candidates = rankCandidates(eng, base, menu, options, log_cmd);
+
+  if (options.explain) {
+    ExplainStep s0;
+    s0.model = model.name();
+    s0.residual_rms = result.report.residual_rms;
+    s0.total_ratio = totalRatio(s0.residual_rms, result.noise_floor);
+    result.steps.push_back(s0);
+    Fitted cur = base;
+    std::vector<CandidateResult> ranking = result.candidates;
+    for (int step = 0; step < options.max_explain_steps; ++step) {
+      if (ranking.empty() || !ranking.front().significant) break;
+      const CandidateResult best = ranking.front();
+      Model next = cur.model.withEffect(best.effect);
+      say(options, "explain step " + std::to_string(step + 1) + ": adding " + best.effect + " (held-out residual -" +
+                       fmt(100.0 * best.relative_reduction, 3) + "%)");
+      auto [nlin, nsol] = eng.fitFully(next, cur.lin);
+      cur = Fitted{next, nlin, nsol};
+      ExplainStep st;
+      st.model = next.name();
+      st.added = best.effect;
+      st.residual_rms = (nsol.sse_heldout_axis / std::max(1, nsol.n_heldout)).cwiseSqrt();
+      st.total_ratio = totalRatio(st.residual_rms, result.noise_floor);
+      st.p_value = best.p_value;
+      result.steps.push_back(st);
+      ranking = rankCandidates(eng, cur, menu, options, log_cmd);
+    }
+    result.final_report = makeReport(eng, cur.model, cur.lin, cur.sol);
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  return result;
+}
+
+}  // namespace ftid::lab

@@ -1,0 +1,327 @@
+// The fitting engine of the model laboratory (engine.hpp).
+#include "engine.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+#include "ftid/common/error.hpp"
+#include "ftid/model/frames.hpp"
+
+namespace ftid::lab::detail {
+
+namespace {
+
+using effects::Model;
+
+constexpr double kEigenTolerance = 1e-12;  // relative, on the scaled normal matrix
+
+/// d g_B / dU and d g_B / dV (docs/conventions.md: g_B = g (cosU sinV, -sinU, -cosU cosV)).
+Vec3 gravityDerivativeU(double u, double v) {
+  return kStandardGravity * Vec3(-std::sin(u) * std::sin(v), -std::cos(u), std::sin(u) * std::cos(v));
+}
+Vec3 gravityDerivativeV(double u, double v) {
+  return kStandardGravity * Vec3(std::cos(u) * std::cos(v), 0.0, std::cos(u) * std::sin(v));
+}
+
+struct PinvSolve {
+  Eigen::VectorXd x;
+  Eigen::MatrixXd inverse;  ///< pseudo-inverse of G
+  int rank = 0;
+  double condition = 0.0;   ///< of the column-scaled regressor (sqrt of the Gram's)
+};
+
+/// Pseudo-inverse solve of G x = h on the column-equilibrated G.
+PinvSolve solveNormal(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, bool want_inverse) {
+  const Eigen::Index p = G.rows();
+  PinvSolve out;
+  out.x = Eigen::VectorXd::Zero(p);
+  if (p == 0) return out;
+  Eigen::VectorXd d(p);
+  for (Eigen::Index k = 0; k < p; ++k) d(k) = G(k, k) > 0.0 ? 1.0 / std::sqrt(G(k, k)) : 0.0;
+  const Eigen::MatrixXd Gs = d.asDiagonal() * G * d.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Gs);
+  const Eigen::VectorXd& l = eig.eigenvalues();
+  const double lmax = l.maxCoeff();
+  Eigen::VectorXd linv = Eigen::VectorXd::Zero(p);
+  double lmin_kept = lmax;
+  for (Eigen::Index k = 0; k < p; ++k) {
+    if (lmax > 0.0 && l(k) > kEigenTolerance * lmax) {
+      linv(k) = 1.0 / l(k);
+      ++out.rank;
+      lmin_kept = std::min(lmin_kept, l(k));
+    }
+  }
+  out.condition = lmax > 0.0 ? std::sqrt(lmax / lmin_kept) : 0.0;
+  const Eigen::MatrixXd& V = eig.eigenvectors();
+  const Eigen::VectorXd hs = d.asDiagonal() * h;
+  out.x = d.asDiagonal() * (V * (linv.asDiagonal() * (V.transpose() * hs)));
+  if (want_inverse) out.inverse = d.asDiagonal() * V * linv.asDiagonal() * V.transpose() * d.asDiagonal();
+  return out;
+}
+
+}  // namespace
+
+Engine::Engine(Dataset data) : data_(std::move(data)) {
+  for (int f = 0; f < data_.foldCount(); ++f) {
+    const Block& b = data_.blocks[static_cast<std::size_t>(data_.testBlock(f))];
+    for (int i = b.begin; i < b.end; ++i) test_samples_.push_back(i);
+  }
+}
+
+SampleContext Engine::contextAt(int i, const Linearization& lin) const {
+  SampleContext c = data_.ctx[static_cast<std::size_t>(i)];
+  c.g_S = c.R_BS.transpose() * model::gravityInBase(lin.u, lin.v);
+  if (lin.w_model.cols() == data_.size()) {
+    c.wrench_model_S = lin.w_model.col(i);
+    c.dwrench_model_dt = lin.dw_dt.col(i);
+  } else {
+    c.wrench_model_S.setZero();
+    c.dwrench_model_dt.setZero();
+  }
+  return c;
+}
+
+Eigen::MatrixXd Engine::design(const Model& model, const Linearization& lin) const {
+  const int n = data_.size();
+  const int p = model.numParams();
+  const int pt = p + (lin.tilt_columns ? 2 : 0);
+  Eigen::MatrixXd X(6 * n, pt);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
+  const Vec3 g_B = model::gravityInBase(lin.u, lin.v);
+  const bool has_derived = lin.w_model.cols() == n;
+  SampleContext c;
+  for (int i = 0; i < n; ++i) {
+    c = data_.ctx[static_cast<std::size_t>(i)];
+    c.g_S = c.R_BS.transpose() * g_B;
+    if (has_derived) {
+      c.wrench_model_S = lin.w_model.col(i);
+      c.dwrench_model_dt = lin.dw_dt.col(i);
+    } else {
+      c.wrench_model_S.setZero();
+      c.dwrench_model_dt.setZero();
+    }
+    model.computeRegressor(c, Y);
+    X.block(6 * i, 0, 6, p) = data_.weights.asDiagonal() * Y;
+    if (lin.tilt_columns) {
+      X.block(6 * i, p, 6, 1) = data_.weights.cwiseProduct(Vec6(lin.j_u.col(i)));
+      X.block(6 * i, p + 1, 6, 1) = data_.weights.cwiseProduct(Vec6(lin.j_v.col(i)));
+    }
+  }
+  return X;
+}
+
+Eigen::VectorXd Engine::weightedMeasurement() const {
+  const int n = data_.size();
+  Eigen::VectorXd y(6 * n);
+  for (int i = 0; i < n; ++i) {
+    y.segment<6>(6 * i) = data_.weights.cwiseProduct(data_.ctx[static_cast<std::size_t>(i)].wrench_S);
+  }
+  return y;
+}
+
+Solution Engine::solve(const Eigen::MatrixXd& X, bool with_folds) const {
+  const Eigen::VectorXd y = weightedMeasurement();
+  const int p = static_cast<int>(X.cols());
+  const std::size_t nb = data_.blocks.size();
+  std::vector<Eigen::MatrixXd> G(nb);
+  std::vector<Eigen::VectorXd> h(nb);
+  for (std::size_t b = 0; b < nb; ++b) {
+    const Block& blk = data_.blocks[b];
+    const auto Xb = X.middleRows(6 * blk.begin, 6 * (blk.end - blk.begin));
+    G[b] = Eigen::MatrixXd::Zero(p, p);
+    G[b].selfadjointView<Eigen::Lower>().rankUpdate(Xb.transpose());
+    G[b] = G[b].selfadjointView<Eigen::Lower>();
+    h[b] = Xb.transpose() * y.segment(6 * blk.begin, 6 * (blk.end - blk.begin));
+  }
+  Solution sol;
+  sol.p = p;
+  // Full-data fit (all fitting blocks).
+  Eigen::MatrixXd Gf = Eigen::MatrixXd::Zero(p, p);
+  Eigen::VectorXd hf = Eigen::VectorXd::Zero(p);
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (!data_.blocks[b].fit) continue;
+    Gf += G[b];
+    hf += h[b];
+  }
+  const PinvSolve full = solveNormal(Gf, hf, true);
+  sol.theta = full.x;
+  sol.rank = full.rank;
+  sol.condition_number = full.condition;
+  sol.rows_fit = 6 * data_.n_fit;
+  {
+    const auto Xf = X.topRows(6 * data_.n_fit);
+    const Eigen::VectorXd r = y.head(6 * data_.n_fit) - Xf * sol.theta;
+    sol.sse_fit = r.squaredNorm();
+    for (int i = 0; i < data_.n_fit; ++i) {
+      sol.sse_fit_axis += r.segment<6>(6 * i).cwiseQuotient(data_.weights).cwiseAbs2();
+    }
+  }
+  sol.sigma2 = sol.sse_fit / std::max(1, sol.rows_fit - sol.rank);
+  sol.covariance = sol.sigma2 * full.inverse;
+  if (!with_folds) return sol;
+  // Folds.
+  sol.n_heldout = static_cast<int>(test_samples_.size());
+  sol.heldout_residual.resize(6, sol.n_heldout);
+  int col = 0;
+  for (int f = 0; f < data_.foldCount(); ++f) {
+    Eigen::MatrixXd Gt = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd ht = Eigen::VectorXd::Zero(p);
+    for (std::size_t b = 0; b < nb; ++b) {
+      if (!data_.trains(f, static_cast<int>(b))) continue;
+      Gt += G[b];
+      ht += h[b];
+    }
+    const PinvSolve fold = solveNormal(Gt, ht, false);
+    const Block& blk = data_.blocks[static_cast<std::size_t>(data_.testBlock(f))];
+    const int nbk = blk.end - blk.begin;
+    const Eigen::VectorXd r = y.segment(6 * blk.begin, 6 * nbk) - X.middleRows(6 * blk.begin, 6 * nbk) * fold.x;
+    sol.sse_heldout += r.squaredNorm();
+    for (int i = 0; i < nbk; ++i) {
+      const Vec6 ru = r.segment<6>(6 * i).cwiseQuotient(data_.weights);
+      sol.heldout_residual.col(col++) = ru;
+      sol.sse_heldout_axis += ru.cwiseAbs2();
+    }
+  }
+  return sol;
+}
+
+Mat6X Engine::predict(const Model& model, const Linearization& lin, const Eigen::VectorXd& theta,
+                      bool exclude_derived) const {
+  const int n = data_.size();
+  const int p = model.numParams();
+  Mat6X out(6, n);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
+  for (int i = 0; i < n; ++i) {
+    SampleContext c = contextAt(i, lin);
+    if (exclude_derived) {
+      c.wrench_model_S.setZero();
+      c.dwrench_model_dt.setZero();
+    }
+    model.computeRegressor(c, Y);
+    out.col(i) = Y * theta.head(p);
+  }
+  return out;
+}
+
+Mat6X Engine::timeDerivative(const Mat6X& w) const {
+  const int n = data_.size();
+  Mat6X d = Mat6X::Zero(6, n);
+  std::vector<int> starts = data_.segment_start;
+  starts.push_back(n);
+  for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+    const int a0 = starts[s];
+    const int a1 = starts[s + 1];
+    for (int i = a0; i < a1; ++i) {
+      const int a = std::max(i - 1, a0);
+      const int b = std::min(i + 1, a1 - 1);
+      const double dt = data_.ctx[static_cast<std::size_t>(b)].t - data_.ctx[static_cast<std::size_t>(a)].t;
+      if (b > a && dt > 0.0) d.col(i) = (w.col(b) - w.col(a)) / dt;
+    }
+  }
+  return d;
+}
+
+void Engine::tiltColumns(const Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
+  const int n = data_.size();
+  const int p = model.numParams();
+  lin.j_u.resize(6, n);
+  lin.j_v.resize(6, n);
+  const Vec3 du = gravityDerivativeU(lin.u, lin.v);
+  const Vec3 dv = gravityDerivativeV(lin.u, lin.v);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
+  const Eigen::VectorXd th = theta.head(p);
+  for (int i = 0; i < n; ++i) {
+    SampleContext c = contextAt(i, lin);
+    // The regressor is affine in g_S (only gravity reads it): d(Y theta)/dU = (Y(g') - Y(0)) theta.
+    c.g_S.setZero();
+    model.computeRegressor(c, Y);
+    const Vec6 base = Y * th;
+    c.g_S = c.R_BS.transpose() * du;
+    model.computeRegressor(c, Y);
+    lin.j_u.col(i) = Y * th - base;
+    c.g_S = c.R_BS.transpose() * dv;
+    model.computeRegressor(c, Y);
+    lin.j_v.col(i) = Y * th - base;
+  }
+}
+
+Linearization Engine::initial(const Model& model) const {
+  Linearization lin;
+  if (model.estimatesTilt()) {
+    // Force stage: f = R_BS^T G_B - m a_S + F0, linear in (G_B, m, F0); tilt from G_B's direction.
+    Eigen::MatrixXd A(3 * data_.n_fit, 7);
+    Eigen::VectorXd y(3 * data_.n_fit);
+    for (int i = 0; i < data_.n_fit; ++i) {
+      const SampleContext& c = data_.ctx[static_cast<std::size_t>(i)];
+      A.block(3 * i, 0, 3, 3) = c.R_BS.transpose();
+      A.block(3 * i, 3, 3, 1) = -c.a_S;
+      A.block(3 * i, 4, 3, 3) = Mat3::Identity();
+      y.segment<3>(3 * i) = c.wrench_S.head<3>();
+    }
+    const Eigen::VectorXd x = A.colPivHouseholderQr().solve(y);
+    const Vec3 G = x.head<3>();
+    if (G.norm() > 0.0 && G.allFinite()) {
+      lin.u = std::asin(std::clamp(-G.y() / G.norm(), -1.0, 1.0));
+      lin.v = std::atan2(G.x(), -G.z());
+      if (std::abs(lin.u) > 0.5 || std::abs(lin.v) > 0.5) lin.u = lin.v = 0.0;  // implausible: start level
+    }
+  }
+  // Derived signals unknown yet: zero (their columns drop out of the first solve).
+  return lin;
+}
+
+std::pair<Linearization, Solution> Engine::fitFully(const Model& model, const Linearization& start) const {
+  Linearization lin = start;
+  const int p = model.numParams();
+  const bool tilt = model.estimatesTilt();
+  const bool derived = (model.signals() & effects::kSignalModelDerivative) != 0;
+  lin.tilt_columns = false;
+  Eigen::VectorXd theta;
+  {
+    const Solution s0 = solve(design(model, lin), false);
+    theta = s0.theta.head(p);
+  }
+  for (int it = 0; it < 30; ++it) {
+    double change = 0.0;
+    if (derived) {
+      const Mat6X w = predict(model, lin, theta, true);
+      const Mat6X dw = timeDerivative(w);
+      if (lin.dw_dt.cols() == dw.cols()) {
+        const double scale = std::max(1e-12, dw.cwiseAbs().maxCoeff());
+        change = (dw - lin.dw_dt).cwiseAbs().maxCoeff() / scale;
+      } else {
+        change = 1.0;
+      }
+      lin.w_model = w;
+      lin.dw_dt = dw;
+    }
+    double step = 0.0;
+    if (tilt) {
+      tiltColumns(model, lin, theta);
+      lin.tilt_columns = true;
+    }
+    const Eigen::MatrixXd X = design(model, lin);
+    const Solution s = solve(X, false);
+    theta = s.theta.head(p);
+    if (tilt) {
+      const double du = s.theta(p);
+      const double dv = s.theta(p + 1);
+      lin.u += du;
+      lin.v += dv;
+      step = std::max(std::abs(du), std::abs(dv));
+    }
+    if (step < 1e-10 && change < 1e-6) break;
+  }
+  // Final linearisation at the converged point; the derived signals of this model for candidates.
+  if (tilt) tiltColumns(model, lin, theta);
+  lin.tilt_columns = tilt;
+  Solution sol = solve(design(model, lin));
+  if (!derived) {
+    lin.w_model = predict(model, lin, sol.theta, true);
+    lin.dw_dt = timeDerivative(lin.w_model);
+  }
+  return {lin, sol};
+}
+
+}  // namespace ftid::lab::detail

@@ -1,0 +1,104 @@
+// Human-readable output of `ftid analyze` (analyze.hpp).
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <sstream>
+#include <string>
+
+#include "ftid/lab/analyze.hpp"
+
+namespace ftid::lab {
+
+namespace {
+
+std::string line(const char* format, ...) __attribute__((format(printf, 1, 2)));
+std::string line(const char* format, ...) {
+  char buf[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf, sizeof buf, format, args);
+  va_end(args);
+  return std::string(buf) + "\n";
+}
+
+const char* unitOf(int axis) { return axis < 3 ? "N" : "Nm"; }
+
+std::string axisTable(const Vec6& raw, const Vec6& res, const Vec6& noise) {
+  std::string s = line("  %-5s %12s %16s %12s %9s", "axis", "raw RMS", "held-out resid.", "noise floor", "x noise");
+  for (int a = 0; a < 6; ++a) {
+    const double ratio = noise(a) > 0.0 ? res(a) / noise(a) : 0.0;
+    s += line("  %-5s %9.4f %-2s %13.4f %-2s %9.4f %-2s %8.2f%s", kWrenchAxisNames[a], raw(a), unitOf(a), res(a),
+              unitOf(a), noise(a), unitOf(a), ratio, ratio > 1.2 ? "  <- model fails here" : "");
+  }
+  return s;
+}
+
+std::string paramBlock(const ModelReport& r) {
+  std::string s = line("parameters of %s (value +- standard error, fitted on all data):", r.model.c_str());
+  for (const auto& p : r.params) {
+    s += line("  %-16s %14.6g +- %-11.3g %s", p.name.c_str(), p.value, p.std, p.unit.c_str());
+  }
+  if (r.inertia) s += "  inertia about the centre of mass: " + r.inertia->explanation + "\n";
+  return s;
+}
+
+}  // namespace
+
+std::string formatText(const AnalysisResult& r) {
+  std::string s;
+  s += line("model %s: %d fitting samples, %s", r.report.model.c_str(), r.n_samples,
+            r.validate_log.empty() ? (std::to_string(r.folds) + "-fold held-out validation (contiguous time blocks)").c_str()
+                                   : ("validated on " + r.validate_log).c_str());
+  s += "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
+  s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
+  if (!r.windows.empty()) {
+    s += "\nwhere it fails (time windows with the largest held-out residual, x noise floor):\n";
+    for (const auto& w : r.windows) {
+      s += line("  t = %7.2f .. %7.2f s   %6.2f x noise   worst axis %s", w.t_start, w.t_end, w.ratio,
+                kWrenchAxisNames[w.worst_axis]);
+    }
+  }
+  if (!r.correlations.empty()) {
+    s += "\nthe residual moves with (Pearson r of the held-out residual with measured signals):\n";
+    for (const auto& c : r.correlations) {
+      s += line("  %-4s ~ %-22s r = %+6.3f%s", kWrenchAxisNames[c.axis], c.signal.c_str(), c.r,
+                c.significant ? "" : "   (not above chance)");
+    }
+  }
+  s += "\ncandidate effects (held-out reduction of the residual; significance: F-test, Bonferroni over candidates):\n";
+  int shown = 0;
+  for (const auto& c : r.candidates) {
+    if (c.skipped) continue;
+    s += line("  %-20s %6.1f %%  p = %-9.2g %-15s %s", c.effect.c_str(), 100.0 * c.relative_reduction, c.p_value,
+              c.significant ? "SIGNIFICANT" : "not significant", c.description.c_str());
+    ++shown;
+  }
+  for (const auto& c : r.candidates) {
+    if (c.skipped) s += line("  %-20s skipped: %s", c.effect.c_str(), c.note.c_str());
+  }
+  if (shown > 0 && r.candidates.front().significant) {
+    const auto& best = r.candidates.front();
+    s += "\nmissing effect: " + best.effect + " - " + best.description + "\n";
+    s += "next: " + best.next_command + "\n";
+  } else {
+    s += "\nnothing significant is missing: no candidate effect reduces the held-out residual beyond chance.\n";
+  }
+  if (!r.steps.empty()) {
+    s += "\nexplain (forward selection, held-out residual RMS per axis):\n";
+    s += line("  %-4s %-40s %8s %8s %8s %8s %8s %8s %9s", "step", "model", "fx", "fy", "fz", "tx", "ty", "tz", "x noise");
+    for (std::size_t k = 0; k < r.steps.size(); ++k) {
+      const auto& st = r.steps[k];
+      s += line("  %-4zu %-40s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %9.2f", k, st.model.c_str(), st.residual_rms(0),
+                st.residual_rms(1), st.residual_rms(2), st.residual_rms(3), st.residual_rms(4), st.residual_rms(5),
+                st.total_ratio);
+    }
+    s += line("  noise floor                                   %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f", r.noise_floor(0),
+              r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
+    s += r.steps.size() == 1 ? "  nothing significant to add.\n"
+                             : "  nothing significant is left after step " + std::to_string(r.steps.size() - 1) + ".\n";
+  }
+  s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
+  return s;
+}
+
+}  // namespace ftid::lab

@@ -1,0 +1,72 @@
+// Noise-floor estimate and the chi-square tail used by the significance test (analyze.hpp).
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "ftid/common/error.hpp"
+#include "ftid/lab/analyze.hpp"
+
+namespace ftid::lab {
+
+double estimateNoiseStd(const std::vector<double>& x) {
+  if (x.size() < 8) throw DataError("noise floor: need at least 8 samples, got " + std::to_string(x.size()));
+  std::vector<double> d(x.size() - 4);
+  for (std::size_t i = 0; i + 4 < x.size(); ++i) {
+    d[i] = std::abs(x[i] - 4.0 * x[i + 1] + 6.0 * x[i + 2] - 4.0 * x[i + 3] + x[i + 4]);
+  }
+  const auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  const double mad = *mid;  // median of |d| (d has zero median for white noise)
+  return 1.482602218505602 * mad / std::sqrt(70.0);
+}
+
+namespace {
+
+/// Regularized lower incomplete gamma P(a, x) by its series (x < a + 1).
+double gammaSeries(double a, double x) {
+  double sum = 1.0 / a;
+  double term = sum;
+  for (int n = 1; n < 10000; ++n) {
+    term *= x / (a + n);
+    sum += term;
+    if (std::abs(term) < std::abs(sum) * 1e-16) break;
+  }
+  return sum * std::exp(-x + a * std::log(x) - std::lgamma(a));
+}
+
+/// Regularized upper incomplete gamma Q(a, x) by its continued fraction (x >= a + 1), Lentz.
+double gammaContinuedFraction(double a, double x) {
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a;
+  double c = 1.0 / tiny;
+  double d = 1.0 / b;
+  double h = d;
+  for (int i = 1; i < 10000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::abs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1.0) < 1e-16) break;
+  }
+  return std::exp(-x + a * std::log(x) - std::lgamma(a)) * h;
+}
+
+}  // namespace
+
+double chiSquareSurvival(double statistic, double dof) {
+  if (!(dof > 0.0)) return 1.0;
+  if (!(statistic > 0.0)) return 1.0;
+  if (!std::isfinite(statistic)) return 0.0;
+  const double a = 0.5 * dof;
+  const double x = 0.5 * statistic;
+  if (x < a + 1.0) return std::clamp(1.0 - gammaSeries(a, x), 0.0, 1.0);
+  return std::clamp(gammaContinuedFraction(a, x), 0.0, 1.0);
+}
+
+}  // namespace ftid::lab

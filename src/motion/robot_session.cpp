@@ -1,0 +1,22 @@
+#include "ftid/motion/robot_session.hpp"
+
+namespace ftid::motion {
+
+SessionResult runOnRobot(const RobotSessionConfig& config, const JointTrajectorySource& trajectory,
+                         const std::atomic<bool>* abort, CycleHook hook, void* hook_context) {
+  SessionResult out;
+  drivers::ur::RtdeArm arm(config.arm);
+  arm.connect();
+  out.controller_version = arm.controllerVersion().toString();
+  out.period = arm.period();
+  arm.uploadProgram();
+  arm.armWatchdog();
+  MotionRunner runner(arm, config.motion, MotionRunner::capacityFor(trajectory.duration(), arm.period()));
+  out.run = runner.run(trajectory, abort, hook, hook_context);
+  arm.stopProgram();
+  arm.disconnect();
+  out.recording = runner.recording();
+  return out;
+}
+
+}  // namespace ftid::motion

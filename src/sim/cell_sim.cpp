@@ -1,0 +1,246 @@
+// Cell simulator physics (docs/simulator.md). The payload wrench is computed by direct
+// Newton-Euler from the sensor-frame motion; nothing here uses the identification regressors.
+#include "ftid/sim/cell_sim.hpp"
+
+#include <cmath>
+#include <string>
+
+#include <Eigen/Eigenvalues>
+
+#include "ftid/common/error.hpp"
+#include "ftid/model/frames.hpp"
+
+namespace ftid::sim {
+
+namespace {
+constexpr double kPi = 3.141592653589793;
+
+void require(bool ok, const std::string& field, const std::string& what) {
+  if (!ok) throw ConfigError("cell simulator config: " + field + ": " + what);
+}
+bool finite3(const Vec3& v) { return v.allFinite(); }
+}  // namespace
+
+double TemperatureProfile::at(double t_s) const {
+  if (custom) return custom(t_s);
+  double T = start_degC;
+  if (warmup_tau_s > 0.0) T += warmup_rise_degC * (1.0 - std::exp(-std::max(t_s, 0.0) / warmup_tau_s));
+  if (sine_period_s > 0.0) T += sine_amplitude_degC * std::sin(2.0 * kPi * t_s / sine_period_s);
+  return T;
+}
+
+Mat6 CrosstalkSwitch::defaultMatrix() {
+  // Small gain errors on the diagonal and cross-axis couplings (1-2 %), typical of a strain-gauge
+  // sensor with an imperfect calibration matrix. Torque rows in Nm per N (force->torque) are
+  // scaled by a 0.05 m lever so their effect is comparable to the others.
+  Mat6 E;
+  E << 0.012, -0.008, 0.015, 0.0, 0.0, 0.0,
+       0.010, -0.015, -0.006, 0.0, 0.0, 0.0,
+       -0.012, 0.009, 0.018, 0.0, 0.0, 0.0,
+       0.0005, -0.0004, 0.0, 0.015, -0.010, 0.006,
+       -0.0003, 0.0006, 0.0, 0.008, -0.012, 0.010,
+       0.0, 0.0004, -0.0005, -0.006, 0.011, 0.014;
+  return E;
+}
+
+double ContactSwitch::profile(double t_s) const {
+  if (!(t_s > t_start_s) || !(t_s < t_end_s)) return 0.0;
+  const double s = std::sin(kPi * (t_s - t_start_s) / (t_end_s - t_start_s));
+  return s * s;
+}
+
+CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
+  const auto& c = config_;
+  require(c.robot.has_value(), "robot", "no robot kinematics given");
+  require(c.R_FS.allFinite() && (c.R_FS.transpose() * c.R_FS - Mat3::Identity()).norm() < 1e-9 &&
+              c.R_FS.determinant() > 0.0,
+          "R_FS", "not a rotation matrix");
+  require(finite3(c.p_FS_F), "p_FS_F", "not finite");
+  require(std::isfinite(c.rate_hz) && c.rate_hz > 0.0, "rate_hz", "must be positive");
+  require(std::isfinite(c.duration_s) && c.duration_s >= 0.0, "duration_s", "must be >= 0");
+  require(c.duration_s * c.rate_hz < 1e8, "duration_s", "too many samples (duration * rate >= 1e8)");
+  require(std::isfinite(c.payload.mass_kg) && c.payload.mass_kg >= 0.0, "payload.mass_kg", "must be >= 0");
+  require(finite3(c.payload.p_SC_S), "payload.p_SC_S", "not finite");
+  const Mat3& I = c.payload.I_C_S;
+  require(I.allFinite() && (I - I.transpose()).norm() <= 1e-12 * (1.0 + I.norm()), "payload.I_C_S",
+          "must be symmetric");
+  {
+    Eigen::SelfAdjointEigenSolver<Mat3> es(I);
+    const Vec3 ev = es.eigenvalues();
+    const double tol = 1e-12 * (1.0 + I.norm());
+    require(ev.minCoeff() >= -tol, "payload.I_C_S", "not positive semi-definite");
+    require(ev[0] + ev[1] >= ev[2] - tol, "payload.I_C_S", "violates the triangle inequality of principal moments");
+  }
+  require(std::isfinite(c.tilt_u_rad) && std::isfinite(c.tilt_v_rad), "tilt", "not finite");
+  require(finite3(c.F0_N) && finite3(c.T0_Nm), "F0/T0", "not finite");
+  require(c.noise.wrench_std.allFinite() && c.noise.wrench_std.minCoeff() >= 0.0, "noise.wrench_std", "must be >= 0");
+  require(c.noise.acc_std >= 0.0 && c.noise.gyro_std >= 0.0 && c.noise.alpha_std >= 0.0 && c.noise.temp_std >= 0.0,
+          "noise", "standard deviations must be >= 0");
+  require(std::isfinite(c.cable.stiffness_N_per_m) && c.cable.stiffness_N_per_m >= 0.0, "cable.stiffness_N_per_m",
+          "must be >= 0");
+  require(finite3(c.cable.p_SA_S) && finite3(c.cable.p_BA_B), "cable", "points not finite");
+  require(finite3(c.temperature_drift.dF0_dT_N_per_degC) && finite3(c.temperature_drift.dT0_dT_Nm_per_degC) &&
+              std::isfinite(c.temperature_drift.reference_degC),
+          "temperature_drift", "not finite");
+  require(finite3(c.time_drift.dF0_dt_N_per_s) && finite3(c.time_drift.dT0_dt_Nm_per_s), "time_drift", "not finite");
+  require(std::isfinite(c.sensor_delay.tau_s) && c.sensor_delay.tau_s >= 0.0 && c.sensor_delay.tau_s < 1.0,
+          "sensor_delay.tau_s", "must be in [0, 1) s");
+  require(c.crosstalk.E.allFinite(), "crosstalk.E", "not finite");
+  require(std::isfinite(c.contact.t_start_s) && std::isfinite(c.contact.t_end_s) &&
+              c.contact.t_end_s > c.contact.t_start_s,
+          "contact", "needs t_end_s > t_start_s");
+  require(finite3(c.contact.force_B) && finite3(c.contact.p_SP_S), "contact", "force/point not finite");
+  config_.robot->setSensorMount(c.R_FS, c.p_FS_F);
+  g_B_ = model::gravityInBase(c.tilt_u_rad, c.tilt_v_rad);
+}
+
+std::size_t CellSim::sampleCount() const {
+  return static_cast<std::size_t>(std::floor(config_.duration_s * config_.rate_hz + 1e-9)) + 1;
+}
+
+trajectory::TrajectoryPoint CellSim::stateAt(double t_s) const {
+  if (config_.motion) return config_.motion(t_s);
+  return config_.trajectory.evaluate(t_s);
+}
+
+Wrench CellSim::loadWrenchAt(const JointVector& q, const JointVector& qd, const JointVector& qdd,
+                             double t_s) const {
+  return loadWrenchFor(config_.robot->computeSensorMotion(q, qd, qdd), t_s);
+}
+
+Wrench CellSim::loadWrenchFor(const model::SensorMotion& m, double t_s) const {
+  const Vec3 g_S = m.R_BS.transpose() * g_B_;
+  const PayloadTruth& p = config_.payload;
+  const Vec3& c = p.p_SC_S;
+  Vec3 f, t;
+  if (config_.full_rigid_body) {
+    // Newton-Euler of the payload: the sensor holds it, so the payload pushes on the sensor with
+    // m (g - a_C) and the moment that is left after its angular momentum rate about C.
+    const Vec3 a_C = m.a_S + m.alpha_S.cross(c) + m.w_S.cross(m.w_S.cross(c));
+    f = p.mass_kg * (g_S - a_C);
+    t = c.cross(f) - p.I_C_S * m.alpha_S - m.w_S.cross(p.I_C_S * m.w_S);
+  } else {
+    f = p.mass_kg * (g_S - m.a_S);
+    t = c.cross(f);
+  }
+  Wrench w;
+  w << f, t;
+  if (config_.cable.enabled) {
+    const auto& cb = config_.cable;
+    const Vec3 p_BA_attach_B = m.p_BS_B + m.R_BS * cb.p_SA_S;
+    const Vec3 F_S = m.R_BS.transpose() * (cb.stiffness_N_per_m * (cb.p_BA_B - p_BA_attach_B));
+    w.head<3>() += F_S;
+    w.tail<3>() += cb.p_SA_S.cross(F_S);
+  }
+  if (config_.contact.enabled) {
+    const auto& ct = config_.contact;
+    const Vec3 F_S = m.R_BS.transpose() * (ct.profile(t_s) * ct.force_B);
+    w.head<3>() += F_S;
+    w.tail<3>() += ct.p_SP_S.cross(F_S);
+  }
+  return w;
+}
+
+Wrench CellSim::offsetsAt(double t_s, double temp_degC) const {
+  Wrench o;
+  o << config_.F0_N, config_.T0_Nm;
+  if (config_.temperature_drift.enabled) {
+    const auto& d = config_.temperature_drift;
+    const double dT = temp_degC - d.reference_degC;
+    o.head<3>() += d.dF0_dT_N_per_degC * dT;
+    o.tail<3>() += d.dT0_dT_Nm_per_degC * dT;
+  }
+  if (config_.time_drift.enabled) {
+    o.head<3>() += config_.time_drift.dF0_dt_N_per_s * t_s;
+    o.tail<3>() += config_.time_drift.dT0_dt_Nm_per_s * t_s;
+  }
+  return o;
+}
+
+SensorReading CellSim::readingAt(const JointVector& q, const JointVector& qd, const JointVector& qdd,
+                                 double t_s, double temp_degC) const {
+  SensorReading r;
+  const model::SensorMotion m = config_.robot->computeSensorMotion(q, qd, qdd);
+  const Vec3 g_S = m.R_BS.transpose() * g_B_;
+  r.acc_S = m.a_S - g_S;  // = R_WS^T (a_W - g_W)
+  r.w_S = m.w_S;
+  r.alpha_S = m.alpha_S;
+  r.temp_degC = temp_degC;
+  const Wrench load = loadWrenchFor(m, t_s);
+  if (config_.contact.enabled) {
+    const Vec3 F_S = m.R_BS.transpose() * (config_.contact.profile(t_s) * config_.contact.force_B);
+    r.contact_S << F_S, config_.contact.p_SP_S.cross(F_S);
+  }
+  r.wrench_S = config_.crosstalk.enabled ? Wrench((Mat6::Identity() + config_.crosstalk.E) * load) : load;
+  r.wrench_S += offsetsAt(t_s, temp_degC);
+  return r;
+}
+
+SensorReading CellSim::readingAt(const JointVector& q, const JointVector& qd, const JointVector& qdd,
+                                 double t_s) const {
+  return readingAt(q, qd, qdd, t_s, temperatureAt(t_s));
+}
+
+SensorReading CellSim::sampleAt(double t_s) const {
+  const trajectory::TrajectoryPoint x = stateAt(t_s);
+  SensorReading r = readingAt(x.q, x.qd, x.qdd, t_s);
+  const double tau = sensorDelay();
+  if (tau > 0.0) {
+    // Exact delay: the wrench (and the contact truth that is part of it) is the full physical
+    // reading of the instant t - tau, re-evaluated from the trajectory.
+    const double td = t_s - tau;
+    const trajectory::TrajectoryPoint xd = stateAt(td);
+    const SensorReading rd = readingAt(xd.q, xd.qd, xd.qdd, td);
+    r.wrench_S = rd.wrench_S;
+    r.contact_S = rd.contact_S;
+  }
+  return r;
+}
+
+void CellSim::addNoise(SensorReading& r, std::mt19937_64& rng) const {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const NoiseConfig& nz = config_.noise;
+  for (int i = 0; i < 6; ++i) r.wrench_S[i] += nz.wrench_std[i] * n01(rng);
+  for (int i = 0; i < 3; ++i) r.acc_S[i] += nz.acc_std * n01(rng);
+  for (int i = 0; i < 3; ++i) r.w_S[i] += nz.gyro_std * n01(rng);
+  for (int i = 0; i < 3; ++i) r.alpha_S[i] += nz.alpha_std * n01(rng);
+  r.temp_degC += nz.temp_std * n01(rng);
+}
+
+logio::LogData CellSim::run() const {
+  logio::LogData log;
+  log.source = "<simulated>";
+  log.has_wrench = true;
+  log.has_imu = true;
+  log.has_temp = true;
+  const std::size_t n = sampleCount();
+  log.samples.resize(n);
+  const bool contact = config_.contact.enabled;
+  if (contact) {
+    for (int i = 0; i < 6; ++i) log.extra_names.push_back(std::string("contact_") + kWrenchAxisNames[i]);
+    log.extra_columns.assign(6, std::vector<double>(n, 0.0));
+  }
+  std::mt19937_64 rng(config_.seed);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) / config_.rate_hz;
+    const trajectory::TrajectoryPoint x = stateAt(t);
+    SensorReading r = sampleAt(t);
+    addNoise(r, rng);
+    logio::LogSample& s = log.samples[k];
+    s.t = t;
+    s.q = x.q;
+    s.qd = x.qd;
+    s.qdd = x.qdd;
+    s.wrench_S = r.wrench_S;
+    s.acc_S = r.acc_S;
+    s.w_S = r.w_S;
+    s.alpha_S = r.alpha_S;
+    s.temp_degC = r.temp_degC;
+    if (contact) {
+      for (int i = 0; i < 6; ++i) log.extra_columns[static_cast<std::size_t>(i)][k] = r.contact_S[i];
+    }
+  }
+  return log;
+}
+
+}  // namespace ftid::sim

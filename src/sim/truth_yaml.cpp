@@ -1,0 +1,138 @@
+// The truth of a simulated run as YAML (parameter names of docs/conventions.md).
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+
+#include "ftid/common/error.hpp"
+#include "ftid/sim/cell_sim.hpp"
+
+namespace ftid::sim {
+
+namespace {
+
+void vec3(YAML::Emitter& e, const char* key, const Vec3& v) {
+  e << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
+}
+
+}  // namespace
+
+std::string truthYaml(const CellSimConfig& c) {
+  YAML::Emitter e;
+  e.SetDoublePrecision(17);
+  e << YAML::Comment("Truth of a simulated ftid run (docs/simulator.md; names: docs/conventions.md)");
+  e << YAML::BeginMap;
+  e << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
+  const PayloadTruth& p = c.payload;
+  e << YAML::Key << "mass" << YAML::Value << p.mass_kg;
+  e << YAML::Key << "weight" << YAML::Value << p.mass_kg * kStandardGravity;
+  e << YAML::Key << "com_x" << YAML::Value << p.p_SC_S.x();
+  e << YAML::Key << "com_y" << YAML::Value << p.p_SC_S.y();
+  e << YAML::Key << "com_z" << YAML::Value << p.p_SC_S.z();
+  e << YAML::Key << "f0_x" << YAML::Value << c.F0_N.x();
+  e << YAML::Key << "f0_y" << YAML::Value << c.F0_N.y();
+  e << YAML::Key << "f0_z" << YAML::Value << c.F0_N.z();
+  e << YAML::Key << "t0_x" << YAML::Value << c.T0_Nm.x();
+  e << YAML::Key << "t0_y" << YAML::Value << c.T0_Nm.y();
+  e << YAML::Key << "t0_z" << YAML::Value << c.T0_Nm.z();
+  e << YAML::Key << "tilt_u" << YAML::Value << c.tilt_u_rad;
+  e << YAML::Key << "tilt_v" << YAML::Value << c.tilt_v_rad;
+  e << YAML::Key << "inertia" << YAML::Value << YAML::Flow << YAML::BeginSeq << p.I_C_S(0, 0) << p.I_C_S(1, 1)
+    << p.I_C_S(2, 2) << p.I_C_S(0, 1) << p.I_C_S(0, 2) << p.I_C_S(1, 2) << YAML::EndSeq;
+  e << YAML::EndMap;
+  e << YAML::Key << "full_rigid_body" << YAML::Value << c.full_rigid_body;
+  e << YAML::Key << "sensor_mount" << YAML::Value << YAML::BeginMap;
+  e << YAML::Key << "R_FS" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) e << c.R_FS(i, j);
+  e << YAML::EndSeq;
+  vec3(e, "p_FS_F", c.p_FS_F);
+  e << YAML::EndMap;
+  e << YAML::Key << "effects" << YAML::Value << YAML::BeginMap;
+  e << YAML::Key << "cable" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.cable.enabled << YAML::Key << "stiffness" << YAML::Value << c.cable.stiffness_N_per_m;
+  vec3(e, "attach_S", c.cable.p_SA_S);
+  vec3(e, "anchor_B", c.cable.p_BA_B);
+  e << YAML::EndMap;
+  e << YAML::Key << "temperature_drift" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.temperature_drift.enabled << YAML::Key << "reference_temp" << YAML::Value
+    << c.temperature_drift.reference_degC;
+  vec3(e, "df0_dtemp", c.temperature_drift.dF0_dT_N_per_degC);
+  vec3(e, "dt0_dtemp", c.temperature_drift.dT0_dT_Nm_per_degC);
+  e << YAML::EndMap;
+  e << YAML::Key << "time_drift" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.time_drift.enabled;
+  vec3(e, "df0_dt", c.time_drift.dF0_dt_N_per_s);
+  vec3(e, "dt0_dt", c.time_drift.dT0_dt_Nm_per_s);
+  e << YAML::EndMap;
+  e << YAML::Key << "sensor_delay" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.sensor_delay.enabled << YAML::Key << "tau" << YAML::Value << c.sensor_delay.tau_s << YAML::EndMap;
+  e << YAML::Key << "crosstalk" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.crosstalk.enabled << YAML::Key << "E" << YAML::Value << YAML::BeginSeq;
+  for (int i = 0; i < 6; ++i) {
+    e << YAML::Flow << YAML::BeginSeq;
+    for (int j = 0; j < 6; ++j) e << c.crosstalk.E(i, j);
+    e << YAML::EndSeq;
+  }
+  e << YAML::EndSeq << YAML::EndMap;
+  e << YAML::Key << "contact" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.contact.enabled << YAML::Key << "t_start" << YAML::Value << c.contact.t_start_s << YAML::Key << "t_end"
+    << YAML::Value << c.contact.t_end_s;
+  vec3(e, "force_B", c.contact.force_B);
+  vec3(e, "point_S", c.contact.p_SP_S);
+  e << YAML::EndMap;
+  e << YAML::EndMap;  // effects
+  e << YAML::Key << "noise" << YAML::Value << YAML::BeginMap;
+  e << YAML::Key << "wrench_std" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (int i = 0; i < 6; ++i) e << c.noise.wrench_std[i];
+  e << YAML::EndSeq;
+  e << YAML::Key << "acc_std" << YAML::Value << c.noise.acc_std;
+  e << YAML::Key << "gyro_std" << YAML::Value << c.noise.gyro_std;
+  e << YAML::Key << "alpha_std" << YAML::Value << c.noise.alpha_std;
+  e << YAML::Key << "temp_std" << YAML::Value << c.noise.temp_std;
+  e << YAML::EndMap;
+  e << YAML::Key << "temperature_profile" << YAML::Value << YAML::BeginMap;
+  e << YAML::Key << "custom" << YAML::Value << static_cast<bool>(c.temperature.custom);
+  e << YAML::Key << "start" << YAML::Value << c.temperature.start_degC;
+  e << YAML::Key << "warmup_rise" << YAML::Value << c.temperature.warmup_rise_degC;
+  e << YAML::Key << "warmup_tau" << YAML::Value << c.temperature.warmup_tau_s;
+  e << YAML::Key << "sine_amplitude" << YAML::Value << c.temperature.sine_amplitude_degC;
+  e << YAML::Key << "sine_period" << YAML::Value << c.temperature.sine_period_s;
+  e << YAML::EndMap;
+  e << YAML::Key << "seed" << YAML::Value << c.seed;
+  e << YAML::Key << "rate" << YAML::Value << c.rate_hz;
+  e << YAML::Key << "duration" << YAML::Value << c.duration_s;
+  e << YAML::EndMap;
+  return std::string(e.c_str()) + "\n";
+}
+
+void writeTruthYaml(const std::string& path, const CellSimConfig& config) {
+  const std::string text = truthYaml(config);
+  std::string tmpl = path + ".tmp-XXXXXX";
+  std::vector<char> name(tmpl.begin(), tmpl.end());
+  name.push_back('\0');
+  const int fd = ::mkstemp(name.data());
+  if (fd < 0) throw Error(path + ": cannot create temporary file: " + std::strerror(errno));
+  const std::string tmp(name.data());
+  std::size_t off = 0;
+  bool ok = true;
+  while (ok && off < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + off, text.size() - off);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) ok = false; else off += static_cast<std::size_t>(n);
+  }
+  ok = ok && ::fchmod(fd, 0644) == 0 && ::fsync(fd) == 0;
+  const int err = errno;
+  ok = (::close(fd) == 0) && ok;
+  if (!ok || ::rename(tmp.c_str(), path.c_str()) != 0) {
+    ::unlink(tmp.c_str());
+    throw Error(path + ": cannot write truth file: " + std::strerror(ok ? errno : err));
+  }
+}
+
+}  // namespace ftid::sim

@@ -1,0 +1,162 @@
+// ftidd configuration: defaults, the shipped config/ftidd.yaml, and every validation error
+// naming the key and the file (and the line where the key is).
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "ftid/common/error.hpp"
+#include "ftid/config/daemon_config.hpp"
+
+namespace ftid::config {
+namespace {
+
+// A minimal valid config: the two files that must exist point into a temp dir.
+class DaemonConfigTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = ::testing::TempDir() + "ftid_cfg_" + std::to_string(::getpid());
+    std::system(("mkdir -p '" + dir_ + "'").c_str());
+    std::ofstream(dir_ + "/robot.urdf") << "<robot name='r'/>";
+    std::ofstream(dir_ + "/sensor.dbc") << "VERSION \"\"";
+  }
+  void TearDown() override { std::system(("rm -rf '" + dir_ + "'").c_str()); }
+
+  std::string base() const {
+    return "robot:\n  urdf_path: robot.urdf\nsensor:\n  dbc_path: sensor.dbc\n";
+  }
+  DaemonConfig parse(const std::string& extra) const {
+    return parseDaemonConfig(base() + extra, "test.yaml", dir_);
+  }
+  // Expects a ConfigError mentioning the file, the key and (if > 0) the line.
+  void expectError(const std::string& yaml, const std::string& key, int line,
+                   const std::string& also = "") const {
+    try {
+      parseDaemonConfig(yaml, "test.yaml", dir_);
+      ADD_FAILURE() << "no ConfigError for key " << key;
+    } catch (const ConfigError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("test.yaml"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("'" + key + "'"), std::string::npos) << msg;
+      if (line > 0) {
+        EXPECT_NE(msg.find("test.yaml:" + std::to_string(line) + ":"), std::string::npos) << msg;
+      }
+      if (!also.empty()) {
+        EXPECT_NE(msg.find(also), std::string::npos) << msg;
+      }
+    }
+  }
+  std::string dir_;
+};
+
+TEST_F(DaemonConfigTest, DefaultsWithRequiredFilesAreValid) {
+  const DaemonConfig c = parse("");
+  EXPECT_EQ(c.robot.host, "127.0.0.1");
+  EXPECT_EQ(c.robot.rtde_port, 30004);
+  EXPECT_EQ(c.robot.urdf_path, dir_ + "/robot.urdf");  // relative to the config file
+  EXPECT_EQ(c.sensor.dbc_path, dir_ + "/sensor.dbc");
+  EXPECT_EQ(c.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_EQ(c.lcm.channels.wrench, "FTID_WRENCH");
+  EXPECT_FALSE(c.rt.require_rt);
+  EXPECT_EQ(c.robot.receiveTimeout().count(), 12000);  // 1.5 periods at 125 Hz
+  EXPECT_TRUE(c.sensor.R_FS().isApprox(Mat3::Identity()));
+}
+
+TEST_F(DaemonConfigTest, ReadsEveryKey) {
+  const DaemonConfig c = parse(
+      "  transport: socketcan\n  can_interface: can1\n  stale_timeout_ms: 5\n"
+      "  mount_xyz: [0, 0, 0.05]\n  mount_rpy: [0, 0, 1.5707963267948966]\n"
+      "parameters:\n  path: p.yaml\n  required: false\n"
+      "lcm:\n  url: memq://\n  publish_cycle: false\n  stats_period_s: 2\n"
+      "  channels:\n    wrench: MY_WRENCH\n    cycle: MY_CYCLE\n"
+      "rt:\n  require_rt: true\n  priority: 70\n  cpu: 1\n  lock_memory: false\n  overrun_budget_ms: 3\n"
+      "record:\n  enabled: true\n  path: rec-%Y.lcm\n");
+  EXPECT_EQ(c.sensor.transport, "socketcan");
+  EXPECT_EQ(c.sensor.can_interface, "can1");
+  EXPECT_EQ(c.sensor.stale_timeout_ms, 5.0);
+  EXPECT_EQ(c.sensor.p_FS_F(), Vec3(0, 0, 0.05));
+  EXPECT_TRUE((c.sensor.R_FS() * Vec3::UnitX()).isApprox(Vec3::UnitY(), 1e-12));  // yaw 90 deg
+  EXPECT_EQ(c.parameters.path, dir_ + "/p.yaml");
+  EXPECT_EQ(c.lcm.url, "memq://");
+  EXPECT_FALSE(c.lcm.publish_cycle);
+  EXPECT_EQ(c.lcm.channels.wrench, "MY_WRENCH");
+  EXPECT_EQ(c.lcm.channels.cycle, "MY_CYCLE");
+  EXPECT_EQ(c.lcm.channels.stats, "FTID_STATS");
+  EXPECT_TRUE(c.rt.require_rt);
+  EXPECT_EQ(c.rt.priority, 70);
+  EXPECT_EQ(c.rt.cpu, 1);
+  EXPECT_FALSE(c.rt.lock_memory);
+  EXPECT_TRUE(c.record.enabled);
+  EXPECT_EQ(c.record.path, dir_ + "/rec-%Y.lcm");
+}
+
+TEST_F(DaemonConfigTest, UnknownKeysNameKeyFileAndLine) {
+  expectError(base() + "robto:\n  host: x\n", "robto", 5, "unknown key");
+  expectError(base() + "  stale_timeout: 3\n", "sensor.stale_timeout", 5, "stale_timeout_ms");
+  expectError(base() + "lcm:\n  channels:\n    wrenches: X\n", "lcm.channels.wrenches", 7);
+}
+
+TEST_F(DaemonConfigTest, WrongTypesNameTheKey) {
+  expectError(base() + "rt:\n  priority: high\n", "rt.priority", 6, "integer");
+  expectError(base() + "rt:\n  require_rt: maybe\n", "rt.require_rt", 6, "true or false");
+  expectError(base() + "  stale_timeout_ms: nan\n", "sensor.stale_timeout_ms", 5, "finite");
+  expectError(base() + "  mount_xyz: [1, 2]\n", "sensor.mount_xyz", 5, "3 numbers");
+  expectError(base() + "lcm:\n  url:\n", "lcm.url", 6, "no value");
+  expectError(base() + "robot: 3\n", "robot", 5);
+}
+
+TEST_F(DaemonConfigTest, BadValuesNameKeyFileAndLine) {
+  expectError("robot:\n  urdf_path: robot.urdf\n  rtde_port: 70000\nsensor:\n  dbc_path: sensor.dbc\n",
+              "robot.rtde_port", 3, "1..65535");
+  expectError("robot:\n  urdf_path: robot.urdf\n  rtde_frequency_hz: 1000\nsensor:\n  dbc_path: sensor.dbc\n",
+              "robot.rtde_frequency_hz", 3, "1..500");
+  expectError(base() + "  transport: usb\n", "sensor.transport", 5, "seqpacket");
+  expectError(base() + "  stale_timeout_ms: 0\n", "sensor.stale_timeout_ms", 5);
+  expectError(base() + "  can_interface: a_very_long_interface_name\n  transport: socketcan\n",
+              "sensor.can_interface", 5);
+  expectError(base() + "rt:\n  priority: 100\n", "rt.priority", 6, "1..99");
+  expectError(base() + "rt:\n  cpu: -2\n", "rt.cpu", 6);
+  expectError(base() + "lcm:\n  url: http://x\n", "lcm.url", 6);
+  expectError(base() + "lcm:\n  channels:\n    wrench: 'BAD CHANNEL'\n", "lcm.channels.wrench", 7);
+  expectError(base() + "lcm:\n  channels:\n    stats: FTID_WRENCH\n", "lcm.channels.stats", 0,
+              "same channel");
+  expectError(base() + "lcm:\n  stats_period_s: 0\n", "lcm.stats_period_s", 6);
+  expectError(base() + "parameters:\n  path: missing.yaml\n  required: true\n", "parameters.path", 6,
+              "missing.yaml");
+  expectError(base() + "record:\n  enabled: true\n  path: /no/such/dir/x.lcm\n", "record.path", 7,
+              "/no/such/dir");
+}
+
+TEST_F(DaemonConfigTest, MissingFilesNameTheKey) {
+  expectError("robot:\n  urdf_path: nope.urdf\nsensor:\n  dbc_path: sensor.dbc\n", "robot.urdf_path", 2,
+              "nope.urdf");
+  expectError("robot:\n  urdf_path: robot.urdf\nsensor:\n  dbc_path: nope.dbc\n", "sensor.dbc_path", 4,
+              "nope.dbc");
+}
+
+TEST_F(DaemonConfigTest, SyntaxErrorsAndUnreadableFilesNameTheFile) {
+  try {
+    parseDaemonConfig("robot: [unclosed\n", "test.yaml", dir_);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("test.yaml:"), std::string::npos) << e.what();
+  }
+  try {
+    loadDaemonConfig(dir_ + "/none.yaml");
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("none.yaml"), std::string::npos) << e.what();
+  }
+}
+
+TEST(DaemonConfigFile, ShippedConfigIsValid) {
+  const DaemonConfig c = loadDaemonConfig(FTID_SOURCE_DIR "/config/ftidd.yaml");
+  EXPECT_EQ(c.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_NE(describeDaemonConfig(c).find("lcm.url"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ftid::config

@@ -1,0 +1,138 @@
+// The production chain (parameter file -> ParameterFileCompensation, URDF -> KinematicsMotionModel)
+// inside DaemonCycle, checked against an INDEPENDENT formulation: UR10 forward kinematics from the
+// standard DH table (docs/conventions.md), gravity from the paper's Eq. 13, and the static
+// wrench f = m g_S + F0 + F_ext, t = c x (m g_S) + T0 + p x F_ext. The published contact wrench
+// must be the applied contact [F_ext; p x F_ext].
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+
+#include "fakes.hpp"
+#include "ftid/common/error.hpp"
+#include "ftid/daemon/adapters.hpp"
+#include "ftid/daemon/daemon_cycle.hpp"
+#include "ftid/effects/model.hpp"
+#include "ftid/identify/parameter_set.hpp"
+
+namespace ftid::daemon {
+namespace {
+
+// R_BF of the UR10 from standard DH: T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
+Mat3 ur10FlangeRotation(const JointVector& q) {
+  const double alpha[6] = {M_PI / 2, 0, 0, M_PI / 2, -M_PI / 2, 0};
+  Mat3 R = Mat3::Identity();
+  for (int i = 0; i < 6; ++i) {
+    const Mat3 rz = Eigen::AngleAxisd(q(i), Vec3::UnitZ()).toRotationMatrix();
+    const Mat3 rx = Eigen::AngleAxisd(alpha[i], Vec3::UnitX()).toRotationMatrix();
+    R = R * rz * rx;
+  }
+  return R;
+}
+
+struct Payload {
+  double m = 2.5;
+  Vec3 c{0.01, -0.02, 0.08};
+  Vec3 F0{1.5, -0.7, 3.2};
+  Vec3 T0{0.05, -0.03, 0.01};
+  double tilt_u = 0.012;
+  double tilt_v = -0.021;
+};
+
+std::string writeParams(const Payload& p, const std::string& path) {
+  const effects::Model model = effects::Model::fromName("paper");
+  std::map<std::string, double> v = {
+      {"mass", p.m},          {"mass_com_x", p.m * p.c.x()}, {"mass_com_y", p.m * p.c.y()},
+      {"mass_com_z", p.m * p.c.z()}, {"f0_x", p.F0.x()},     {"f0_y", p.F0.y()},
+      {"f0_z", p.F0.z()},     {"t0_x", p.T0.x()},            {"t0_y", p.T0.y()},
+      {"t0_z", p.T0.z()}};
+  identify::ParameterSet set;
+  set.model = model.name();
+  for (const auto& name : model.paramIndex().names()) {
+    const auto it = v.find(name);
+    if (it == v.end()) throw Error("test does not know parameter " + name);
+    set.params.push_back({name, it->second, 0.0, ""});
+  }
+  set.tilt_estimated = true;
+  set.tilt_u_rad = p.tilt_u;
+  set.tilt_v_rad = p.tilt_v;
+  identify::writeParameterFile(path, set);
+  return path;
+}
+
+TEST(DaemonCompensation, ContactWrenchMatchesAnIndependentStaticModel) {
+  const std::string path =
+      ::testing::TempDir() + "ftid_daemon_params_" + std::to_string(::getpid()) + ".yaml";
+  const Payload p;
+  writeParams(p, path);
+
+  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  KinematicsMotionModel motion(kin);
+  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  test::FakeArm arm;
+  test::FakeSensor sensor;
+  test::RecordingSink sink;
+  CycleOptions opt;
+  opt.now_us = &test::fakeNowUs;
+  DaemonCycle cycle(&arm, &sensor, &motion, &slot, &sink, opt);
+
+  const double g = kStandardGravity;
+  const Vec3 g_B(g * std::cos(p.tilt_u) * std::sin(p.tilt_v), -g * std::sin(p.tilt_u),
+                 -g * std::cos(p.tilt_u) * std::cos(p.tilt_v));
+  std::mt19937 rng(2024);
+  std::uniform_real_distribution<double> ang(-2.5, 2.5);
+  std::uniform_real_distribution<double> force(-20.0, 20.0);
+  for (int k = 0; k < 20; ++k) {
+    JointVector q;
+    for (int j = 0; j < 6; ++j) q(j) = ang(rng);
+    const Mat3 R_BS = ur10FlangeRotation(q);  // S = F (identity mount)
+    const Vec3 g_S = R_BS.transpose() * g_B;
+    const Vec3 F_ext(force(rng), force(rng), force(rng));
+    const Vec3 p_contact(0.02, 0.01, 0.15);
+    Wrench reading;
+    reading.head<3>() = p.m * g_S + p.F0 + F_ext;
+    reading.tail<3>() = p.c.cross(p.m * g_S) + p.T0 + p_contact.cross(F_ext);
+    sensor.sample.wrench_S = reading;
+    arm.state.q = q;
+    arm.state.qd.setZero();
+    arm.state.qdd.setZero();
+    test::g_fake_now_us += 8000;
+    ASSERT_EQ(cycle.waitForTick(std::chrono::milliseconds(12)), Status::kOk);
+    cycle.onTick();
+    const auto& r = sink.records[static_cast<std::size_t>(sink.count - 1)];
+    ASSERT_TRUE(r.wrench_valid);
+    Wrench expected;
+    expected.head<3>() = F_ext;
+    expected.tail<3>() = p_contact.cross(F_ext);
+    EXPECT_LT((r.contact_S - expected).norm(), 1e-6) << "pose " << k << "\n"
+                                                     << r.contact_S.transpose() << "\n"
+                                                     << expected.transpose();
+    EXPECT_LT((r.modelled_S + expected - reading).norm(), 1e-6);
+  }
+  std::remove(path.c_str());
+}
+
+TEST(DaemonCompensation, BadParameterFileIsAConfigErrorNamingTheFile) {
+  const std::string path =
+      ::testing::TempDir() + "ftid_daemon_bad_" + std::to_string(::getpid()) + ".yaml";
+  {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    std::fputs("model: paper\nparams: 3\n", f);
+    std::fclose(f);
+  }
+  try {
+    ParameterFileCompensation c(path);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ParameterFileCompensation(path + ".missing"), ConfigError);
+  std::remove(path.c_str());
+}
+
+}  // namespace
+}  // namespace ftid::daemon

@@ -1,0 +1,87 @@
+#pragma once
+// Fakes for the daemon seams: a scripted arm, a settable sensor, a fixed-pose motion model, an
+// offset-only compensation and a recording sink. None allocates in the loop-side methods.
+#include <array>
+#include <atomic>
+#include <cstdint>
+
+#include "ftid/daemon/seams.hpp"
+
+namespace ftid::daemon::test {
+
+inline std::int64_t g_fake_now_us = 1'700'000'000'000'000;
+inline std::int64_t fakeNowUs() noexcept { return g_fake_now_us; }
+
+class FakeArm : public ArmStateSource {
+ public:
+  Status next_status = Status::kOk;
+  transport::RobotStateRecord state;
+  int calls = 0;
+  FakeArm() {
+    state.valid = true;
+    state.robot_time = 100.0;
+  }
+  Status waitForState(std::chrono::nanoseconds, transport::RobotStateRecord* out) noexcept override {
+    ++calls;
+    if (next_status != Status::kOk) return next_status;
+    state.robot_time += 0.008;
+    state.recv_utime = g_fake_now_us;
+    *out = state;
+    return Status::kOk;
+  }
+};
+
+class FakeSensor : public SensorSource {
+ public:
+  transport::SensorSampleRecord sample;
+  bool follow_clock = true;  ///< stamp each read with the current time (a fresh sample)
+  FakeSensor() { sample.valid = true; }
+  void tryReadLatest(std::int64_t now_utime, transport::SensorSampleRecord* out) noexcept override {
+    if (follow_clock) sample.recv_utime = now_utime - 300;
+    *out = sample;
+  }
+};
+
+class FixedMotion : public MotionModel {
+ public:
+  model::SensorMotion motion;
+  model::SensorMotion computeSensorMotion(const JointVector&, const JointVector&,
+                                          const JointVector&) const noexcept override {
+    return motion;
+  }
+};
+
+/// modelled = offset (a constant), contact = reading - offset. Counts live instances so that
+/// tests can check that replaced objects are freed.
+class OffsetCompensation : public Compensation {
+ public:
+  static inline std::atomic<int> alive{0};
+  explicit OffsetCompensation(const Wrench& offset) : offset_(offset) { ++alive; }
+  ~OffsetCompensation() override { --alive; }
+  double tiltU() const noexcept override { return 0.0; }
+  double tiltV() const noexcept override { return 0.0; }
+  bool compute(const effects::SampleContext& ctx, Wrench* contact, Wrench* modelled) noexcept override {
+    *modelled = offset_;
+    *contact = ctx.wrench_S - offset_;
+    return true;
+  }
+  const Wrench& offset() const { return offset_; }
+
+ private:
+  Wrench offset_;
+};
+
+class RecordingSink : public CycleSink {
+ public:
+  static constexpr int kCapacity = 4096;
+  std::array<transport::CycleRecord, kCapacity> records{};
+  int count = 0;
+  bool accept = true;
+  bool tryPush(const transport::CycleRecord& r) noexcept override {
+    if (!accept || count >= kCapacity) return false;
+    records[static_cast<std::size_t>(count++)] = r;
+    return true;
+  }
+};
+
+}  // namespace ftid::daemon::test
