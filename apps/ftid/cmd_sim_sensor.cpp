@@ -90,9 +90,10 @@ int runSimSensor(const std::vector<std::string>& argv) {
   if (args.has("--can-interface")) cfg.can_interface = args.value("--can-interface");
   if (args.has("--candump-log")) cfg.candump_log = args.value("--candump-log");
   if (args.has("--dbc")) cfg.dbc_path = args.value("--dbc");
-  while (args.has("--effect")) enableEffect(args.value("--effect"), cfg);
-  while (args.has("--fault")) {
-    const std::string f = args.value("--fault");
+  // Repeatable options: Args::value() consumes one occurrence per call.
+  for (std::string e = args.value("--effect"); !e.empty(); e = args.value("--effect"))
+    enableEffect(e, cfg);
+  for (std::string f = args.value("--fault"); !f.empty(); f = args.value("--fault")) {
     std::stringstream ss(f);
     std::string when, kind, count;
     std::getline(ss, when, ':');

@@ -51,14 +51,14 @@ options:
   --mount-rpy R,P,Y      sensor orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]
   --paper-model          drop the rotational and lever-arm inertia terms (the paper's model only)
   --effect NAME[:key=value,...]   switch on a hidden effect (repeatable):
-      cable              k=3 [N/m], anchor=X;Y;Z in B [m], attach=X;Y;Z in S [m]
-      temperature_drift  df=X;Y;Z [N/degC], dt=X;Y;Z [Nm/degC], ref=25 [degC]
-      time_drift         df=X;Y;Z [N/s], dt=X;Y;Z [Nm/s]
+      cable              k=3 [N/m], anchor=X/Y/Z in B [m], attach=X/Y/Z in S [m]
+      temperature_drift  df=X/Y/Z [N/degC], dt=X/Y/Z [Nm/degC], ref=25 [degC]
+      time_drift         df=X/Y/Z [N/s], dt=X/Y/Z [Nm/s]
       sensor_delay       tau=0.012 [s]
       crosstalk          scale=1 (multiplies the built-in 6x6 matrix E)
-      contact            start=4, end=6 [s], force=X;Y;Z in B [N], point=X;Y;Z in S [m]
+      contact            start=4, end=6 [s], force=X/Y/Z in B [N], point=X/Y/Z in S [m]
       rigid_body         full Newton-Euler (already the default; listed for symmetry)
-    e.g. --effect sensor_delay:tau=0.02 --effect cable:k=5,anchor=-0.7;-0.3;1.4
+    e.g. --effect sensor_delay:tau=0.02 --effect cable:k=5,anchor=-0.7/-0.3/1.4
 
 examples:
   ftid simulate --out run.csv --truth truth.yaml --seed 7
@@ -92,6 +92,14 @@ ftid::Vec3 parseVec3(const std::string& text, char sep, const std::string& what)
   return ftid::Vec3(v[0], v[1], v[2]);
 }
 
+// Vectors inside --effect use '/' between components (';' also accepted, but needs shell quoting).
+ftid::Vec3 parseEffectVec3(std::string text, const std::string& what) {
+  for (char& ch : text) {
+    if (ch == ';') ch = '/';
+  }
+  return parseVec3(text, '/', what);
+}
+
 void applyEffect(const std::string& spec, ftid::sim::CellSimConfig& c) {
   const auto colon = spec.find(':');
   const std::string name = spec.substr(0, colon);
@@ -113,23 +121,23 @@ void applyEffect(const std::string& spec, ftid::sim::CellSimConfig& c) {
     c.cable.enabled = true;
     for (const auto& [k, v] : kv) {
       if (k == "k") c.cable.stiffness_N_per_m = parseDouble(v, w + " k");
-      else if (k == "anchor") c.cable.p_BA_B = parseVec3(v, ';', w + " anchor");
-      else if (k == "attach") c.cable.p_SA_S = parseVec3(v, ';', w + " attach");
+      else if (k == "anchor") c.cable.p_BA_B = parseEffectVec3(v, w + " anchor");
+      else if (k == "attach") c.cable.p_SA_S = parseEffectVec3(v, w + " attach");
       else throw bad(k);
     }
   } else if (name == "temperature_drift") {
     c.temperature_drift.enabled = true;
     for (const auto& [k, v] : kv) {
-      if (k == "df") c.temperature_drift.dF0_dT_N_per_degC = parseVec3(v, ';', w + " df");
-      else if (k == "dt") c.temperature_drift.dT0_dT_Nm_per_degC = parseVec3(v, ';', w + " dt");
+      if (k == "df") c.temperature_drift.dF0_dT_N_per_degC = parseEffectVec3(v, w + " df");
+      else if (k == "dt") c.temperature_drift.dT0_dT_Nm_per_degC = parseEffectVec3(v, w + " dt");
       else if (k == "ref") c.temperature_drift.reference_degC = parseDouble(v, w + " ref");
       else throw bad(k);
     }
   } else if (name == "time_drift") {
     c.time_drift.enabled = true;
     for (const auto& [k, v] : kv) {
-      if (k == "df") c.time_drift.dF0_dt_N_per_s = parseVec3(v, ';', w + " df");
-      else if (k == "dt") c.time_drift.dT0_dt_Nm_per_s = parseVec3(v, ';', w + " dt");
+      if (k == "df") c.time_drift.dF0_dt_N_per_s = parseEffectVec3(v, w + " df");
+      else if (k == "dt") c.time_drift.dT0_dt_Nm_per_s = parseEffectVec3(v, w + " dt");
       else throw bad(k);
     }
   } else if (name == "sensor_delay") {
@@ -149,8 +157,8 @@ void applyEffect(const std::string& spec, ftid::sim::CellSimConfig& c) {
     for (const auto& [k, v] : kv) {
       if (k == "start") c.contact.t_start_s = parseDouble(v, w + " start");
       else if (k == "end") c.contact.t_end_s = parseDouble(v, w + " end");
-      else if (k == "force") c.contact.force_B = parseVec3(v, ';', w + " force");
-      else if (k == "point") c.contact.p_SP_S = parseVec3(v, ';', w + " point");
+      else if (k == "force") c.contact.force_B = parseEffectVec3(v, w + " force");
+      else if (k == "point") c.contact.p_SP_S = parseEffectVec3(v, w + " point");
       else throw bad(k);
     }
   } else if (name == "rigid_body") {

@@ -76,7 +76,9 @@ trajectory::TrajectoryConstraints loadDesignConstraints(const std::string& confi
   c.acceleration = urdf.acceleration.cwiseMin(kAcceleration);
   JointVector excursion = kExcursion;
   c.floor_z_B = 0.0;
-  c.keep_out = {{"robot_base", Vec3(0.0, 0.0, 0.1), 0.25}};
+  c.keep_out = {{"robot_base", Vec3(0.0, 0.0, 0.1), 0.25},
+                {"elbow", Vec3(0.0, 0.0, 0.7393), 0.10},
+                {"forearm", Vec3(-0.30, 0.0, 0.7393), 0.08}};
   c.tool = {{Vec3(0.0, 0.0, 0.05), 0.08}};
 
   if (!config_path.empty()) {

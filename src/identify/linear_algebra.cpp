@@ -1,4 +1,5 @@
 // Rank analysis, condition numbers and covariance helpers (fit_internal.hpp).
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -12,7 +13,8 @@ RankReport analyzeRank(const Eigen::MatrixXd& A, double relative_tolerance) {
   report.column_norms = A.colwise().norm().transpose();
   Eigen::MatrixXd scaled = A;
   std::vector<bool> zero(static_cast<std::size_t>(cols), false);
-  double max_norm = report.column_norms.size() > 0 ? report.column_norms.maxCoeff() : 0.0;
+  double max_norm = 0.0;
+  for (Eigen::Index j = 0; j < cols; ++j) max_norm = std::max(max_norm, report.column_norms(j));
   for (Eigen::Index j = 0; j < cols; ++j) {
     const double n = report.column_norms(j);
     if (!(n > 1e-300) || n <= 1e-14 * max_norm) {
@@ -39,11 +41,18 @@ RankReport analyzeRank(const Eigen::MatrixXd& A, double relative_tolerance) {
   const double smin = s.size() > 0 ? s(s.size() - 1) : 0.0;
   report.condition_number = smin > 0.0 ? smax / smin : std::numeric_limits<double>::infinity();
   if (report.rank < cols) {
+    // Participation of each column in the null space; name those with at least a tenth of the
+    // largest participation (and always zero columns).
     const Eigen::MatrixXd& V = svd.matrixV();
+    Eigen::VectorXd participation = Eigen::VectorXd::Zero(cols);
     for (Eigen::Index j = 0; j < cols; ++j) {
-      double participation = 0.0;
-      for (Eigen::Index k = report.rank; k < V.cols(); ++k) participation += V(j, k) * V(j, k);
-      if (zero[static_cast<std::size_t>(j)] || std::sqrt(participation) > 0.1) {
+      for (Eigen::Index k = report.rank; k < V.cols(); ++k) participation(j) += V(j, k) * V(j, k);
+      participation(j) = std::sqrt(participation(j));
+    }
+    double pmax = 0.0;
+    for (Eigen::Index j = 0; j < cols; ++j) pmax = std::max(pmax, participation(j));
+    for (Eigen::Index j = 0; j < cols; ++j) {
+      if (zero[static_cast<std::size_t>(j)] || participation(j) > 0.1 * pmax) {
         report.unexcited_columns.push_back(static_cast<int>(j));
       }
     }

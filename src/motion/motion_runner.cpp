@@ -102,6 +102,7 @@ struct RunCycle {
   const std::atomic<bool>* abort;
   RunProgress& progress;
   double period;
+  std::uint32_t max_missed = 3;  // lost_time_limit in ticks
 
   std::size_t n = 0;
   std::size_t not_recorded = 0;
@@ -129,9 +130,8 @@ struct RunCycle {
   }
 
   rt::CycleAction onMissed(std::uint32_t consecutive) noexcept {
-    if (consecutive >= cfg.max_consecutive_missed) {
-      return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive),
-                  static_cast<double>(cfg.max_consecutive_missed));
+    if (consecutive >= max_missed) {
+      return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive), static_cast<double>(max_missed));
     }
     arm.sendHold();
     return rt::CycleAction::kContinue;
@@ -167,8 +167,8 @@ struct RunCycle {
       action = fail(RunStatus::kModeChanged, -1, 0.0, 0.0, s.robot_mode);
     } else if (s.runtime_state != rtde::kRuntimePlaying) {
       action = fail(RunStatus::kProgramStopped, -1, 0.0, 0.0, s.runtime_state);
-    } else if (s.packages_skipped > cfg.max_lost_per_tick) {
-      action = fail(RunStatus::kLostPackets, -1, s.packages_skipped, cfg.max_lost_per_tick);
+    } else if (s.packages_skipped >= max_missed) {
+      action = fail(RunStatus::kLostPackets, -1, s.packages_skipped, max_missed);
     } else if (cfg.abort_on_speed_scaling && s.speed_scaling < 0.99) {
       action = fail(RunStatus::kSpeedScaled, -1, s.speed_scaling, 1.0);
     }
@@ -308,7 +308,9 @@ std::string describe(const Failure& f, const MotionConfig& cfg, double t0) {
                     rtde::runtimeStateName(static_cast<std::uint32_t>(f.code)), f.timestamp);
       break;
     case RunStatus::kLostPackets:
-      std::snprintf(buf, sizeof buf, "lost %.0f state packages in a row (limit %.0f) near robot time %.3f s",
+      std::snprintf(buf, sizeof buf,
+                    "lost %.0f state packages in a row (limit %.0f) near robot time %.3f s (late host, "
+                    "network or controller)",
                     f.value, f.limit, f.timestamp);
       break;
     case RunStatus::kConnectionLost:
@@ -386,6 +388,7 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
   for (int i = 0; i < 5 && st != Status::kOk; ++i) {
     st = arm_.waitForState(std::chrono::milliseconds(200), &first);
     if (st == Status::kFault) break;
+    arm_.sendHold();  // keeps the program's RTDE watchdog fed
   }
   if (st != Status::kOk) {
     result.status = st == Status::kFault ? RunStatus::kConnectionLost : RunStatus::kLostPackets;
@@ -414,12 +417,13 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
     T = std::max({T, 1.875 * d / config_.approach_velocity, std::sqrt(5.7735 * d / config_.approach_acceleration)});
   }
   cycle.approach_T = T;
+  cycle.max_missed = static_cast<std::uint32_t>(std::max(1.0, std::round(config_.lost_time_limit / period)));
   arm_.resetServoReference(first.q, first.qd);
 
   rt::ExecutorConfig ec;
   ec.period = std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(period * 1e9)));
   ec.timeout_periods = config_.timeout_periods;
-  ec.max_consecutive_missed = config_.max_consecutive_missed + 1;  // the cycle decides first
+  ec.max_consecutive_missed = cycle.max_missed + 1;  // the cycle decides first
   rt::LoopExit exit = rt::LoopExit::kCycleStopped;
   progress_.running.store(true);
   result.realtime = rt::runInRealtimeThread(config_.realtime, [&] {
@@ -428,7 +432,7 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
       cycle.failure.status = RunStatus::kConnectionLost;
       cycle.failure.timestamp = cycle.state.timestamp;
     } else if (exit == rt::LoopExit::kTooManyMissed && cycle.failure.status == RunStatus::kCompleted) {
-      cycle.fail(RunStatus::kLostPackets, -1, config_.max_consecutive_missed, config_.max_consecutive_missed);
+      cycle.fail(RunStatus::kLostPackets, -1, cycle.max_missed, cycle.max_missed);
     }
     if (exit != rt::LoopExit::kDeviceFault) {
       arm_.sendServoStop();

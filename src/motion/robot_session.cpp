@@ -1,10 +1,16 @@
 #include "ftid/motion/robot_session.hpp"
 
+#include "ftid/rt/rt_setup.hpp"
+
 namespace ftid::motion {
 
 SessionResult runOnRobot(const RobotSessionConfig& config, const JointTrajectorySource& trajectory,
                          const std::atomic<bool>* abort, CycleHook hook, void* hook_context) {
   SessionResult out;
+  // Lock memory before connecting: mlockall can take long, and once the servo program runs its
+  // RTDE watchdog expects inputs every 1 / watchdog_min_hz seconds.
+  rt::RealtimeReport early;
+  rt::lockProcessMemory(config.motion.realtime, &early);
   drivers::ur::RtdeArm arm(config.arm);
   arm.connect();
   out.controller_version = arm.controllerVersion().toString();

@@ -47,6 +47,11 @@ bool hasRealtimeKernel() noexcept {
 void lockProcessMemory(const RealtimeConfig& cfg, RealtimeReport* report) {
   report->realtime_kernel = hasRealtimeKernel();
   if (!cfg.enable || !cfg.lock_memory) return;
+  static std::atomic<bool> locked{false};  // process-wide: lock once
+  if (locked.load()) {
+    report->memory_locked = true;
+    return;
+  }
   // With RLIMIT_MEMLOCK finite and no CAP_IPC_LOCK, mlockall(MCL_FUTURE) succeeds but later
   // allocations beyond the limit fail (linux-rt notes §3.2): refuse to lock in that case.
   rlimit lim{};
@@ -66,6 +71,7 @@ void lockProcessMemory(const RealtimeConfig& cfg, RealtimeReport* report) {
   mallopt(M_TRIM_THRESHOLD, -1);
   mallopt(M_MMAP_MAX, 0);
   report->memory_locked = true;
+  locked = true;
 }
 
 void prefaultStack(std::size_t bytes) noexcept {

@@ -57,7 +57,16 @@ void RobotHistory::add(const Tick& tick) {
   std::lock_guard<std::mutex> lock(mutex_);
   if (count_ > 0) {
     const Tick& newest = ring_[(head_ + kCapacity - 1) % kCapacity];
-    if (!(tick.t > newest.t)) return;
+    if (tick.t < newest.t - 1.0) {  // controller restarted: its clock began again
+      count_ = 0;
+      head_ = 0;
+      ++generation_;
+    } else if (!(tick.t > newest.t)) {
+      return;
+    }
+  }
+  if (count_ > 0) {
+    const Tick& newest = ring_[(head_ + kCapacity - 1) % kCapacity];
     const double dt = tick.t - newest.t;
     // Track the nominal period with a slow filter that ignores gaps (dropped packages).
     if (dt < 2.5 * period_ || count_ < 3) period_ = count_ < 3 ? dt : 0.9 * period_ + 0.1 * dt;
@@ -65,6 +74,11 @@ void RobotHistory::add(const Tick& tick) {
   ring_[head_] = tick;
   head_ = (head_ + 1) % kCapacity;
   count_ = std::min(count_ + 1, kCapacity);
+}
+
+std::uint64_t RobotHistory::generation() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return generation_;
 }
 
 bool RobotHistory::empty() const {
@@ -278,6 +292,11 @@ struct SimSensor::Impl {
     std::lock_guard<std::mutex> lock(offset_mutex);
     return std::min(offset_min_current, offset_min_previous);
   }
+  void resetOffset() {
+    std::lock_guard<std::mutex> lock(offset_mutex);
+    offset_min_current = offset_min_previous = 1e300;
+    offset_window = 0;
+  }
   void noteOffset(double o) {
     std::lock_guard<std::mutex> lock(offset_mutex);
     offset_min_current = std::min(offset_min_current, o);
@@ -357,7 +376,12 @@ void SimSensor::run(const std::atomic<bool>& stop,
           tick.q = toJoint(st.actual_q);
           tick.qd = toJoint(st.actual_qd);
           tick.qdd = toJoint(st.target_qdd);
+          const std::uint64_t generation = im.history.generation();
           im.history.add(tick);
+          if (im.history.generation() != generation) {
+            im.resetOffset();
+            say("the controller's clock restarted: robot history reset");
+          }
           im.noteOffset(static_cast<double>(st.host_receive_ns) * 1e-9 - st.timestamp);
           ++im.robot_ticks;
         }
@@ -379,7 +403,10 @@ void SimSensor::run(const std::atomic<bool>& stop,
     reader.join();
     return;
   }
-  const double t_robot0 = im.history.oldestTime();
+  // Physics time = controller time - t_robot0; kept continuous across controller restarts.
+  double t_robot0 = im.history.oldestTime();
+  std::uint64_t generation = im.history.generation();
+  double t_phys_last = 0.0;
   say("emitting " + std::to_string(static_cast<int>(config_.rate_hz)) + " Hz samples on " +
       config_.socket_path + (config_.can_interface.empty() ? "" : " and " + config_.can_interface));
 
@@ -407,9 +434,14 @@ void SimSensor::run(const std::atomic<bool>& stop,
     } else if (now - next_ns > period_ns) {
       ++late;
     }
+    if (im.history.generation() != generation) {
+      generation = im.history.generation();
+      t_robot0 = im.history.oldestTime() - t_phys_last;
+    }
     // The sample's instant in controller time.
     const double t_robot = static_cast<double>(next_ns) * 1e-9 - im.offset();
     const double t_phys = t_robot - t_robot0;
+    t_phys_last = t_phys;
     while (next_fault < schedule.size() && schedule[next_fault].at_s <= t_phys) {
       im.source->inject(schedule[next_fault].kind, schedule[next_fault].count);
       say(std::string("injecting fault ") + sensorFaultName(schedule[next_fault].kind) + " x" +

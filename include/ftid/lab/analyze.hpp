@@ -147,3 +147,20 @@ std::string formatJson(const AnalysisResult& result);
 std::string renderHtml(const AnalysisResult& result);
 
 }  // namespace ftid::lab
+
+namespace ftid::lab {
+
+/// `ftid analyze` on files: reads the log(s) (docs/log-format.md), builds the contexts with the
+/// robot kinematics (default robot: identify::defaultRobotUrdf()), and runs analyze().
+struct AnalyzeFilesRequest {
+  std::string log_path;
+  std::string validate_path;   ///< "" = k-fold
+  std::string robot_urdf;      ///< "" = default
+  AnalyzeOptions options;
+};
+AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request);
+
+/// Writes text atomically (temporary file + rename); throws Error naming the file on failure.
+void writeTextFileAtomically(const std::string& path, const std::string& text);
+
+}  // namespace ftid::lab

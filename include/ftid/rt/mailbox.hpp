@@ -1,6 +1,6 @@
 #pragma once
-// Latest-value mailbox (triple buffer) for trivially copyable T: one writer, one reader, both
-// wait-free, no torn reads, no locks. The writer always writes into its private slot and then
+// Latest-value mailbox (triple buffer) for T with a non-allocating copy (trivially copyable
+// types, fixed-size Eigen): one writer, one reader, both wait-free, no torn reads, no locks. The writer always writes into its private slot and then
 // swaps it with the shared "middle" slot; the reader swaps the middle slot into its private slot
 // when a new value is flagged. Intermediate values are overwritten (latest wins).
 #include <array>
@@ -12,7 +12,11 @@ namespace ftid::rt {
 
 template <class T>
 class Mailbox {
-  static_assert(std::is_trivially_copyable_v<T>, "Mailbox<T>: T must be trivially copyable");
+  // Slots are accessed exclusively by one side at a time, so T only needs a copy that neither
+  // allocates nor throws: trivially copyable types, or fixed-size aggregates such as Eigen
+  // fixed-size matrices (ftid::drivers::ur::ArmState).
+  static_assert(std::is_copy_assignable_v<T> && std::is_default_constructible_v<T>,
+                "Mailbox<T>: T must be default-constructible and copy-assignable");
 
  public:
   /// Writer side (RT, wait-free).

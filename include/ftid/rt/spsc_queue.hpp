@@ -1,5 +1,5 @@
 #pragma once
-// Wait-free single-producer/single-consumer ring for trivially copyable T (e.g. the RT loop
+// Wait-free single-producer/single-consumer ring for T with a non-allocating copy (trivially copyable, fixed-size Eigen) (e.g. the RT loop
 // pushes samples, a normal-priority thread pops and publishes). Capacity is a power of two fixed
 // at compile time; storage is inline, nothing allocates. tryPush() drops (returns false) when
 // full and counts the drop; it never blocks.
@@ -13,7 +13,11 @@ namespace ftid::rt {
 
 template <class T, std::size_t Capacity>
 class SpscQueue {
-  static_assert(std::is_trivially_copyable_v<T>, "SpscQueue<T>: T must be trivially copyable");
+  // Slots are accessed exclusively by one side at a time, so T only needs a copy that neither
+  // allocates nor throws: trivially copyable types, or fixed-size aggregates such as Eigen
+  // fixed-size matrices (ftid::drivers::ur::ArmState).
+  static_assert(std::is_copy_assignable_v<T> && std::is_default_constructible_v<T>,
+                "SpscQueue<T>: T must be default-constructible and copy-assignable");
   static_assert(Capacity >= 2 && (Capacity & (Capacity - 1)) == 0, "Capacity must be a power of two");
 
  public:

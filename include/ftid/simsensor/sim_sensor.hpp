@@ -82,8 +82,11 @@ class RobotHistory {
     JointVector qd = JointVector::Zero();
     JointVector qdd = JointVector::Zero();
   };
-  /// Appends a tick (ignored unless newer than the newest).
+  /// Appends a tick. A tick older than the newest is ignored, unless it is more than a second
+  /// older: then the controller was restarted and the history starts afresh (generation() + 1).
   void add(const Tick& tick);
+  /// Incremented whenever the history was restarted.
+  std::uint64_t generation() const;
   /// State at controller time t (see the file comment). False if there is no tick yet.
   bool stateAt(double t, Tick& out) const;
   bool empty() const;
@@ -99,6 +102,7 @@ class RobotHistory {
   std::size_t head_ = 0;  ///< index of the next write
   std::size_t count_ = 0;
   double period_ = 0.008;
+  std::uint64_t generation_ = 0;
 };
 
 /// Turns robot state + time into CAN frames (physics, noise, faults, counter). Not thread-safe

@@ -1,0 +1,96 @@
+// `ftid --identify` (alias `ftid cell-identify`): the one-shot identification on the cell.
+#include <signal.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <iostream>
+#include <string>
+
+#include "command.hpp"
+#include "ftid/cell/cell_identify.hpp"
+
+namespace {
+
+std::atomic<bool> g_abort{false};
+extern "C" void onSigint(int) { g_abort.store(true); }
+
+const char* kUsage =
+    "usage: ftid --identify [options]\n"
+    "\n"
+    "Identify the tool on the F/T sensor on the cell: checks that ftidd, the sensor and the robot\n"
+    "are ready, asks before moving, moves slowly to the start pose, runs the excitation trajectory\n"
+    "(the robot is the clock), records ftidd's synchronised samples, identifies the model, shows the\n"
+    "held-out residual per axis and which physical effect is missing (if any), writes the parameter\n"
+    "file atomically (previous version kept as .bak) with UR and ros2_control exports, and tells\n"
+    "ftidd to reload it. Ctrl-C stops the arm and keeps the recorded data.\n"
+    "\n"
+    "options:\n"
+    "  --config FILE        ftidd configuration (default /etc/ftid/ftidd.yaml): robot address, LCM,\n"
+    "                       parameter file, sensor mount\n"
+    "  --trajectory FILE    excitation trajectory (traj.yaml from `ftid design`; default: the shipped\n"
+    "                       excitation_ur10.yaml)\n"
+    "  --model M            model to identify (default paper; e.g. paper+rigid_body)\n"
+    "  --params FILE        parameter file to write (default: the config's parameters.path)\n"
+    "  --runs-dir DIR       where recorded runs are kept (default: <params dir>/runs)\n"
+    "  --script-port N      URScript port (default 30003)\n"
+    "  --register-offset N  RTDE input register offset, 0 or 24 (default 0)\n"
+    "  --no-reload          do not ask ftidd to reload\n"
+    "  --no-analyze         skip the model-laboratory analysis\n"
+    "  --require-rt         refuse to run without real-time scheduling\n"
+    "  --yes                do not ask for confirmation before motion (scripts)\n"
+    "\n"
+    "exit status: 0 identified and written, 1 aborted or failed (the message says why; the arm is\n"
+    "stopped and recorded data kept), 2 usage error.";
+
+int run(const std::vector<std::string>& argv) {
+  ftid::cli::Args args(argv, kUsage);
+  ftid::cell::CellIdentifyOptions o;
+  o.config_path = args.value("--config", o.config_path);
+  o.trajectory_path = args.value("--trajectory");
+  o.model = args.value("--model", o.model);
+  o.params_path = args.value("--params");
+  o.runs_dir = args.value("--runs-dir");
+  o.script_port = std::stoi(args.value("--script-port", "30003"));
+  o.register_offset = std::stoi(args.value("--register-offset", "0"));
+  o.reload_daemon = !args.flag("--no-reload");
+  o.analyze = !args.flag("--no-analyze");
+  o.require_realtime = args.flag("--require-rt");
+  o.assume_yes = args.flag("--yes");
+  args.finish();
+  if (o.register_offset != 0 && o.register_offset != 24) throw ftid::cli::UsageError("--register-offset must be 0 or 24");
+
+  struct sigaction sa {};
+  sa.sa_handler = onSigint;
+  sigaction(SIGINT, &sa, nullptr);
+  o.abort = &g_abort;
+  const bool tty = ::isatty(STDERR_FILENO) != 0;
+  o.print = [](const std::string& s) { std::cout << s << "\n" << std::flush; };
+  o.confirm = [](const std::string& q) {
+    std::cout << q << std::flush;
+    std::string answer;
+    if (!std::getline(std::cin, answer)) return false;
+    return answer == "y" || answer == "Y" || answer == "yes";
+  };
+  o.progress = [tty](const std::string& phase, double elapsed, double total) {
+    const int width = 30;
+    const double frac = total > 0 ? std::min(1.0, std::max(0.0, elapsed / total)) : 0.0;
+    const int filled = static_cast<int>(frac * width);
+    std::string bar(static_cast<std::size_t>(filled), '#');
+    bar.resize(width, '.');
+    std::fprintf(stderr, "%s[%s] %5.1f / %5.1f s  remaining %5.1f s  %-16s%s", tty ? "\r" : "", bar.c_str(),
+                 elapsed, total, total - elapsed, phase.c_str(), tty ? "" : "\n");
+  };
+  const ftid::cell::CellIdentifyResult r = ftid::cell::runCellIdentify(o);
+  if (tty) std::fprintf(stderr, "\n");
+  if (r.exit_code == 0) {
+    std::cout << "OK: " << r.message << "\n";
+  } else {
+    std::cerr << "ftid --identify: " << r.message << "\n";
+  }
+  return r.exit_code;
+}
+
+ftid::cli::Registrar reg{{"cell-identify", "one-shot identification on the cell (also: ftid --identify)", kUsage, &run}};
+
+}  // namespace

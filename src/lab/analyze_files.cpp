@@ -1,0 +1,58 @@
+// File front end of the model laboratory (include/ftid/lab/analyze.hpp).
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+#include "ftid/common/error.hpp"
+#include "ftid/identify/context.hpp"
+#include "ftid/identify/offline.hpp"
+#include "ftid/lab/analyze.hpp"
+#include "ftid/logio/log.hpp"
+#include "ftid/model/kinematics.hpp"
+
+namespace ftid::lab {
+
+AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
+  const auto& progress = request.options.progress;
+  auto say = [&](const std::string& s) {
+    if (progress) progress(s);
+  };
+  const std::string urdf = request.robot_urdf.empty() ? identify::defaultRobotUrdf() : request.robot_urdf;
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
+  say("reading " + request.log_path);
+  const logio::LogData log = logio::readLog(request.log_path);
+  say(std::to_string(log.samples.size()) + " samples, robot " + urdf);
+  identify::ContextSet fit = identify::buildContexts(log, kin);
+  for (auto& c : fit.samples) c.extra_names = &fit.extra_names;
+  identify::ContextSet val;
+  if (!request.validate_path.empty()) {
+    say("reading " + request.validate_path);
+    const logio::LogData vlog = logio::readLog(request.validate_path);
+    val = identify::buildContexts(vlog, kin);
+    if (val.extra_names != fit.extra_names) {
+      throw DataError(request.validate_path + ": its extra columns differ from those of " + request.log_path);
+    }
+    for (auto& c : val.samples) c.extra_names = &val.extra_names;
+  }
+  return analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples, request.options,
+                 request.log_path, request.validate_path);
+}
+
+void writeTextFileAtomically(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
+    out << text;
+    out.flush();
+    if (!out) throw Error(path + ": write failed");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const std::string why = std::strerror(errno);
+    std::remove(tmp.c_str());
+    throw Error(path + ": cannot rename the temporary file (" + why + ")");
+  }
+}
+
+}  // namespace ftid::lab

@@ -1,0 +1,170 @@
+// ftidd end to end against the simulators, inside a private network namespace (unshare -rn)
+// so that LCM udpm traffic never touches the default namespace:
+//   ftid sim-robot (UR10, RTDE 125 Hz, at rest)  ->  ftidd  <-  ftid sim-sensor (CAN frames,
+//   1 kHz, paper payload, noise-free)  ;  lcm-logger (LCM's own tool) subscribes independently.
+// Midway the parameter file is replaced (f0_x + 1 N) and ftidd gets SIGHUP, then SIGTERM.
+// Checks: every robot cycle published (consecutive cycle numbers, robot time advancing by one
+// period), valid compensated wrench ~ 0 with the true parameters, exactly -1 N in fx after the
+// reload with no cycle missed around it, loop statistics published, clean exit, and ftidd's own
+// recording converts to a CSV log.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <string>
+
+#include "ftid/effects/model.hpp"
+#include "ftid/identify/parameter_set.hpp"
+#include "ftid/transport/codec.hpp"
+#include "ftid/transport/lcm_log.hpp"
+#include "ftid/transport/lcm_to_csv.hpp"
+
+namespace {
+
+bool commandWorks(const std::string& cmd) {
+  return std::system((cmd + " >/dev/null 2>&1").c_str()) == 0;
+}
+
+bool fileExists(const std::string& p) { return ::access(p.c_str(), X_OK) == 0; }
+
+// The simulator's default payload (paper Table 2, docs/sensor.md) as a "paper" parameter file.
+void writePaperParams(const std::string& path, double f0_x_extra) {
+  const double g = 9.80665;
+  const double m = 8.862 / g;
+  const double cx = 0.005, cy = 0.002, cz = 0.051;
+  const double deg = M_PI / 180.0;
+  std::map<std::string, double> v = {{"mass", m},          {"mass_com_x", m * cx},
+                                     {"mass_com_y", m * cy}, {"mass_com_z", m * cz},
+                                     {"f0_x", -0.6672 + f0_x_extra}, {"f0_y", 0.8565},
+                                     {"f0_z", 0.3538},     {"t0_x", 0.0228},
+                                     {"t0_y", 0.0084},     {"t0_z", 0.0080}};
+  const ftid::effects::Model model = ftid::effects::Model::fromName("paper");
+  ftid::identify::ParameterSet set;
+  set.model = model.name();
+  for (const auto& name : model.paramIndex().names()) set.params.push_back({name, v.at(name), 0.0, ""});
+  set.tilt_estimated = true;
+  set.tilt_u_rad = -9.8716 * deg;
+  set.tilt_v_rad = -5.3709 * deg;
+  ftid::identify::writeParameterFile(path, set);
+}
+
+TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
+  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
+  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  if (!fileExists(ftid) || !fileExists(ftidd)) GTEST_SKIP() << "ftid/ftidd not built";
+  if (!commandWorks("command -v lcm-logger")) GTEST_SKIP() << "lcm-logger (liblcm-bin) not installed";
+  if (!commandWorks("unshare -rn true")) {
+    GTEST_SKIP() << "unshare -rn not permitted: this test only sends LCM udpm traffic inside a "
+                    "private network namespace";
+  }
+  const std::string dir = ::testing::TempDir() + "ftidd_e2e_" + std::to_string(::getpid());
+  ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
+  writePaperParams(dir + "/params.yaml", 0.0);
+  writePaperParams(dir + "/params_v2.yaml", 1.0);
+  {
+    std::ofstream cfg(dir + "/ftidd.yaml");
+    cfg << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
+        << "sensor:\n  socket_path: " << dir << "/ft.sock\n  dbc_path: " FTID_SOURCE_DIR
+        << "/config/ftsensor.dbc\n"
+        << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
+        << "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  stats_period_s: 0.5\n"
+        << "rt:\n  lock_memory: false\n  priority: 10\n";
+  }
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::ofstream script(dir + "/run.sh");
+  script << "set -u\n"
+         << "ip link set lo up && ip route add 224.0.0.0/4 dev lo || exit 90\n"
+         << "'" << ftid << "' sim-robot > '" << dir << "/robot.log' 2>&1 & R=$!\n"
+         << "'" << ftid << "' sim-sensor --socket '" << dir << "/ft.sock' --urdf " FTID_SOURCE_DIR
+         << "/config/ur10.urdf --dbc " FTID_SOURCE_DIR "/config/ftsensor.dbc > '" << dir
+         << "/sensor.log' 2>&1 & S=$!\n"
+         << "lcm-logger --quiet --force --lcm-url='" << url << "' --channel='FTID_.*' '" << dir
+         << "/logger.lcm' & L=$!\n"
+         << "'" << ftidd << "' --config '" << dir << "/ftidd.yaml' --record '" << dir
+         << "/ftidd.lcm' > '" << dir << "/ftidd.log' 2>&1 & D=$!\n"
+         << "sleep 4\n"
+         << "mv '" << dir << "/params_v2.yaml' '" << dir << "/params.yaml'\n"
+         << "kill -HUP $D\n"
+         << "sleep 2\n"
+         << "kill -TERM $D; wait $D; RC=$?\n"
+         << "kill -INT $L; wait $L\n"
+         << "kill -TERM $S $R; wait $S $R\n"
+         << "exit $RC\n";
+  script.close();
+  const int rc = std::system(("unshare -rn sh '" + dir + "/run.sh'").c_str());
+  ASSERT_EQ(rc, 0) << "ftidd log:\n"
+                   << std::ifstream(dir + "/ftidd.log").rdbuf();
+
+  ftid::transport::LcmLogReader reader(dir + "/logger.lcm");
+  ftid::transport::LcmLogEvent ev;
+  int wrenches = 0, stats = 0, valid = 0, v1 = 0, v2 = 0;
+  std::int64_t prev_cycle = -1;
+  double prev_time = 0.0;
+  double first_time = 0.0, last_time = 0.0;
+  bool seen_valid = false;
+  double max_err_v1 = 0.0, max_err_v2 = 0.0;
+  int version_changes = 0;
+  int prev_version = 0;
+  while (reader.next(&ev)) {
+    if (ev.channel == "FTID_STATS") {
+      ++stats;
+      continue;
+    }
+    if (ev.channel != "FTID_WRENCH") continue;
+    ftid_lcm::compensated_wrench_t m{};
+    ASSERT_TRUE(ftid::transport::decodeFrom(ev.data.data(), ev.data.size(), &m));
+    if (prev_cycle >= 0) {
+      ASSERT_EQ(m.cycle, prev_cycle + 1) << "a cycle was not published";
+      ASSERT_NEAR(m.robot_time - prev_time, 0.008, 1e-6) << "robot packet missed at cycle " << m.cycle;
+    } else {
+      first_time = m.robot_time;
+    }
+    prev_cycle = m.cycle;
+    prev_time = m.robot_time;
+    last_time = m.robot_time;
+    ++wrenches;
+    if (m.valid) {
+      seen_valid = true;
+      ++valid;
+    } else {
+      EXPECT_FALSE(seen_valid) << "invalid wrench after the sensor was up, cycle " << m.cycle;
+      continue;
+    }
+    if (prev_version != 0 && m.param_version != prev_version) ++version_changes;
+    prev_version = m.param_version;
+    if (m.param_version == 1) {
+      ++v1;
+      for (int i = 0; i < 6; ++i) max_err_v1 = std::max(max_err_v1, std::abs(m.contact[i]));
+    } else if (m.param_version == 2) {
+      ++v2;
+      const double expected[6] = {-1.0, 0, 0, 0, 0, 0};
+      for (int i = 0; i < 6; ++i) {
+        max_err_v2 = std::max(max_err_v2, std::abs(m.contact[i] - expected[i]));
+      }
+    }
+  }
+  EXPECT_GT(wrenches, 400);
+  EXPECT_GT(valid, 300);
+  EXPECT_GT(v1, 100);
+  EXPECT_GT(v2, 100);
+  EXPECT_EQ(version_changes, 1);
+  // The sensor's CAN encoding quantises forces and moments; the payload model is exact at rest.
+  EXPECT_LT(max_err_v1, 0.02);
+  EXPECT_LT(max_err_v2, 0.02);
+  EXPECT_GE(stats, 4);
+  EXPECT_NEAR(static_cast<double>(wrenches - 1) / (last_time - first_time), 125.0, 0.5);
+
+  // ftidd's own recording -> CSV log rows.
+  ftid::transport::LcmToLogReport report;
+  const auto log = ftid::transport::lcmLogToLogData(dir + "/ftidd.lcm", {}, &report);
+  EXPECT_GT(log.samples.size(), 300u);
+  EXPECT_TRUE(log.has_imu);
+  std::system(("rm -rf '" + dir + "'").c_str());
+}
+
+}  // namespace

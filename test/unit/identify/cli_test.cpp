@@ -1,0 +1,139 @@
+// `ftid identify` / `ftid compensate` end to end on simulated logs: JSON output, parameter file,
+// compensated CSV, and the one-line errors with non-zero exit codes for bad input.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include "ftid/logio/log.hpp"
+#include "paper_cell.hpp"
+
+namespace {
+
+struct Run {
+  int code = -1;
+  std::string out;
+  std::string err;
+};
+
+std::string dir() { return std::string(FTID_BINARY_DIR) + "/identify_cli_test_"; }
+
+Run ftidRun(const std::string& args) {
+  const std::string err_file = dir() + "stderr.txt";
+  const std::string cmd = "cd " + std::string(FTID_SOURCE_DIR) + " && " + FTID_BINARY_DIR + "/apps/ftid/ftid " +
+                          args + " 2>" + err_file;
+  Run r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (p == nullptr) return r;
+  std::array<char, 4096> buf{};
+  std::size_t n = 0;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int status = pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream e(err_file);
+  std::stringstream ss;
+  ss << e.rdbuf();
+  r.err = ss.str();
+  return r;
+}
+
+double jsonValue(const std::string& json, const std::string& key) {
+  const std::string pat = "\"" + key + "\":{\"value\":";
+  const auto at = json.find(pat);
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(json.substr(at + pat.size()));
+}
+
+TEST(IdentifyCli, JsonParamsAndCompensation) {
+  const std::string log_path = dir() + "run.csv";
+  ftid::logio::writeLog(log_path, ftid::sim::CellSim(ftid::test::paperConfig(true, 9)).run());
+  const std::string params = dir() + "params.yaml";
+  const Run r = ftidRun("identify --log " + log_path + " --json --out " + params);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(jsonValue(r.out, "weight"), 8.862, 0.05) << r.out;
+  EXPECT_NEAR(jsonValue(r.out, "com_z"), 0.051, 0.002) << r.out;
+  EXPECT_NE(r.out.find("\"residual_rms\":{\"fx\":"), std::string::npos);
+
+  const Run t = ftidRun("identify --log " + log_path + " --method static");
+  ASSERT_EQ(t.code, 0) << t.err;
+  EXPECT_NE(t.out.find("residual RMS"), std::string::npos) << t.out;
+  EXPECT_NE(t.out.find("condition number"), std::string::npos) << t.out;
+
+  const std::string out_csv = dir() + "contact.csv";
+  const Run c = ftidRun("compensate --log " + log_path + " --params " + params + " --out " + out_csv);
+  ASSERT_EQ(c.code, 0) << c.err;
+  const ftid::logio::LogData log = ftid::logio::readLog(log_path);
+  std::ifstream in(out_csv);
+  std::string header, line;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("t,fx,fy,fz,tx,ty,tz,model_fx", 0), 0u) << header;
+  std::size_t rows = 0;
+  double worst = 0.0;
+  while (std::getline(in, line)) {
+    ++rows;
+    std::stringstream ss(line);
+    std::string cell;
+    std::getline(ss, cell, ',');
+    std::getline(ss, cell, ',');  // fx of the contact wrench
+    worst = std::max(worst, std::abs(std::stod(cell)));
+  }
+  EXPECT_EQ(rows, log.samples.size());
+  EXPECT_LT(worst, 0.3);  // noise 0.05 N: nothing but noise left
+}
+
+TEST(IdentifyCli, BadInputGivesOneLineAndNonZeroExit) {
+  const std::string bad = dir() + "bad.csv";
+  {
+    ftid::logio::LogData log = ftid::sim::CellSim(ftid::test::paperConfig(false, 9)).run();
+    log.samples.resize(50);
+    ftid::logio::writeLog(bad, log);
+  }
+  // Corrupt one value on line 5.
+  std::ifstream in(bad);
+  std::stringstream all;
+  std::string line;
+  int k = 0;
+  while (std::getline(in, line)) {
+    if (++k == 5) line = "nan" + line.substr(line.find(','));
+    all << line << "\n";
+  }
+  in.close();
+  std::ofstream(bad) << all.str();
+  const Run r = ftidRun("identify --log " + bad);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find(bad), std::string::npos) << r.err;
+  // Progress lines may precede it; the error itself is exactly one line, the last one.
+  const auto error_at = r.err.find("ftid identify: error: ");
+  ASSERT_NE(error_at, std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\n', error_at), r.err.size() - 1) << r.err;
+
+  const Run missing = ftidRun("identify --log " + dir() + "nope.csv --json");
+  EXPECT_EQ(missing.code, 1);
+  const Run usage = ftidRun("identify");
+  EXPECT_EQ(usage.code, 2);
+  const Run method = ftidRun("identify --log " + bad + " --method fast");
+  EXPECT_EQ(method.code, 2);
+
+  // One pose only: the data do not determine the parameters.
+  ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(false, 9);
+  cfg.motion = [](double) {
+    ftid::trajectory::TrajectoryPoint p;
+    p.q = ftid::sim::paperStartPose();
+    return p;
+  };
+  cfg.duration_s = 2.0;
+  const std::string still = dir() + "still.csv";
+  ftid::logio::writeLog(still, ftid::sim::CellSim(cfg).run());
+  const Run s = ftidRun("identify --log " + still + " --json");
+  EXPECT_EQ(s.code, 1);
+  EXPECT_NE(s.err.find("do not determine"), std::string::npos) << s.err;
+  EXPECT_EQ(std::count(s.err.begin(), s.err.end(), '\n'), 1) << s.err;
+}
+
+}  // namespace

@@ -1,0 +1,179 @@
+// fitModel beyond Table 2: subsets, held-out prediction, fixed tilt, the model-derivative hook,
+// and parameter files / JSON.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <fstream>
+
+#include "ftid/common/error.hpp"
+#include "ftid/identify/fit.hpp"
+#include "ftid/identify/parameter_set.hpp"
+#include "paper_cell.hpp"
+
+namespace ftid::identify {
+namespace {
+
+using test::Table2;
+
+const ContextSet& clean() {
+  static const ContextSet s = test::contextsOf(test::paperConfig(false, 11));
+  return s;
+}
+
+TEST(FitModel, SubsetFitEqualsFitOfTheCopiedSubset) {
+  std::vector<int> idx;
+  std::vector<SampleContext> copy;
+  for (int i = 100; i < 700; ++i) {
+    idx.push_back(i);
+    copy.push_back(clean().samples[static_cast<std::size_t>(i)]);
+  }
+  const Model model = Model::fromName("paper");
+  const FitResult a = fitModel(model, clean().samples, idx);
+  const FitResult b = fitModel(model, copy);
+  EXPECT_EQ(a.n_samples, 600);
+  EXPECT_LT((a.theta - b.theta).norm(), 1e-12);
+  EXPECT_NEAR(a.tilt_u_rad, b.tilt_u_rad, 1e-14);
+}
+
+TEST(FitModel, PredictsHeldOutDataExactly) {
+  std::vector<int> first, second;
+  for (int i = 0; i < static_cast<int>(clean().size()); ++i) (i < 600 ? first : second).push_back(i);
+  const Model model = Model::fromName("paper");
+  const FitResult fit = fitModel(model, clean().samples, first);
+  const auto pred = predictWrench(model, fit, clean().samples, second);
+  ASSERT_EQ(pred.cols(), static_cast<Eigen::Index>(second.size()));
+  double worst = 0.0;
+  for (std::size_t k = 0; k < second.size(); ++k) {
+    worst = std::max(worst, (pred.col(static_cast<Eigen::Index>(k)) - clean().samples[static_cast<std::size_t>(second[k])].wrench_S)
+                                .cwiseAbs()
+                                .maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-9);
+}
+
+TEST(FitModel, GivenTiltWithoutTiltEffect) {
+  FitOptions o;
+  o.tilt_u_rad = Table2::u();
+  o.tilt_v_rad = Table2::v();
+  const FitResult fit = fitModel(Model::fromName("offsets+gravity+linear_inertia"), clean().samples, o);
+  EXPECT_FALSE(fit.tilt_estimated);
+  EXPECT_TRUE(fit.tilt_applied);
+  EXPECT_NEAR(fit.value("mass"), Table2::mass(), 1e-9);
+  EXPECT_NEAR(fit.value("com_z"), Table2::com().z(), 1e-9);
+  // Wrong (level) tilt without the tilt effect: the fit cannot explain the data.
+  FitOptions level;
+  level.tilt_u_rad = 0.0;
+  level.tilt_v_rad = 0.0;
+  const FitResult bad = fitModel(Model::fromName("offsets+gravity+linear_inertia"), clean().samples, level);
+  EXPECT_GT(bad.residual_rms.head<3>().maxCoeff(), 0.1);
+}
+
+// A first-order delay effect registered at run time, to test the kSignalModelDerivative hook:
+//   reading(t) = w(t - tau) ~ w(t) - tau dw/dt
+class TestDelay final : public effects::Effect {
+ public:
+  std::string name() const override { return "test_delay"; }
+  std::string description() const override { return "test: wrench stream delayed by tau"; }
+  std::vector<effects::ParamInfo> params() const override { return {{"test_delay_s", "s", "delay"}}; }
+  std::uint32_t signals() const override { return effects::kSignalModelDerivative; }
+  void bind(const effects::ParamIndex& index) override { col_ = effects::requireColumn(index, "test_delay_s", name()); }
+  void addRegressor(const SampleContext& ctx,
+                    Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept override {
+    Y.col(col_) -= ctx.dwrench_model_dt;
+  }
+  std::unique_ptr<effects::Effect> clone() const override { return std::make_unique<TestDelay>(*this); }
+
+ private:
+  int col_ = 0;
+};
+
+TEST(FitModel, ModelDerivativeHookRecoversADelay) {
+  effects::registerEffect("test_delay", "test only", [](const std::string&) { return std::make_unique<TestDelay>(); });
+  sim::CellSimConfig cfg = test::paperConfig(false, 12);
+  cfg.sensor_delay.enabled = true;
+  cfg.sensor_delay.tau_s = 0.012;
+  const ContextSet s = test::contextsOf(cfg);
+  const FitResult plain = fitModel(Model::fromName("paper"), s.samples);
+  const Model delayed_model = Model::fromName("paper+test_delay");
+  const FitResult delayed = fitModel(delayed_model, s.samples);
+  EXPECT_NEAR(delayed.value("test_delay_s"), 0.012, 0.0006);
+  EXPECT_LT(delayed.residual_rms.maxCoeff(), 0.1 * plain.residual_rms.maxCoeff());
+  EXPECT_NEAR(delayed.value("mass"), Table2::mass(), 1e-3);
+  // predictWrench fills the derivative the same way.
+  const auto pred = predictWrench(delayed_model, delayed, s.samples);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> meas(6, pred.cols());
+  for (Eigen::Index i = 0; i < pred.cols(); ++i) meas.col(i) = s.samples[static_cast<std::size_t>(i)].wrench_S;
+  const Vec6 rms = ((meas - pred).rowwise().squaredNorm() / static_cast<double>(pred.cols())).cwiseSqrt();
+  EXPECT_LT(rms.maxCoeff(), 2.0 * delayed.residual_rms.maxCoeff() + 1e-6);
+}
+
+TEST(FitModel, NonFiniteInputIsADataError) {
+  std::vector<SampleContext> c = clean().samples;
+  c[17].wrench_S(3) = std::nan("");
+  EXPECT_THROW(fitModel(Model::fromName("paper"), c), DataError);
+}
+
+std::string tempPath(const std::string& name) {
+  return std::string(FTID_BINARY_DIR) + "/identify_test_" + name;
+}
+
+TEST(ParameterFile, RoundTripKeepsBackupAndNamesBadKeys) {
+  const FitResult fit = fitModel(Model::fromName("paper"), clean().samples);
+  ParameterSet set = toParameterSet(fit);
+  set.provenance.data_file = "sim \"quoted\".csv";
+  const std::string path = tempPath("params.yaml");
+  std::remove(path.c_str());
+  std::remove((path + ".bak").c_str());
+  writeParameterFile(path, set);
+  EXPECT_FALSE(std::ifstream(path + ".bak").good());
+  writeParameterFile(path, set);
+  EXPECT_TRUE(std::ifstream(path + ".bak").good());
+  const ParameterSet back = readParameterFile(path);
+  EXPECT_EQ(back.model, "paper");
+  EXPECT_EQ(back.provenance.data_file, set.provenance.data_file);
+  const Model model = Model::fromName(back.model);
+  EXPECT_LT((thetaFor(model, back) - fit.theta).norm(), 1e-15);
+  EXPECT_DOUBLE_EQ(back.tilt_u_rad, fit.tilt_u_rad);
+  EXPECT_DOUBLE_EQ(back.find("com_z")->value, fit.value("com_z"));
+  EXPECT_DOUBLE_EQ(back.residual_rms(4), fit.residual_rms(4));
+
+  const std::string bad = tempPath("bad.yaml");
+  std::ofstream(bad) << "model: paper\nparameters:\n  mass: {value: heavy}\n";
+  try {
+    (void)readParameterFile(bad);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("parameters.mass.value"), std::string::npos) << e.what();
+  }
+  std::ofstream(bad) << "model: paper\nparameters:\n  mass: {value: 1.0}\n";
+  const ParameterSet partial = readParameterFile(bad);
+  try {
+    (void)thetaFor(model, partial, bad);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("parameters.f0_x"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(readParameterFile(tempPath("does_not_exist.yaml")), ConfigError);
+}
+
+TEST(Json, HasTheDocumentedKeys) {
+  const FitResult fit = fitModel(Model::fromName("paper"), clean().samples);
+  const std::string j = toJson(toParameterSet(fit));
+  for (const char* key : {"mass", "weight", "com_x", "com_y", "com_z", "f0_x", "f0_y", "f0_z", "t0_x", "t0_y",
+                          "t0_z", "tilt_u", "tilt_v"}) {
+    EXPECT_NE(j.find(std::string("\"") + key + "\":{\"value\":"), std::string::npos) << key;
+  }
+  EXPECT_NE(j.find("\"residual_rms\":{\"fx\":"), std::string::npos);
+  EXPECT_NE(j.find("\"condition_number\":"), std::string::npos);
+  int depth = 0;
+  for (char c : j) {
+    depth += (c == '{') - (c == '}');
+    ASSERT_GE(depth, 0);
+  }
+  EXPECT_EQ(depth, 0);
+  EXPECT_EQ(j.find("nan"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ftid::identify

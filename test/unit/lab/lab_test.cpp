@@ -1,0 +1,185 @@
+// The model laboratory on simulator runs whose truth contains an effect the starting model lacks:
+// the hidden effect must be the top significant candidate, adding it must bring the held-out
+// residual to within 1.2x the noise floor on every axis, and its identified parameters must match
+// the simulator's truth within 4 reported standard errors. Clean runs must raise no alarm.
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "ftid/common/error.hpp"
+
+#include "ftid/lab/analyze.hpp"
+#include "lab_sim.hpp"
+
+namespace {
+
+using namespace ftid;
+using labtest::analyzeRun;
+using labtest::baseConfig;
+using labtest::findParam;
+
+void expectHiddenEffectFound(const lab::AnalysisResult& r, const std::string& effect) {
+  ASSERT_FALSE(r.candidates.empty());
+  EXPECT_EQ(r.candidates.front().effect, effect) << lab::formatText(r);
+  EXPECT_TRUE(r.candidates.front().significant) << lab::formatText(r);
+  ASSERT_GE(r.steps.size(), 2u) << lab::formatText(r);
+  EXPECT_EQ(r.steps[1].added, effect);
+  // Nothing else significant after the hidden effect: the path stops there.
+  EXPECT_EQ(r.steps.size(), 2u) << lab::formatText(r);
+  ASSERT_TRUE(r.final_report.has_value());
+  for (int a = 0; a < 6; ++a) {
+    EXPECT_LT(r.final_report->residual_rms(a), 1.2 * r.noise_floor(a)) << "axis " << kWrenchAxisNames[a] << "\n"
+                                                                         << lab::formatText(r);
+  }
+  // The starting model really failed somewhere.
+  EXPECT_GT((r.report.residual_rms.cwiseQuotient(r.noise_floor)).maxCoeff(), 1.2);
+}
+
+void expectParam(const lab::ModelReport& rep, const std::string& name, double truth, double sigmas = 4.0) {
+  const auto* p = findParam(rep, name);
+  ASSERT_NE(p, nullptr) << name;
+  EXPECT_GT(p->std, 0.0) << name;
+  EXPECT_LT(std::abs(p->value - truth), sigmas * p->std)
+      << name << " = " << p->value << " +- " << p->std << ", truth " << truth;
+}
+
+TEST(NoiseFloor, RecoversWhiteNoiseStdAlsoUnderASmoothSignal) {
+  std::mt19937_64 gen(3);
+  std::normal_distribution<double> n(0.0, 0.3);
+  std::vector<double> pure(5000), mixed(5000);
+  for (std::size_t i = 0; i < pure.size(); ++i) {
+    const double t = static_cast<double>(i) / 125.0;
+    pure[i] = n(gen);
+    mixed[i] = pure[i] + 20.0 * std::sin(2.0 * M_PI * 1.0 * t) + 5.0 * std::cos(2.0 * M_PI * 2.5 * t);
+  }
+  EXPECT_NEAR(lab::estimateNoiseStd(pure), 0.3, 0.3 * 0.04);
+  EXPECT_NEAR(lab::estimateNoiseStd(mixed), 0.3, 0.3 * 0.05);
+  EXPECT_THROW(lab::estimateNoiseStd(std::vector<double>(5, 0.0)), DataError);
+}
+
+TEST(Statistics, ChiSquareSurvivalMatchesTables) {
+  EXPECT_NEAR(lab::chiSquareSurvival(3.841458820694124, 1), 0.05, 1e-9);
+  EXPECT_NEAR(lab::chiSquareSurvival(18.30703805327515, 10), 0.05, 1e-9);
+  EXPECT_NEAR(lab::chiSquareSurvival(50.89218131151707, 30), 0.01, 1e-9);
+  EXPECT_NEAR(lab::chiSquareSurvival(2.0, 2), std::exp(-1.0), 1e-12);
+  EXPECT_EQ(lab::chiSquareSurvival(0.0, 3), 1.0);
+}
+
+TEST(Analyze, CleanRunsRaiseNoAlarm) {
+  // Several seeds: the truth is the paper model plus noise; no candidate may be significant.
+  for (std::uint64_t seed : {11u, 12u, 13u}) {
+    const auto r = analyzeRun(baseConfig(seed), "paper", true);
+    for (const auto& c : r.candidates) EXPECT_FALSE(c.significant) << "seed " << seed << "\n" << lab::formatText(r);
+    EXPECT_EQ(r.steps.size(), 1u);
+    for (int a = 0; a < 6; ++a) {
+      EXPECT_LT(r.report.residual_rms(a), 1.2 * r.noise_floor(a));
+      const double true_noise = a < 3 ? 0.05 : 0.01;
+      EXPECT_NEAR(r.noise_floor(a), true_noise, 0.1 * true_noise);
+    }
+  }
+}
+
+TEST(Analyze, FindsHiddenRigidBodyAndTheInertiaAboutTheCentreOfMass) {
+  auto cfg = baseConfig(21);
+  cfg.full_rigid_body = true;
+  const auto r = analyzeRun(cfg, "paper", true);
+  expectHiddenEffectFound(r, "rigid_body");
+  const auto& rep = *r.final_report;
+  const Mat3& I = cfg.payload.I_C_S;
+  expectParam(rep, "i_c_xx", I(0, 0));
+  expectParam(rep, "i_c_yy", I(1, 1));
+  expectParam(rep, "i_c_zz", I(2, 2));
+  expectParam(rep, "i_c_xy", I(0, 1));
+  expectParam(rep, "i_c_xz", I(0, 2));
+  expectParam(rep, "i_c_yz", I(1, 2));
+  expectParam(rep, "mass", cfg.payload.mass_kg);
+  ASSERT_TRUE(rep.inertia.has_value());
+  EXPECT_TRUE(rep.inertia->valid_within_uncertainty);
+}
+
+TEST(Analyze, FindsHiddenCableAndItsStiffness) {
+  auto cfg = baseConfig(31);
+  cfg.cable.enabled = true;
+  cfg.cable.stiffness_N_per_m = 4.0;
+  const auto r = analyzeRun(cfg, "paper", true);
+  expectHiddenEffectFound(r, "cable");
+  const auto& rep = *r.final_report;
+  const double k = cfg.cable.stiffness_N_per_m;
+  expectParam(rep, "cable_k", k);
+  expectParam(rep, "cable_ka_x", k * cfg.cable.p_SA_S.x());
+  expectParam(rep, "cable_ka_y", k * cfg.cable.p_SA_S.y());
+  expectParam(rep, "cable_ka_z", k * cfg.cable.p_SA_S.z());
+}
+
+TEST(Analyze, FindsHiddenTemperatureDrift) {
+  auto cfg = baseConfig(41);
+  cfg.temperature_drift.enabled = true;
+  cfg.temperature_drift.reference_degC = 25.0;
+  const auto r = analyzeRun(cfg, "paper", true);
+  expectHiddenEffectFound(r, "temperature_drift");
+  const auto& rep = *r.final_report;
+  const char* ax[3] = {"x", "y", "z"};
+  for (int i = 0; i < 3; ++i) {
+    expectParam(rep, std::string("f0_dtemp_") + ax[i], cfg.temperature_drift.dF0_dT_N_per_degC(i));
+    expectParam(rep, std::string("t0_dtemp_") + ax[i], cfg.temperature_drift.dT0_dT_Nm_per_degC(i));
+  }
+}
+
+TEST(Analyze, TellsTimeDriftFromTemperatureDrift) {
+  // The simulator's temperature rises and oscillates (not monotonic in time).
+  auto cfg = baseConfig(51);
+  cfg.time_drift.enabled = true;
+  const auto r = analyzeRun(cfg, "paper", true);
+  expectHiddenEffectFound(r, "time_drift");
+  const auto& rep = *r.final_report;
+  const char* ax[3] = {"x", "y", "z"};
+  for (int i = 0; i < 3; ++i) {
+    expectParam(rep, std::string("f0_dt_") + ax[i], cfg.time_drift.dF0_dt_N_per_s(i));
+    expectParam(rep, std::string("t0_dt_") + ax[i], cfg.time_drift.dT0_dt_Nm_per_s(i));
+  }
+  // And the other way round: the temperature run does not pick time.
+  auto cfg2 = baseConfig(52);
+  cfg2.temperature_drift.enabled = true;
+  const auto r2 = analyzeRun(cfg2, "paper", false);
+  EXPECT_EQ(r2.candidates.front().effect, "temperature_drift");
+  EXPECT_GT(r2.candidates.front().relative_reduction, r2.candidates[1].relative_reduction);
+}
+
+TEST(Analyze, FindsHiddenSensorDelay) {
+  auto cfg = baseConfig(61);
+  cfg.sensor_delay.enabled = true;
+  cfg.sensor_delay.tau_s = 0.012;
+  const auto r = analyzeRun(cfg, "paper", true);
+  expectHiddenEffectFound(r, "sensor_delay");
+  expectParam(*r.final_report, "delay", cfg.sensor_delay.tau_s);
+}
+
+TEST(Analyze, ExternalValidationLogAndErrors) {
+  auto cfg = baseConfig(71);
+  const auto fit = labtest::contexts(cfg);
+  cfg.seed = 72;
+  const auto val = labtest::contexts(cfg);
+  lab::AnalyzeOptions o;
+  const auto r = lab::analyze(fit.samples, &val.samples, o, "a.csv", "b.csv");
+  EXPECT_EQ(r.n_eval, static_cast<int>(val.samples.size()));
+  for (int a = 0; a < 6; ++a) EXPECT_LT(r.report.residual_rms(a), 1.2 * r.noise_floor(a));
+  o.model = "paper+no_such_effect";
+  EXPECT_THROW(lab::analyze(fit.samples, nullptr, o), ConfigError);
+  o.model = "paper";
+  std::vector<effects::SampleContext> few(fit.samples.begin(), fit.samples.begin() + 30);
+  EXPECT_THROW(lab::analyze(few, nullptr, o), DataError);
+}
+
+TEST(Analyze, JsonHasTheDocumentedKeys) {
+  auto cfg = baseConfig(81);
+  cfg.time_drift.enabled = true;
+  const auto r = analyzeRun(cfg, "paper", true);
+  const std::string j = lab::formatJson(r);
+  for (const char* key : {"\"model\"", "\"residual_rms\"", "\"noise_floor\"", "\"candidates\"", "\"effect\"",
+                          "\"relative_reduction\"", "\"significant\"", "\"steps\"", "\"fx\"", "\"tz\""}) {
+    EXPECT_NE(j.find(key), std::string::npos) << key;
+  }
+  EXPECT_NE(j.find("--model paper+time_drift"), std::string::npos);
+}
+
+}  // namespace
