@@ -34,6 +34,11 @@ trajectory::FourierTrajectory richTrajectory() {
   b[4] = {0.30, -0.25, 0.15};
   a[5] = {0.50, -0.30, 0.35};
   b[5] = {-0.25, 0.20, 0.30};
+  // Rest-to-rest (sum_l a_l = 0, sum_l l b_l = 0): the third harmonic closes each joint.
+  for (int j = 0; j < kNumJoints; ++j) {
+    a[j][2] = -(a[j][0] + a[j][1]);
+    b[j][2] = -(b[j][0] + 2.0 * b[j][1]) / 3.0;
+  }
   return trajectory::FourierTrajectory(sim::paperStartPose(), 0.2, 3, 10.0, a, b);
 }
 

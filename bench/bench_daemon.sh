@@ -37,7 +37,8 @@ YAML
     '$FTID' sim-robot --model $model > '$WORK/robot.log' 2>&1 & R=\$!
     '$FTID' sim-sensor --socket '$WORK/ft.sock' --urdf '$SRC/config/$model.urdf' --dbc '$SRC/config/ftsensor.dbc' > '$WORK/sensor.log' 2>&1 & S=\$!
     '$FTIDD' --config '$WORK/ftidd.yaml' --connect-timeout 20 > '$WORK/ftidd.log' 2>&1 & D=\$!
-    sleep 3
+    i=0; until grep -q 'running at' '$WORK/ftidd.log'; do sleep 0.2; i=\$((i+1)); [ \$i -gt 150 ] && break; done
+    sleep 1
     '$BENCH' 'udpm://239.255.76.67:7667?ttl=0' $SECONDS_RUN FTID_WRENCH
     kill -TERM \$D; wait \$D
     kill -TERM \$S \$R; wait \$S \$R 2>/dev/null

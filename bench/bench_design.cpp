@@ -46,8 +46,9 @@ struct SimErrors {
   double com_rms = 0.0;       // [m], RMS over axes and seeds
 };
 
-SimErrors simulate(const model::RobotKinematics& kin, const trajectory::FourierTrajectory& tr, int seeds) {
-  const auto model = effects::Model::fromName("paper");
+SimErrors simulate(const model::RobotKinematics& kin, const trajectory::FourierTrajectory& tr, int seeds,
+                   const std::string& model_name = "paper", bool full_rigid_body = true) {
+  const auto model = effects::Model::fromName(model_name);
   const double m = sim::PaperPayload::kMass_kg;
   const Vec3 c = sim::PaperPayload::centreOfMass();
   double sm = 0.0, sc = 0.0;
@@ -56,6 +57,7 @@ SimErrors simulate(const model::RobotKinematics& kin, const trajectory::FourierT
     cfg.trajectory = tr;
     cfg.duration_s = tr.duration();
     cfg.seed = 1000 + static_cast<std::uint64_t>(s);
+    cfg.full_rigid_body = full_rigid_body;
     cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
     const auto log = sim::CellSim(cfg).run();
     const auto ctx = identify::buildContexts(log, kin);
@@ -80,6 +82,7 @@ int main(int argc, char** argv) {
 
   design::DesignOptions o;
   o.robot_path = robot;
+  o.model = sarg(argc, argv, "--model", "paper");
   o.duration_s = arg(argc, argv, "--duration", 10.0);
   o.harmonics = static_cast<int>(arg(argc, argv, "--harmonics", 5));
   if (sarg(argc, argv, "--objective", "cond") == "dopt") o.objective = design::Objective::kDOptimality;
@@ -104,13 +107,16 @@ int main(int argc, char** argv) {
               100.0 * r.predicted_std.at("mass") / sim::PaperPayload::kMass_kg, 1e3 * r.predicted_std.at("com_x"),
               1e3 * r.predicted_std.at("com_y"), 1e3 * r.predicted_std.at("com_z"));
   {
-    const SimErrors e = simulate(kin, r.file.toTrajectory(), seeds);
-    const SimErrors p = simulate(kin, sim::paperExcitationTrajectory(), seeds);
-    std::printf("simulated identification (%d seeds, full rigid body, noise 0.05 N / 0.01 Nm):\n", seeds);
-    std::printf("  designed:          mass RMS error %.3g %%, com RMS error %.3g mm\n", 100 * e.mass_rel_rms,
-                1e3 * e.com_rms);
-    std::printf("  paper-style 10 s:  mass RMS error %.3g %%, com RMS error %.3g mm\n", 100 * p.mass_rel_rms,
-                1e3 * p.com_rms);
+    for (bool full : {false, true}) {
+      const SimErrors e = simulate(kin, r.file.toTrajectory(), seeds, o.model, full);
+      const SimErrors p = simulate(kin, sim::paperExcitationTrajectory(), seeds, "paper", full);
+      std::printf("simulated identification (%d seeds, %s physics, noise 0.05 N / 0.01 Nm):\n", seeds,
+                  full ? "full rigid-body" : "paper-model");
+      std::printf("  designed (fit %s):  mass RMS error %.3g %%, com RMS error %.3g mm\n", o.model.c_str(),
+                  100 * e.mass_rel_rms, 1e3 * e.com_rms);
+      std::printf("  paper-style 10 s (fit paper):  mass RMS error %.3g %%, com RMS error %.3g mm\n",
+                  100 * p.mass_rel_rms, 1e3 * p.com_rms);
+    }
   }
 
   if (skip_search) return 0;
@@ -136,8 +142,8 @@ int main(int argc, char** argv) {
   if (d.found) {
     std::printf("shortest duration meeting the targets: %.2f s (cond %.4g)\n", d.best.file.duration_s,
                 d.best.condition_number);
-    const SimErrors e = simulate(kin, d.best.file.toTrajectory(), seeds);
-    std::printf("  simulated (%d seeds): mass RMS error %.3g %%, com RMS error %.3g mm\n", seeds,
+    const SimErrors e = simulate(kin, d.best.file.toTrajectory(), seeds, s.model, false);
+    std::printf("  simulated (%d seeds, paper-model physics): mass RMS error %.3g %%, com RMS error %.3g mm\n", seeds,
                 100 * e.mass_rel_rms, 1e3 * e.com_rms);
   } else {
     std::printf("no duration up to 60 s met the targets\n");

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/offline.hpp"

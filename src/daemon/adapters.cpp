@@ -24,6 +24,9 @@ Status RtdeArmSource::waitForState(std::chrono::nanoseconds timeout,
                                    transport::RobotStateRecord* out) noexcept {
   const Status s = client_.tryReceiveState(timeout, &state_);
   if (s != Status::kOk) return s;
+  if (state_.packages_skipped > 0) {
+    skipped_.fetch_add(state_.packages_skipped, std::memory_order_relaxed);
+  }
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
   out->recv_utime = static_cast<std::int64_t>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;

@@ -218,11 +218,17 @@ int Daemon::run() {
   std::atomic<bool> loop_done{false};
   rt::LoopExit loop_exit = rt::LoopExit::kStopRequested;
   std::string loop_error;
-  rt::RealtimeReport thread_report;
+  rt::RealtimeReport thread_report;       // complete only after the loop returns
+  std::atomic<bool> loop_fifo{false};      // what the loop thread actually got
   outbox.start();
   std::thread launcher([&] {
     try {
       thread_report = rt::runInRealtimeThread(rt_cfg, [&] {
+        int policy = SCHED_OTHER;
+        sched_param sp{};
+        if (pthread_getschedparam(pthread_self(), &policy, &sp) == 0) {
+          loop_fifo.store(policy == SCHED_FIFO || policy == SCHED_RR, std::memory_order_release);
+        }
         loop_exit = rt::runDeviceClocked(cycle, exec, loop_stats.get(), &stop);
       });
     } catch (const std::exception& e) {
@@ -310,9 +316,13 @@ int Daemon::run() {
     if (!ready_sent && c.cycles.load() > 0) {
       ready_sent = true;
       notifySystemd("READY=1");
-      logLine("running: " + (thread_report.problems.empty() && rt_report.problems.empty()
-                                 ? std::string("real-time ") + thread_report.describe()
-                                 : std::string("NOT real-time (") + thread_report.describe() + ")"));
+      const bool locked = rt_report.memory_locked || !cfg.rt.lock_memory;
+      char hz[32];
+      std::snprintf(hz, sizeof hz, "%g", cfg.robot.rtde_frequency_hz);
+      logLine(std::string("running at ") + hz + " Hz; loop thread " +
+              (loop_fifo.load() ? "SCHED_FIFO " + std::to_string(cfg.rt.priority)
+                                : std::string("SCHED_OTHER (not real-time)")) +
+              (locked ? "" : ", memory not locked"));
     }
     if (watchdog_usec > 0 && Clock::now() >= next_watchdog) {
       if (heartbeat != last_heartbeat) notifySystemd("WATCHDOG=1");  // only while the loop lives
@@ -329,7 +339,7 @@ int Daemon::run() {
       s.utime = realtimeNowUs();
       s.uptime_s = secondsSince(t0);
       s.cycles = static_cast<std::int64_t>(c.cycles.load());
-      s.missed_cycles = static_cast<std::int64_t>(c.missed.load() + snap.packets_lost);
+      s.missed_cycles = static_cast<std::int64_t>(c.missed.load() + arm->packetsSkipped());
       s.overruns = static_cast<std::int64_t>(countAbove(snap.compute, budget_us));
       s.compute_p50_us = intervalQuantileUs(snap.compute, prev_stats.compute, 0.5);
       s.compute_p999_us = intervalQuantileUs(snap.compute, prev_stats.compute, 0.999);
@@ -344,7 +354,7 @@ int Daemon::run() {
       s.reloads_failed = reloads_failed;
       s.param_version = static_cast<std::int32_t>(params.version());
       s.fault_bits = faults_since_report;
-      s.realtime = thread_report.fifo && (rt_report.memory_locked || !cfg.rt.lock_memory);
+      s.realtime = loop_fifo.load() && (rt_report.memory_locked || !cfg.rt.lock_memory);
       outbox.publishStats(s);
       prev_stats = snap;
       faults_since_report = 0;

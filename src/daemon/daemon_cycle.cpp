@@ -80,7 +80,7 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
 
   // Sensor: newest sample, flagged if stale, invalid or non-finite.
   sensor_->tryReadLatest(now, &rec.sensor);
-  rec.sensor_age_us = now - rec.sensor.recv_utime;
+  rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
   if (rec.sensor.recv_utime <= 0 || rec.sensor_age_us > options_.stale_timeout_us) {
     rec.sensor.health_flags |= transport::kHealthStale;
   }

@@ -61,7 +61,7 @@ class Cfg {
 // Built-in defaults, identical to config/design.yaml (which documents them).
 const JointVector kVelocity = (JointVector() << 1.0, 1.0, 1.5, 2.0, 2.0, 2.0).finished();
 const JointVector kAcceleration = (JointVector() << 2.0, 2.0, 4.0, 6.0, 6.0, 6.0).finished();
-const JointVector kExcursion = (JointVector() << 1.0, 1.0, 1.0, 3.14159, 3.14159, 3.14159).finished();
+const JointVector kExcursion = (JointVector() << 1.0, 1.0, 1.0, 3.1416, 3.1416, 3.1416).finished();
 
 }  // namespace
 

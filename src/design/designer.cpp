@@ -419,22 +419,22 @@ BaselineReport computeBaselines(const DesignOptions& opt, Problem& p, const mode
     b.random_count = static_cast<int>(conds.size());
   }
   if (!opt.static_baseline) return b;
-  // Static six-pose method: wrist (joints 4-6) offsets from q0 in quarter turns, feasible poses,
-  // one pose per gravity direction +-x, +-y, +-z in S.
+  // Static six-pose method: wrist (joints 4-6) offsets from q0 in eighth turns, feasible poses,
+  // one pose per gravity direction +-x, +-y, +-z in S (the closest feasible one).
   model::RobotKinematics k = kin;
   k.setSensorMount(opt.constraints.R_FS, opt.constraints.p_FS_F);
   const auto& c = opt.constraints;
-  const double quarter = 1.5707963267948966;
+  const double step = 0.7853981633974483;
   Vec3 dirs[6] = {Vec3::UnitX(), -Vec3::UnitX(), Vec3::UnitY(), -Vec3::UnitY(), Vec3::UnitZ(), -Vec3::UnitZ()};
   double best_score[6] = {-2, -2, -2, -2, -2, -2};
   JointVector best_pose[6];
-  for (int a = -2; a <= 2; ++a) {
-    for (int bb = -2; bb <= 2; ++bb) {
-      for (int cc = -2; cc <= 2; ++cc) {
+  for (int a = -4; a <= 4; ++a) {
+    for (int bb = -4; bb <= 4; ++bb) {
+      for (int cc = -4; cc <= 4; ++cc) {
         JointVector q = opt.q0;
-        q[3] += a * quarter;
-        q[4] += bb * quarter;
-        q[5] += cc * quarter;
+        q[3] += a * step;
+        q[4] += bb * step;
+        q[5] += cc * step;
         if (((q - c.position_lower).array() < 0.0).any() || ((c.position_upper - q).array() < 0.0).any()) continue;
         const auto sm = k.computeSensorMotion(q, JointVector::Zero(), JointVector::Zero());
         bool ok = true;
@@ -461,7 +461,7 @@ BaselineReport computeBaselines(const DesignOptions& opt, Problem& p, const mode
   }
   std::vector<JointVector> qs, zeros;
   for (int d = 0; d < 6; ++d) {
-    if (best_score[d] > 0.9) qs.push_back(best_pose[d]);
+    if (best_score[d] > 0.7) qs.push_back(best_pose[d]);
   }
   b.static_poses = qs;
   if (qs.size() == 6) {

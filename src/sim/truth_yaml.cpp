@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <vector>
 
@@ -16,52 +17,65 @@ namespace ftid::sim {
 
 namespace {
 
+// Shortest representation that reads back to the identical double.
+struct Num {
+  double v;
+};
+YAML::Emitter& operator<<(YAML::Emitter& e, Num n) {
+  char buf[32];
+  const auto res = std::to_chars(buf, buf + sizeof buf, n.v);
+  std::string text(buf, res.ptr);
+  // "8e-04" -> "8.0e-04": also a float for YAML 1.1 readers (e.g. PyYAML).
+  const auto epos = text.find('e');
+  if (epos != std::string::npos && text.find('.') == std::string::npos) text.insert(epos, ".0");
+  return e << text;
+}
+
 void vec3(YAML::Emitter& e, const char* key, const Vec3& v) {
-  e << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << v.x() << v.y() << v.z() << YAML::EndSeq;
+  e << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << Num{v.x()} << Num{v.y()} << Num{v.z()} << YAML::EndSeq;
 }
 
 }  // namespace
 
 std::string truthYaml(const CellSimConfig& c) {
   YAML::Emitter e;
-  e.SetDoublePrecision(17);
   e << YAML::Comment("Truth of a simulated ftid run (docs/simulator.md; names: docs/conventions.md)");
   e << YAML::BeginMap;
   e << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
   const PayloadTruth& p = c.payload;
-  e << YAML::Key << "mass" << YAML::Value << p.mass_kg;
-  e << YAML::Key << "weight" << YAML::Value << p.mass_kg * kStandardGravity;
-  e << YAML::Key << "com_x" << YAML::Value << p.p_SC_S.x();
-  e << YAML::Key << "com_y" << YAML::Value << p.p_SC_S.y();
-  e << YAML::Key << "com_z" << YAML::Value << p.p_SC_S.z();
-  e << YAML::Key << "f0_x" << YAML::Value << c.F0_N.x();
-  e << YAML::Key << "f0_y" << YAML::Value << c.F0_N.y();
-  e << YAML::Key << "f0_z" << YAML::Value << c.F0_N.z();
-  e << YAML::Key << "t0_x" << YAML::Value << c.T0_Nm.x();
-  e << YAML::Key << "t0_y" << YAML::Value << c.T0_Nm.y();
-  e << YAML::Key << "t0_z" << YAML::Value << c.T0_Nm.z();
-  e << YAML::Key << "tilt_u" << YAML::Value << c.tilt_u_rad;
-  e << YAML::Key << "tilt_v" << YAML::Value << c.tilt_v_rad;
-  e << YAML::Key << "inertia" << YAML::Value << YAML::Flow << YAML::BeginSeq << p.I_C_S(0, 0) << p.I_C_S(1, 1)
-    << p.I_C_S(2, 2) << p.I_C_S(0, 1) << p.I_C_S(0, 2) << p.I_C_S(1, 2) << YAML::EndSeq;
+  e << YAML::Key << "mass" << YAML::Value << Num{p.mass_kg};
+  e << YAML::Key << "weight" << YAML::Value << Num{p.mass_kg * kStandardGravity};
+  e << YAML::Key << "com_x" << YAML::Value << Num{p.p_SC_S.x()};
+  e << YAML::Key << "com_y" << YAML::Value << Num{p.p_SC_S.y()};
+  e << YAML::Key << "com_z" << YAML::Value << Num{p.p_SC_S.z()};
+  e << YAML::Key << "f0_x" << YAML::Value << Num{c.F0_N.x()};
+  e << YAML::Key << "f0_y" << YAML::Value << Num{c.F0_N.y()};
+  e << YAML::Key << "f0_z" << YAML::Value << Num{c.F0_N.z()};
+  e << YAML::Key << "t0_x" << YAML::Value << Num{c.T0_Nm.x()};
+  e << YAML::Key << "t0_y" << YAML::Value << Num{c.T0_Nm.y()};
+  e << YAML::Key << "t0_z" << YAML::Value << Num{c.T0_Nm.z()};
+  e << YAML::Key << "tilt_u" << YAML::Value << Num{c.tilt_u_rad};
+  e << YAML::Key << "tilt_v" << YAML::Value << Num{c.tilt_v_rad};
+  e << YAML::Key << "inertia" << YAML::Value << YAML::Flow << YAML::BeginSeq << Num{p.I_C_S(0, 0)} << Num{p.I_C_S(1, 1)}
+    << Num{p.I_C_S(2, 2)} << Num{p.I_C_S(0, 1)} << Num{p.I_C_S(0, 2)} << Num{p.I_C_S(1, 2)} << YAML::EndSeq;
   e << YAML::EndMap;
   e << YAML::Key << "full_rigid_body" << YAML::Value << c.full_rigid_body;
   e << YAML::Key << "sensor_mount" << YAML::Value << YAML::BeginMap;
   e << YAML::Key << "R_FS" << YAML::Value << YAML::Flow << YAML::BeginSeq;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) e << c.R_FS(i, j);
+    for (int j = 0; j < 3; ++j) e << Num{c.R_FS(i, j)};
   e << YAML::EndSeq;
   vec3(e, "p_FS_F", c.p_FS_F);
   e << YAML::EndMap;
   e << YAML::Key << "effects" << YAML::Value << YAML::BeginMap;
   e << YAML::Key << "cable" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
-    << c.cable.enabled << YAML::Key << "stiffness" << YAML::Value << c.cable.stiffness_N_per_m;
+    << c.cable.enabled << YAML::Key << "stiffness" << YAML::Value << Num{c.cable.stiffness_N_per_m};
   vec3(e, "attach_S", c.cable.p_SA_S);
   vec3(e, "anchor_B", c.cable.p_BA_B);
   e << YAML::EndMap;
   e << YAML::Key << "temperature_drift" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
     << c.temperature_drift.enabled << YAML::Key << "reference_temp" << YAML::Value
-    << c.temperature_drift.reference_degC;
+    << Num{c.temperature_drift.reference_degC};
   vec3(e, "df0_dtemp", c.temperature_drift.dF0_dT_N_per_degC);
   vec3(e, "dt0_dtemp", c.temperature_drift.dT0_dT_Nm_per_degC);
   e << YAML::EndMap;
@@ -71,42 +85,42 @@ std::string truthYaml(const CellSimConfig& c) {
   vec3(e, "dt0_dt", c.time_drift.dT0_dt_Nm_per_s);
   e << YAML::EndMap;
   e << YAML::Key << "sensor_delay" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
-    << c.sensor_delay.enabled << YAML::Key << "tau" << YAML::Value << c.sensor_delay.tau_s << YAML::EndMap;
+    << c.sensor_delay.enabled << YAML::Key << "tau" << YAML::Value << Num{c.sensor_delay.tau_s} << YAML::EndMap;
   e << YAML::Key << "crosstalk" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
     << c.crosstalk.enabled << YAML::Key << "E" << YAML::Value << YAML::BeginSeq;
   for (int i = 0; i < 6; ++i) {
     e << YAML::Flow << YAML::BeginSeq;
-    for (int j = 0; j < 6; ++j) e << c.crosstalk.E(i, j);
+    for (int j = 0; j < 6; ++j) e << Num{c.crosstalk.E(i, j)};
     e << YAML::EndSeq;
   }
   e << YAML::EndSeq << YAML::EndMap;
   e << YAML::Key << "contact" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
-    << c.contact.enabled << YAML::Key << "t_start" << YAML::Value << c.contact.t_start_s << YAML::Key << "t_end"
-    << YAML::Value << c.contact.t_end_s;
+    << c.contact.enabled << YAML::Key << "t_start" << YAML::Value << Num{c.contact.t_start_s} << YAML::Key << "t_end"
+    << YAML::Value << Num{c.contact.t_end_s};
   vec3(e, "force_B", c.contact.force_B);
   vec3(e, "point_S", c.contact.p_SP_S);
   e << YAML::EndMap;
   e << YAML::EndMap;  // effects
   e << YAML::Key << "noise" << YAML::Value << YAML::BeginMap;
   e << YAML::Key << "wrench_std" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-  for (int i = 0; i < 6; ++i) e << c.noise.wrench_std[i];
+  for (int i = 0; i < 6; ++i) e << Num{c.noise.wrench_std[i]};
   e << YAML::EndSeq;
-  e << YAML::Key << "acc_std" << YAML::Value << c.noise.acc_std;
-  e << YAML::Key << "gyro_std" << YAML::Value << c.noise.gyro_std;
-  e << YAML::Key << "alpha_std" << YAML::Value << c.noise.alpha_std;
-  e << YAML::Key << "temp_std" << YAML::Value << c.noise.temp_std;
+  e << YAML::Key << "acc_std" << YAML::Value << Num{c.noise.acc_std};
+  e << YAML::Key << "gyro_std" << YAML::Value << Num{c.noise.gyro_std};
+  e << YAML::Key << "alpha_std" << YAML::Value << Num{c.noise.alpha_std};
+  e << YAML::Key << "temp_std" << YAML::Value << Num{c.noise.temp_std};
   e << YAML::EndMap;
   e << YAML::Key << "temperature_profile" << YAML::Value << YAML::BeginMap;
   e << YAML::Key << "custom" << YAML::Value << static_cast<bool>(c.temperature.custom);
-  e << YAML::Key << "start" << YAML::Value << c.temperature.start_degC;
-  e << YAML::Key << "warmup_rise" << YAML::Value << c.temperature.warmup_rise_degC;
-  e << YAML::Key << "warmup_tau" << YAML::Value << c.temperature.warmup_tau_s;
-  e << YAML::Key << "sine_amplitude" << YAML::Value << c.temperature.sine_amplitude_degC;
-  e << YAML::Key << "sine_period" << YAML::Value << c.temperature.sine_period_s;
+  e << YAML::Key << "start" << YAML::Value << Num{c.temperature.start_degC};
+  e << YAML::Key << "warmup_rise" << YAML::Value << Num{c.temperature.warmup_rise_degC};
+  e << YAML::Key << "warmup_tau" << YAML::Value << Num{c.temperature.warmup_tau_s};
+  e << YAML::Key << "sine_amplitude" << YAML::Value << Num{c.temperature.sine_amplitude_degC};
+  e << YAML::Key << "sine_period" << YAML::Value << Num{c.temperature.sine_period_s};
   e << YAML::EndMap;
   e << YAML::Key << "seed" << YAML::Value << c.seed;
-  e << YAML::Key << "rate" << YAML::Value << c.rate_hz;
-  e << YAML::Key << "duration" << YAML::Value << c.duration_s;
+  e << YAML::Key << "rate" << YAML::Value << Num{c.rate_hz};
+  e << YAML::Key << "duration" << YAML::Value << Num{c.duration_s};
   e << YAML::EndMap;
   return std::string(e.c_str()) + "\n";
 }

@@ -16,6 +16,8 @@ static_assert(noexcept(std::declval<FtImuSensor&>().tryReadLatest(std::declval<S
                                                                    std::int64_t{0})));
 static_assert(noexcept(std::declval<SampleAssembler&>().feed(std::declval<const ReceivedFrame&>())));
 static_assert(noexcept(std::declval<CanTransport&>().tryReceive(std::declval<ReceivedFrame&>())));
+static_assert(noexcept(std::declval<CanTransport&>().tryReceiveBatch(
+    std::declval<ReceivedFrame*>(), 1, std::declval<IoResult&>())));
 static_assert(noexcept(std::declval<CanTransport&>().trySend(std::declval<const can_frame&>())));
 
 TEST(RtCanSensor, DrainAssembleAndHealthDoNotAllocate) {

@@ -4,6 +4,7 @@
 // (model), the compensator (compensate) with parameters from a parameter file (identify), and
 // the LcmOutbox (transport). Constructors do set-up and may throw; the loop-side methods are
 // noexcept and allocation-free.
+#include <atomic>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -30,6 +31,9 @@ class RtdeArmSource final : public ArmStateSource {
   Status waitForState(std::chrono::nanoseconds timeout,
                       transport::RobotStateRecord* out) noexcept override;
   bool robotStopped() const noexcept override { return stopped_; }
+  std::uint64_t packetsSkipped() const noexcept override {
+    return skipped_.load(std::memory_order_relaxed);
+  }
   drivers::ur::RtdeClient& client() noexcept { return client_; }
 
  private:
@@ -39,6 +43,7 @@ class RtdeArmSource final : public ArmStateSource {
   double prev_time_ = 0.0;
   bool have_prev_ = false;
   bool stopped_ = false;
+  std::atomic<std::uint64_t> skipped_{0};
 };
 
 /// Converts a can::SensorSample (the CAN driver's) into the published record.

@@ -25,6 +25,9 @@ class ArmStateSource {
                               transport::RobotStateRecord* out) noexcept = 0;
   /// True if the last state reported a protective/emergency stop or a stopped program.
   virtual bool robotStopped() const noexcept { return false; }
+  /// State packets the source dropped since start because a newer one was already waiting
+  /// (drain-to-latest: the loop fell behind). Any thread may read it.
+  virtual std::uint64_t packetsSkipped() const noexcept { return 0; }
 };
 
 /// The F/T+IMU sensor, drained to its newest sample each cycle.

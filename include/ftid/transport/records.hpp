@@ -53,7 +53,7 @@ struct CycleRecord {
   std::int64_t cycle = 0;         ///< cycle number since start
   RobotStateRecord robot;
   SensorSampleRecord sensor;
-  std::int64_t sensor_age_us = 0; ///< utime - sensor.recv_utime
+  std::int64_t sensor_age_us = 0; ///< utime - sensor.recv_utime; -1 if no sample ever
   std::uint32_t fault_bits = 0;   ///< ftid::FaultBit
   Wrench modelled_S = Wrench::Zero();  ///< model prediction [N, Nm]
   Wrench contact_S = Wrench::Zero();   ///< raw - modelled, zero when !wrench_valid

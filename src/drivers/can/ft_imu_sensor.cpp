@@ -22,15 +22,17 @@ CanFtImuSensor::CanFtImuSensor(std::unique_ptr<CanTransport> transport, const Se
 }
 
 Status CanFtImuSensor::tryReadLatest(SensorSample& out, std::int64_t now_ns) noexcept {
-  ReceivedFrame rf;
-  for (int i = 0; i < kMaxFramesPerRead; ++i) {
-    const IoResult r = transport_->tryReceive(rf);
-    if (r == IoResult::kOk) {
-      assembler_.feed(rf);
-      continue;
+  int total = 0;
+  while (total < kMaxFramesPerRead) {
+    IoResult status = IoResult::kOk;
+    const int n = transport_->tryReceiveBatch(batch_.data(), static_cast<int>(batch_.size()), status);
+    for (int i = 0; i < n; ++i) assembler_.feed(batch_[static_cast<std::size_t>(i)]);
+    total += n;
+    if (status == IoResult::kClosed || status == IoResult::kError) {
+      assembler_.noteTransportProblem();
+      break;
     }
-    if (r != IoResult::kWouldBlock) assembler_.noteTransportProblem();
-    break;
+    if (n < static_cast<int>(batch_.size())) break;  // drained
   }
   assembler_.readLatest(out, now_ns);
   return statusOf(out);

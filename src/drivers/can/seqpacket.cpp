@@ -39,6 +39,9 @@ class SeqpacketEndpoint final : public CanTransport {
   IoResult tryReceive(ReceivedFrame& out) noexcept override {
     return detail::receiveFrame(fd_, out, last_errno_);
   }
+  int tryReceiveBatch(ReceivedFrame* out, int max_frames, IoResult& status) noexcept override {
+    return detail::receiveBatch(fd_, out, max_frames, status, last_errno_);
+  }
   IoResult trySend(const can_frame& frame) noexcept override {
     return detail::sendFrame(fd_, frame, last_errno_);
   }
@@ -209,6 +212,15 @@ bool SeqpacketCanClient::reconnect() {
 IoResult SeqpacketCanClient::tryReceive(ReceivedFrame& out) noexcept {
   if (fd_ < 0) return IoResult::kClosed;
   return detail::receiveFrame(fd_, out, last_errno_);
+}
+
+int SeqpacketCanClient::tryReceiveBatch(ReceivedFrame* out, int max_frames,
+                                        IoResult& status) noexcept {
+  if (fd_ < 0) {
+    status = IoResult::kClosed;
+    return 0;
+  }
+  return detail::receiveBatch(fd_, out, max_frames, status, last_errno_);
 }
 
 IoResult SeqpacketCanClient::trySend(const can_frame& frame) noexcept {

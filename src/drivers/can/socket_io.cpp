@@ -12,6 +12,20 @@
 
 namespace ftid::can {
 
+int CanTransport::tryReceiveBatch(ReceivedFrame* out, int max_frames, IoResult& status) noexcept {
+  int n = 0;
+  status = IoResult::kOk;
+  while (n < max_frames) {
+    const IoResult r = tryReceive(out[n]);
+    if (r != IoResult::kOk) {
+      status = r;
+      break;
+    }
+    ++n;
+  }
+  return n;
+}
+
 std::int64_t realtimeNowNs() noexcept {
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);
@@ -20,11 +34,77 @@ std::int64_t realtimeNowNs() noexcept {
 
 namespace detail {
 
+namespace {
+
+std::int64_t timestampOf(msghdr& msg) noexcept {
+  std::int64_t ts = -1;
+  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
+    if (c->cmsg_level != SOL_SOCKET) continue;
+    if (c->cmsg_type == SCM_TIMESTAMPNS) {
+      timespec t{};
+      std::memcpy(&t, CMSG_DATA(c), sizeof t);
+      ts = static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
+    } else if (c->cmsg_type == SCM_TIMESTAMP) {
+      timeval t{};
+      std::memcpy(&t, CMSG_DATA(c), sizeof t);
+      ts = static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_usec * 1000;
+    }
+  }
+  return ts >= 0 ? ts : realtimeNowNs();
+}
+
+constexpr std::size_t kControlBytes = CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(timeval));
+
+}  // namespace
+
+int receiveBatch(int fd, ReceivedFrame* out, int max_frames, IoResult& status, int& err) noexcept {
+  if (max_frames > kMaxBatch) max_frames = kMaxBatch;
+  status = IoResult::kOk;
+  if (max_frames <= 0) return 0;
+  mmsghdr msgs[kMaxBatch];
+  iovec iovs[kMaxBatch];
+  alignas(cmsghdr) char control[kMaxBatch][kControlBytes];
+  for (int i = 0; i < max_frames; ++i) {
+    iovs[i].iov_base = &out[i].frame;
+    iovs[i].iov_len = sizeof(can_frame);
+    std::memset(&msgs[i], 0, sizeof msgs[i]);
+    msgs[i].msg_hdr.msg_iov = &iovs[i];
+    msgs[i].msg_hdr.msg_iovlen = 1;
+    msgs[i].msg_hdr.msg_control = control[i];
+    msgs[i].msg_hdr.msg_controllen = kControlBytes;
+  }
+  const int got = recvmmsg(fd, msgs, static_cast<unsigned>(max_frames), MSG_DONTWAIT, nullptr);
+  if (got < 0) {
+    if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR) {
+      status = IoResult::kWouldBlock;
+      return 0;
+    }
+    err = errno;
+    status = (errno == ECONNRESET || errno == ENOTCONN || errno == EPIPE) ? IoResult::kClosed
+                                                                          : IoResult::kError;
+    return 0;
+  }
+  for (int i = 0; i < got; ++i) {
+    if (msgs[i].msg_len == 0) {  // SOCK_SEQPACKET end of stream
+      status = IoResult::kClosed;
+      return i;
+    }
+    if (msgs[i].msg_len != sizeof(can_frame) || (msgs[i].msg_hdr.msg_flags & MSG_TRUNC)) {
+      err = EMSGSIZE;
+      status = IoResult::kError;
+      return i;
+    }
+    out[i].rx_time_ns = timestampOf(msgs[i].msg_hdr);
+  }
+  if (got < max_frames) status = IoResult::kWouldBlock;
+  return got;
+}
+
 IoResult receiveFrame(int fd, ReceivedFrame& out, int& err) noexcept {
   iovec iov{};
   iov.iov_base = &out.frame;
   iov.iov_len = sizeof(can_frame);
-  alignas(cmsghdr) char control[CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(timeval))];
+  alignas(cmsghdr) char control[kControlBytes];
   msghdr msg{};
   msg.msg_iov = &iov;
   msg.msg_iovlen = 1;
@@ -42,20 +122,7 @@ IoResult receiveFrame(int fd, ReceivedFrame& out, int& err) noexcept {
     err = EMSGSIZE;  // not a classic CAN frame (e.g. CAN FD): rejected
     return IoResult::kError;
   }
-  std::int64_t ts = -1;
-  for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
-    if (c->cmsg_level != SOL_SOCKET) continue;
-    if (c->cmsg_type == SCM_TIMESTAMPNS) {
-      timespec t{};
-      std::memcpy(&t, CMSG_DATA(c), sizeof t);
-      ts = static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-    } else if (c->cmsg_type == SCM_TIMESTAMP) {
-      timeval t{};
-      std::memcpy(&t, CMSG_DATA(c), sizeof t);
-      ts = static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_usec * 1000;
-    }
-  }
-  out.rx_time_ns = ts >= 0 ? ts : realtimeNowNs();
+  out.rx_time_ns = timestampOf(msg);
   return IoResult::kOk;
 }
 

@@ -86,6 +86,11 @@ IoResult SocketCanTransport::tryReceive(ReceivedFrame& out) noexcept {
   return detail::receiveFrame(fd_, out, last_errno_);
 }
 
+int SocketCanTransport::tryReceiveBatch(ReceivedFrame* out, int max_frames,
+                                        IoResult& status) noexcept {
+  return detail::receiveBatch(fd_, out, max_frames, status, last_errno_);
+}
+
 IoResult SocketCanTransport::trySend(const can_frame& frame) noexcept {
   return detail::sendFrame(fd_, frame, last_errno_);
 }

@@ -41,7 +41,15 @@ TEST(SimKinematics, MatchesNotesTable) {
   rows.push_back(r);
   for (const auto& row : rows) {
     const Vec6 p = sim::forwardKinematicsTcpPose(row.m, row.q);
-    EXPECT_LT((p - row.pose).cwiseAbs().maxCoeff(), 2e-6) << p.transpose() << "\nvs " << row.pose.transpose();
+    EXPECT_LT((p.head<3>() - row.pose.head<3>()).cwiseAbs().maxCoeff(), 2e-6) << p.transpose();
+    // Compare orientations as matrices: at an angle of pi, v and -v are the same rotation.
+    auto R = [](const Vec6& v) {
+      const Eigen::Vector3d rv = v.tail<3>();
+      return Eigen::AngleAxisd(rv.norm(), rv.norm() > 0 ? Eigen::Vector3d(rv.normalized()) : Eigen::Vector3d::UnitX())
+          .toRotationMatrix();
+    };
+    EXPECT_LT((R(p) - R(row.pose)).cwiseAbs().maxCoeff(), 5e-6) << p.transpose() << "\nvs " << row.pose.transpose();
+    EXPECT_NEAR(p.tail<3>().norm(), row.pose.tail<3>().norm(), 5e-6);
   }
 }
 

@@ -79,6 +79,16 @@ TEST(RobotHistory, ExtrapolatesThenHoldsStill) {
   EXPECT_EQ(x.qdd.norm(), 0.0);
   h.stateAt(0.0, x);  // before the oldest: the oldest
   EXPECT_DOUBLE_EQ(x.q[0], a.q[0]);
+  // A controller restart (clock back to its start value) restarts the history.
+  EXPECT_EQ(h.generation(), 0u);
+  RobotHistory::Tick restarted;
+  restarted.t = 5.0;
+  restarted.q.setConstant(-1.0);
+  h.add(restarted);
+  EXPECT_EQ(h.generation(), 1u);
+  EXPECT_EQ(h.size(), 1u);
+  h.stateAt(5.001, x);
+  EXPECT_DOUBLE_EQ(x.q[0], -1.0);
 }
 
 // ---- configuration ------------------------------------------------------------------------

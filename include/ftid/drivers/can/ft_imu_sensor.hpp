@@ -8,6 +8,7 @@
 //
 // tryReadLatest drains every pending frame (bounded per call), assembles samples and returns the
 // newest one: no allocation, no exception, no blocking. Call it and health() from one thread.
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -57,6 +58,7 @@ class CanFtImuSensor final : public FtImuSensor {
  private:
   std::unique_ptr<CanTransport> transport_;
   SampleAssembler assembler_;
+  std::array<ReceivedFrame, 64> batch_{};  ///< one recvmmsg() worth of frames
 };
 
 /// Everything needed to open the sensor (the daemon fills it from its YAML config).

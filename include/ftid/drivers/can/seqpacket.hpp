@@ -56,6 +56,7 @@ class SeqpacketCanClient final : public CanTransport {
   ~SeqpacketCanClient() override;
 
   IoResult tryReceive(ReceivedFrame& out) noexcept override;
+  int tryReceiveBatch(ReceivedFrame* out, int max_frames, IoResult& status) noexcept override;
   IoResult trySend(const can_frame& frame) noexcept override;
   bool waitReadable(std::chrono::milliseconds timeout) override;
   int fd() const noexcept override { return fd_; }

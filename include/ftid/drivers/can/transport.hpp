@@ -38,6 +38,10 @@ class CanTransport {
 
   /// Receives one frame if one is pending. Never blocks.
   virtual IoResult tryReceive(ReceivedFrame& out) noexcept = 0;
+  /// Receives up to `max_frames` pending frames (socket transports: one recvmmsg call). Never
+  /// blocks. Returns the number received; `status` is kOk or kWouldBlock if the transport is
+  /// healthy, kClosed/kError if it stopped because of that. Default: repeated tryReceive().
+  virtual int tryReceiveBatch(ReceivedFrame* out, int max_frames, IoResult& status) noexcept;
   /// Sends one frame. Never blocks; kWouldBlock means the frame was dropped (queue full).
   virtual IoResult trySend(const can_frame& frame) noexcept = 0;
   /// Blocks (non-RT) until a frame is pending or the timeout expires; true if one is pending.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <array>
 #include <cstdlib>
 #include <cstring>
 #include <net/if.h>
@@ -115,6 +116,36 @@ TEST(Seqpacket, SocketpairKeepsFrameBoundaries) {
   EXPECT_EQ(pair.b->tryReceive(rf), IoResult::kWouldBlock);
   pair.a.reset();
   EXPECT_EQ(pair.b->tryReceive(rf), IoResult::kClosed);
+}
+
+TEST(Seqpacket, BatchReceiveKeepsOrderTimestampsAndSeesClose) {
+  auto pair = makeSeqpacketPair();
+  for (std::uint32_t k = 0; k < 100; ++k) ASSERT_EQ(pair.a->trySend(makeFrame(k, 8, 0)), IoResult::kOk);
+  std::array<ReceivedFrame, 64> batch{};
+  IoResult status = IoResult::kError;
+  int n = pair.b->tryReceiveBatch(batch.data(), 64, status);
+  ASSERT_EQ(n, 64);
+  EXPECT_EQ(status, IoResult::kOk);
+  for (int i = 0; i < n; ++i) {
+    EXPECT_EQ(batch[static_cast<std::size_t>(i)].frame.can_id, static_cast<canid_t>(i));
+    if (i > 0) {
+      EXPECT_GE(batch[static_cast<std::size_t>(i)].rx_time_ns,
+                batch[static_cast<std::size_t>(i - 1)].rx_time_ns);
+    }
+  }
+  n = pair.b->tryReceiveBatch(batch.data(), 64, status);
+  ASSERT_EQ(n, 36);
+  EXPECT_EQ(status, IoResult::kWouldBlock);
+  EXPECT_EQ(batch[35].frame.can_id, 99u);
+  EXPECT_GT(batch[35].rx_time_ns, 0);
+  n = pair.b->tryReceiveBatch(batch.data(), 64, status);
+  EXPECT_EQ(n, 0);
+  EXPECT_EQ(status, IoResult::kWouldBlock);
+  pair.a->trySend(makeFrame(7, 1, 0));
+  pair.a.reset();
+  n = pair.b->tryReceiveBatch(batch.data(), 64, status);
+  EXPECT_EQ(n, 1);  // the frame sent before the close, then end of stream
+  EXPECT_EQ(status, IoResult::kClosed);
 }
 
 TEST(CanFtImuSensor, DrainsToLatestOverTheStandIn) {

@@ -1,0 +1,177 @@
+// `ftid run-trajectory`: stream an excitation trajectory to a UR controller (or `ftid sim-robot`)
+// and record the robot state. Library code: ftid::motion (runOnRobot, recordingToLog).
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <thread>
+
+#include "command.hpp"
+#include "ftid/common/error.hpp"
+#include "ftid/logio/log.hpp"
+#include "ftid/motion/recording_log.hpp"
+#include "ftid/motion/robot_session.hpp"
+#include "ftid/trajectory/trajectory_io.hpp"
+
+namespace {
+
+const char* kUsage =
+    "usage: ftid run-trajectory TRAJ --out robot_log.csv [--robot-host 127.0.0.1] [--rtde-port 30004]\n"
+    "                           [--script-port 30003] [--register-offset 0|24] [--lookahead 0.1]\n"
+    "                           [--gain 300] [--approach-speed 0.25] [--tracking-limit 0.05]\n"
+    "                           [--require-rt] [--yes]\n"
+    "\n"
+    "Moves the robot slowly to the trajectory's start pose, streams the trajectory with servoj at\n"
+    "the controller rate (125 Hz CB3, 500 Hz e-Series) from a real-time loop clocked by the robot,\n"
+    "and writes every controller tick to --out (log format: t, q1..q6, qd1..qd6, qdd1..qdd6 plus\n"
+    "robot_timestamp, t_traj, phase, q_cmd*, target_q*, modes; docs/robot.md).\n"
+    "\n"
+    "  TRAJ               traj.yaml (ftid design) or a sampled CSV with t, q1..q6 (t from 0)\n"
+    "  --robot-host H     controller address (default 127.0.0.1, e.g. `ftid sim-robot`)\n"
+    "  --register-offset  RTDE registers used by the servo program: 0 (default) or 24\n"
+    "  --lookahead, --gain  servoj parameters (0.03..0.2 s, 100..2000)\n"
+    "  --approach-speed   peak joint speed of the move to the start pose [rad/s] (default 0.25)\n"
+    "  --tracking-limit   abort when |actual_q - q(t)| exceeds this [rad] (default 0.05)\n"
+    "  --require-rt       refuse to run without SCHED_FIFO/mlockall instead of warning\n"
+    "  --yes              do not ask for confirmation before the robot moves\n"
+    "\n"
+    "The robot MOVES. Keep the emergency stop at hand. Ctrl-C stops the arm and keeps the data.\n"
+    "Exit status: 0 completed, 1 aborted or failed (the message says why), 2 usage error.";
+
+std::atomic<bool> g_abort{false};
+extern "C" void onSignal(int) { g_abort.store(true); }
+
+struct Progress {
+  std::atomic<int> phase{0};
+  std::atomic<double> t_traj{-1.0};
+  std::atomic<long> ticks{0};
+  static void hook(void* ctx, const ftid::motion::RecordedTick& t) noexcept {
+    auto* p = static_cast<Progress*>(ctx);
+    p->phase.store(static_cast<int>(t.phase), std::memory_order_relaxed);
+    p->t_traj.store(t.t_traj, std::memory_order_relaxed);
+    p->ticks.fetch_add(1, std::memory_order_relaxed);
+  }
+};
+
+double number(const std::string& key, const std::string& v) {
+  try {
+    std::size_t pos = 0;
+    const double d = std::stod(v, &pos);
+    if (pos != v.size()) throw std::invalid_argument(v);
+    return d;
+  } catch (const std::exception&) {
+    throw ftid::cli::UsageError(key + ": not a number: '" + v + "'");
+  }
+}
+
+int runRunTrajectory(const std::vector<std::string>& argv) {
+  ftid::cli::Args args(argv, kUsage);
+  ftid::motion::RobotSessionConfig cfg;
+  cfg.arm.host = args.value("--robot-host", "127.0.0.1");
+  cfg.arm.rtde_port = static_cast<std::uint16_t>(number("--rtde-port", args.value("--rtde-port", "30004")));
+  cfg.arm.script_port = static_cast<std::uint16_t>(number("--script-port", args.value("--script-port", "30003")));
+  cfg.arm.register_offset = static_cast<int>(number("--register-offset", args.value("--register-offset", "0")));
+  cfg.arm.lookahead_time = number("--lookahead", args.value("--lookahead", "0.1"));
+  cfg.arm.gain = number("--gain", args.value("--gain", "300"));
+  cfg.motion.approach_velocity = number("--approach-speed", args.value("--approach-speed", "0.25"));
+  cfg.motion.tracking_error_limit = number("--tracking-limit", args.value("--tracking-limit", "0.05"));
+  cfg.motion.realtime.require = args.flag("--require-rt");
+  const bool yes = args.flag("--yes");
+  const std::string out = args.value("--out");
+  const auto pos = args.positionals();
+  args.finish();
+  if (pos.size() != 1) throw ftid::cli::UsageError("expected exactly one trajectory file");
+  if (out.empty()) throw ftid::cli::UsageError("--out is required");
+  if (!(cfg.motion.approach_velocity > 0 && cfg.motion.approach_velocity <= 1.0)) {
+    throw ftid::cli::UsageError("--approach-speed must be in (0, 1] rad/s");
+  }
+
+  // Load the trajectory.
+  const std::string& path = pos[0];
+  std::unique_ptr<ftid::motion::JointTrajectorySource> source;
+  ftid::trajectory::FourierTrajectory fourier;
+  const bool yaml = path.size() > 5 && (path.substr(path.size() - 5) == ".yaml" || path.substr(path.size() - 4) == ".yml");
+  if (yaml) {
+    fourier = ftid::trajectory::readTrajectoryFile(path).toTrajectory();
+    source = std::make_unique<ftid::motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory>>(fourier);
+  } else {
+    const auto log = ftid::logio::readLog(path, ftid::logio::LogKind::kTrajectory);
+    std::vector<double> t;
+    std::vector<ftid::JointVector> q;
+    for (const auto& s : log.samples) {
+      t.push_back(s.t);
+      q.push_back(s.q);
+    }
+    source = std::make_unique<ftid::motion::SampledTrajectory>(std::move(t), std::move(q));
+  }
+  const ftid::JointVector start = source->startPose();
+  std::printf("trajectory %s: %.2f s, start pose [%.4f %.4f %.4f %.4f %.4f %.4f] rad\n", path.c_str(),
+              source->duration(), start[0], start[1], start[2], start[3], start[4], start[5]);
+  std::printf("robot %s (RTDE %u, scripts %u): the arm will move to the start pose at <= %.2f rad/s, then "
+              "run the trajectory.\n",
+              cfg.arm.host.c_str(), cfg.arm.rtde_port, cfg.arm.script_port, cfg.motion.approach_velocity);
+  if (!yes) {
+    std::printf("Type 'yes' to move the robot: ");
+    std::fflush(stdout);
+    std::string answer;
+    if (!std::getline(std::cin, answer) || answer != "yes") {
+      std::printf("not confirmed; nothing moved\n");
+      return 1;
+    }
+  }
+
+  struct sigaction sa {};
+  sa.sa_handler = &onSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+
+  Progress progress;
+  std::atomic<bool> done{false};
+  const double duration = source->duration();
+  std::thread bar([&] {
+    static const char* kPhase[] = {"approach", "settle", "excite", "finish", "stopping"};
+    const auto t_start = std::chrono::steady_clock::now();
+    while (!done.load()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      if (progress.ticks.load() == 0) continue;
+      const int ph = progress.phase.load();
+      const double tt = std::max(0.0, std::min(duration, progress.t_traj.load()));
+      const int width = 30;
+      const int filled = duration > 0 ? static_cast<int>(width * tt / duration) : 0;
+      const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+      std::fprintf(stderr, "\r[%-*s] %-8s elapsed %6.1f s  remaining %6.1f s ", width,
+                   std::string(static_cast<std::size_t>(filled), '#').c_str(), kPhase[ph < 5 ? ph : 4], elapsed,
+                   ph >= 2 ? duration - tt : duration);
+    }
+    std::fprintf(stderr, "\n");
+  });
+  ftid::motion::SessionResult r;
+  try {
+    r = ftid::motion::runOnRobot(cfg, *source, &g_abort, &Progress::hook, &progress);
+  } catch (...) {
+    done = true;
+    bar.join();
+    throw;
+  }
+  done = true;
+  bar.join();
+  std::printf("controller %s, %.0f Hz: %s: %s\n", r.controller_version.c_str(), 1.0 / r.period,
+              ftid::motion::runStatusName(r.run.status), r.run.message.c_str());
+  std::printf("%s", r.run.stats.summary("loop").c_str());
+  std::printf("real-time: %s\n", r.run.realtime.describe().c_str());
+  if (!r.recording.empty()) {
+    ftid::logio::writeLog(out, ftid::motion::recordingToLog(r.recording));
+    std::printf("wrote %zu ticks to %s\n", r.recording.size(), out.c_str());
+  } else {
+    std::printf("nothing recorded; %s not written\n", out.c_str());
+  }
+  return r.run.ok() ? 0 : 1;
+}
+
+}  // namespace
+
+static ftid::cli::Registrar reg{{"run-trajectory", "stream a trajectory to a UR robot and record its state", kUsage,
+                                 &runRunTrajectory}};

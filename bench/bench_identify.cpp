@@ -1,0 +1,126 @@
+// Identification and compensation timing (docs/performance.md, "Identification and compensation").
+//   - paper method (dynamic; static as a same-run baseline) on 1,251 and 10,001 samples
+//   - fitModel("paper") (variable projection on the tilt, per-axis weights) on the same data
+//   - the stacked linear solve alone: Householder QR (what ftid uses) vs normal equations (baseline)
+//   - Compensator::compute per sample
+// Plain std::chrono, many repetitions, median and p99. Data: f1's simulator, paper cell, noisy.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "ftid/compensate/compensator.hpp"
+#include "ftid/identify/context.hpp"
+#include "ftid/identify/fit.hpp"
+#include "ftid/identify/paper_method.hpp"
+#include "ftid/identify/offline.hpp"
+#include "ftid/sim/cell_sim.hpp"
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Stats {
+  double median_us;
+  double p99_us;
+};
+
+Stats timeIt(int reps, const std::function<void()>& f) {
+  f();  // warm-up
+  std::vector<double> us;
+  us.reserve(static_cast<std::size_t>(reps));
+  for (int r = 0; r < reps; ++r) {
+    const auto t0 = Clock::now();
+    f();
+    us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+  }
+  std::sort(us.begin(), us.end());
+  const auto p99 = static_cast<std::size_t>(0.99 * static_cast<double>(us.size() - 1) + 0.5);
+  return {us[us.size() / 2], us[p99]};
+}
+
+void report(const std::string& what, int reps, const Stats& s) {
+  std::printf("%-58s reps %5d  median %10.1f us  p99 %10.1f us\n", what.c_str(), reps, s.median_us, s.p99_us);
+}
+
+volatile double g_sink = 0.0;
+
+}  // namespace
+
+int main() {
+  using namespace ftid;
+  const auto kin = model::RobotKinematics::fromUrdfFile(identify::defaultRobotUrdf());
+  for (double rate : {125.0, 1000.0}) {
+    sim::CellSimConfig cfg = sim::paperCellConfig(kin);
+    cfg.rate_hz = rate;
+    cfg.full_rigid_body = false;
+    cfg.seed = 3;
+    cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+    const identify::ContextSet s = identify::buildContexts(sim::CellSim(cfg).run(), kin);
+    const std::string n = std::to_string(s.size()) + " samples";
+    const bool small = s.size() < 2000;
+
+    int reps = small ? 500 : 60;
+    report("paper dynamic, " + n, reps, timeIt(reps, [&] { g_sink = identify::identifyPaper(s.samples).weight_N; }));
+    identify::PaperOptions st;
+    st.method = identify::PaperMethod::kStatic;
+    report("paper static (baseline), " + n, reps,
+           timeIt(reps, [&] { g_sink = identify::identifyPaper(s.samples, st).weight_N; }));
+
+    const effects::Model model = effects::Model::fromName("paper");
+    reps = small ? 40 : 8;
+    report("fitModel(paper), " + n, reps,
+           timeIt(reps, [&] { g_sink = identify::fitModel(model, s.samples).theta(0); }));
+
+    // The stacked linear problem alone (tilt known): QR vs normal equations.
+    Eigen::MatrixXd A(6 * static_cast<Eigen::Index>(s.size()), model.numParams());
+    Eigen::VectorXd y(A.rows());
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, model.numParams());
+    for (std::size_t i = 0; i < s.size(); ++i) {
+      model.computeRegressor(s.samples[i], Y);
+      A.middleRows(6 * static_cast<Eigen::Index>(i), 6) = Y;
+      y.segment<6>(6 * static_cast<Eigen::Index>(i)) = s.samples[i].wrench_S;
+    }
+    reps = small ? 500 : 100;
+    report("  linear solve, Householder QR (col-pivoted), " + n, reps,
+           timeIt(reps, [&] { g_sink = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(A).solve(y)(0); }));
+    report("  linear solve, normal equations LDLT (baseline), " + n, reps, timeIt(reps, [&] {
+             const Eigen::MatrixXd AtA = A.transpose() * A;
+             g_sink = AtA.ldlt().solve(A.transpose() * y)(0);
+           }));
+
+    if (!small) continue;
+    // Per-sample compensation: batches of all samples, divided by the count.
+    const identify::ParameterSet set = identify::identifyPaper(s.samples).toParameterSet();
+    compensate::Compensator comp(model, identify::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
+    std::vector<double> per_sample_ns;
+    Wrench contact;
+    for (int r = 0; r < 400; ++r) {
+      const auto t0 = Clock::now();
+      for (const auto& ctx : s.samples) {
+        (void)comp.compute(ctx, &contact, nullptr);
+        g_sink = contact(0);
+      }
+      per_sample_ns.push_back(std::chrono::duration<double, std::nano>(Clock::now() - t0).count() /
+                              static_cast<double>(s.size()));
+    }
+    // Single calls, for the tail.
+    std::vector<double> single_ns;
+    for (int r = 0; r < 20; ++r) {
+      for (const auto& ctx : s.samples) {
+        const auto t0 = Clock::now();
+        (void)comp.compute(ctx, &contact, nullptr);
+        single_ns.push_back(std::chrono::duration<double, std::nano>(Clock::now() - t0).count());
+        g_sink = contact(0);
+      }
+    }
+    std::sort(per_sample_ns.begin(), per_sample_ns.end());
+    std::sort(single_ns.begin(), single_ns.end());
+    std::printf("%-58s median %8.1f ns/sample (batched); single call median %.0f ns, p99 %.0f ns\n",
+                "Compensator::compute (paper model)", per_sample_ns[per_sample_ns.size() / 2],
+                single_ns[single_ns.size() / 2], single_ns[static_cast<std::size_t>(0.99 * static_cast<double>(single_ns.size() - 1))]);
+  }
+  return 0;
+}
