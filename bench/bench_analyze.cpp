@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "ftid/identify/context.hpp"
+#include "ftid/identify/offline.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
@@ -51,7 +52,7 @@ double now() {
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;
   sim::CellSimConfig cfg =
-      sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf"));
+      sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(identify::defaultRobotUrdf()));
   cfg.trajectory = richTrajectory();
   cfg.payload.mass_kg = 3.0;
   cfg.payload.p_SC_S = Vec3(0.02, -0.015, 0.09);

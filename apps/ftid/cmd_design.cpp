@@ -218,7 +218,10 @@ int runDesign(const std::vector<std::string>& argv) {
                 r.baselines.random_count, r.baselines.random_median_condition,
                 r.baselines.random_median_condition / r.condition_number);
   }
-  if (r.baselines.static_condition > 0.0) {
+  if (std::isinf(r.baselines.static_condition)) {
+    std::printf("static six-pose method: cannot determine model %s at all (singular: static poses do not "
+                "excite its motion-dependent parameters)\n", r.file.design["model"].c_str());
+  } else if (r.baselines.static_condition > 0.0) {
     std::printf("static six-pose method: cond %.4g -> ratio static/designed %.2f\n", r.baselines.static_condition,
                 r.baselines.static_condition / r.condition_number);
   } else if (!r.file.metrics.empty()) {

@@ -698,7 +698,7 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
     f.metrics["random_median_condition_number"] = res.baselines.random_median_condition;
     f.metrics["ratio_random_over_designed"] = res.baselines.random_median_condition / res.condition_number;
   }
-  if (res.baselines.static_condition > 0.0) {
+  if (res.baselines.static_condition > 0.0 && std::isfinite(res.baselines.static_condition)) {
     f.metrics["static_six_pose_condition_number"] = res.baselines.static_condition;
     f.metrics["ratio_static_over_designed"] = res.baselines.static_condition / res.condition_number;
   }

@@ -3,6 +3,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "ftid/common/error.hpp"
@@ -63,6 +64,10 @@ PinvSolve solveNormal(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, bool w
 }  // namespace
 
 Engine::Engine(Dataset data) : data_(std::move(data)) {
+  block_of_.assign(static_cast<std::size_t>(data_.size()), 0);
+  for (std::size_t b = 0; b < data_.blocks.size(); ++b) {
+    for (int i = data_.blocks[b].begin; i < data_.blocks[b].end; ++i) block_of_[static_cast<std::size_t>(i)] = static_cast<int>(b);
+  }
   for (int f = 0; f < data_.foldCount(); ++f) {
     const Block& b = data_.blocks[static_cast<std::size_t>(data_.testBlock(f))];
     for (int i = b.begin; i < b.end; ++i) test_samples_.push_back(i);
@@ -82,14 +87,20 @@ SampleContext Engine::contextAt(int i, const Linearization& lin) const {
   return c;
 }
 
-Eigen::MatrixXd Engine::design(const Model& model, const Linearization& lin) const {
+int Engine::rowOf(int i, int a) const {
+  const Block& blk = data_.blocks[static_cast<std::size_t>(block_of_[static_cast<std::size_t>(i)])];
+  return 6 * blk.begin + a * (blk.end - blk.begin) + (i - blk.begin);
+}
+
+Engine::Design Engine::design(const Model& model, const Linearization& lin) const {
   const int n = data_.size();
   const int p = model.numParams();
   const int pt = p + (lin.tilt_columns ? 2 : 0);
-  Eigen::MatrixXd X(6 * n, pt);
+  Design X(6 * n, pt + 1);
   Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
   const Vec3 g_B = model::gravityInBase(lin.u, lin.v);
   const bool has_derived = lin.w_model.cols() == n;
+  const Vec6& w = data_.weights;
   SampleContext c;
   for (int i = 0; i < n; ++i) {
     c = data_.ctx[static_cast<std::size_t>(i)];
@@ -102,86 +113,98 @@ Eigen::MatrixXd Engine::design(const Model& model, const Linearization& lin) con
       c.dwrench_model_dt.setZero();
     }
     model.computeRegressor(c, Y);
-    X.block(6 * i, 0, 6, p) = data_.weights.asDiagonal() * Y;
-    if (lin.tilt_columns) {
-      X.block(6 * i, p, 6, 1) = data_.weights.cwiseProduct(Vec6(lin.j_u.col(i)));
-      X.block(6 * i, p + 1, 6, 1) = data_.weights.cwiseProduct(Vec6(lin.j_v.col(i)));
+    for (int a = 0; a < 6; ++a) {
+      double* row = X.data() + static_cast<std::ptrdiff_t>(rowOf(i, a)) * (pt + 1);
+      for (int k = 0; k < p; ++k) row[k] = w(a) * Y(a, k);
+      if (lin.tilt_columns) {
+        row[p] = w(a) * lin.j_u(a, i);
+        row[p + 1] = w(a) * lin.j_v(a, i);
+      }
+      row[pt] = w(a) * c.wrench_S(a);
     }
   }
   return X;
 }
 
-Eigen::VectorXd Engine::weightedMeasurement() const {
-  const int n = data_.size();
-  Eigen::VectorXd y(6 * n);
-  for (int i = 0; i < n; ++i) {
-    y.segment<6>(6 * i) = data_.weights.cwiseProduct(data_.ctx[static_cast<std::size_t>(i)].wrench_S);
-  }
-  return y;
+namespace {
+
+/// Weighted SSE of theta on a block whose augmented Gram [X y]^T [X y] is G.
+double sseFromGram(const Eigen::MatrixXd& G, const Eigen::VectorXd& theta) {
+  const Eigen::Index p = theta.size();
+  const double v = G(p, p) - 2.0 * theta.dot(G.col(p).head(p)) + theta.dot(G.topLeftCorner(p, p) * theta);
+  return std::max(0.0, v);
 }
 
-Solution Engine::solve(const Eigen::MatrixXd& X, bool with_folds) const {
-  const Eigen::VectorXd y = weightedMeasurement();
-  const int p = static_cast<int>(X.cols());
+}  // namespace
+
+Solution Engine::solve(const Design& X, bool with_folds, bool with_series) const {
+  const int p = static_cast<int>(X.cols()) - 1;
   const std::size_t nb = data_.blocks.size();
-  std::vector<Eigen::MatrixXd> G(nb);
-  std::vector<Eigen::VectorXd> h(nb);
+  // Augmented Gram of every (block, axis).
+  std::vector<std::array<Eigen::MatrixXd, 6>> G(nb);
+  std::vector<Eigen::MatrixXd> Gb(nb);
   for (std::size_t b = 0; b < nb; ++b) {
     const Block& blk = data_.blocks[b];
-    const auto Xb = X.middleRows(6 * blk.begin, 6 * (blk.end - blk.begin));
-    G[b] = Eigen::MatrixXd::Zero(p, p);
-    G[b].selfadjointView<Eigen::Lower>().rankUpdate(Xb.transpose());
-    G[b] = G[b].selfadjointView<Eigen::Lower>();
-    h[b] = Xb.transpose() * y.segment(6 * blk.begin, 6 * (blk.end - blk.begin));
+    const int nbk = blk.end - blk.begin;
+    Gb[b] = Eigen::MatrixXd::Zero(p + 1, p + 1);
+    for (int a = 0; a < 6; ++a) {
+      const auto rows = X.middleRows(6 * blk.begin + a * nbk, nbk);
+      Eigen::MatrixXd g = Eigen::MatrixXd::Zero(p + 1, p + 1);
+      g.selfadjointView<Eigen::Lower>().rankUpdate(rows.transpose());
+      G[b][static_cast<std::size_t>(a)] = g.selfadjointView<Eigen::Lower>();
+      Gb[b] += G[b][static_cast<std::size_t>(a)];
+    }
   }
   Solution sol;
   sol.p = p;
-  // Full-data fit (all fitting blocks).
-  Eigen::MatrixXd Gf = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd hf = Eigen::VectorXd::Zero(p);
+  Eigen::MatrixXd Gf = Eigen::MatrixXd::Zero(p + 1, p + 1);
   for (std::size_t b = 0; b < nb; ++b) {
-    if (!data_.blocks[b].fit) continue;
-    Gf += G[b];
-    hf += h[b];
+    if (data_.blocks[b].fit) Gf += Gb[b];
   }
-  const PinvSolve full = solveNormal(Gf, hf, true);
+  const PinvSolve full = solveNormal(Gf.topLeftCorner(p, p), Gf.col(p).head(p), true);
   sol.theta = full.x;
   sol.rank = full.rank;
   sol.condition_number = full.condition;
   sol.rows_fit = 6 * data_.n_fit;
-  {
-    const auto Xf = X.topRows(6 * data_.n_fit);
-    const Eigen::VectorXd r = y.head(6 * data_.n_fit) - Xf * sol.theta;
-    sol.sse_fit = r.squaredNorm();
-    for (int i = 0; i < data_.n_fit; ++i) {
-      sol.sse_fit_axis += r.segment<6>(6 * i).cwiseQuotient(data_.weights).cwiseAbs2();
+  sol.sse_fit = sseFromGram(Gf, sol.theta);
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (!data_.blocks[b].fit) continue;
+    for (int a = 0; a < 6; ++a) {
+      sol.sse_fit_axis(a) += sseFromGram(G[b][static_cast<std::size_t>(a)], sol.theta) / (data_.weights(a) * data_.weights(a));
     }
   }
   sol.sigma2 = sol.sse_fit / std::max(1, sol.rows_fit - sol.rank);
   sol.covariance = sol.sigma2 * full.inverse;
   if (!with_folds) return sol;
-  // Folds.
   sol.n_heldout = static_cast<int>(test_samples_.size());
-  sol.heldout_residual.resize(6, sol.n_heldout);
+  if (with_series) sol.heldout_residual.resize(6, sol.n_heldout);
   int col = 0;
   for (int f = 0; f < data_.foldCount(); ++f) {
-    Eigen::MatrixXd Gt = Eigen::MatrixXd::Zero(p, p);
-    Eigen::VectorXd ht = Eigen::VectorXd::Zero(p);
+    Eigen::MatrixXd Gt = Eigen::MatrixXd::Zero(p + 1, p + 1);
     for (std::size_t b = 0; b < nb; ++b) {
-      if (!data_.trains(f, static_cast<int>(b))) continue;
-      Gt += G[b];
-      ht += h[b];
+      if (data_.trains(f, static_cast<int>(b))) Gt += Gb[b];
     }
-    const PinvSolve fold = solveNormal(Gt, ht, false);
-    const Block& blk = data_.blocks[static_cast<std::size_t>(data_.testBlock(f))];
+    const PinvSolve fold = solveNormal(Gt.topLeftCorner(p, p), Gt.col(p).head(p), false);
+    const int tb = data_.testBlock(f);
+    const Block& blk = data_.blocks[static_cast<std::size_t>(tb)];
     const int nbk = blk.end - blk.begin;
-    const Eigen::VectorXd r = y.segment(6 * blk.begin, 6 * nbk) - X.middleRows(6 * blk.begin, 6 * nbk) * fold.x;
-    sol.sse_heldout += r.squaredNorm();
-    for (int i = 0; i < nbk; ++i) {
-      const Vec6 ru = r.segment<6>(6 * i).cwiseQuotient(data_.weights);
-      sol.heldout_residual.col(col++) = ru;
-      sol.sse_heldout_axis += ru.cwiseAbs2();
+    for (int a = 0; a < 6; ++a) {
+      const double sse = sseFromGram(G[static_cast<std::size_t>(tb)][static_cast<std::size_t>(a)], fold.x);
+      sol.sse_heldout += sse;
+      sol.sse_heldout_axis(a) += sse / (data_.weights(a) * data_.weights(a));
+      if (with_series) {
+        const auto rows = X.middleRows(6 * blk.begin + a * nbk, nbk);
+        const Eigen::VectorXd r = (rows.col(p) - rows.leftCols(p) * fold.x) / data_.weights(a);
+        sol.heldout_residual.row(a).segment(col, nbk) = r.transpose();
+      }
     }
+    col += nbk;
+  }
+  if (with_series) {
+    // Exact sums from the explicit residual (the Gram formula loses digits when the fit is near
+    // perfect, e.g. noise-free data).
+    sol.sse_heldout_axis = sol.heldout_residual.rowwise().squaredNorm();
+    sol.sse_heldout = sol.sse_heldout_axis.cwiseProduct(data_.weights.cwiseAbs2()).sum();
   }
   return sol;
 }
@@ -301,8 +324,7 @@ std::pair<Linearization, Solution> Engine::fitFully(const Model& model, const Li
       tiltColumns(model, lin, theta);
       lin.tilt_columns = true;
     }
-    const Eigen::MatrixXd X = design(model, lin);
-    const Solution s = solve(X, false);
+    const Solution s = solve(design(model, lin), false);
     theta = s.theta.head(p);
     if (tilt) {
       const double du = s.theta(p);
@@ -311,12 +333,12 @@ std::pair<Linearization, Solution> Engine::fitFully(const Model& model, const Li
       lin.v += dv;
       step = std::max(std::abs(du), std::abs(dv));
     }
-    if (step < 1e-10 && change < 1e-6) break;
+    if (step < 1e-9 && change < 1e-6) break;
   }
   // Final linearisation at the converged point; the derived signals of this model for candidates.
   if (tilt) tiltColumns(model, lin, theta);
   lin.tilt_columns = tilt;
-  Solution sol = solve(design(model, lin));
+  Solution sol = solve(design(model, lin), true, true);
   if (!derived) {
     lin.w_model = predict(model, lin, sol.theta, true);
     lin.dw_dt = timeDerivative(lin.w_model);

@@ -68,7 +68,7 @@ struct Solution {
   int rows_fit = 0;
   double condition_number = 0.0;
   Vec6 sse_fit_axis = Vec6::Zero();  ///< unweighted, per axis
-  Mat6X heldout_residual;       ///< unweighted, test samples in order of the test blocks
+  Mat6X heldout_residual;       ///< unweighted, test samples in order of the test blocks (with_series)
   double sse_heldout = 0.0;     ///< weighted
   Vec6 sse_heldout_axis = Vec6::Zero();  ///< unweighted
   int n_heldout = 0;
@@ -79,11 +79,16 @@ class Engine {
   explicit Engine(Dataset data);
   const Dataset& data() const { return data_; }
 
-  /// Regressor (weighted) of the model at the linearisation, plus tilt columns if lin says so.
-  Eigen::MatrixXd design(const effects::Model& model, const Linearization& lin) const;
-  Eigen::VectorXd weightedMeasurement() const;
-  /// with_folds = false skips the held-out part (inner iterations).
-  Solution solve(const Eigen::MatrixXd& X, bool with_folds = true) const;
+  /// Weighted regressor of the model at the linearisation (plus tilt columns if lin says so) with
+  /// the weighted measurement as its last column. Row-major; rows ordered block by block, inside a
+  /// block axis by axis (rowOf()), so every (block, axis) is a contiguous row range.
+  using Design = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  Design design(const effects::Model& model, const Linearization& lin) const;
+  /// with_folds = false skips the held-out part (inner iterations); with_series fills
+  /// Solution::heldout_residual (needed only for the reported model).
+  Solution solve(const Design& X, bool with_folds = true, bool with_series = false) const;
+  /// Row of (sample i, axis a) in a design.
+  int rowOf(int i, int a) const;
 
   /// Full nonlinear fit (tilt, derived signals); start from `start` (tilt, reference prediction).
   /// Returns the converged linearisation (tilt columns for the fitted theta) and its solution.
@@ -108,6 +113,7 @@ class Engine {
   SampleContext contextAt(int i, const Linearization& lin) const;
   Dataset data_;
   std::vector<int> test_samples_;
+  std::vector<int> block_of_;  ///< block index of every sample
 };
 
 }  // namespace ftid::lab::detail

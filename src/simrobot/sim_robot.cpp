@@ -330,10 +330,19 @@ struct SimRobot::Impl {
     program_name = name;
     program = name == "ftid_servo" ? ProgramKind::kFtid : name == "rtde_control" ? ProgramKind::kUrRtde
                                                                                   : ProgramKind::kOther;
-    offset = (text.find("read_input_integer_register(24)") != std::string::npos ||
-              text.find("input_int_register_24") != std::string::npos)
-                 ? 24
-                 : 0;
+    offset = 0;
+    if (program == ProgramKind::kUrRtde) {
+      // ur_rtde substitutes "global reg_offset_int = # int register offset\n<0|24>".
+      const auto k = text.find("reg_offset_int =");
+      if (k != std::string::npos) {
+        std::size_t p = k + std::strlen("reg_offset_int =");
+        while (p < text.size() && text[p] == ' ') ++p;
+        if (p < text.size() && text[p] == '#') p = text.find('\n', p) + 1;
+        if (p > 0 && p < text.size()) offset = std::atoi(text.c_str() + p) == 24 ? 24 : 0;
+      }
+    } else if (text.find("read_input_integer_register(24)") != std::string::npos) {
+      offset = 24;
+    }
     runtime_state = rtde::kRuntimePlaying;
     executing = false;
     servo_active = false;
@@ -1043,6 +1052,7 @@ struct SimRobot::Impl {
       if (n == 0 || (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) eof = true;
       break;
     }
+    if (cfg.verbose && !c->rx.empty()) log("script port: " + std::to_string(c->rx.size()) + " bytes buffered");
     // A program is complete when, after a "def name():" line, a line "end" at column 0 follows.
     for (;;) {
       const auto def = c->rx.find("def ");

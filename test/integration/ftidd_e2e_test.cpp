@@ -173,7 +173,7 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
   const auto log = ftid::transport::lcmLogToLogData(dir + "/ftidd.lcm", {}, &report);
   EXPECT_GT(log.samples.size(), 300u);
   EXPECT_TRUE(log.has_imu);
-  std::system(("rm -rf '" + dir + "'").c_str());
+  if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());  // kept for diagnosis otherwise
 }
 
 }  // namespace

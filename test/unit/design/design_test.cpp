@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <sys/wait.h>
 #include <random>
 #include <string>
 
@@ -16,6 +18,7 @@
 #include "ftid/identify/fit.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "ftid/trajectory/trajectory_io.hpp"
 
 namespace ftid::design {
 namespace {
@@ -238,6 +241,39 @@ TEST_F(DesignRun, CheckDetectsAViolatedLimit) {
   const CheckReport bad2 = checkTrajectory(tr, ur10(), high_floor);
   EXPECT_FALSE(bad2.ok());
   EXPECT_NE(bad2.violations()[0].find("above floor"), std::string::npos);
+}
+
+TEST_F(DesignRun, CheckTrajectoryCommandExitsNonZeroOnAViolation) {
+  const std::string ftid = std::string(FTID_BINARY_DIR) + "/apps/ftid/ftid";
+  if (std::FILE* f = std::fopen(ftid.c_str(), "r")) {
+    std::fclose(f);
+  } else {
+    GTEST_SKIP() << "ftid executable not built: " << ftid;
+  }
+  const std::string dir = ::testing::TempDir();
+  trajectory::TrajectoryFile file = result_->file;
+  file.robot = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  const std::string good = dir + "/ftid_design_good.yaml", bad = dir + "/ftid_design_bad.yaml";
+  trajectory::writeTrajectoryFile(good, file);
+  double amax = 0.0;
+  for (const auto& m : result_->check.margins) {
+    if (m.name == "joint 6 |acceleration|") amax = m.worst;
+  }
+  file.constraints.acceleration[5] = 0.8 * amax;
+  trajectory::writeTrajectoryFile(bad, file);
+  auto run = [&](const std::string& path, std::string& out) {
+    std::FILE* p = ::popen((ftid + " check-trajectory " + path + " 2>&1").c_str(), "r");
+    char buf[512];
+    while (std::fgets(buf, sizeof buf, p) != nullptr) out += buf;
+    const int status = ::pclose(p);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  std::string out_good, out_bad;
+  EXPECT_EQ(run(good, out_good), 0) << out_good;
+  EXPECT_NE(out_good.find("OK: all constraints hold"), std::string::npos) << out_good;
+  EXPECT_EQ(run(bad, out_bad), 1) << out_bad;
+  EXPECT_NE(out_bad.find("joint 6 |acceleration|"), std::string::npos) << out_bad;
+  EXPECT_NE(out_bad.find("VIOLATED"), std::string::npos) << out_bad;
 }
 
 TEST(Design, InfeasibleRequestsGetClearErrors) {
