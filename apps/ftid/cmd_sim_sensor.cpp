@@ -48,7 +48,8 @@ const char* kUsage =
     "  --dbc FILE          CAN layout (default config/ftsensor.dbc)\n"
     "  --verbose           a status line every second instead of every 5 s\n"
     "\n"
-    "At run time: SIGUSR1 injects one error frame, SIGUSR2 silences the sensor for 100 samples.\n"
+    "At run time: SIGUSR1 injects one error frame, SIGUSR2 silences the sensor for 100 samples,\n"
+    "SIGRTMIN+1 starts the configured contact push (effects.contact) now.\n"
     "Default payload: the paper's Table 2 (8.862 N, c = (0.5, 0.2, 5.1) cm, tilt -9.87/-5.37 deg).\n"
     "Layout, health rules and the simulator: docs/sensor.md.";
 
@@ -112,7 +113,7 @@ int runSimSensor(const std::vector<std::string>& argv) {
   // Signals go to the waiter thread only (blocked before any thread starts).
   sigset_t set;
   sigemptyset(&set);
-  for (int s : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2}) sigaddset(&set, s);
+  for (int s : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGRTMIN + 1}) sigaddset(&set, s);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
 
   SimSensor sensor(cfg);
@@ -126,6 +127,7 @@ int runSimSensor(const std::vector<std::string>& argv) {
       if (sig == SIGINT || sig == SIGTERM) stop = true;
       if (sig == SIGUSR1) sensor.inject(SensorFault::kErrorFrame, 1);
       if (sig == SIGUSR2) sensor.inject(SensorFault::kSilent, 100);
+      if (sig == SIGRTMIN + 1) sensor.startContactPush();
     }
   });
   std::mutex print_mutex;

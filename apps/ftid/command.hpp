@@ -35,6 +35,7 @@ class Args {
   bool flag(const std::string& name);
   /// The value of --name, or the default; consumes it. Throws UsageError if the value is missing.
   std::string value(const std::string& name, const std::string& default_value = "");
+  /// True if --name (or --name=value) is present and not yet consumed.
   bool has(const std::string& name) const;
   /// Remaining positional arguments; consumes them.
   std::vector<std::string> positionals();

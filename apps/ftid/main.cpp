@@ -39,6 +39,7 @@ Args::Args(std::vector<std::string> args, std::string command_usage)
 
 bool Args::has(const std::string& name) const {
   for (std::size_t i = 0; i < args_.size(); ++i) {
+    if (used_[i]) continue;
     if (args_[i] == name || args_[i].rfind(name + "=", 0) == 0) return true;
   }
   return false;

@@ -1,5 +1,6 @@
 #include "ftid/cell/cell_identify.hpp"
 
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -233,6 +234,10 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
                      "): start it (systemctl start ftidd) and check `journalctl -u ftidd`; nothing moved";
     return result;
   }
+  // One stale sample now and then is normal on a busy host; a sensor that stays invalid is not.
+  for (int i = 0; i < 100 && recorder.invalidSensorStreak() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   if (recorder.invalidSensorStreak() > 0) {
     result.message = "the F/T sensor is not delivering valid data through ftidd (stale or invalid samples); "
                      "check the sensor and its CAN link; nothing moved";
@@ -404,7 +409,15 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     identify::writeParameterFile(params_path, set);
     result.params_path = params_path;
   } catch (const std::exception& e) {
-    result.message = "could not write the parameter file: " + std::string(e.what()) +
+    // The writer's exception may not say why (e.g. ENOSPC seen only at flush): name a full disk.
+    std::string why = e.what();
+    struct statvfs fs_info {};
+    const fs::path dir = fs::path(params_path).parent_path().empty() ? fs::path(".") : fs::path(params_path).parent_path();
+    if (::statvfs(dir.c_str(), &fs_info) == 0 && fs_info.f_bavail * fs_info.f_frsize < 64 * 1024) {
+      why += " (no space left on the file system of " + dir.string() + ": " +
+             std::to_string(fs_info.f_bavail * fs_info.f_frsize / 1024) + " kB free)";
+    }
+    result.message = "could not write the parameter file: " + why +
                      "; the previous parameters are intact, " + data_note;
     return result;
   }

@@ -161,6 +161,9 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
   const int tested = static_cast<int>(std::count_if(out.begin(), out.end(), [](const auto& c) { return !c.skipped; }));
   const double alpha_each = options.family_alpha / std::max(1, tested);
   const int rows_ho = 6 * base.sol.n_heldout;
+  // The base design and prepared contexts are shared by every candidate (designExtended).
+  const detail::Engine::Design base_design = eng.design(base.model, base.lin);
+  const std::vector<SampleContext> prepared = eng.prepared(base.lin);
   for (auto& c : out) {
     if (c.skipped) continue;
     say(options, "  trying " + c.effect);
@@ -184,7 +187,9 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
       lin.tilt_columns = true;
     }
     // The base model's columns must keep their meaning in the candidate (nested models).
-    const Solution s = eng.solve(eng.design(cand, lin));
+    const Solution s = lin.tilt_columns == base.lin.tilt_columns
+                           ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
+                           : eng.solve(eng.design(cand, lin));
     c.added_params = s.rank - base.sol.rank;
     c.residual_rms = (s.sse_heldout_axis / std::max(1, s.n_heldout)).cwiseSqrt();
     const double rr = 1.0 - s.sse_heldout / base.sol.sse_heldout;

@@ -126,6 +126,46 @@ Engine::Design Engine::design(const Model& model, const Linearization& lin) cons
   return X;
 }
 
+std::vector<SampleContext> Engine::prepared(const Linearization& lin) const {
+  std::vector<SampleContext> out(data_.ctx.size());
+  for (int i = 0; i < data_.size(); ++i) out[static_cast<std::size_t>(i)] = contextAt(i, lin);
+  return out;
+}
+
+Engine::Design Engine::designExtended(const Model& base, const Design& base_design, const Model& cand,
+                                      const Linearization& lin, const std::vector<SampleContext>& prepared_ctx) const {
+  const int pb = base.numParams();
+  const int pc = cand.numParams();
+  const int tilt = lin.tilt_columns ? 2 : 0;
+  const auto& bn = base.paramIndex().names();
+  const auto& cn = cand.paramIndex().names();
+  bool prefix = base_design.cols() == pb + tilt + 1 && pc >= pb;
+  for (int k = 0; prefix && k < pb; ++k) prefix = bn[static_cast<std::size_t>(k)] == cn[static_cast<std::size_t>(k)];
+  if (!prefix) return design(cand, lin);
+  std::vector<const effects::Effect*> added;
+  for (const auto& e : cand.effectList()) {
+    if (!base.contains(e->name())) added.push_back(e.get());
+  }
+  const int n = data_.size();
+  Design X(6 * n, pc + tilt + 1);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, pc);
+  const Vec6& w = data_.weights;
+  for (int i = 0; i < n; ++i) {
+    const SampleContext& c = prepared_ctx[static_cast<std::size_t>(i)];
+    Y.setZero();
+    for (const auto* e : added) e->addRegressor(c, Y);
+    for (int a = 0; a < 6; ++a) {
+      const std::ptrdiff_t r = rowOf(i, a);
+      const double* src = base_design.data() + r * (pb + tilt + 1);
+      double* row = X.data() + r * (pc + tilt + 1);
+      for (int k = 0; k < pb; ++k) row[k] = src[k] + w(a) * Y(a, k);
+      for (int k = pb; k < pc; ++k) row[k] = w(a) * Y(a, k);
+      for (int k = 0; k <= tilt; ++k) row[pc + k] = src[pb + k];
+    }
+  }
+  return X;
+}
+
 namespace {
 
 /// Weighted SSE of theta on a block whose augmented Gram [X y]^T [X y] is G.

@@ -87,6 +87,13 @@ class Engine {
   /// with_folds = false skips the held-out part (inner iterations); with_series fills
   /// Solution::heldout_residual (needed only for the reported model).
   Solution solve(const Design& X, bool with_folds = true, bool with_series = false) const;
+  /// Contexts with g_S and the derived signals of the linearisation filled in.
+  std::vector<SampleContext> prepared(const Linearization& lin) const;
+  /// Design of `cand` = `base` + more effects, from the base design (same linearisation, same tilt
+  /// columns): copies the base columns and adds only the new effects' contributions (regressors
+  /// are additive). Falls back to design() if the base columns are not a prefix of cand's.
+  Design designExtended(const effects::Model& base, const Design& base_design, const effects::Model& cand,
+                        const Linearization& lin, const std::vector<SampleContext>& prepared_ctx) const;
   /// Row of (sample i, axis a) in a design.
   int rowOf(int i, int a) const;
 

@@ -243,4 +243,11 @@ logio::LogData CellSim::run() const {
   return log;
 }
 
+void CellSim::setContactWindow(double t_start_s, double t_end_s) {
+  if (!(t_end_s > t_start_s)) throw ConfigError("contact window: t_end must be after t_start");
+  config_.contact.enabled = true;
+  config_.contact.t_start_s = t_start_s;
+  config_.contact.t_end_s = t_end_s;
+}
+
 }  // namespace ftid::sim

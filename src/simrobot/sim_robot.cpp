@@ -5,6 +5,8 @@
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <poll.h>
+#include <pthread.h>
+#include <sched.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <unistd.h>
@@ -241,6 +243,7 @@ struct SimRobot::Impl {
   bool executing = false;
   bool servo_active = false;
   JointVector servo_target, servo_prev_target;
+  std::uint64_t servo_change_tick = 0;  // tick at which servo_target last changed
   double servo_t = 0.008, servo_lookahead = 0.1, servo_gain = 300.0;
   bool stopping = false;
   double stop_decel = 10.0;
@@ -413,7 +416,11 @@ struct SimRobot::Impl {
       if (in_double[o + 9] > 0) servo_lookahead = std::clamp(in_double[o + 9], 0.03, 0.2);
       if (in_double[o + 10] > 0) servo_gain = std::clamp(in_double[o + 10], 100.0, 2000.0);
       if (cfg.servo_step_protective_stop_factor > 0) {
-        const double t = std::max(servo_t, dt);
+        // A host that answers late (non-real-time scheduling) leaves the previous target in the
+        // registers for a tick and then sends one covering two ticks: judge the step over the
+        // time since the target last changed (at most 3 ticks, the runner's lost-package limit).
+        const std::uint64_t held = servo_active ? std::min<std::uint64_t>(ticks - servo_change_tick, 3) : 1;
+        const double t = std::max(servo_t, static_cast<double>(std::max<std::uint64_t>(held, 1)) * dt);
         for (int i = 0; i < 6; ++i) {
           if (std::abs(target[i] - servo_prev_target[i]) / t >
               cfg.velocity_limit[i] * cfg.servo_step_protective_stop_factor) {
@@ -423,6 +430,7 @@ struct SimRobot::Impl {
           }
         }
       }
+      if (!servo_active || target != servo_target) servo_change_tick = ticks;
       servo_target = target;
       servo_active = true;
       ++servo_commands;
@@ -1078,7 +1086,16 @@ struct SimRobot::Impl {
   }
 
   // ---------------------------------------------------------------- threads
+  void raisePriority(int prio) const {
+    if (prio <= 0) return;
+    sched_param sp{};
+    sp.sched_priority = prio;
+    const int rc = pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    if (rc != 0) log(std::string("SCHED_FIFO for the simulator refused: ") + std::strerror(rc));
+  }
+
   void tickLoop() {
+    raisePriority(cfg.thread_priority);
     const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(dt * 1e9));
     std::int64_t next = nowNs() + period_ns;
     while (running.load()) {
@@ -1098,6 +1115,7 @@ struct SimRobot::Impl {
   }
 
   void ioLoop() {
+    raisePriority(cfg.thread_priority > 1 ? cfg.thread_priority - 1 : 0);
     while (running.load()) {
       std::vector<pollfd> fds;
       {

@@ -222,6 +222,11 @@ int SensorFrameSource::nextSample(const RobotHistory& history, double t_robot, d
   counter_ += static_cast<std::uint32_t>(take(SensorFault::kCounterGap));
   const int error_frames = take(SensorFault::kErrorFrame);
   const int bus_off = take(SensorFault::kBusOff);
+  if (contact_requested_.exchange(false)) {
+    const auto& c = cell_.config().contact;
+    const double length = c.t_end_s > c.t_start_s ? c.t_end_s - c.t_start_s : 2.0;
+    cell_.setContactWindow(t_phys, t_phys + length);
+  }
 
   const sim::SensorReading r = readingAt(history, t_robot, t_phys);
   can::SensorValues v;
@@ -330,6 +335,8 @@ SimSensor::SimSensor(SimSensorConfig config) : config_(std::move(config)), impl_
 SimSensor::~SimSensor() = default;
 
 void SimSensor::inject(SensorFault kind, int count) { impl_->source->inject(kind, count); }
+
+void SimSensor::startContactPush() noexcept { impl_->source->requestContactPush(); }
 
 SimSensorStats SimSensor::stats() const {
   std::lock_guard<std::mutex> lock(impl_->stats_mutex);

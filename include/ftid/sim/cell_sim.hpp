@@ -173,6 +173,11 @@ class CellSim {
   std::size_t sampleCount() const;
 
   const CellSimConfig& config() const { return config_; }
+
+  /// Switches the contact push on for [t_start_s, t_end_s] (force and point as configured). For a
+  /// simulator driven live (ftid sim-sensor starts a push on request). Not thread-safe with the
+  /// per-instant readers: call it from the thread that uses them.
+  void setContactWindow(double t_start_s, double t_end_s);
   const model::RobotKinematics& robot() const { return *config_.robot; }
 
  private:

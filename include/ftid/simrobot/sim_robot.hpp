@@ -67,6 +67,9 @@ struct SimRobotConfig {
   JointVector position_lower = JointVector::Constant(-6.283185307179586);
   JointVector position_upper = JointVector::Constant(6.283185307179586);
   bool realtime = true;  ///< tick thread paced by CLOCK_MONOTONIC (false: as fast as possible, tests)
+  /// > 0: run the tick thread at SCHED_FIFO with this priority and the I/O thread one below, as
+  /// a real controller would (silently stays SCHED_OTHER without the privilege). 0: normal threads.
+  int thread_priority = 0;
   std::string serial_number = "20185500000";
   std::vector<ScheduledFault> scheduled_faults;
   bool verbose = false;  ///< log connections/programs to stderr

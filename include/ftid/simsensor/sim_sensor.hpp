@@ -121,6 +121,9 @@ class SensorFrameSource {
                  std::array<can_frame, kMaxFrames>& out);
   /// Thread-safe: takes effect at the next sample.
   void inject(SensorFault kind, int count = 1);
+  /// Thread-safe: the configured contact push (effects.contact force, point and window length)
+  /// starts at the next sample.
+  void requestContactPush() noexcept { contact_requested_.store(true); }
   std::uint32_t counter() const noexcept { return counter_; }
   const sim::CellSim& cell() const noexcept { return cell_; }
 
@@ -131,6 +134,7 @@ class SensorFrameSource {
   bool add_noise_ = false;
   std::uint32_t counter_ = 0;
   std::array<std::atomic<int>, 7> pending_{};  ///< injected faults, by SensorFault
+  std::atomic<bool> contact_requested_{false};
   int silent_left_ = 0, out_of_range_left_ = 0, stuck_left_ = 0, status_left_ = 0;
   std::array<double, 6> wrench_max_{};  ///< DBC maximum per wrench axis (overload status bit)
   double fx_fault_value_ = 360.0;
@@ -164,6 +168,8 @@ class SimSensor {
   void run(const std::atomic<bool>& stop,
            const std::function<void(const std::string&)>& progress = {});
   void inject(SensorFault kind, int count = 1);
+  /// Starts the configured contact push now (thread-safe; used on SIGRTMIN+1 by the CLI).
+  void startContactPush() noexcept;
   SimSensorStats stats() const;
   const SimSensorConfig& config() const noexcept { return config_; }
 

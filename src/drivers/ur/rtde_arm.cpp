@@ -81,16 +81,24 @@ Status RtdeArm::waitForState(std::chrono::nanoseconds timeout, ArmState* out) no
 
 void RtdeArm::resetServoReference(const JointVector& q, const JointVector& qd) noexcept {
   safety_.reset(q, qd);
+  accepted_timestamp_ = last_timestamp_;
   for (int i = 0; i < 6; ++i) servo_pkg_.setDouble(static_cast<std::size_t>(1 + i), q[i]);
 }
 
 Status RtdeArm::sendServoTarget(const JointVector& q) noexcept {
-  last_reject_ = safety_.check(q, period_);
+  // The step must be reachable in the robot time since the previous accepted target: after lost
+  // packages the controller held the old target for the missed ticks.
+  double dt = period_;
+  if (accepted_timestamp_ >= 0.0 && last_timestamp_ - accepted_timestamp_ > period_) {
+    dt = last_timestamp_ - accepted_timestamp_;
+  }
+  last_reject_ = safety_.check(q, dt);
   if (last_reject_ != ServoReject::kNone) {
     faults_.raise(kFaultTargetRejected);
     sendHold();
     return Status::kRejected;
   }
+  accepted_timestamp_ = last_timestamp_;
   for (int i = 0; i < 6; ++i) servo_pkg_.setDouble(static_cast<std::size_t>(1 + i), q[i]);
   return client_.trySendInputs(servo_pkg_);
 }

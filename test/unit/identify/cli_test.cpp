@@ -16,7 +16,7 @@
 
 namespace {
 
-struct Run {
+struct CliRun {
   int code = -1;
   std::string out;
   std::string err;
@@ -24,11 +24,11 @@ struct Run {
 
 std::string dir() { return std::string(FTID_BINARY_DIR) + "/identify_cli_test_"; }
 
-Run ftidRun(const std::string& args) {
+CliRun ftidRun(const std::string& args) {
   const std::string err_file = dir() + "stderr.txt";
   const std::string cmd = "cd " + std::string(FTID_SOURCE_DIR) + " && " + FTID_BINARY_DIR + "/apps/ftid/ftid " +
                           args + " 2>" + err_file;
-  Run r;
+  CliRun r;
   FILE* p = popen(cmd.c_str(), "r");
   if (p == nullptr) return r;
   std::array<char, 4096> buf{};
@@ -54,19 +54,19 @@ TEST(IdentifyCli, JsonParamsAndCompensation) {
   const std::string log_path = dir() + "run.csv";
   ftid::logio::writeLog(log_path, ftid::sim::CellSim(ftid::test::paperConfig(true, 9)).run());
   const std::string params = dir() + "params.yaml";
-  const Run r = ftidRun("identify --log " + log_path + " --json --out " + params);
+  const CliRun r = ftidRun("identify --log " + log_path + " --json --out " + params);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NEAR(jsonValue(r.out, "weight"), 8.862, 0.05) << r.out;
   EXPECT_NEAR(jsonValue(r.out, "com_z"), 0.051, 0.002) << r.out;
   EXPECT_NE(r.out.find("\"residual_rms\":{\"fx\":"), std::string::npos);
 
-  const Run t = ftidRun("identify --log " + log_path + " --method static");
+  const CliRun t = ftidRun("identify --log " + log_path + " --method static");
   ASSERT_EQ(t.code, 0) << t.err;
   EXPECT_NE(t.out.find("residual RMS"), std::string::npos) << t.out;
   EXPECT_NE(t.out.find("condition number"), std::string::npos) << t.out;
 
   const std::string out_csv = dir() + "contact.csv";
-  const Run c = ftidRun("compensate --log " + log_path + " --params " + params + " --out " + out_csv);
+  const CliRun c = ftidRun("compensate --log " + log_path + " --params " + params + " --out " + out_csv);
   ASSERT_EQ(c.code, 0) << c.err;
   const ftid::logio::LogData log = ftid::logio::readLog(log_path);
   std::ifstream in(out_csv);
@@ -105,7 +105,7 @@ TEST(IdentifyCli, BadInputGivesOneLineAndNonZeroExit) {
   }
   in.close();
   std::ofstream(bad) << all.str();
-  const Run r = ftidRun("identify --log " + bad);
+  const CliRun r = ftidRun("identify --log " + bad);
   EXPECT_EQ(r.code, 1);
   EXPECT_NE(r.err.find(bad), std::string::npos) << r.err;
   // Progress lines may precede it; the error itself is exactly one line, the last one.
@@ -113,11 +113,11 @@ TEST(IdentifyCli, BadInputGivesOneLineAndNonZeroExit) {
   ASSERT_NE(error_at, std::string::npos) << r.err;
   EXPECT_EQ(r.err.find('\n', error_at), r.err.size() - 1) << r.err;
 
-  const Run missing = ftidRun("identify --log " + dir() + "nope.csv --json");
+  const CliRun missing = ftidRun("identify --log " + dir() + "nope.csv --json");
   EXPECT_EQ(missing.code, 1);
-  const Run usage = ftidRun("identify");
+  const CliRun usage = ftidRun("identify");
   EXPECT_EQ(usage.code, 2);
-  const Run method = ftidRun("identify --log " + bad + " --method fast");
+  const CliRun method = ftidRun("identify --log " + bad + " --method fast");
   EXPECT_EQ(method.code, 2);
 
   // One pose only: the data do not determine the parameters.
@@ -130,7 +130,7 @@ TEST(IdentifyCli, BadInputGivesOneLineAndNonZeroExit) {
   cfg.duration_s = 2.0;
   const std::string still = dir() + "still.csv";
   ftid::logio::writeLog(still, ftid::sim::CellSim(cfg).run());
-  const Run s = ftidRun("identify --log " + still + " --json");
+  const CliRun s = ftidRun("identify --log " + still + " --json");
   EXPECT_EQ(s.code, 1);
   EXPECT_NE(s.err.find("do not determine"), std::string::npos) << s.err;
   EXPECT_EQ(std::count(s.err.begin(), s.err.end(), '\n'), 1) << s.err;

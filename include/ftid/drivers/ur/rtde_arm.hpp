@@ -86,6 +86,7 @@ class RtdeArm final : public Arm {
   FaultWord faults_;
   RobotState raw_{};
   double last_timestamp_ = -1.0;
+  double accepted_timestamp_ = -1.0;  // robot time of the state the last accepted target followed
 };
 
 template <class Pred>
