@@ -6,7 +6,8 @@
 //   2. shortest duration meeting mass std < 0.5 % and com std < 1 mm at noise 0.05 N / 0.01 Nm
 //   3. check of 2 by simulation: first-principles simulator + identification, several noise seeds
 //
-// Run from the source root. usage: bench_design [--budget S] [--search-budget S] [--seeds N] [--robot URDF] [--config FILE]
+// Run from the source root. usage: bench_design [--budget S] [--search-budget S] [--seeds N]
+// [--robot URDF] [--config FILE]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -46,8 +47,9 @@ struct SimErrors {
   double com_rms = 0.0;       // [m], RMS over axes and seeds
 };
 
-SimErrors simulate(const model::RobotKinematics& kin, const trajectory::FourierTrajectory& tr, int seeds,
-                   const std::string& model_name = "paper", bool full_rigid_body = true) {
+SimErrors simulate(const model::RobotKinematics& kin, const trajectory::FourierTrajectory& tr,
+                   int seeds, const std::string& model_name = "paper",
+                   bool full_rigid_body = true) {
   const auto model = effects::Model::fromName(model_name);
   const double m = sim::PaperPayload::kMass_kg;
   const Vec3 c = sim::PaperPayload::centreOfMass();
@@ -85,43 +87,50 @@ int main(int argc, char** argv) {
   o.model = sarg(argc, argv, "--model", "paper");
   o.duration_s = arg(argc, argv, "--duration", 10.0);
   o.harmonics = static_cast<int>(arg(argc, argv, "--harmonics", 5));
-  if (sarg(argc, argv, "--objective", "cond") == "dopt") o.objective = design::Objective::kDOptimality;
+  if (sarg(argc, argv, "--objective", "cond") == "dopt")
+    o.objective = design::Objective::kDOptimality;
   const bool skip_search = arg(argc, argv, "--skip-search", 0) != 0.0;
   o.time_budget_s = budget;
   o.constraints = design::loadDesignConstraints(config, kin, o.q0);
   o.progress = &std::cerr;
 
-  std::printf("== 1. design: %.3g s, %d harmonics, joints 4-6, model %s, budget %.0f s\n", o.duration_s,
-              o.harmonics, o.model.c_str(), budget);
+  std::printf("== 1. design: %.3g s, %d harmonics, joints 4-6, model %s, budget %.0f s\n",
+              o.duration_s, o.harmonics, o.model.c_str(), budget);
   const auto t0 = std::chrono::steady_clock::now();
   const design::DesignResult r = design::designExcitation(o, kin);
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("wall time %.1f s (optimisation %.1f s), evaluations %ld + %ld\n", wall, r.elapsed_s, r.global_evals,
-              r.local_evals);
-  std::printf("condition number designed %.4g | random median (%d) %.4g -> %.1fx | static six-pose %.4g -> %.2fx\n",
-              r.condition_number, r.baselines.random_count, r.baselines.random_median_condition,
-              r.baselines.random_median_condition / r.condition_number, r.baselines.static_condition,
-              r.baselines.static_condition / r.condition_number);
-  std::printf("dense check: %s; predicted std mass %.3g kg (%.3g %%), com_x/y/z %.3g/%.3g/%.3g mm\n",
-              r.check.ok() ? "ok" : "VIOLATED", r.predicted_std.at("mass"),
-              100.0 * r.predicted_std.at("mass") / sim::PaperPayload::kMass_kg, 1e3 * r.predicted_std.at("com_x"),
-              1e3 * r.predicted_std.at("com_y"), 1e3 * r.predicted_std.at("com_z"));
+  std::printf("wall time %.1f s (optimisation %.1f s), evaluations %ld + %ld\n", wall, r.elapsed_s,
+              r.global_evals, r.local_evals);
+  std::printf(
+      "condition number designed %.4g | random median (%d) %.4g -> %.1fx | static six-pose %.4g -> "
+      "%.2fx\n",
+      r.condition_number, r.baselines.random_count, r.baselines.random_median_condition,
+      r.baselines.random_median_condition / r.condition_number, r.baselines.static_condition,
+      r.baselines.static_condition / r.condition_number);
+  std::printf(
+      "dense check: %s; predicted std mass %.3g kg (%.3g %%), com_x/y/z %.3g/%.3g/%.3g mm\n",
+      r.check.ok() ? "ok" : "VIOLATED", r.predicted_std.at("mass"),
+      100.0 * r.predicted_std.at("mass") / sim::PaperPayload::kMass_kg,
+      1e3 * r.predicted_std.at("com_x"), 1e3 * r.predicted_std.at("com_y"),
+      1e3 * r.predicted_std.at("com_z"));
   {
     for (bool full : {false, true}) {
       const SimErrors e = simulate(kin, r.file.toTrajectory(), seeds, o.model, full);
       const SimErrors p = simulate(kin, sim::paperExcitationTrajectory(), seeds, "paper", full);
-      std::printf("simulated identification (%d seeds, %s physics, noise 0.05 N / 0.01 Nm):\n", seeds,
-                  full ? "full rigid-body" : "paper-model");
-      std::printf("  designed (fit %s):  mass RMS error %.3g %%, com RMS error %.3g mm\n", o.model.c_str(),
-                  100 * e.mass_rel_rms, 1e3 * e.com_rms);
-      std::printf("  paper-style 10 s (fit paper):  mass RMS error %.3g %%, com RMS error %.3g mm\n",
-                  100 * p.mass_rel_rms, 1e3 * p.com_rms);
+      std::printf("simulated identification (%d seeds, %s physics, noise 0.05 N / 0.01 Nm):\n",
+                  seeds, full ? "full rigid-body" : "paper-model");
+      std::printf("  designed (fit %s):  mass RMS error %.3g %%, com RMS error %.3g mm\n",
+                  o.model.c_str(), 100 * e.mass_rel_rms, 1e3 * e.com_rms);
+      std::printf(
+          "  paper-style 10 s (fit paper):  mass RMS error %.3g %%, com RMS error %.3g mm\n",
+          100 * p.mass_rel_rms, 1e3 * p.com_rms);
     }
   }
 
   if (skip_search) return 0;
-  std::printf("\n== 2. shortest duration, model %s: mass std <= 0.5 %%, com std <= 1 mm (budget %.0f s)\n",
-              o.model.c_str(), search_budget);
+  std::printf(
+      "\n== 2. shortest duration, model %s: mass std <= 0.5 %%, com std <= 1 mm (budget %.0f s)\n",
+      o.model.c_str(), search_budget);
   design::DesignOptions s = o;
   s.time_budget_s = search_budget;
   s.progress = nullptr;
@@ -133,21 +142,25 @@ int main(int argc, char** argv) {
   for (const auto& t : d.trials) {
     std::printf("  %5.2f s  cond %9.4g  mass std %.3g %%  com std max %.3g mm  %s\n", t.duration_s,
                 t.condition_number,
-                t.predicted_std.count("mass") ? 100 * t.predicted_std.at("mass") / sim::PaperPayload::kMass_kg : std::nan(""),
+                t.predicted_std.count("mass")
+                    ? 100 * t.predicted_std.at("mass") / sim::PaperPayload::kMass_kg
+                    : std::nan(""),
                 t.predicted_std.count("com_x")
-                    ? 1e3 * std::max({t.predicted_std.at("com_x"), t.predicted_std.at("com_y"), t.predicted_std.at("com_z")})
+                    ? 1e3 * std::max({t.predicted_std.at("com_x"), t.predicted_std.at("com_y"),
+                                      t.predicted_std.at("com_z")})
                     : std::nan(""),
                 t.met ? "meets" : "misses");
   }
   std::printf("search wall time %.1f s\n", wall2);
   if (d.found) {
-    std::printf("shortest duration meeting the targets: %.2f s (cond %.4g)\n", d.best.file.duration_s,
-                d.best.condition_number);
+    std::printf("shortest duration meeting the targets: %.2f s (cond %.4g)\n",
+                d.best.file.duration_s, d.best.condition_number);
     // Paper model: simulate the physics it assumes (errors = noise); richer models: full physics.
     const bool full = s.model != "paper";
     const SimErrors e = simulate(kin, d.best.file.toTrajectory(), seeds, s.model, full);
-    std::printf("  simulated (%d seeds, %s physics): mass RMS error %.3g %%, com RMS error %.3g mm\n", seeds,
-                full ? "full rigid-body" : "paper-model", 100 * e.mass_rel_rms, 1e3 * e.com_rms);
+    std::printf(
+        "  simulated (%d seeds, %s physics): mass RMS error %.3g %%, com RMS error %.3g mm\n",
+        seeds, full ? "full rigid-body" : "paper-model", 100 * e.mass_rel_rms, 1e3 * e.com_rms);
   } else {
     std::printf("no duration up to 60 s met the targets\n");
   }

@@ -52,8 +52,7 @@ void fullStack(ftid::simrobot::RobotModel model, bool fifo, double seconds) {
   const auto r = ftid::motion::runOnRobot(cfg, src);
   const auto& s = r.run.stats;
   std::printf("full stack %-6s %s: %s; %s\n", model == ftid::simrobot::RobotModel::kUR10 ? "125 Hz" : "500 Hz",
-              fifo ? "SCHED_FIFO " : "SCHED_OTHER", ftid::motion::runStatusName(r.run.status),
-              r.run.realtime.describe().c_str());
+              fifo ? "SCHED_FIFO " : "SCHED_OTHER", r.run.message.c_str(), r.run.realtime.describe().c_str());
   std::printf("%s", s.summary("  loop").c_str());
 }
 

@@ -17,14 +17,18 @@ namespace {
 const char* kUsage =
     "usage: ftid check-trajectory TRAJ.yaml [--robot URDF] [--config FILE] [--dt S]\n"
     "\n"
-    "Re-verifies an excitation trajectory written by `ftid design`, independently of the optimiser:\n"
-    "samples it every dt seconds (default 1 ms) and checks joint position, velocity and acceleration\n"
-    "limits, the tool spheres against the floor plane and the keep-out spheres (forward kinematics\n"
+    "Re-verifies an excitation trajectory written by `ftid design`, independently of the "
+    "optimiser:\n"
+    "samples it every dt seconds (default 1 ms) and checks joint position, velocity and "
+    "acceleration\n"
+    "limits, the tool spheres against the floor plane and the keep-out spheres (forward "
+    "kinematics\n"
     "of the sensor), rest-to-rest at both ends and a whole number of base periods. Prints every\n"
     "constraint's worst value and margin.\n"
     "\n"
     "  --robot URDF    robot (default: the one recorded in the file)\n"
-    "  --config FILE   check against this design config (config/design.yaml format) instead of the\n"
+    "  --config FILE   check against this design config (config/design.yaml format) instead of "
+    "the\n"
     "                  constraints recorded in the file\n"
     "  --dt S          sampling step [s] (default 0.001)\n"
     "\n"
@@ -54,9 +58,10 @@ int runCheck(const std::vector<std::string>& argv) {
   trajectory::TrajectoryConstraints constraints = file.constraints;
   if (!config.empty()) constraints = design::loadDesignConstraints(config, kin, file.q0);
 
-  const design::CheckReport report = design::checkTrajectory(file.toTrajectory(), kin, constraints, dt);
-  std::printf("%s: %.4g s, %d harmonics, base %.4g Hz, robot %s\n", pos[0].c_str(), file.duration_s, file.harmonics,
-              file.base_frequency_hz, robot.c_str());
+  const design::CheckReport report =
+      design::checkTrajectory(file.toTrajectory(), kin, constraints, dt);
+  std::printf("%s: %.4g s, %d harmonics, base %.4g Hz, robot %s\n", pos[0].c_str(), file.duration_s,
+              file.harmonics, file.base_frequency_hz, robot.c_str());
   std::printf("%s", report.table().c_str());
   if (report.ok()) {
     std::printf("OK: all constraints hold\n");
@@ -67,7 +72,8 @@ int runCheck(const std::vector<std::string>& argv) {
   return 1;
 }
 
-ftid::cli::Registrar reg{{"check-trajectory", "re-verify a designed trajectory (limits, workspace, margins)",
-                          kUsage, &runCheck}};
+ftid::cli::Registrar reg{{"check-trajectory",
+                          "re-verify a designed trajectory (limits, workspace, margins)", kUsage,
+                          &runCheck}};
 
 }  // namespace

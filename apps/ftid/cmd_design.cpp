@@ -19,14 +19,17 @@ namespace {
 const char* kUsage =
     "usage: ftid design [options]\n"
     "\n"
-    "Designs a rest-to-rest Fourier excitation trajectory (paper Eq. 47-49 about q0) that makes the\n"
+    "Designs a rest-to-rest Fourier excitation trajectory (paper Eq. 47-49 about q0) that makes "
+    "the\n"
     "model's parameters as well determined as possible within the joint limits and the workspace,\n"
-    "with NLopt (global stage + local refinement). Writes OUT (YAML: coefficients and everything to\n"
+    "with NLopt (global stage + local refinement). Writes OUT (YAML: coefficients and everything "
+    "to\n"
     "reproduce it) and OUT with .csv (t, q1..q6, qd1..qd6, qdd1..qdd6 at the servo rate).\n"
     "\n"
     "  --model M            model whose regressor is excited (default paper)\n"
     "  --robot URDF         robot (default config/ur10.urdf)\n"
-    "  --config FILE        limits, floor, keep-out spheres, tool spheres (default config/design.yaml\n"
+    "  --config FILE        limits, floor, keep-out spheres, tool spheres (default "
+    "config/design.yaml\n"
     "                       if it exists; built-in defaults otherwise)\n"
     "  --joints 4,5,6|all   excited joints, 1-based (default 4,5,6)\n"
     "  --duration S         trajectory duration [s] (default 10)\n"
@@ -43,9 +46,11 @@ const char* kUsage =
     "                       these the result does not depend on the machine's speed\n"
     "  --noise fx=..,fy=..,fz=..,tx=..,ty=..,tz=..  sensor noise [N, Nm] for predicted standard\n"
     "                       errors (default 0.05 N, 0.01 Nm)\n"
-    "  --nominal mass=..,com_x=..   nominal payload where the metric needs values (default: paper)\n"
+    "  --nominal mass=..,com_x=..   nominal payload where the metric needs values (default: "
+    "paper)\n"
     "  --target-std mass=0.005,com=0.001  search the shortest duration (one period, 0.5 s steps)\n"
-    "                       whose predicted standard errors meet the targets (SI; '0.5%' relative)\n"
+    "                       whose predicted standard errors meet the targets (SI; '0.5%' "
+    "relative)\n"
     "  --max-cond X         reject designs whose condition number exceeds X (default 1e4)\n"
     "  --baseline-seeds N   random trajectories for the baseline (default 50; 0 to skip)\n"
     "  --out FILE           output YAML (default traj.yaml)\n"
@@ -84,7 +89,8 @@ long parseCount(const std::string& text, const std::string& what, long min) {
     if (used != text.size() || v < min) throw std::invalid_argument("range");
     return v;
   } catch (const std::exception&) {
-    throw ftid::cli::UsageError(what + " needs an integer >= " + std::to_string(min) + ", got '" + text + "'");
+    throw ftid::cli::UsageError(what + " needs an integer >= " + std::to_string(min) + ", got '" +
+                                text + "'");
   }
 }
 
@@ -94,7 +100,8 @@ std::map<std::string, double> parseNominal(const std::string& text) {
   std::string item;
   while (std::getline(ss, item, ',')) {
     const auto eq = item.find('=');
-    if (eq == std::string::npos) throw ftid::cli::UsageError("--nominal: expected name=value, got '" + item + "'");
+    if (eq == std::string::npos)
+      throw ftid::cli::UsageError("--nominal: expected name=value, got '" + item + "'");
     out[item.substr(0, eq)] = parseList(item.substr(eq + 1), "--nominal")[0];
   }
   return out;
@@ -107,11 +114,13 @@ bool fileExists(const std::string& path) {
   return true;
 }
 
-void printStd(const std::map<std::string, double>& s, const std::map<std::string, double>& targets) {
+void printStd(const std::map<std::string, double>& s,
+              const std::map<std::string, double>& targets) {
   for (const auto& [k, v] : s) {
     std::printf("  %-14s %12.4g", k.c_str(), v);
     auto it = targets.find(k);
-    if (it != targets.end()) std::printf("   target %.4g %s", it->second, v <= it->second ? "met" : "MISSED");
+    if (it != targets.end())
+      std::printf("   target %.4g %s", it->second, v <= it->second ? "met" : "MISSED");
     std::printf("\n");
   }
 }
@@ -140,7 +149,8 @@ int runDesign(const std::vector<std::string>& argv) {
   const std::string nominal = args.value("--nominal", "");
   const std::string target = args.value("--target-std", "");
   o.max_condition = parsePositive(args.value("--max-cond", "1e4"), "--max-cond");
-  o.baseline_seeds = static_cast<int>(parseCount(args.value("--baseline-seeds", "50"), "--baseline-seeds", 0));
+  o.baseline_seeds =
+      static_cast<int>(parseCount(args.value("--baseline-seeds", "50"), "--baseline-seeds", 0));
   const std::string out = args.value("--out", "traj.yaml");
   const bool quiet = args.flag("--quiet");
   args.finish();
@@ -150,7 +160,8 @@ int runDesign(const std::vector<std::string>& argv) {
   } else {
     o.joints.clear();
     for (double j : parseList(joints, "--joints")) {
-      if (j != std::floor(j) || j < 1 || j > 6) throw cli::UsageError("--joints: joint numbers are 1..6 or 'all'");
+      if (j != std::floor(j) || j < 1 || j > 6)
+        throw cli::UsageError("--joints: joint numbers are 1..6 or 'all'");
       o.joints.push_back(static_cast<int>(j));
     }
   }
@@ -169,7 +180,8 @@ int runDesign(const std::vector<std::string>& argv) {
   if (!noise.empty()) o.noise_sigma = design::parseNoise(noise);
   if (!nominal.empty()) o.nominal = parseNominal(nominal);
   if (o.servo_rate_hz != 125.0 && o.servo_rate_hz != 500.0) {
-    std::cerr << "ftid design: note: --rate " << o.servo_rate_hz << " Hz is neither 125 (CB3) nor 500 (e-Series)\n";
+    std::cerr << "ftid design: note: --rate " << o.servo_rate_hz
+              << " Hz is neither 125 (CB3) nor 500 (e-Series)\n";
   }
   (void)effects::Model::fromName(o.model);  // unknown model: clear error before any work
 
@@ -182,16 +194,18 @@ int runDesign(const std::vector<std::string>& argv) {
   std::map<std::string, double> targets;
   if (!target.empty()) {
     targets = design::parseTargets(target, o.nominal);
-    std::cerr << "design: searching the shortest duration meeting the targets (budget " << o.time_budget_s
-              << " s in total)\n";
+    std::cerr << "design: searching the shortest duration meeting the targets (budget "
+              << o.time_budget_s << " s in total)\n";
     design::DurationSearchResult s = design::findShortestDuration(o, kin, targets);
     std::printf("duration search (one base period each, %d harmonics):\n", o.harmonics);
     for (const auto& t : s.trials) {
-      std::printf("  %6.2f s  cond %10.4g  %s\n", t.duration_s, t.condition_number, t.met ? "meets" : "misses");
+      std::printf("  %6.2f s  cond %10.4g  %s\n", t.duration_s, t.condition_number,
+                  t.met ? "meets" : "misses");
     }
     if (!s.found) {
-      throw design::DesignError("no duration up to 60 s meets the targets " + target +
-                                " within the limits; relax the targets or the limits, or lower the noise");
+      throw design::DesignError(
+          "no duration up to 60 s meets the targets " + target +
+          " within the limits; relax the targets or the limits, or lower the noise");
     }
     r = std::move(s.best);
     std::printf("shortest duration meeting the targets: %.2f s\n", r.file.duration_s);
@@ -208,33 +222,41 @@ int runDesign(const std::vector<std::string>& argv) {
 
   std::printf("designed %.3g s trajectory, %d harmonics, joints %s, model %s\n", r.file.duration_s,
               r.file.harmonics, r.file.design["joints"].c_str(), r.file.design["model"].c_str());
-  std::printf("  NLopt global: %s\n  NLopt local:  %s\n  evaluations %ld + %ld in %.1f s\n", r.global_result.c_str(),
-              r.local_result.c_str(), r.global_evals, r.local_evals, r.elapsed_s);
-  std::printf("condition number (column-scaled, %d samples at %g Hz): %.4g\n", static_cast<int>(r.file.metrics["samples"]),
-              r.file.servo_rate_hz, r.condition_number);
+  std::printf("  NLopt global: %s\n  NLopt local:  %s\n  evaluations %ld + %ld in %.1f s\n",
+              r.global_result.c_str(), r.local_result.c_str(), r.global_evals, r.local_evals,
+              r.elapsed_s);
+  std::printf("condition number (column-scaled, %d samples at %g Hz): %.4g\n",
+              static_cast<int>(r.file.metrics["samples"]), r.file.servo_rate_hz,
+              r.condition_number);
   std::printf("D-optimality -(1/P) log det(M/n): %.4g\n", r.d_optimality);
   if (r.baselines.random_count > 0) {
-    std::printf("random feasible Fourier trajectories (median of %d): cond %.4g -> designed is %.1fx better\n",
-                r.baselines.random_count, r.baselines.random_median_condition,
-                r.baselines.random_median_condition / r.condition_number);
+    std::printf(
+        "random feasible Fourier trajectories (median of %d): cond %.4g -> designed is %.1fx "
+        "better\n",
+        r.baselines.random_count, r.baselines.random_median_condition,
+        r.baselines.random_median_condition / r.condition_number);
   }
   if (std::isinf(r.baselines.static_condition)) {
-    std::printf("static six-pose method: cannot determine model %s at all (singular: static poses do not "
-                "excite its motion-dependent parameters)\n", r.file.design["model"].c_str());
+    std::printf(
+        "static six-pose method: cannot determine model %s at all (singular: static poses do not "
+        "excite its motion-dependent parameters)\n",
+        r.file.design["model"].c_str());
   } else if (r.baselines.static_condition > 0.0) {
-    std::printf("static six-pose method: cond %.4g -> ratio static/designed %.2f\n", r.baselines.static_condition,
-                r.baselines.static_condition / r.condition_number);
+    std::printf("static six-pose method: cond %.4g -> ratio static/designed %.2f\n",
+                r.baselines.static_condition, r.baselines.static_condition / r.condition_number);
   } else if (!r.file.metrics.empty()) {
     std::printf("static six-pose method: no six feasible poses found from q0 (baseline skipped)\n");
   }
   std::printf("predicted standard errors (noise %s):\n", r.file.design["noise"].c_str());
   printStd(r.predicted_std, targets);
-  std::printf("dense re-check (%d samples): %s\n", r.check.samples, r.check.ok() ? "all constraints hold" : "VIOLATED");
+  std::printf("dense re-check (%d samples): %s\n", r.check.samples,
+              r.check.ok() ? "all constraints hold" : "VIOLATED");
   std::printf("%s", r.check.table().c_str());
   std::printf("wrote %s and %s\n", out.c_str(), csv.c_str());
   return r.check.ok() ? 0 : 1;
 }
 
-ftid::cli::Registrar reg{{"design", "design an optimal excitation trajectory (NLopt)", kUsage, &runDesign}};
+ftid::cli::Registrar reg{
+    {"design", "design an optimal excitation trajectory (NLopt)", kUsage, &runDesign}};
 
 }  // namespace

@@ -235,12 +235,18 @@ int runDemo(const DemoOptions& opt) {
   say("[2/6] F/T+IMU sensor simulator: the paper's payload (G = 8.862 N, c = (5, 2, 51) mm, base tilt"
       " U = -9.87 deg, V = -5.37 deg), 0.05 N / 0.01 Nm noise, and a hidden effect the paper's model"
       " lacks");
-  Child sensor("sim-sensor",
-               {ftid.string(), "sim-sensor", "--config", (work / "sim_sensor.yaml").string(), "--urdf",
-                (cfgdir / "ur10.urdf").string(), "--dbc", (cfgdir / "ftsensor.dbc").string(), "--socket",
-                sock.string(), "--seed", std::to_string(opt.seed), "--effect", opt.hidden_effect, "--effect",
-                "noise", "--effect", "paper_only"},
-               work / "logs" / "sim-sensor.log");
+  // The paper's physics plus exactly one hidden effect (rigid_body = the full Newton-Euler physics).
+  std::vector<std::string> sensor_args{ftid.string(), "sim-sensor", "--config", (work / "sim_sensor.yaml").string(),
+                                       "--urdf", (cfgdir / "ur10.urdf").string(), "--dbc",
+                                       (cfgdir / "ftsensor.dbc").string(), "--socket", sock.string(), "--seed",
+                                       std::to_string(opt.seed), "--effect", "noise"};
+  if (opt.hidden_effect == "rigid_body") {
+    sensor_args.insert(sensor_args.end(), {"--effect", "rigid_body"});
+  } else {
+    sensor_args.insert(sensor_args.end(), {"--effect", "paper_only", "--effect", opt.hidden_effect});
+  }
+  say("      hidden effect: " + opt.hidden_effect + " (the analysis has to find it)");
+  Child sensor("sim-sensor", sensor_args, work / "logs" / "sim-sensor.log");
   if (!waitFor([&] { return fs::exists(sock) || !sensor.alive(); }, 10.0) || !sensor.alive()) {
     say("demo: the sensor simulator did not start:\n" + tail(sensor.log(), 10));
     return 1;

@@ -29,9 +29,11 @@ class Cfg {
     return v;
   }
   std::vector<double> list(const YAML::Node& n, const std::string& key, std::size_t size) const {
-    if (!n.IsSequence() || n.size() != size) fail(key, "expected a list of " + std::to_string(size) + " numbers");
+    if (!n.IsSequence() || n.size() != size)
+      fail(key, "expected a list of " + std::to_string(size) + " numbers");
     std::vector<double> v;
-    for (std::size_t i = 0; i < size; ++i) v.push_back(number(n[i], key + "[" + std::to_string(i) + "]"));
+    for (std::size_t i = 0; i < size; ++i)
+      v.push_back(number(n[i], key + "[" + std::to_string(i) + "]"));
     return v;
   }
   JointVector joints(const YAML::Node& n, const std::string& key) const {
@@ -44,7 +46,8 @@ class Cfg {
     const auto v = list(n, key, 3);
     return Vec3(v[0], v[1], v[2]);
   }
-  void checkKeys(const YAML::Node& n, const std::string& prefix, std::initializer_list<const char*> known) const {
+  void checkKeys(const YAML::Node& n, const std::string& prefix,
+                 std::initializer_list<const char*> known) const {
     if (!n.IsMap()) fail(prefix.empty() ? "(top level)" : prefix, "expected a mapping");
     for (const auto& kv : n) {
       const std::string k = kv.first.as<std::string>();
@@ -88,18 +91,28 @@ trajectory::TrajectoryConstraints loadDesignConstraints(const std::string& confi
     } catch (const YAML::BadFile&) {
       throw ConfigError(config_path + ": cannot open design configuration");
     } catch (const YAML::Exception& e) {
-      throw ConfigError(config_path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+      throw ConfigError(config_path + ":" + std::to_string(e.mark.line + 1) +
+                        ": YAML syntax error: " + e.msg);
     }
     Cfg cfg(config_path);
     if (!root.IsNull()) {
       cfg.checkKeys(root, "", {"limits", "workspace", "sensor_mount"});
       if (const auto l = root["limits"]) {
-        cfg.checkKeys(l, "limits", {"position_lower", "position_upper", "max_excursion", "velocity", "acceleration"});
-        if (l["position_lower"]) c.position_lower = c.position_lower.cwiseMax(cfg.joints(l["position_lower"], "limits.position_lower"));
-        if (l["position_upper"]) c.position_upper = c.position_upper.cwiseMin(cfg.joints(l["position_upper"], "limits.position_upper"));
+        cfg.checkKeys(
+            l, "limits",
+            {"position_lower", "position_upper", "max_excursion", "velocity", "acceleration"});
+        if (l["position_lower"])
+          c.position_lower =
+              c.position_lower.cwiseMax(cfg.joints(l["position_lower"], "limits.position_lower"));
+        if (l["position_upper"])
+          c.position_upper =
+              c.position_upper.cwiseMin(cfg.joints(l["position_upper"], "limits.position_upper"));
         if (l["max_excursion"]) excursion = cfg.joints(l["max_excursion"], "limits.max_excursion");
-        if (l["velocity"]) c.velocity = urdf.velocity.cwiseMin(cfg.joints(l["velocity"], "limits.velocity"));
-        if (l["acceleration"]) c.acceleration = urdf.acceleration.cwiseMin(cfg.joints(l["acceleration"], "limits.acceleration"));
+        if (l["velocity"])
+          c.velocity = urdf.velocity.cwiseMin(cfg.joints(l["velocity"], "limits.velocity"));
+        if (l["acceleration"])
+          c.acceleration =
+              urdf.acceleration.cwiseMin(cfg.joints(l["acceleration"], "limits.acceleration"));
         for (int i = 0; i < kNumJoints; ++i) {
           if (!(c.velocity[i] > 0.0)) cfg.fail("limits.velocity", "must be positive");
           if (!(c.acceleration[i] > 0.0)) cfg.fail("limits.acceleration", "must be positive");
@@ -116,7 +129,8 @@ trajectory::TrajectoryConstraints loadDesignConstraints(const std::string& confi
             const std::string key = "workspace.keep_out[" + std::to_string(i) + "]";
             cfg.checkKeys(ko[i], key, {"name", "center", "radius"});
             trajectory::KeepOutSphere s;
-            s.name = ko[i]["name"] ? ko[i]["name"].as<std::string>() : "keep_out[" + std::to_string(i) + "]";
+            s.name = ko[i]["name"] ? ko[i]["name"].as<std::string>()
+                                   : "keep_out[" + std::to_string(i) + "]";
             if (!ko[i]["center"]) cfg.fail(key + ".center", "missing");
             if (!ko[i]["radius"]) cfg.fail(key + ".radius", "missing");
             s.center_B = cfg.vec3(ko[i]["center"], key + ".center");
@@ -146,7 +160,8 @@ trajectory::TrajectoryConstraints loadDesignConstraints(const std::string& confi
         if (m["xyz"]) c.p_FS_F = cfg.vec3(m["xyz"], "sensor_mount.xyz");
         if (m["rpy"]) {
           const Vec3 rpy = cfg.vec3(m["rpy"], "sensor_mount.rpy");
-          c.R_FS = (Eigen::AngleAxisd(rpy.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vec3::UnitY()) *
+          c.R_FS = (Eigen::AngleAxisd(rpy.z(), Vec3::UnitZ()) *
+                    Eigen::AngleAxisd(rpy.y(), Vec3::UnitY()) *
                     Eigen::AngleAxisd(rpy.x(), Vec3::UnitX()))
                        .toRotationMatrix();
         }

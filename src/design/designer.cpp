@@ -2,14 +2,13 @@
 // local stages, dense re-check and repair, baselines (see designer.hpp and docs/design.md).
 #include "ftid/design/designer.hpp"
 
-#include <nlopt.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <new>
+#include <nlopt.hpp>
 #include <ostream>
 #include <random>
 #include <sstream>
@@ -25,7 +24,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kKsRho = 200.0;        // KS aggregation sharpness (normalised constraint units)
+constexpr double kKsRho = 200.0;         // KS aggregation sharpness (normalised constraint units)
 constexpr double kWorkspaceScale = 0.1;  // [m] normalisation of workspace clearances
 constexpr double kPenalty = 1e3;         // objective value of a degenerate (singular) excitation
 
@@ -37,7 +36,9 @@ std::string fmt(double v) {
 
 /// Uniform double in [0, 1) from the top 53 bits of mt19937_64: identical on every platform
 /// (std::uniform_real_distribution is implementation-defined).
-double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
+double uniform01(std::mt19937_64& rng) {
+  return static_cast<double>(rng() >> 11) * 0x1.0p-53;
+}
 
 /// Kreisselmeier-Steinhauser soft maximum: max(g) <= KS(g) <= max(g) + ln(n)/rho.
 class SoftMax {
@@ -64,7 +65,7 @@ class SoftMax {
 struct Evaluation {
   double objective = kInf;  // value minimised by NLopt
   double condition = kInf;
-  std::vector<double> g;    // constraints, feasible when all <= 0
+  std::vector<double> g;  // constraints, feasible when all <= 0
   bool feasible = false;
 };
 
@@ -75,8 +76,8 @@ class Problem {
  public:
   Problem(const DesignOptions& opt, const model::RobotKinematics& kin)
       : opt_(opt),
-        param_(opt.q0, opt.joints, opt.harmonics, static_cast<double>(opt.periods) / opt.duration_s, opt.duration_s,
-               opt.constraints),
+        param_(opt.q0, opt.joints, opt.harmonics, static_cast<double>(opt.periods) / opt.duration_s,
+               opt.duration_s, opt.constraints),
         metric_(effects::Model::fromName(opt.model), kin, opt.constraints,
                 opt.nominal.empty() ? defaultNominalParameters() : opt.nominal, opt.noise_sigma),
         start_(Clock::now()) {
@@ -192,12 +193,14 @@ class Problem {
     last_print_ = now;
     const double left = std::max(0.0, opt_.time_budget_s - now);
     char buf[256];
-    std::snprintf(buf, sizeof buf,
-                  "design [%s] eval %ld | best %s %s | elapsed %.1f s | remaining %.1f s (budget)\n",
-                  stage_.c_str(), evals_, opt_.objective == Objective::kCondition ? "cond" : "dopt",
-                  std::isfinite(best_f_) ? fmt(opt_.objective == Objective::kCondition ? best_cond_ : best_f_).c_str()
-                                         : "(none feasible yet)",
-                  now, left);
+    std::snprintf(
+        buf, sizeof buf,
+        "design [%s] eval %ld | best %s %s | elapsed %.1f s | remaining %.1f s (budget)\n",
+        stage_.c_str(), evals_, opt_.objective == Objective::kCondition ? "cond" : "dopt",
+        std::isfinite(best_f_)
+            ? fmt(opt_.objective == Objective::kCondition ? best_cond_ : best_f_).c_str()
+            : "(none feasible yet)",
+        now, left);
     *opt_.progress << buf << std::flush;
   }
 
@@ -244,12 +247,14 @@ class Problem {
     }
     for (const auto& tool : c.tool) {
       ks.clear();
-      for (const auto& X : poses_) ks.add((c.floor_z_B + tool.radius - (X * tool.center_S).z()) / kWorkspaceScale);
+      for (const auto& X : poses_)
+        ks.add((c.floor_z_B + tool.radius - (X * tool.center_S).z()) / kWorkspaceScale);
       e.g.push_back(ks.value());
       for (const auto& ko : c.keep_out) {
         ks.clear();
         for (const auto& X : poses_) {
-          ks.add((ko.radius + tool.radius - ((X * tool.center_S) - ko.center_B).norm()) / kWorkspaceScale);
+          ks.add((ko.radius + tool.radius - ((X * tool.center_S) - ko.center_B).norm()) /
+                 kWorkspaceScale);
         }
         e.g.push_back(ks.value());
       }
@@ -309,7 +314,8 @@ void finiteDifferences(Problem& p, const double* x, double* grad_f, double* grad
     if (grad_f != nullptr) grad_f[k] = (e.objective - base.objective) / h;
     if (grad_g != nullptr) {
       for (int i = 0; i < m; ++i) {
-        grad_g[i * n + k] = (e.g[static_cast<std::size_t>(i)] - base.g[static_cast<std::size_t>(i)]) / h;
+        grad_g[i * n + k] =
+            (e.g[static_cast<std::size_t>(i)] - base.g[static_cast<std::size_t>(i)]) / h;
       }
     }
     xh[static_cast<std::size_t>(k)] = x[k];
@@ -327,7 +333,8 @@ double objectiveCallback(unsigned /*n*/, const double* x, double* grad, void* da
   }
 }
 
-void constraintCallback(unsigned m, double* result, unsigned /*n*/, const double* x, double* grad, void* data) {
+void constraintCallback(unsigned m, double* result, unsigned /*n*/, const double* x, double* grad,
+                        void* data) {
   Problem& p = *static_cast<CallbackData*>(data)->problem;
   try {
     if (grad != nullptr) finiteDifferences(p, x, nullptr, grad);
@@ -362,7 +369,8 @@ RunOutcome runNlopt(nlopt::opt& o, Problem& p, std::vector<double>& x, bool budg
     out.message = budget_is_ours ? "stopped at its time/evaluation budget (best point kept)"
                                  : describeNloptResult(static_cast<int>(nlopt::FORCED_STOP));
   } catch (const nlopt::roundoff_limited&) {
-    out.message = describeNloptResult(static_cast<int>(nlopt::ROUNDOFF_LIMITED)) + " (best point kept)";
+    out.message =
+        describeNloptResult(static_cast<int>(nlopt::ROUNDOFF_LIMITED)) + " (best point kept)";
   } catch (const std::invalid_argument& e) {
     out.message = describeNloptResult(static_cast<int>(nlopt::INVALID_ARGS)) + ": " + e.what();
     out.fatal = true;
@@ -371,7 +379,8 @@ RunOutcome runNlopt(nlopt::opt& o, Problem& p, std::vector<double>& x, bool budg
     out.fatal = true;
   } catch (const std::runtime_error& e) {
     // nlopt::opt::mythrow maps NLOPT_FAILURE to std::runtime_error.
-    out.message = describeNloptResult(static_cast<int>(nlopt::FAILURE)) + ": " + e.what() + " (best point kept)";
+    out.message = describeNloptResult(static_cast<int>(nlopt::FAILURE)) + ": " + e.what() +
+                  " (best point kept)";
   }
   return out;
 }
@@ -403,7 +412,8 @@ std::vector<double> randomDirection(std::mt19937_64& rng, int n) {
   return x;
 }
 
-BaselineReport computeBaselines(const DesignOptions& opt, Problem& p, const model::RobotKinematics& kin) {
+BaselineReport computeBaselines(const DesignOptions& opt, Problem& p,
+                                const model::RobotKinematics& kin) {
   BaselineReport b;
   // Random feasible Fourier trajectories of the same duration and harmonics.
   std::vector<double> conds;
@@ -425,7 +435,8 @@ BaselineReport computeBaselines(const DesignOptions& opt, Problem& p, const mode
   k.setSensorMount(opt.constraints.R_FS, opt.constraints.p_FS_F);
   const auto& c = opt.constraints;
   const double step = 0.7853981633974483;
-  Vec3 dirs[6] = {Vec3::UnitX(), -Vec3::UnitX(), Vec3::UnitY(), -Vec3::UnitY(), Vec3::UnitZ(), -Vec3::UnitZ()};
+  Vec3 dirs[6] = {Vec3::UnitX(),  -Vec3::UnitX(), Vec3::UnitY(),
+                  -Vec3::UnitY(), Vec3::UnitZ(),  -Vec3::UnitZ()};
   double best_score[6] = {-2, -2, -2, -2, -2, -2};
   JointVector best_pose[6];
   for (int a = -4; a <= 4; ++a) {
@@ -435,7 +446,9 @@ BaselineReport computeBaselines(const DesignOptions& opt, Problem& p, const mode
         q[3] += a * step;
         q[4] += bb * step;
         q[5] += cc * step;
-        if (((q - c.position_lower).array() < 0.0).any() || ((c.position_upper - q).array() < 0.0).any()) continue;
+        if (((q - c.position_lower).array() < 0.0).any() ||
+            ((c.position_upper - q).array() < 0.0).any())
+          continue;
         const auto sm = k.computeSensorMotion(q, JointVector::Zero(), JointVector::Zero());
         bool ok = true;
         for (const auto& tool : c.tool) {
@@ -483,18 +496,30 @@ std::string joinInts(const std::vector<int>& v) {
 
 std::string describeNloptResult(int code) {
   switch (code) {
-    case nlopt::SUCCESS: return "SUCCESS: generic success";
-    case nlopt::STOPVAL_REACHED: return "STOPVAL_REACHED: the objective reached the requested stop value";
-    case nlopt::FTOL_REACHED: return "FTOL_REACHED: the objective changed less than the tolerance (converged)";
-    case nlopt::XTOL_REACHED: return "XTOL_REACHED: the coefficients changed less than the tolerance (converged)";
-    case nlopt::MAXEVAL_REACHED: return "MAXEVAL_REACHED: evaluation budget used up";
-    case nlopt::MAXTIME_REACHED: return "MAXTIME_REACHED: time budget used up";
-    case nlopt::FAILURE: return "FAILURE: NLopt reported a generic failure";
-    case nlopt::INVALID_ARGS: return "INVALID_ARGS: NLopt rejected the problem set-up (bounds, dimension or algorithm)";
-    case nlopt::OUT_OF_MEMORY: return "OUT_OF_MEMORY: NLopt ran out of memory";
-    case nlopt::ROUNDOFF_LIMITED: return "ROUNDOFF_LIMITED: round-off errors limited progress";
-    case nlopt::FORCED_STOP: return "FORCED_STOP: the optimisation was stopped by the caller";
-    default: return "unknown NLopt result code " + std::to_string(code);
+    case nlopt::SUCCESS:
+      return "SUCCESS: generic success";
+    case nlopt::STOPVAL_REACHED:
+      return "STOPVAL_REACHED: the objective reached the requested stop value";
+    case nlopt::FTOL_REACHED:
+      return "FTOL_REACHED: the objective changed less than the tolerance (converged)";
+    case nlopt::XTOL_REACHED:
+      return "XTOL_REACHED: the coefficients changed less than the tolerance (converged)";
+    case nlopt::MAXEVAL_REACHED:
+      return "MAXEVAL_REACHED: evaluation budget used up";
+    case nlopt::MAXTIME_REACHED:
+      return "MAXTIME_REACHED: time budget used up";
+    case nlopt::FAILURE:
+      return "FAILURE: NLopt reported a generic failure";
+    case nlopt::INVALID_ARGS:
+      return "INVALID_ARGS: NLopt rejected the problem set-up (bounds, dimension or algorithm)";
+    case nlopt::OUT_OF_MEMORY:
+      return "OUT_OF_MEMORY: NLopt ran out of memory";
+    case nlopt::ROUNDOFF_LIMITED:
+      return "ROUNDOFF_LIMITED: round-off errors limited progress";
+    case nlopt::FORCED_STOP:
+      return "FORCED_STOP: the optimisation was stopped by the caller";
+    default:
+      return "unknown NLopt result code " + std::to_string(code);
   }
 }
 
@@ -503,16 +528,19 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
   if (opt.periods < 1) throw ConfigError("periods must be >= 1");
   if (!(opt.servo_rate_hz > 0.0)) throw ConfigError("--rate must be positive");
   if (!(opt.time_budget_s > 0.0)) throw ConfigError("--time-budget must be positive");
-  if (opt.global_algorithm != "multistart" && opt.global_algorithm != "isres" && opt.global_algorithm != "none") {
-    throw ConfigError("global algorithm '" + opt.global_algorithm + "' is unknown (multistart, isres, none)");
+  if (opt.global_algorithm != "multistart" && opt.global_algorithm != "isres" &&
+      opt.global_algorithm != "none") {
+    throw ConfigError("global algorithm '" + opt.global_algorithm +
+                      "' is unknown (multistart, isres, none)");
   }
   if (opt.local_algorithm != "none") (void)localAlgorithm(opt.local_algorithm);
 
   // The start pose itself must satisfy every constraint (else no trajectory can).
   {
     Coefficients zero{};
-    const trajectory::FourierTrajectory rest(opt.q0, static_cast<double>(opt.periods) / opt.duration_s,
-                                             std::max(1, opt.harmonics), opt.duration_s, zero, zero);
+    const trajectory::FourierTrajectory rest(
+        opt.q0, static_cast<double>(opt.periods) / opt.duration_s, std::max(1, opt.harmonics),
+        opt.duration_s, zero, zero);
     const CheckReport r = checkTrajectory(rest, kinematics, opt.constraints, opt.duration_s);
     if (!r.ok()) {
       std::string why;
@@ -548,7 +576,8 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
     nlopt::srand(opt.seed);
     nlopt::opt o(nlopt::GN_ISRES, static_cast<unsigned>(n));
     if (opt.global_max_evals > 0) o.set_maxeval(static_cast<int>(opt.global_max_evals));
-    o.set_maxtime(std::max(0.1, global_deadline - p.elapsed()) + 1.0);  // backstop; our own check is first
+    o.set_maxtime(std::max(0.1, global_deadline - p.elapsed()) +
+                  1.0);  // backstop; our own check is first
     p.setStage("global isres", global_deadline, opt.global_max_evals);
     std::vector<double> x = starts.front().second;
     const RunOutcome r = runNlopt(o, p, x, true);
@@ -564,8 +593,8 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
       nlopt::opt o(nlopt::LN_COBYLA, static_cast<unsigned>(n));
       configureLocal(o, "cobyla");
       o.set_xtol_rel(1e-4);
-      p.setStage("global multistart " + std::to_string(s + 1) + "/" + std::to_string(n_starts), share_deadline,
-                 max_evals);
+      p.setStage("global multistart " + std::to_string(s + 1) + "/" + std::to_string(n_starts),
+                 share_deadline, max_evals);
       std::vector<double> x = starts[static_cast<std::size_t>(s)].second;
       const RunOutcome r = runNlopt(o, p, x, true);
       if (r.fatal) throw DesignError("global stage (multistart LN_COBYLA): " + r.message);
@@ -614,7 +643,9 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
       const double mid = 0.5 * (lo + hi);
       std::vector<double> y(x);
       for (double& v : y) v *= mid;
-      (checkTrajectory(p.param().trajectory(y.data()), kinematics, opt.constraints, dt).ok() ? lo : hi) = mid;
+      (checkTrajectory(p.param().trajectory(y.data()), kinematics, opt.constraints, dt).ok() ? lo
+                                                                                             : hi) =
+          mid;
     }
     for (double& v : x) v *= lo;
     traj = p.param().trajectory(x.data());
@@ -623,7 +654,8 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
     if (!res.check.ok()) {
       std::string why;
       for (const auto& v : res.check.violations()) why += "\n  " + v;
-      throw DesignError("the designed trajectory violates its constraints even after scaling back:" + why);
+      throw DesignError(
+          "the designed trajectory violates its constraints even after scaling back:" + why);
     }
   }
 
@@ -639,13 +671,15 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
   res.predicted_std = p.metric().predictedStd(info);
   if (!(res.condition_number <= opt.max_condition)) {
     std::string weak;
-    for (const auto& wc : p.metric().weakColumns(info, 1e-6)) weak += (weak.empty() ? "" : ", ") + wc;
-    throw DesignError("cannot excite model '" + opt.model + "' within the limits in " + fmt(opt.duration_s) +
-                      " s: the best feasible trajectory has condition number " + fmt(res.condition_number) +
-                      " (accepted up to " + fmt(opt.max_condition) + ")" +
-                      (weak.empty() ? "" : "; poorly determined: " + weak) +
-                      ". Relax the velocity/acceleration/position limits or the workspace, excite more joints, "
-                      "or lengthen the duration.");
+    for (const auto& wc : p.metric().weakColumns(info, 1e-6))
+      weak += (weak.empty() ? "" : ", ") + wc;
+    throw DesignError(
+        "cannot excite model '" + opt.model + "' within the limits in " + fmt(opt.duration_s) +
+        " s: the best feasible trajectory has condition number " + fmt(res.condition_number) +
+        " (accepted up to " + fmt(opt.max_condition) + ")" +
+        (weak.empty() ? "" : "; poorly determined: " + weak) +
+        ". Relax the velocity/acceleration/position limits or the workspace, excite more joints, "
+        "or lengthen the duration.");
   }
 
   // ---- baselines
@@ -669,34 +703,38 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
   f.constraints = opt.constraints;
   char seed[32];
   std::snprintf(seed, sizeof seed, "%llu", static_cast<unsigned long long>(opt.seed));
-  f.design = {{"model", effects::Model::fromName(opt.model).name()},
-              {"objective", opt.objective == Objective::kCondition ? "cond" : "dopt"},
-              {"seed", seed},
-              {"global_algorithm", opt.global_algorithm},
-              {"local_algorithm", opt.local_algorithm},
-              {"global_evals", std::to_string(res.global_evals)},
-              {"local_evals", std::to_string(res.local_evals)},
-              {"time_budget_s", fmt(opt.time_budget_s)},
-              {"design_samples", std::to_string(p.param().numSamples())},
-              {"constraint_margin", fmt(opt.constraint_margin)},
-              {"joints", joinInts(opt.joints)},
-              {"periods", std::to_string(opt.periods)},
-              {"noise", fmt(opt.noise_sigma[0]) + "," + fmt(opt.noise_sigma[1]) + "," + fmt(opt.noise_sigma[2]) +
-                            "," + fmt(opt.noise_sigma[3]) + "," + fmt(opt.noise_sigma[4]) + "," +
-                            fmt(opt.noise_sigma[5])},
-              {"global_result", res.global_result},
-              {"local_result", res.local_result},
-              {"repaired", res.repaired ? "true" : "false"},
-              {"reproduce", "ftid design --model " + opt.model + " --joints " + joinInts(opt.joints) +
-                                " --duration " + fmt(opt.duration_s) + " --harmonics " +
-                                std::to_string(opt.harmonics) + " --seed " + seed + " --global-evals " +
-                                std::to_string(res.global_evals) + " --local-evals " +
-                                std::to_string(res.local_evals) + " (same robot, config and q0)"}};
-  f.metrics = {{"condition_number", res.condition_number}, {"d_optimality", res.d_optimality},
-               {"samples", static_cast<double>(Ks)}, {"elapsed_s", res.elapsed_s}};
+  f.design = {
+      {"model", effects::Model::fromName(opt.model).name()},
+      {"objective", opt.objective == Objective::kCondition ? "cond" : "dopt"},
+      {"seed", seed},
+      {"global_algorithm", opt.global_algorithm},
+      {"local_algorithm", opt.local_algorithm},
+      {"global_evals", std::to_string(res.global_evals)},
+      {"local_evals", std::to_string(res.local_evals)},
+      {"time_budget_s", fmt(opt.time_budget_s)},
+      {"design_samples", std::to_string(p.param().numSamples())},
+      {"constraint_margin", fmt(opt.constraint_margin)},
+      {"joints", joinInts(opt.joints)},
+      {"periods", std::to_string(opt.periods)},
+      {"noise", fmt(opt.noise_sigma[0]) + "," + fmt(opt.noise_sigma[1]) + "," +
+                    fmt(opt.noise_sigma[2]) + "," + fmt(opt.noise_sigma[3]) + "," +
+                    fmt(opt.noise_sigma[4]) + "," + fmt(opt.noise_sigma[5])},
+      {"global_result", res.global_result},
+      {"local_result", res.local_result},
+      {"repaired", res.repaired ? "true" : "false"},
+      {"reproduce", "ftid design --model " + opt.model + " --joints " + joinInts(opt.joints) +
+                        " --duration " + fmt(opt.duration_s) + " --harmonics " +
+                        std::to_string(opt.harmonics) + " --seed " + seed + " --global-evals " +
+                        std::to_string(res.global_evals) + " --local-evals " +
+                        std::to_string(res.local_evals) + " (same robot, config and q0)"}};
+  f.metrics = {{"condition_number", res.condition_number},
+               {"d_optimality", res.d_optimality},
+               {"samples", static_cast<double>(Ks)},
+               {"elapsed_s", res.elapsed_s}};
   if (res.baselines.random_count > 0) {
     f.metrics["random_median_condition_number"] = res.baselines.random_median_condition;
-    f.metrics["ratio_random_over_designed"] = res.baselines.random_median_condition / res.condition_number;
+    f.metrics["ratio_random_over_designed"] =
+        res.baselines.random_median_condition / res.condition_number;
   }
   if (res.baselines.static_condition > 0.0 && std::isfinite(res.baselines.static_condition)) {
     f.metrics["static_six_pose_condition_number"] = res.baselines.static_condition;
@@ -711,14 +749,16 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
   return res;
 }
 
-std::map<std::string, double> parseTargets(const std::string& text, const std::map<std::string, double>& nominal) {
+std::map<std::string, double> parseTargets(const std::string& text,
+                                           const std::map<std::string, double>& nominal) {
   std::map<std::string, double> out;
   std::stringstream ss(text);
   std::string item;
   const auto nom = nominal.empty() ? defaultNominalParameters() : nominal;
   while (std::getline(ss, item, ',')) {
     const auto eq = item.find('=');
-    if (eq == std::string::npos) throw ConfigError("--target-std: expected name=value, got '" + item + "'");
+    if (eq == std::string::npos)
+      throw ConfigError("--target-std: expected name=value, got '" + item + "'");
     const std::string key = item.substr(0, eq);
     std::string val = item.substr(eq + 1);
     const bool relative = !val.empty() && val.back() == '%';
@@ -745,7 +785,8 @@ std::map<std::string, double> parseTargets(const std::string& text, const std::m
       if (relative) {
         auto it = nom.find(k);
         if (it == nom.end() || it->second == 0.0) {
-          throw ConfigError("--target-std: '" + item + "': a relative target needs a non-zero nominal " + k);
+          throw ConfigError("--target-std: '" + item +
+                            "': a relative target needs a non-zero nominal " + k);
         }
         target = std::abs(it->second) * v / 100.0;
       }
@@ -770,9 +811,11 @@ std::vector<std::string> unmetTargets(const std::map<std::string, double>& predi
   return out;
 }
 
-DurationSearchResult findShortestDuration(const DesignOptions& options, const model::RobotKinematics& kinematics,
-                                          const std::map<std::string, double>& targets, double step_s,
-                                          double min_duration_s, double max_duration_s) {
+DurationSearchResult findShortestDuration(const DesignOptions& options,
+                                          const model::RobotKinematics& kinematics,
+                                          const std::map<std::string, double>& targets,
+                                          double step_s, double min_duration_s,
+                                          double max_duration_s) {
   DurationSearchResult out;
   if (!(step_s > 0.0)) throw ConfigError("duration search step must be positive");
   auto snap = [&](double d) { return std::max(min_duration_s, std::round(d / step_s) * step_s); };
@@ -801,8 +844,9 @@ DurationSearchResult findShortestDuration(const DesignOptions& options, const mo
       trial.met = false;  // too short to excite the model within the limits
     }
     if (options.progress != nullptr) {
-      *options.progress << "design: duration " << fmt(d) << " s -> " << (trial.met ? "meets" : "misses")
-                        << " the targets (cond " << fmt(trial.condition_number) << ")\n";
+      *options.progress << "design: duration " << fmt(d) << " s -> "
+                        << (trial.met ? "meets" : "misses") << " the targets (cond "
+                        << fmt(trial.condition_number) << ")\n";
     }
     out.trials.push_back(trial);
     return trial.met;

@@ -24,9 +24,8 @@ constexpr double kTiltStep = 1e-6;  // [rad], central difference for the tilt co
 std::map<std::string, double> defaultNominalParameters() {
   // Paper Table 2 payload (Duan et al. 2022).
   const double m = 8.862 / kStandardGravity;
-  return {{"mass", m},           {"com_x", 0.005},      {"com_y", 0.002},      {"com_z", 0.051},
-          {"f0_x", -0.6672},     {"f0_y", 0.8565},      {"f0_z", 0.3538},      {"t0_x", 0.0228},
-          {"t0_y", 0.0084},      {"t0_z", 0.0080}};
+  return {{"mass", m},      {"com_x", 0.005}, {"com_y", 0.002}, {"com_z", 0.051}, {"f0_x", -0.6672},
+          {"f0_y", 0.8565}, {"f0_z", 0.3538}, {"t0_x", 0.0228}, {"t0_y", 0.0084}, {"t0_z", 0.0080}};
 }
 
 Vec6 parseNoise(const std::string& text) {
@@ -35,7 +34,8 @@ Vec6 parseNoise(const std::string& text) {
   std::string item;
   while (std::getline(ss, item, ',')) {
     const auto eq = item.find('=');
-    if (eq == std::string::npos) throw ConfigError("--noise: expected axis=value, got '" + item + "'");
+    if (eq == std::string::npos)
+      throw ConfigError("--noise: expected axis=value, got '" + item + "'");
     const std::string key = item.substr(0, eq);
     double v = 0.0;
     try {
@@ -45,7 +45,8 @@ Vec6 parseNoise(const std::string& text) {
     } catch (const std::exception&) {
       throw ConfigError("--noise: '" + item + "': value is not a number");
     }
-    if (!(v > 0.0) || !std::isfinite(v)) throw ConfigError("--noise: '" + item + "': must be positive");
+    if (!(v > 0.0) || !std::isfinite(v))
+      throw ConfigError("--noise: '" + item + "': must be positive");
     bool known = false;
     for (int i = 0; i < 6; ++i) {
       const std::string axis = kWrenchAxisNames[i];
@@ -54,11 +55,14 @@ Vec6 parseNoise(const std::string& text) {
         known = true;
       }
     }
-    if (!known) throw ConfigError("--noise: unknown axis '" + key + "' (fx fy fz tx ty tz, or f / t for all three)");
+    if (!known)
+      throw ConfigError("--noise: unknown axis '" + key +
+                        "' (fx fy fz tx ty tz, or f / t for all three)");
   }
   for (int i = 0; i < 6; ++i) {
     if (std::isnan(sigma[i])) {
-      throw ConfigError(std::string("--noise: no value for axis ") + kWrenchAxisNames[i] + " (give all six)");
+      throw ConfigError(std::string("--noise: no value for axis ") + kWrenchAxisNames[i] +
+                        " (give all six)");
     }
   }
   return sigma;
@@ -66,10 +70,15 @@ Vec6 parseNoise(const std::string& text) {
 
 ExcitationMetric::ExcitationMetric(effects::Model model, const model::RobotKinematics& kinematics,
                                    const trajectory::TrajectoryConstraints& constraints,
-                                   const std::map<std::string, double>& nominal, const Vec6& noise_sigma)
-    : model_(std::move(model)), kinematics_(kinematics), constraints_(constraints), sigma_(noise_sigma),
+                                   const std::map<std::string, double>& nominal,
+                                   const Vec6& noise_sigma)
+    : model_(std::move(model)),
+      kinematics_(kinematics),
+      constraints_(constraints),
+      sigma_(noise_sigma),
       nominal_(nominal) {
-  if (!(sigma_.array() > 0.0).all() || !sigma_.allFinite()) throw ConfigError("noise: all six sigmas must be positive");
+  if (!(sigma_.array() > 0.0).all() || !sigma_.allFinite())
+    throw ConfigError("noise: all six sigmas must be positive");
   const auto& names = model_.paramIndex().names();
   theta_nom_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(names.size()));
   auto get = [&](const std::string& k, double& v) {
@@ -84,7 +93,8 @@ ExcitationMetric::ExcitationMetric(effects::Model model, const model::RobotKinem
       theta_nom_[static_cast<Eigen::Index>(i)] = v;
     } else if (names[i].rfind("mass_com_", 0) == 0) {
       double m = 0.0, c = 0.0;
-      if (get("mass", m) && get("com_" + names[i].substr(9), c)) theta_nom_[static_cast<Eigen::Index>(i)] = m * c;
+      if (get("mass", m) && get("com_" + names[i].substr(9), c))
+        theta_nom_[static_cast<Eigen::Index>(i)] = m * c;
     }
     names_.push_back(names[i]);
   }
@@ -121,8 +131,10 @@ Eigen::MatrixXd ExcitationMetric::information(const SampledMotion& motion, doubl
   Eigen::MatrixXd info = Eigen::MatrixXd::Zero(C, C);
   const Vec6 inv_sigma = sigma_.cwiseInverse();
   const bool imu = (model_.signals() & effects::kSignalImu) != 0;
-  const Vec3 g_p_u = model::gravityInBase(kTiltStep, 0.0), g_m_u = model::gravityInBase(-kTiltStep, 0.0);
-  const Vec3 g_p_v = model::gravityInBase(0.0, kTiltStep), g_m_v = model::gravityInBase(0.0, -kTiltStep);
+  const Vec3 g_p_u = model::gravityInBase(kTiltStep, 0.0),
+             g_m_u = model::gravityInBase(-kTiltStep, 0.0);
+  const Vec3 g_p_v = model::gravityInBase(0.0, kTiltStep),
+             g_m_v = model::gravityInBase(0.0, -kTiltStep);
   if (sensor_poses != nullptr) sensor_poses->resize(K);
   for (std::size_t k = 0; k < ctxs.samples.size(); ++k) {
     effects::SampleContext& ctx = ctxs.samples[k];
@@ -161,8 +173,10 @@ Eigen::MatrixXd ExcitationMetric::information(const SampledMotion& motion, doubl
   return info;
 }
 
-Eigen::MatrixXd ExcitationMetric::information(const std::vector<JointVector>& q, const std::vector<JointVector>& qd,
-                                              const std::vector<JointVector>& qdd, double weight) const {
+Eigen::MatrixXd ExcitationMetric::information(const std::vector<JointVector>& q,
+                                              const std::vector<JointVector>& qd,
+                                              const std::vector<JointVector>& qdd,
+                                              double weight) const {
   SampledMotion m;
   const auto K = static_cast<Eigen::Index>(q.size());
   m.q.resize(kNumJoints, K);
@@ -206,7 +220,8 @@ double ExcitationMetric::dOptimality(const Eigen::MatrixXd& info, double n_sampl
   return -logdet / static_cast<double>(info.rows());
 }
 
-std::vector<std::string> ExcitationMetric::weakColumns(const Eigen::MatrixXd& info, double threshold) const {
+std::vector<std::string> ExcitationMetric::weakColumns(const Eigen::MatrixXd& info,
+                                                       double threshold) const {
   std::vector<std::string> out;
   Eigen::MatrixXd S;
   if (!scaled(info, S)) {
@@ -221,7 +236,8 @@ std::vector<std::string> ExcitationMetric::weakColumns(const Eigen::MatrixXd& in
     if (es.eigenvalues()[e] > threshold * lmax) continue;
     for (Eigen::Index i = 0; i < S.rows(); ++i) {
       const std::string& n = names_[static_cast<std::size_t>(i)];
-      if (std::abs(es.eigenvectors()(i, e)) > 0.3 && std::find(out.begin(), out.end(), n) == out.end()) {
+      if (std::abs(es.eigenvectors()(i, e)) > 0.3 &&
+          std::find(out.begin(), out.end(), n) == out.end()) {
         out.push_back(n);
       }
     }

@@ -21,42 +21,53 @@ std::string fmt(double v) {
 }
 }  // namespace
 
-RestToRestParametrization::RestToRestParametrization(const JointVector& q0, std::vector<int> joints,
-                                                     int harmonics, double base_frequency_hz,
-                                                     double duration_s,
-                                                     const trajectory::TrajectoryConstraints& limits)
-    : q0_(q0), joints_(std::move(joints)), harmonics_(harmonics), f_base_(base_frequency_hz),
+RestToRestParametrization::RestToRestParametrization(
+    const JointVector& q0, std::vector<int> joints, int harmonics, double base_frequency_hz,
+    double duration_s, const trajectory::TrajectoryConstraints& limits)
+    : q0_(q0),
+      joints_(std::move(joints)),
+      harmonics_(harmonics),
+      f_base_(base_frequency_hz),
       duration_(duration_s) {
   if (joints_.empty()) throw ConfigError("joints: at least one joint must be excited");
   std::set<int> seen;
   for (int j : joints_) {
-    if (j < 1 || j > kNumJoints) throw ConfigError("joints: joint numbers are 1..6, got " + std::to_string(j));
-    if (!seen.insert(j).second) throw ConfigError("joints: joint " + std::to_string(j) + " listed twice");
+    if (j < 1 || j > kNumJoints)
+      throw ConfigError("joints: joint numbers are 1..6, got " + std::to_string(j));
+    if (!seen.insert(j).second)
+      throw ConfigError("joints: joint " + std::to_string(j) + " listed twice");
   }
   if (harmonics_ < 2 || harmonics_ > trajectory::FourierTrajectory::kMaxHarmonics) {
-    throw ConfigError("harmonics: need 2.." + std::to_string(trajectory::FourierTrajectory::kMaxHarmonics) +
+    throw ConfigError("harmonics: need 2.." +
+                      std::to_string(trajectory::FourierTrajectory::kMaxHarmonics) +
                       " (rest-to-rest fixes the first harmonic, so N = 1 cannot move), got " +
                       std::to_string(harmonics_));
   }
-  if (!(f_base_ > 0.0) || !std::isfinite(f_base_)) throw ConfigError("base frequency must be positive");
-  if (!(duration_ > 0.0) || !std::isfinite(duration_)) throw ConfigError("duration must be positive");
+  if (!(f_base_ > 0.0) || !std::isfinite(f_base_))
+    throw ConfigError("base frequency must be positive");
+  if (!(duration_ > 0.0) || !std::isfinite(duration_))
+    throw ConfigError("duration must be positive");
   const double periods = duration_ * f_base_;
   if (std::abs(periods - std::round(periods)) > 1e-9 || std::round(periods) < 1.0) {
-    throw ConfigError("duration " + fmt(duration_) + " s is not a whole number of base periods (base frequency " +
-                      fmt(f_base_) + " Hz): rest-to-rest needs duration * base frequency to be an integer");
+    throw ConfigError("duration " + fmt(duration_) +
+                      " s is not a whole number of base periods (base frequency " + fmt(f_base_) +
+                      " Hz): rest-to-rest needs duration * base frequency to be an integer");
   }
   if (!q0_.allFinite()) throw ConfigError("q0 is not finite");
   const double w = kTwoPi * f_base_;
   for (int j : joints_) {
     const int i = j - 1;
-    const double range = std::min(limits.position_upper[i] - q0_[i], q0_[i] - limits.position_lower[i]);
+    const double range =
+        std::min(limits.position_upper[i] - q0_[i], q0_[i] - limits.position_lower[i]);
     if (!(range > 0.0)) {
       throw ConfigError("q0: joint " + std::to_string(j) + " start angle " + fmt(q0_[i]) +
-                        " rad is not strictly inside its position limits [" + fmt(limits.position_lower[i]) +
-                        ", " + fmt(limits.position_upper[i]) + "] rad");
+                        " rad is not strictly inside its position limits [" +
+                        fmt(limits.position_lower[i]) + ", " + fmt(limits.position_upper[i]) +
+                        "] rad");
     }
     if (!(limits.velocity[i] > 0.0) || !(limits.acceleration[i] > 0.0)) {
-      throw ConfigError("limits: joint " + std::to_string(j) + " needs positive velocity and acceleration limits");
+      throw ConfigError("limits: joint " + std::to_string(j) +
+                        " needs positive velocity and acceleration limits");
     }
     for (int kind = 0; kind < 2; ++kind) {
       for (int l = 2; l <= harmonics_; ++l) {
@@ -67,7 +78,8 @@ RestToRestParametrization::RestToRestParametrization(const JointVector& q0, std:
   }
 }
 
-void RestToRestParametrization::coefficients(const double* x, Coefficients& a, Coefficients& b) const {
+void RestToRestParametrization::coefficients(const double* x, Coefficients& a,
+                                             Coefficients& b) const {
   for (auto& row : a) row.fill(0.0);
   for (auto& row : b) row.fill(0.0);
   const int n = harmonics_;
@@ -90,14 +102,17 @@ void RestToRestParametrization::coefficients(const double* x, Coefficients& a, C
   }
 }
 
-std::vector<double> RestToRestParametrization::variables(const Coefficients& a, const Coefficients& b) const {
+std::vector<double> RestToRestParametrization::variables(const Coefficients& a,
+                                                         const Coefficients& b) const {
   std::vector<double> x;
   x.reserve(static_cast<std::size_t>(numVariables()));
   std::size_t k = 0;
   for (int j : joints_) {
     const auto ju = static_cast<std::size_t>(j - 1);
-    for (int l = 2; l <= harmonics_; ++l) x.push_back(a[ju][static_cast<std::size_t>(l - 1)] / scales_[k++]);
-    for (int l = 2; l <= harmonics_; ++l) x.push_back(b[ju][static_cast<std::size_t>(l - 1)] / scales_[k++]);
+    for (int l = 2; l <= harmonics_; ++l)
+      x.push_back(a[ju][static_cast<std::size_t>(l - 1)] / scales_[k++]);
+    for (int l = 2; l <= harmonics_; ++l)
+      x.push_back(b[ju][static_cast<std::size_t>(l - 1)] / scales_[k++]);
   }
   return x;
 }

@@ -44,9 +44,11 @@ std::vector<std::string> CheckReport::violations() const {
   std::vector<std::string> out;
   char buf[256];
   if (!finite) out.emplace_back("trajectory is not finite");
-  if (!whole_periods) out.emplace_back("duration is not a whole number of base periods (not rest-to-rest)");
+  if (!whole_periods)
+    out.emplace_back("duration is not a whole number of base periods (not rest-to-rest)");
   if (rest_error > 1e-9) {
-    std::snprintf(buf, sizeof buf, "not rest-to-rest: end-point error %.3g (q - q0, qd, qdd at t = 0 and T)",
+    std::snprintf(buf, sizeof buf,
+                  "not rest-to-rest: end-point error %.3g (q - q0, qd, qdd at t = 0 and T)",
                   rest_error);
     out.emplace_back(buf);
   }
@@ -63,20 +65,23 @@ std::vector<std::string> CheckReport::violations() const {
 std::string CheckReport::table() const {
   std::string s;
   char buf[256];
-  std::snprintf(buf, sizeof buf, "%-36s %14s %14s %12s %9s\n", "constraint", "worst", "limit", "margin", "t [s]");
+  std::snprintf(buf, sizeof buf, "%-36s %14s %14s %12s %9s\n", "constraint", "worst", "limit",
+                "margin", "t [s]");
   s += buf;
   for (const auto& m : margins) {
-    std::snprintf(buf, sizeof buf, "%-36s %14.6g %14.6g %12.4g %9.4f  %s%s\n", m.name.c_str(), m.worst, m.limit,
-                  m.margin, m.t, m.unit.c_str(), m.margin < 0.0 ? "  VIOLATED" : "");
+    std::snprintf(buf, sizeof buf, "%-36s %14.6g %14.6g %12.4g %9.4f  %s%s\n", m.name.c_str(),
+                  m.worst, m.limit, m.margin, m.t, m.unit.c_str(),
+                  m.margin < 0.0 ? "  VIOLATED" : "");
     s += buf;
   }
-  std::snprintf(buf, sizeof buf, "rest-to-rest end error %.3g (%s), %d samples every %.4g s\n", rest_error,
-                restToRest() ? "ok" : "VIOLATED", samples, dt);
+  std::snprintf(buf, sizeof buf, "rest-to-rest end error %.3g (%s), %d samples every %.4g s\n",
+                rest_error, restToRest() ? "ok" : "VIOLATED", samples, dt);
   s += buf;
   return s;
 }
 
-CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj, const model::RobotKinematics& kinematics,
+CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj,
+                            const model::RobotKinematics& kinematics,
                             const trajectory::TrajectoryConstraints& c, double dt) {
   if (!(dt > 0.0)) throw ConfigError("check: sampling step must be positive");
   model::RobotKinematics kin = kinematics;
@@ -87,13 +92,17 @@ CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj, const mod
   report.dt = dt;
   const double T = traj.duration();
   const double periods = T * traj.baseFrequency();
-  report.whole_periods = std::abs(periods - std::round(periods)) <= 1e-9 && std::round(periods) >= 1.0;
+  report.whole_periods =
+      std::abs(periods - std::round(periods)) <= 1e-9 && std::round(periods) >= 1.0;
 
-  static const char* kJointNames[] = {"joint 1", "joint 2", "joint 3", "joint 4", "joint 5", "joint 6"};
+  static const char* kJointNames[] = {"joint 1", "joint 2", "joint 3",
+                                      "joint 4", "joint 5", "joint 6"};
   std::vector<Tracker> lower, upper, vel, acc;
   for (int i = 0; i < kNumJoints; ++i) {
-    lower.emplace_back(std::string(kJointNames[i]) + " position >= lower", "rad", c.position_lower[i]);
-    upper.emplace_back(std::string(kJointNames[i]) + " position <= upper", "rad", c.position_upper[i]);
+    lower.emplace_back(std::string(kJointNames[i]) + " position >= lower", "rad",
+                       c.position_lower[i]);
+    upper.emplace_back(std::string(kJointNames[i]) + " position <= upper", "rad",
+                       c.position_upper[i]);
     vel.emplace_back(std::string(kJointNames[i]) + " |velocity|", "rad/s", c.velocity[i]);
     acc.emplace_back(std::string(kJointNames[i]) + " |acceleration|", "rad/s^2", c.acceleration[i]);
   }
@@ -101,8 +110,9 @@ CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj, const mod
   for (std::size_t s = 0; s < c.tool.size(); ++s) {
     floor.emplace_back("tool[" + std::to_string(s) + "] bottom above floor", "m", c.floor_z_B);
     for (const auto& k : c.keep_out) {
-      spheres.emplace_back("tool[" + std::to_string(s) + "] clearance to " + (k.name.empty() ? "keep-out" : k.name),
-                           "m", 0.0);
+      spheres.emplace_back(
+          "tool[" + std::to_string(s) + "] clearance to " + (k.name.empty() ? "keep-out" : k.name),
+          "m", 0.0);
     }
   }
 
@@ -124,7 +134,8 @@ CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj, const mod
       floor[s].update(center_B.z() - c.tool[s].radius, t, -1.0);
       for (const auto& ko : c.keep_out) {
         // clearance = distance between the sphere surfaces (must stay >= 0)
-        spheres[si++].update((center_B - ko.center_B).norm() - ko.radius - c.tool[s].radius, t, -1.0);
+        spheres[si++].update((center_B - ko.center_B).norm() - ko.radius - c.tool[s].radius, t,
+                             -1.0);
       }
     }
     ++report.samples;
@@ -141,7 +152,8 @@ CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj, const mod
   double err = 0.0;
   for (double t : {0.0, T}) {
     const trajectory::TrajectoryPoint p = traj.evaluate(t);
-    err = std::max({err, (p.q - q0).cwiseAbs().maxCoeff(), p.qd.cwiseAbs().maxCoeff(), p.qdd.cwiseAbs().maxCoeff()});
+    err = std::max({err, (p.q - q0).cwiseAbs().maxCoeff(), p.qd.cwiseAbs().maxCoeff(),
+                    p.qdd.cwiseAbs().maxCoeff()});
   }
   report.rest_error = std::isfinite(err) ? err : std::numeric_limits<double>::infinity();
   return report;

@@ -2,6 +2,7 @@
 // (include/ftid/identify/fit.hpp, docs/identification.md).
 #include "ftid/identify/fit.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -277,20 +278,23 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
 
   Vec6 weights = Vec6::Ones();
   LinearSolution sol;
-  auto runFit = [&](int derivative_passes) {
-    sol = fitTilt(pb, weights, options.max_tilt_iterations, &tilt);
+  auto runFit = [&](int derivative_passes, int tilt_iterations) {
+    sol = fitTilt(pb, weights, tilt_iterations, &tilt);
     for (int k = 0; k < derivative_passes; ++k) {
       pb.dwdt = timeDerivative(pb, predictStacked(pb, sol.theta, tilt.u, tilt.v));
-      sol = fitTilt(pb, weights, options.max_tilt_iterations, &tilt);
+      sol = fitTilt(pb, weights, tilt_iterations, &tilt);
     }
   };
-  runFit(pb.needs_derivative ? options.derivative_iterations : 0);
+  // The unweighted pass only has to give the per-axis residual RMS for the weights: a few tilt
+  // iterations suffice; the weighted pass then converges fully from there.
+  runFit(pb.needs_derivative ? options.derivative_iterations : 0,
+         options.axis_weights ? std::min(options.max_tilt_iterations, 4) : options.max_tilt_iterations);
   if (options.axis_weights) {
     const Mat6X r = unstack(sol.residual, pb.n);
     const Vec6 rms = (r.rowwise().squaredNorm() / pb.n).cwiseSqrt();
     const double floor = std::max(1e-3 * rms.maxCoeff(), 1e-12);
     for (int a = 0; a < 6; ++a) weights(a) = 1.0 / std::max(rms(a), floor);
-    runFit(pb.needs_derivative ? 2 : 0);
+    runFit(pb.needs_derivative ? 2 : 0, options.max_tilt_iterations);
   }
 
   FitResult res;

@@ -160,6 +160,7 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
   }
   const int tested = static_cast<int>(std::count_if(out.begin(), out.end(), [](const auto& c) { return !c.skipped; }));
   const double alpha_each = options.family_alpha / std::max(1, tested);
+  say(options, "ranking " + std::to_string(tested) + " candidate effects against " + base.model.name());
   const int rows_ho = 6 * base.sol.n_heldout;
   // The base design and prepared contexts are shared by every candidate (designExtended).
   const detail::Engine::Design base_design = eng.design(base.model, base.lin);
@@ -410,7 +411,6 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // Which effect is missing.
   const auto menu = candidateMenu(options);
-  say(options, "ranking " + std::to_string(menu.size()) + " candidate effects");
   result.candidates = rankCandidates(eng, base, menu, options, log_cmd);
 
   if (options.explain) {

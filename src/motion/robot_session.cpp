@@ -19,6 +19,10 @@ SessionResult runOnRobot(const RobotSessionConfig& config, const JointTrajectory
   arm.armWatchdog();
   MotionRunner runner(arm, config.motion, MotionRunner::capacityFor(trajectory.duration(), arm.period()));
   out.run = runner.run(trajectory, abort, hook, hook_context);
+  if (out.run.status == RunStatus::kTargetRejected) {
+    out.run.message += std::string(" (last-hop check: ") + drivers::ur::servoRejectName(arm.lastReject()) +
+                       ", joint " + std::to_string(arm.lastRejectJoint() + 1) + ")";
+  }
   arm.stopProgram();
   arm.disconnect();
   out.recording = runner.recording();

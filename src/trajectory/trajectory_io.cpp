@@ -2,6 +2,7 @@
 // Format documented in docs/design.md; conventions in docs/conventions.md.
 #include "ftid/trajectory/trajectory_io.hpp"
 
+#include <unistd.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cerrno>
@@ -10,9 +11,8 @@
 #include <cstring>
 #include <sstream>
 #include <stdexcept>
-#include <type_traits>
 #include <string>
-#include <unistd.h>
+#include <type_traits>
 
 #include "ftid/common/error.hpp"
 
@@ -58,8 +58,8 @@ void writeAtomically(const std::string& path, const std::string& text) {
   if (f == nullptr) {
     throw ConfigError(path + ": cannot write (" + std::strerror(errno) + ")");
   }
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() && std::fflush(f) == 0 &&
-                  ::fsync(::fileno(f)) == 0;
+  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
+                  std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
   const int close_rc = std::fclose(f);
   if (!ok || close_rc != 0) {
     std::remove(tmp.c_str());
@@ -82,7 +82,8 @@ class Reader {
     throw ConfigError(path_ + ": key '" + key + "': " + what);
   }
 
-  YAML::Node require(const YAML::Node& parent, const std::string& key, const std::string& full) const {
+  YAML::Node require(const YAML::Node& parent, const std::string& key,
+                     const std::string& full) const {
     if (!parent.IsMap()) fail(full, "expected a mapping containing it");
     YAML::Node n = parent[key];
     if (!n) fail(full, "missing");
@@ -114,10 +115,12 @@ class Reader {
     }
   }
 
-  std::vector<double> numbers(const YAML::Node& n, const std::string& full, std::size_t expected) const {
+  std::vector<double> numbers(const YAML::Node& n, const std::string& full,
+                              std::size_t expected) const {
     if (!n.IsSequence()) fail(full, "expected a list of " + std::to_string(expected) + " numbers");
     if (n.size() != expected) {
-      fail(full, "expected " + std::to_string(expected) + " numbers, got " + std::to_string(n.size()));
+      fail(full,
+           "expected " + std::to_string(expected) + " numbers, got " + std::to_string(n.size()));
     }
     std::vector<double> out;
     for (std::size_t i = 0; i < n.size(); ++i) {
@@ -126,7 +129,8 @@ class Reader {
     return out;
   }
 
-  JointVector joints(const YAML::Node& parent, const std::string& key, const std::string& full) const {
+  JointVector joints(const YAML::Node& parent, const std::string& key,
+                     const std::string& full) const {
     const auto v = numbers(require(parent, key, full), full, kNumJoints);
     JointVector out;
     for (int i = 0; i < kNumJoints; ++i) out[i] = v[static_cast<std::size_t>(i)];
@@ -162,13 +166,16 @@ std::string csvPathFor(const std::string& yaml_path) {
 void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file) {
   const int n = file.harmonics;
   if (n < 1 || n > FourierTrajectory::kMaxHarmonics) {
-    throw ConfigError(path + ": cannot write a trajectory with " + std::to_string(n) + " harmonics");
+    throw ConfigError(path + ": cannot write a trajectory with " + std::to_string(n) +
+                      " harmonics");
   }
   std::ostringstream o;
   o << "# ftid excitation trajectory (docs/design.md). Joint i follows the finite Fourier series\n"
        "#   q_i(t)   = q0_i + sum_l [ a_il/(w l) sin(w l t) + b_il/(w l) (1 - cos(w l t)) ]\n"
-       "#   qd_i(t)  = sum_l [ a_il cos(w l t) + b_il sin(w l t) ]          w = 2 pi base_frequency_hz\n"
-       "# (paper Eq. 47-49 with the offset q0). Rest-to-rest: sum_l a_il = 0, sum_l l b_il = 0 and a\n"
+       "#   qd_i(t)  = sum_l [ a_il cos(w l t) + b_il sin(w l t) ]          w = 2 pi "
+       "base_frequency_hz\n"
+       "# (paper Eq. 47-49 with the offset q0). Rest-to-rest: sum_l a_il = 0, sum_l l b_il = 0 and "
+       "a\n"
        "# whole number of base periods. Units SI (docs/conventions.md). Re-check with\n"
        "#   ftid check-trajectory THIS_FILE\n";
   o << "format: " << kFormatTag << "\n";
@@ -183,9 +190,11 @@ void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file) {
   o << "servo_rate_hz: " << num(file.servo_rate_hz) << "   # rate of the CSV beside this file\n";
   o << "coefficients:   # [rad/s], one row per joint 1..6, one column per harmonic 1..N\n";
   o << "  a:\n";
-  for (int j = 0; j < kNumJoints; ++j) o << "    - " << seq(file.a[static_cast<std::size_t>(j)], n) << "\n";
+  for (int j = 0; j < kNumJoints; ++j)
+    o << "    - " << seq(file.a[static_cast<std::size_t>(j)], n) << "\n";
   o << "  b:\n";
-  for (int j = 0; j < kNumJoints; ++j) o << "    - " << seq(file.b[static_cast<std::size_t>(j)], n) << "\n";
+  for (int j = 0; j < kNumJoints; ++j)
+    o << "    - " << seq(file.b[static_cast<std::size_t>(j)], n) << "\n";
 
   const auto& c = file.constraints;
   o << "constraints:   # what the trajectory was designed and checked against\n";
@@ -231,7 +240,8 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
   } catch (const YAML::BadFile&) {
     throw ConfigError(path + ": cannot open trajectory file");
   } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) +
+                      ": YAML syntax error: " + e.msg);
   }
   Reader r(path);
   if (!root.IsMap()) r.fail("format", "file is not a YAML mapping");
@@ -243,10 +253,12 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
   if (root["robot"]) f.robot = root["robot"].as<std::string>();
 
   const YAML::Node joints = r.require(root, "joints", "joints");
-  if (!joints.IsSequence() || joints.size() == 0) r.fail("joints", "expected a non-empty list of joint numbers 1..6");
+  if (!joints.IsSequence() || joints.size() == 0)
+    r.fail("joints", "expected a non-empty list of joint numbers 1..6");
   for (std::size_t i = 0; i < joints.size(); ++i) {
     const int j = r.integer(joints[i], "joints[" + std::to_string(i) + "]");
-    if (j < 1 || j > kNumJoints) r.fail("joints[" + std::to_string(i) + "]", "joint numbers are 1..6");
+    if (j < 1 || j > kNumJoints)
+      r.fail("joints[" + std::to_string(i) + "]", "joint numbers are 1..6");
     f.joints.push_back(j);
   }
   f.q0 = r.joints(root, "q0", "q0");
@@ -273,7 +285,8 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
       const auto ju = static_cast<std::size_t>(j);
       const auto row = r.numbers(rows[ju], key + "[" + std::to_string(j) + "]",
                                  static_cast<std::size_t>(f.harmonics));
-      for (int l = 0; l < f.harmonics; ++l) dst[ju][static_cast<std::size_t>(l)] = row[static_cast<std::size_t>(l)];
+      for (int l = 0; l < f.harmonics; ++l)
+        dst[ju][static_cast<std::size_t>(l)] = row[static_cast<std::size_t>(l)];
     }
   }
 
@@ -296,7 +309,8 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
       }
     }
     if (const YAML::Node ko = c["keep_out"]) {
-      if (!ko.IsSequence()) r.fail("constraints.keep_out", "expected a list of {name, center, radius}");
+      if (!ko.IsSequence())
+        r.fail("constraints.keep_out", "expected a list of {name, center, radius}");
       for (std::size_t i = 0; i < ko.size(); ++i) {
         const std::string key = "constraints.keep_out[" + std::to_string(i) + "]";
         KeepOutSphere s;
@@ -311,7 +325,8 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
       const auto rot = r.numbers(r.require(m, "rotation", "constraints.sensor_mount.rotation"),
                                  "constraints.sensor_mount.rotation", 9);
       for (int i = 0; i < 9; ++i) k.R_FS(i / 3, i % 3) = rot[static_cast<std::size_t>(i)];
-      if ((k.R_FS.transpose() * k.R_FS - Mat3::Identity()).norm() > 1e-6 || k.R_FS.determinant() < 0.0) {
+      if ((k.R_FS.transpose() * k.R_FS - Mat3::Identity()).norm() > 1e-6 ||
+          k.R_FS.determinant() < 0.0) {
         r.fail("constraints.sensor_mount.rotation", "is not a rotation matrix");
       }
       k.p_FS_F = r.vec3(m, "translation", "constraints.sensor_mount.translation");
@@ -350,7 +365,8 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
   return f;
 }
 
-void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory, double rate_hz) {
+void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory,
+                        double rate_hz) {
   if (!(rate_hz > 0.0) || !std::isfinite(rate_hz)) {
     throw ConfigError(path + ": sample rate must be positive (got " + num(rate_hz) + ")");
   }

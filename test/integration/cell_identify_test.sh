@@ -8,8 +8,9 @@
 # Each case runs `ftid sim-robot` (UR10, 125 Hz), `ftid sim-sensor` (the paper payload) and ftidd
 # in a private network namespace (unshare -rn: loopback only, LCM multicast routed on lo), then
 # `ftid --identify --yes` with the shipped 10 s excitation trajectory.
-#   normal           exit 0; the identified payload matches the simulator's truth (mass, centre
-#                    of mass, force/torque offsets); parameters written, the previous file kept
+#   normal           exit 0; the identified payload (model paper+rigid_body, the simulator's
+#                    physics) matches the simulator's truth (weight, centre of mass, force/torque
+#                    offsets, base tilt); parameters written, the previous file kept
 #                    byte-identical as .bak, UR + ros2 exports written, ftidd acknowledged and
 #                    applied the reload.
 #   protective_stop  the robot simulator goes into a protective stop during the motion
@@ -174,7 +175,10 @@ PY
 }
 
 # ---- run ftid --identify, injecting the fault during the motion
-extra=""
+# The sensor simulator's physics is the full rigid body: the normal case identifies the matching
+# model (the paper model alone is biased by the unmodelled rotational terms, which the analysis
+# reports); the fault cases skip the analysis to stay short.
+extra="--model paper+rigid_body"
 [ "$CASE" != normal ] && extra="--no-analyze"
 "$FTID" --identify --config "$WORK/ftidd.yaml" --trajectory "$WORK/traj.yaml" --params "$PARAMS" \
   --runs-dir "$WORK/runs" --yes $extra > "$WORK/identify.out" 2> "$WORK/identify.err" < /dev/null &
@@ -233,14 +237,14 @@ if [ "$CASE" = normal ]; then
     BEGIN {
       if (m == "" || m + 0 <= 0) { print "  no mass in the parameter file"; exit 1 }
       g = 9.80665; pi = 3.141592653589793
-      chk("weight_N", m * g, 8.862, 0.09)          # 1 %
-      chk("com_x_m", mx / m, 0.005, 0.002)
-      chk("com_y_m", my / m, 0.002, 0.002)
-      chk("com_z_m", mz / m, 0.051, 0.002)
-      chk("f0_x_N", fx, -0.6672, 0.05); chk("f0_y_N", fy, 0.8565, 0.05); chk("f0_z_N", fz, 0.3538, 0.05)
-      chk("t0_x_Nm", tx, 0.0228, 0.005); chk("t0_y_Nm", ty, 0.0084, 0.005); chk("t0_z_Nm", tz, 0.0080, 0.005)
-      if (u != "") chk("tilt_u_deg", u * 180 / pi, -9.8716, 0.2)
-      if (v != "") chk("tilt_v_deg", v * 180 / pi, -5.3709, 0.2)
+      chk("weight_N", m * g, 8.862, 0.045)         # 0.5 %
+      chk("com_x_m", mx / m, 0.005, 0.001)
+      chk("com_y_m", my / m, 0.002, 0.001)
+      chk("com_z_m", mz / m, 0.051, 0.001)
+      chk("f0_x_N", fx, -0.6672, 0.02); chk("f0_y_N", fy, 0.8565, 0.02); chk("f0_z_N", fz, 0.3538, 0.02)
+      chk("t0_x_Nm", tx, 0.0228, 0.002); chk("t0_y_Nm", ty, 0.0084, 0.002); chk("t0_z_Nm", tz, 0.0080, 0.002)
+      if (u != "") chk("tilt_u_deg", u * 180 / pi, -9.8716, 0.1)
+      if (v != "") chk("tilt_v_deg", v * 180 / pi, -5.3709, 0.1)
       exit bad
     }' || fail "identified payload differs from the simulator's truth"
 else

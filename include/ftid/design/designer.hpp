@@ -40,58 +40,60 @@ enum class Objective { kCondition, kDOptimality };
 struct DesignOptions {
   std::string model = "paper";
   std::string robot_path = "config/ur10.urdf";  ///< recorded in the output
-  std::vector<int> joints{4, 5, 6};            ///< 1-based
+  std::vector<int> joints{4, 5, 6};             ///< 1-based
   double duration_s = 10.0;
-  int periods = 1;                             ///< base frequency = periods / duration
+  int periods = 1;  ///< base frequency = periods / duration
   int harmonics = 5;
-  double servo_rate_hz = 125.0;                ///< CSV rate and samples the identification sees
-  JointVector q0 = (JointVector() << 0.0, -1.5707963267948966, 1.5707963267948966, -1.5707963267948966,
-                    -1.5707963267948966, 0.0).finished();
+  double servo_rate_hz = 125.0;  ///< CSV rate and samples the identification sees
+  JointVector q0 = (JointVector() << 0.0, -1.5707963267948966, 1.5707963267948966,
+                    -1.5707963267948966, -1.5707963267948966, 0.0)
+                       .finished();
   Objective objective = Objective::kCondition;
   std::uint64_t seed = 1;
-  double time_budget_s = 30.0;                 ///< wall-clock cap for the whole design
-  std::string global_algorithm = "multistart"; ///< multistart | isres | none
-  std::string local_algorithm = "cobyla";      ///< cobyla | slsqp | auglag | none
-  long global_max_evals = 0;                   ///< 0: limited by the time budget only
+  double time_budget_s = 30.0;                  ///< wall-clock cap for the whole design
+  std::string global_algorithm = "multistart";  ///< multistart | isres | none
+  std::string local_algorithm = "cobyla";       ///< cobyla | slsqp | auglag | none
+  long global_max_evals = 0;                    ///< 0: limited by the time budget only
   long local_max_evals = 0;
-  int design_samples = 0;                      ///< samples for the objective (0: automatic)
-  double constraint_margin = 0.01;             ///< relative margin on joint limits inside NLopt
-  double max_condition = 1e4;                  ///< above this the request counts as infeasible
+  int design_samples = 0;           ///< samples for the objective (0: automatic)
+  double constraint_margin = 0.01;  ///< relative margin on joint limits inside NLopt
+  double max_condition = 1e4;       ///< above this the request counts as infeasible
   Vec6 noise_sigma = (Vec6() << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01).finished();  ///< [N, Nm]
-  std::map<std::string, double> nominal;       ///< empty: paper Table 2 payload
+  std::map<std::string, double> nominal;  ///< empty: paper Table 2 payload
   trajectory::TrajectoryConstraints constraints;
-  int baseline_seeds = 50;                     ///< random baseline trajectories (0: skip)
+  int baseline_seeds = 50;  ///< random baseline trajectories (0: skip)
   bool static_baseline = true;
-  std::ostream* progress = nullptr;            ///< progress lines (stderr in the CLI)
+  std::ostream* progress = nullptr;  ///< progress lines (stderr in the CLI)
 };
 
 struct BaselineReport {
   double random_median_condition = 0.0;  ///< median over random feasible trajectories
   int random_count = 0;
-  double static_condition = 0.0;         ///< six static poses (0 if not found)
+  double static_condition = 0.0;  ///< six static poses (0 if not found)
   std::vector<JointVector> static_poses;
   std::map<std::string, double> static_std;  ///< six-pose method, same sample count as the design
 };
 
 struct DesignResult {
-  trajectory::TrajectoryFile file;   ///< ready to write (coefficients, constraints, design, metrics)
-  double condition_number = 0.0;     ///< at the servo rate, column-scaled
+  trajectory::TrajectoryFile file;  ///< ready to write (coefficients, constraints, design, metrics)
+  double condition_number = 0.0;    ///< at the servo rate, column-scaled
   double d_optimality = 0.0;
   std::map<std::string, double> predicted_std;
-  CheckReport check;                 ///< dense re-check of the final trajectory
+  CheckReport check;  ///< dense re-check of the final trajectory
   BaselineReport baselines;
-  std::string global_result;         ///< NLopt outcome, human-readable
+  std::string global_result;  ///< NLopt outcome, human-readable
   std::string local_result;
   long global_evals = 0;
   long local_evals = 0;
   double elapsed_s = 0.0;
-  bool repaired = false;             ///< NLopt's point violated the dense check and was scaled back
+  bool repaired = false;  ///< NLopt's point violated the dense check and was scaled back
   std::vector<std::string> warnings;
 };
 
 /// Designs one trajectory. Throws ConfigError for invalid options, DesignError if no acceptable
 /// trajectory exists (with the reason and what to relax).
-DesignResult designExcitation(const DesignOptions& options, const model::RobotKinematics& kinematics);
+DesignResult designExcitation(const DesignOptions& options,
+                              const model::RobotKinematics& kinematics);
 
 /// Standard-error targets, e.g. "mass=0.005,com=0.001" (SI units; "mass=0.5%" is relative to the
 /// nominal value). Keys: any metric column, derived com_x/y/z, weight, or the groups com, f0, t0,
@@ -117,7 +119,8 @@ struct DurationSearchResult {
 /// Shortest duration (resolution `step_s`, one base period) whose design meets the targets: grows
 /// the duration from options.duration_s by doubling until met (up to max_duration_s), then bisects.
 /// Each design gets an equal share of options.time_budget_s.
-DurationSearchResult findShortestDuration(const DesignOptions& options, const model::RobotKinematics& kinematics,
+DurationSearchResult findShortestDuration(const DesignOptions& options,
+                                          const model::RobotKinematics& kinematics,
                                           const std::map<std::string, double>& targets,
                                           double step_s = 0.5, double min_duration_s = 1.0,
                                           double max_duration_s = 60.0);

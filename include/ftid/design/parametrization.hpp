@@ -1,5 +1,6 @@
 #pragma once
-// Rest-to-rest Fourier parametrisation of an excitation trajectory (docs/design.md §Parametrisation).
+// Rest-to-rest Fourier parametrisation of an excitation trajectory (docs/design.md
+// §Parametrisation).
 //
 // Joint i (excited) follows paper Eq. 47-49 about q0 (ftid/trajectory/fourier_trajectory.hpp):
 //   q_i(t)   = q0_i + sum_{l=1..N} [ a_il/(w l) sin(w l t) + b_il/(w l) (1 - cos(w l t)) ]

@@ -14,12 +14,13 @@ namespace ftid::design {
 
 /// The worst case of one constraint over the trajectory. margin >= 0 means satisfied.
 struct ConstraintMargin {
-  std::string name;    ///< e.g. "joint 5 velocity", "tool[0] above floor", "tool[0] outside robot_base"
-  std::string unit;    ///< "rad", "rad/s", "rad/s^2", "m"
-  double margin = 0.0; ///< limit minus worst value (positive: inside)
-  double worst = 0.0;  ///< the worst value reached
+  std::string
+      name;  ///< e.g. "joint 5 velocity", "tool[0] above floor", "tool[0] outside robot_base"
+  std::string unit;     ///< "rad", "rad/s", "rad/s^2", "m"
+  double margin = 0.0;  ///< limit minus worst value (positive: inside)
+  double worst = 0.0;   ///< the worst value reached
   double limit = 0.0;
-  double t = 0.0;      ///< time of the worst value [s]
+  double t = 0.0;  ///< time of the worst value [s]
 };
 
 struct CheckReport {

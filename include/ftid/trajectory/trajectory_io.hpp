@@ -20,9 +20,9 @@ namespace ftid::trajectory {
 
 /// A sphere the tool must stay out of, fixed in the robot base frame B.
 struct KeepOutSphere {
-  std::string name;            ///< e.g. "robot_base" (for messages)
+  std::string name;              ///< e.g. "robot_base" (for messages)
   Vec3 center_B = Vec3::Zero();  ///< [m]
-  double radius = 0.0;         ///< [m]
+  double radius = 0.0;           ///< [m]
 };
 
 /// A sphere fixed in the sensor frame S that encloses (part of) the tool/payload.
@@ -59,8 +59,8 @@ struct TrajectoryFile {
   // --- what it was designed for / under
   std::string robot;  ///< URDF path as given
   TrajectoryConstraints constraints;
-  std::map<std::string, std::string> design;  ///< model, objective, seed, algorithms, budgets...
-  std::map<std::string, double> metrics;      ///< achieved figures (condition_number, ...)
+  std::map<std::string, std::string> design;    ///< model, objective, seed, algorithms, budgets...
+  std::map<std::string, double> metrics;        ///< achieved figures (condition_number, ...)
   std::map<std::string, double> predicted_std;  ///< parameter -> predicted standard error (SI)
 
   FourierTrajectory toTrajectory() const;
@@ -76,7 +76,8 @@ void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file);
 
 /// Samples the trajectory at rate_hz over [0, duration] (both ends included when the duration is
 /// a whole number of samples) and writes the CSV t, q1..q6, qd1..qd6, qdd1..qdd6 atomically.
-void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory, double rate_hz);
+void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory,
+                        double rate_hz);
 
 /// traj.yaml -> traj.csv beside it (same stem).
 std::string csvPathFor(const std::string& yaml_path);

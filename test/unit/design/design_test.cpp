@@ -1,10 +1,10 @@
 // Excitation designer: parametrisation algebra, constraints on dense sampling, determinism,
 // infeasible requests, independent re-check, baselines and a simulated identification.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
-#include <sys/wait.h>
 #include <random>
 #include <string>
 
@@ -40,7 +40,8 @@ DesignOptions smallOptions(double duration, double budget_s = 4.0) {
 }
 
 /// Joint limits checked here directly (not through checkTrajectory): every 0.5 ms.
-void expectWithinJointLimits(const trajectory::FourierTrajectory& tr, const trajectory::TrajectoryConstraints& c) {
+void expectWithinJointLimits(const trajectory::FourierTrajectory& tr,
+                             const trajectory::TrajectoryConstraints& c) {
   for (double t = 0.0; t <= tr.duration(); t += 5e-4) {
     const auto p = tr.evaluate(t);
     for (int i = 0; i < kNumJoints; ++i) {
@@ -85,8 +86,10 @@ TEST(Parametrization, EveryPointIsRestToRestAndSamplingMatchesEvaluate) {
       EXPECT_LT((m.qdd.col(k) - pt.qdd).cwiseAbs().maxCoeff(), 1e-11);
     }
   }
-  EXPECT_THROW(RestToRestParametrization(q0, {4}, 5, 0.1, 7.5, c), ConfigError);  // not whole periods
-  EXPECT_THROW(RestToRestParametrization(q0, {4}, 1, 0.1, 10.0, c), ConfigError);  // N = 1 cannot move
+  EXPECT_THROW(RestToRestParametrization(q0, {4}, 5, 0.1, 7.5, c),
+               ConfigError);  // not whole periods
+  EXPECT_THROW(RestToRestParametrization(q0, {4}, 1, 0.1, 10.0, c),
+               ConfigError);  // N = 1 cannot move
   EXPECT_THROW(RestToRestParametrization(q0, {4, 4}, 5, 0.1, 10.0, c), ConfigError);
 }
 
@@ -142,7 +145,8 @@ TEST(ExcitationMetric, ConditionNumberEqualsSvdOfTheColumnScaledStack) {
       if (tilt == 4) J.block(6 * k, 11, 6, 1) -= wr / (2 * h);
     }
   }
-  for (int k = 0; k < K; ++k) J.middleRows(6 * k, 6) = o.noise_sigma.cwiseInverse().asDiagonal() * J.middleRows(6 * k, 6);
+  for (int k = 0; k < K; ++k)
+    J.middleRows(6 * k, 6) = o.noise_sigma.cwiseInverse().asDiagonal() * J.middleRows(6 * k, 6);
   for (int c = 0; c < 12; ++c) J.col(c).normalize();
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(J);
   const double cond_svd = svd.singularValues()(0) / svd.singularValues()(11);
@@ -177,7 +181,8 @@ TEST_F(DesignRun, ConstraintsHoldOnDenseSamplingAndItIsRestToRest) {
   EXPECT_TRUE(r.restToRest());
   // Tool above the floor and outside the keep-out sphere, checked here from the flange pose.
   for (double t = 0.0; t <= tr.duration(); t += 1e-3) {
-    const Vec3 c = ur10().computeFlangePose(tr.evaluate(t).q) * options_->constraints.tool[0].center_S;
+    const Vec3 c =
+        ur10().computeFlangePose(tr.evaluate(t).q) * options_->constraints.tool[0].center_S;
     ASSERT_GE(c.z() - options_->constraints.tool[0].radius, options_->constraints.floor_z_B) << t;
     const auto& ko = options_->constraints.keep_out[0];
     ASSERT_GE((c - ko.center_B).norm(), ko.radius + options_->constraints.tool[0].radius) << t;
@@ -193,7 +198,8 @@ TEST_F(DesignRun, BeatsTheRandomBaselineAndThePaperTrajectory) {
   EXPECT_LT(result_->condition_number, result_->baselines.random_median_condition);
   // The paper-style hand-picked 10 s trajectory (sim preset), same metric.
   const auto model = effects::Model::fromName("paper");
-  ExcitationMetric metric(model, ur10(), options_->constraints, defaultNominalParameters(), options_->noise_sigma);
+  ExcitationMetric metric(model, ur10(), options_->constraints, defaultNominalParameters(),
+                          options_->noise_sigma);
   const auto paper = sim::paperExcitationTrajectory();
   std::vector<JointVector> q, qd, qdd;
   for (int k = 0; k < 1250; ++k) {
@@ -234,7 +240,8 @@ TEST_F(DesignRun, CheckDetectsAViolatedLimit) {
   const CheckReport bad = checkTrajectory(tr, ur10(), tight);
   EXPECT_FALSE(bad.ok());
   ASSERT_EQ(bad.violations().size(), 1u);
-  EXPECT_NE(bad.violations()[0].find("joint 5 |velocity|"), std::string::npos) << bad.violations()[0];
+  EXPECT_NE(bad.violations()[0].find("joint 5 |velocity|"), std::string::npos)
+      << bad.violations()[0];
   // A floor raised into the tool's path.
   trajectory::TrajectoryConstraints high_floor = options_->constraints;
   high_floor.floor_z_B = 10.0;
@@ -278,7 +285,9 @@ TEST_F(DesignRun, CheckTrajectoryCommandExitsNonZeroOnAViolation) {
 
 TEST(Design, InfeasibleRequestsGetClearErrors) {
   // Limits far too tight for a 2 s trajectory: nothing can be excited.
-  DesignOptions o = smallOptions(2.0, 1.5);
+  DesignOptions o = smallOptions(2.0, 60.0);
+  o.global_max_evals = 80;  // evaluation budgets: independent of the machine's load
+  o.local_max_evals = 80;
   o.baseline_seeds = 0;
   o.static_baseline = false;
   o.constraints.acceleration = JointVector::Constant(1e-4);
@@ -335,7 +344,8 @@ TEST(DesignSimulation, Designed5sIdentifiesNoWorseThanThePaperStyle10s) {
     const auto d = identifyWith(designed.file.toTrajectory(), "paper+rigid_body", seed);
     const auto p = identifyWith(sim::paperExcitationTrajectory(), "paper", seed + 100);
     auto com_err2 = [&](const identify::FitResult& f) {
-      return Vec3(f.value("com_x") - c_true.x(), f.value("com_y") - c_true.y(), f.value("com_z") - c_true.z())
+      return Vec3(f.value("com_x") - c_true.x(), f.value("com_y") - c_true.y(),
+                  f.value("com_z") - c_true.z())
           .squaredNorm();
     };
     mass2_d += std::pow((d.value("mass") - m_true) / m_true, 2);
@@ -347,8 +357,8 @@ TEST(DesignSimulation, Designed5sIdentifiesNoWorseThanThePaperStyle10s) {
       EXPECT_NEAR(designed.predicted_std.at(n), d.stddev(n), 0.35 * d.stddev(n)) << n;
     }
   }
-  EXPECT_LE(mass2_d, mass2_p) << "mass RMS rel. error designed " << std::sqrt(mass2_d / 3) << " paper "
-                              << std::sqrt(mass2_p / 3);
+  EXPECT_LE(mass2_d, mass2_p) << "mass RMS rel. error designed " << std::sqrt(mass2_d / 3)
+                              << " paper " << std::sqrt(mass2_p / 3);
   EXPECT_LE(com2_d, com2_p) << "com RMS error designed " << std::sqrt(com2_d / 9) << " paper "
                             << std::sqrt(com2_p / 9);
   // Both well inside the bench targets (0.5 %, 1 mm).

@@ -1,5 +1,8 @@
 // Trajectory YAML round trip, reader errors naming file and key, CSV read back by the log reader.
+#include "ftid/trajectory/trajectory_io.hpp"
+
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -7,17 +10,16 @@
 #include <random>
 #include <sstream>
 #include <string>
-#include <unistd.h>
 
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
-#include "ftid/trajectory/trajectory_io.hpp"
 
 namespace ftid::trajectory {
 namespace {
 
 std::string tempPath(const std::string& name) {
-  return std::string(::testing::TempDir()) + "/ftid_trajio_" + std::to_string(::getpid()) + "_" + name;
+  return std::string(::testing::TempDir()) + "/ftid_trajio_" + std::to_string(::getpid()) + "_" +
+         name;
 }
 
 std::string readText(const std::string& path) {
@@ -37,7 +39,8 @@ TrajectoryFile sampleFile() {
   TrajectoryFile f;
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  f.q0 << 0.1, -1.5707963267948966, 1.5707963267948966, -1.2345678901234567, -1.5707963267948966, 1e-17;
+  f.q0 << 0.1, -1.5707963267948966, 1.5707963267948966, -1.2345678901234567, -1.5707963267948966,
+      1e-17;
   f.base_frequency_hz = 1.0 / 7.0;
   f.harmonics = 4;
   f.duration_s = 7.0;
@@ -58,11 +61,13 @@ TrajectoryFile sampleFile() {
   f.constraints.velocity = JointVector::Constant(1.0 / 3.0);
   f.constraints.acceleration << 1, 2, 3, 4, 5, 6.5;
   f.constraints.floor_z_B = -0.123456789;
-  f.constraints.keep_out = {{"robot base", Vec3(0.0, 0.0, 0.1), 0.25}, {"pillar \"A\"", Vec3(0.5, -0.3, 1.0), 0.1}};
+  f.constraints.keep_out = {{"robot base", Vec3(0.0, 0.0, 0.1), 0.25},
+                            {"pillar \"A\"", Vec3(0.5, -0.3, 1.0), 0.1}};
   f.constraints.tool = {{Vec3(0.0, 0.0, 0.05), 0.08}, {Vec3(0.01, 0.0, 0.15), 0.03}};
   f.constraints.R_FS = Eigen::AngleAxisd(0.3, Vec3(1, 2, 3).normalized()).toRotationMatrix();
   f.constraints.p_FS_F = Vec3(0.0, 0.0, 0.0375);
-  f.design = {{"model", "paper"}, {"seed", "7"}, {"reproduce", "ftid design --seed 7: a \"quoted\" note"}};
+  f.design = {
+      {"model", "paper"}, {"seed", "7"}, {"reproduce", "ftid design --seed 7: a \"quoted\" note"}};
   f.metrics = {{"condition_number", 3.3333333333333335}, {"elapsed_s", 12.5}};
   f.predicted_std = {{"mass", 1.2345e-4}, {"com_x", 2.0 / 3.0 * 1e-4}};
   return f;
@@ -136,9 +141,11 @@ TEST(TrajectoryIo, ReaderErrorsNameFileAndKey) {
   const std::string good = readText(good_path);
   expectConfigError(replaceOnce(good, "harmonics: 4", "harmonic: 4"), "key 'harmonics': missing");
   expectConfigError(replaceOnce(good, "duration_s: 7.0", "duration_s: 6.5"), "key 'duration_s'");
-  expectConfigError(replaceOnce(good, "duration_s: 7.0", "duration_s: abc"), "key 'duration_s': expected a number");
+  expectConfigError(replaceOnce(good, "duration_s: 7.0", "duration_s: abc"),
+                    "key 'duration_s': expected a number");
   expectConfigError(replaceOnce(good, "joints: [4, 5, 6]", "joints: [4, 9]"), "key 'joints[1]'");
-  expectConfigError(replaceOnce(good, "format: ftid-excitation-trajectory/1", "format: other"), "key 'format'");
+  expectConfigError(replaceOnce(good, "format: ftid-excitation-trajectory/1", "format: other"),
+                    "key 'format'");
   expectConfigError(replaceOnce(good, "floor_z: ", "floor_z: .nan #"), "key 'constraints.floor_z'");
   expectConfigError("joints: [4\n", "YAML syntax error");
   try {
@@ -158,8 +165,7 @@ TEST(TrajectoryIo, CsvHasLogColumnsAndMatchesTheTrajectory) {
   writeTrajectoryCsv(csv, traj, 125.0);
   const std::string text = readText(csv);
   const std::string header = text.substr(0, text.find('\n'));
-  EXPECT_EQ(header,
-            "t,q1,q2,q3,q4,q5,q6,qd1,qd2,qd3,qd4,qd5,qd6,qdd1,qdd2,qdd3,qdd4,qdd5,qdd6");
+  EXPECT_EQ(header, "t,q1,q2,q3,q4,q5,q6,qd1,qd2,qd3,qd4,qd5,qd6,qdd1,qdd2,qdd3,qdd4,qdd5,qdd6");
   // Read back with the log reader (trajectory kind: no wrench columns required).
   const logio::LogData log = logio::readLog(csv, logio::LogKind::kTrajectory);
   ASSERT_EQ(log.samples.size(), 7u * 125u + 1u);  // both ends included
