@@ -10,7 +10,11 @@
 #include <fstream>
 #include <sstream>
 
+#include <fcntl.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
@@ -234,16 +238,28 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
   os << "}\n";
   os << "  condition_number: " << number(set.condition_number) << "\n";
 
+  // Atomic replacement: write a temporary file in the same directory, fsync it, keep the previous
+  // file as PATH.bak, rename over PATH, fsync the directory. Any failure leaves PATH untouched.
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    if (!out) throw ConfigError(path + ": cannot write (temporary file " + tmp + ")");
-    out << os.str();
-    out.flush();
-    if (!out) {
+  const std::string text = os.str();
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw ConfigError(path + ": cannot create " + tmp + " (" + std::strerror(errno) + ")");
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int err = errno;
+      ::close(fd);
       std::remove(tmp.c_str());
-      throw ConfigError(path + ": write failed");
+      throw ConfigError(path + ": write failed (" + std::strerror(err) + ")");
     }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    const int err = errno;
+    std::remove(tmp.c_str());
+    throw ConfigError(path + ": write failed (" + std::strerror(err) + ")");
   }
   if (std::ifstream(path).good()) {
     const std::string bak = path + ".bak";
@@ -256,8 +272,15 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
     }
   }
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
     std::remove(tmp.c_str());
-    throw ConfigError(path + ": cannot rename the temporary file into place");
+    throw ConfigError(path + ": cannot rename the temporary file into place (" + std::strerror(err) + ")");
+  }
+  const std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/') + 1);
+  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
   }
 }
 

@@ -11,7 +11,7 @@ namespace ftid::cell {
 
 struct DemoOptions {
   std::string workdir = "out/demo";  ///< configs, logs, runs, parameters, report
-  std::string hidden_effect = "cable";  ///< simulator switch the paper model lacks
+  std::string hidden_effect = "temperature_drift";  ///< simulator switch the paper model lacks
   bool private_netns = true;         ///< run inside a new network namespace (LCM multicast on lo)
   int seed = 1;
 };
