@@ -6,6 +6,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/transport/codec.hpp"
+#include "ftid/transport/lcm_to_csv.hpp"
 
 namespace ftid::cell {
 
@@ -102,48 +103,20 @@ std::vector<transport::CycleRecord> CycleRecorder::snapshot() const {
 logio::LogData recordsToLog(const std::vector<transport::CycleRecord>& records, double t_min,
                             double t_max, const std::string& source, RecordsToLogReport* report) {
   RecordsToLogReport rep;
-  logio::LogData log;
-  log.source = source;
-  log.has_wrench = true;
-  bool all_imu = true;
-  bool all_temp = true;
-  double last_t = -1e300;
-  std::vector<double> cycle_col;
-  std::vector<double> age_col;
+  transport::CycleLogBuilder builder(source);
   for (const auto& r : records) {
     if (r.robot.robot_time < t_min || r.robot.robot_time > t_max) continue;
-    if (!r.robot.valid || !r.sensor.valid || r.sensor.health_flags != transport::kHealthOk) {
+    if (r.sensor.health_flags != transport::kHealthOk) {  // stale/gap/error: never fitted as valid
       ++rep.skipped_invalid;
       continue;
     }
-    if (r.robot.robot_time <= last_t) {
-      ++rep.skipped_non_monotonic;
-      continue;
-    }
-    last_t = r.robot.robot_time;
-    logio::LogSample s;
-    s.t = r.robot.robot_time;
-    s.q = r.robot.q;
-    s.qd = r.robot.qd;
-    s.qdd = r.robot.qdd;
-    s.wrench_S = r.sensor.wrench_S;
-    s.acc_S = r.sensor.imu_acc_S;
-    s.w_S = r.sensor.imu_w_S;
-    s.alpha_S = r.sensor.imu_alpha_S;
-    s.temp_degC = r.sensor.temp_degC;
-    all_imu = all_imu && r.sensor.has_imu;
-    all_temp = all_temp && r.sensor.has_temp;
-    log.samples.push_back(s);
-    cycle_col.push_back(static_cast<double>(r.cycle));
-    age_col.push_back(static_cast<double>(r.sensor_age_us) * 1e-3);
-    ++rep.converted;
+    builder.add(r);
   }
-  log.has_imu = all_imu && !log.samples.empty();
-  log.has_temp = all_temp && !log.samples.empty();
-  log.extra_names = {"cycle", "sensor_age_ms"};
-  log.extra_columns = {std::move(cycle_col), std::move(age_col)};
+  rep.converted = builder.report().converted;
+  rep.skipped_invalid += builder.report().skipped_invalid + builder.report().skipped_non_finite;
+  rep.skipped_non_monotonic = builder.report().skipped_non_monotonic;
   if (report) *report = rep;
-  return log;
+  return builder.finish();
 }
 
 }  // namespace ftid::cell

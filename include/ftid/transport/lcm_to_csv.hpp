@@ -6,6 +6,7 @@
 #include <string>
 
 #include "ftid/logio/log.hpp"
+#include "ftid/transport/records.hpp"
 
 namespace ftid::transport {
 
@@ -24,6 +25,28 @@ struct LcmToLogReport {
   std::size_t skipped_non_monotonic = 0;///< robot_time not strictly increasing
   std::size_t skipped_non_finite = 0;   ///< NaN/inf in a value that would be written
   std::size_t decode_errors = 0;        ///< events on the channel that were not cycle_sample_t
+};
+
+/// Builds a measurement log from cycle records, one at a time (shared by lcmLogToLogData and
+/// `ftid --identify`, which records the same records live): drops invalid (unless keep_invalid),
+/// non-finite and non-monotonic records, counting each in the report.
+class CycleLogBuilder {
+ public:
+  explicit CycleLogBuilder(std::string source, bool keep_invalid = false);
+  /// Returns true if the record became a row.
+  bool add(const CycleRecord& record);
+  const LcmToLogReport& report() const { return report_; }
+  LcmToLogReport& report() { return report_; }
+  /// The log so far (has_imu / has_temp set when every row has them).
+  logio::LogData finish() const;
+
+ private:
+  logio::LogData log_;
+  bool keep_invalid_;
+  bool all_imu_ = true;
+  bool all_temp_ = true;
+  double last_t_;
+  LcmToLogReport report_;
 };
 
 /// Reads an LCM log and returns its cycle samples as a measurement log. t is the robot

@@ -45,7 +45,7 @@ TEST(RecordsToLog, KeepsOnlyValidSamplesInsideTheWindow) {
   EXPECT_TRUE(log.has_imu);
   EXPECT_TRUE(log.has_temp);
   EXPECT_DOUBLE_EQ(log.samples[2].temp_degC, 25.032);
-  ASSERT_EQ(log.extra_names.size(), 2u);
+  ASSERT_EQ(log.extra_names.size(), 3u);
   EXPECT_EQ(log.extra_names[0], "cycle");
   EXPECT_EQ(log.extra_columns[0].size(), 4u);
 }

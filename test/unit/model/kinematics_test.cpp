@@ -1,5 +1,5 @@
 // Kinematics checked against an independent closed-form DH product (written here), the FK test
-// vectors of /work/shared/reference/ur-interface-notes.md §4.3, and finite differences of FK.
+// vectors of ../shared/reference/ur-interface-notes.md §4.3, and finite differences of FK.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
