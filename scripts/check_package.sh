@@ -28,7 +28,7 @@ echo "== package: built $(basename "$deb")"
 
 echo "== package: contents"
 contents="$(dpkg-deb -c "$deb")"
-for f in ./usr/bin/ftid ./usr/bin/ftidd ./etc/ftid/ftidd.yaml ./lib/systemd/system/ftidd.service \
+for f in ./usr/bin/ftid ./usr/sbin/ftidd ./etc/ftid/ftidd.yaml ./lib/systemd/system/ftidd.service \
          ./usr/lib/sysusers.d/ftid.conf ./usr/share/man/man1/ftid.1.gz ./usr/share/man/man8/ftidd.8.gz; do
   if ! grep -q " $f\$" <<<"$contents"; then
     echo "package: missing $f" >&2
@@ -52,7 +52,7 @@ dpkg-deb -x "$deb" "$work/pkgroot"
 unit="$unitdir/ftidd.service"
 # Point ExecStart at the packaged binary; drop man: links (the man pages are not installed on
 # this machine, which systemd-analyze would report).
-sed -e "s#/usr/bin/ftidd#$work/pkgroot/usr/bin/ftidd#" -e '/^Documentation=/d' \
+sed -e "s#/usr/sbin/ftidd#$work/pkgroot/usr/sbin/ftidd#" -e '/^Documentation=/d' \
     "$work/pkgroot/lib/systemd/system/ftidd.service" > "$unit"
 out="$(systemd-analyze verify --man=no "$unit" 2>&1 || true)"
 if [ -n "$out" ]; then

@@ -147,9 +147,10 @@ void enterPrivateNetwork() {
 
 fs::path selfDir() { return fs::read_symlink("/proc/self/exe").parent_path(); }
 
-/// ftidd next to ftid (installed: same directory; build tree: ../ftidd/ftidd).
+/// ftidd next to ftid (installed: ../sbin/ftidd; build tree: ../ftidd/ftidd).
 fs::path findFtidd() {
-  for (const fs::path& p : {selfDir() / "ftidd", selfDir().parent_path() / "ftidd" / "ftidd"}) {
+  for (const fs::path& p : {selfDir() / "ftidd", selfDir().parent_path() / "ftidd" / "ftidd",
+                            selfDir().parent_path() / "sbin" / "ftidd"}) {
     if (fs::exists(p)) return p;
   }
   throw Error("cannot find the ftidd executable next to " + selfDir().string());
