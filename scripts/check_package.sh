@@ -38,7 +38,7 @@ done
 dpkg-deb -I "$deb" conffiles | grep -q /etc/ftid/ftidd.yaml || { echo "package: ftidd.yaml is not a conffile" >&2; exit 1; }
 
 echo "== package: lintian"
-lint="$(lintian --no-tag-display-limit "$deb" 2>&1 | grep -v 'running with root privileges' || true)"
+lint="$(lintian --tag-display-limit 0 "$deb" 2>&1 | grep -v 'running with root privileges' || true)"
 [ -n "$lint" ] && echo "$lint"
 if grep -q '^E:' <<<"$lint"; then
   echo "package: lintian reported errors" >&2
