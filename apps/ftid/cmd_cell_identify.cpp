@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -72,7 +73,12 @@ int run(const std::vector<std::string>& argv) {
     if (!std::getline(std::cin, answer)) return false;
     return answer == "y" || answer == "Y" || answer == "yes";
   };
-  o.progress = [tty](const std::string& phase, double elapsed, double total) {
+  o.progress = [tty, last_second = -1.0](const std::string& phase, double elapsed, double total) mutable {
+    // On a terminal the bar is redrawn in place; in a log, one line per second of motion.
+    if (!tty) {
+      if (std::floor(elapsed) == last_second) return;
+      last_second = std::floor(elapsed);
+    }
     const int width = 30;
     const double frac = total > 0 ? std::min(1.0, std::max(0.0, elapsed / total)) : 0.0;
     const int filled = static_cast<int>(frac * width);
