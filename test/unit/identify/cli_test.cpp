@@ -22,7 +22,12 @@ struct CliRun {
   std::string err;
 };
 
-std::string dir() { return std::string(FTID_BINARY_DIR) + "/identify_cli_test_"; }
+// CTest runs each test of this file as its own process, in parallel: every file a test writes
+// (including the captured stderr) carries the test's name so two tests never share one.
+std::string dir() {
+  return std::string(FTID_BINARY_DIR) + "/identify_cli_test_" +
+         ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_";
+}
 
 CliRun ftidRun(const std::string& args) {
   const std::string err_file = dir() + "stderr.txt";
