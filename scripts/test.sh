@@ -19,13 +19,12 @@ summary="$(mktemp)"
 if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   asan="$root/build-asan"
   echo "== test: AddressSanitizer + UBSan build of the unit tests ($asan)"
+  # -g1 (line tables) is all the sanitizer reports need and compiles about 20 % faster than -g.
   cmake -S "$root" -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTID_SANITIZE=ON \
-        -DFTID_BUILD_BENCH=OFF >/dev/null
+        -DFTID_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_DEBUG="-O0 -g1" >/dev/null
   cmake --build "$asan" -j"$jobs" --target ftid_unit_tests
-  # LcmOutbox.* is excluded here: UBSan reports an invalid vptr inside LCM 1.3.1's
-  # lcm-cpp-impl.hpp (typed subscription callback) in those tests; open defect, see the issue notes.
   (cd "$asan" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      ctest --output-on-failure -j"$jobs" --timeout 900 -LE 'integration|slow' -E '_NOT_BUILT$|^LcmOutbox\.')
+      ctest --output-on-failure -j"$jobs" --timeout 900 -LE 'integration|slow' -E '_NOT_BUILT$')
   if [ -x "$here/check_package.sh" ]; then
     echo "== test: Debian package and systemd unit"
     "$here/check_package.sh"

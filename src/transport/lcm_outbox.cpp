@@ -61,6 +61,9 @@ struct LcmOutbox::Impl {
 
   CommandHandler command_handler = nullptr;
   void* command_context = nullptr;
+  // The command_t subscription on *lcm while started; removed by stop() so that a shared LCM
+  // instance (which outlives the outbox) never dispatches to this Impl after stop or destruction.
+  lcm::Subscription* command_subscription = nullptr;
 
   std::atomic<std::uint64_t> pushed{0};
   std::atomic<std::uint64_t> processed{0};
@@ -112,9 +115,15 @@ struct LcmOutbox::Impl {
     }
   }
 
-  void onCommand(const lcm::ReceiveBuffer*, const std::string&, const ftid_lcm::command_t* msg) {
-    commands.fetch_add(1, std::memory_order_relaxed);
-    if (command_handler != nullptr) command_handler(*msg, command_context);
+  // Subscribed with LCM's function-pointer form (subscribeFunction), not its member-function
+  // form: GCC 12's -fsanitize=vptr miscompiles the pointer-to-member call in LCM 1.3.1's
+  // lcm-cpp-impl.hpp:88 (`(subs->handler->*subs->handlerMethod)(...)`) and reports a false
+  // "invalid vptr" for every message. Reproduction without LCM:
+  // test/unit/transport/gcc_vptr_pmf_repro.cpp.
+  static void onCommand(const lcm::ReceiveBuffer*, const std::string&,
+                        const ftid_lcm::command_t* msg, Impl* self) {
+    self->commands.fetch_add(1, std::memory_order_relaxed);
+    if (self->command_handler != nullptr) self->command_handler(*msg, self->command_context);
   }
 
   void run(int lcm_fd) {
@@ -185,7 +194,8 @@ void LcmOutbox::start() {
   int lcm_fd = -1;
   if (impl_->command_handler != nullptr) {
     // Subscribed here (a normal thread) so that commands sent right after start() are seen.
-    impl_->lcm->subscribe(impl_->options.channels.command, &Impl::onCommand, impl_.get());
+    impl_->command_subscription = impl_->lcm->subscribeFunction(
+        impl_->options.channels.command, &Impl::onCommand, impl_.get());
     lcm_fd = impl_->lcm->getFileno();
   }
   impl_->running.store(true, std::memory_order_release);
@@ -198,6 +208,12 @@ void LcmOutbox::stop() {
     const std::uint64_t one = 1;
     (void)!::write(impl_->event_fd, &one, sizeof one);
     if (impl_->thread.joinable()) impl_->thread.join();
+    // After the join nothing handles *lcm on our behalf any more: drop the subscription so a
+    // shared instance handled later (or a restart) cannot reach this Impl through it.
+    if (impl_->command_subscription != nullptr) {
+      impl_->lcm->unsubscribe(impl_->command_subscription);
+      impl_->command_subscription = nullptr;
+    }
     impl_->started = false;
   }
   std::lock_guard<std::mutex> lock(impl_->publish_mutex);

@@ -57,7 +57,10 @@ class LcmOutbox {
   /// channel name, Error if the record file cannot be opened.
   explicit LcmOutbox(OutboxOptions options);
   /// Uses an existing LCM instance (options.url is ignored), e.g. one memq:// instance shared
-  /// with in-process subscribers in tests. It must outlive the outbox.
+  /// with in-process subscribers in tests. It must outlive the outbox. start() subscribes the
+  /// command handler on it and stop() unsubscribes it again, so no other thread may subscribe or
+  /// unsubscribe on that instance during start()/stop() (LCM's C++ wrapper is not thread-safe
+  /// there).
   LcmOutbox(OutboxOptions options, lcm::LCM* shared_lcm);
   ~LcmOutbox();
   LcmOutbox(const LcmOutbox&) = delete;
@@ -68,7 +71,8 @@ class LcmOutbox {
 
   /// Starts the publisher thread (non-RT; call from a non-RT thread).
   void start();
-  /// Publishes what is still queued, stops the thread and closes the record file. Idempotent.
+  /// Publishes what is still queued, stops the thread, unsubscribes the command handler and
+  /// closes the record file. Idempotent.
   void stop();
 
   /// RT side: queue one cycle for publishing. Never blocks or allocates; false (and counted as

@@ -28,33 +28,73 @@ std::string tempPath(const std::string& name) {
   return ::testing::TempDir() + "ftid_transport_" + std::to_string(::getpid()) + "_" + name;
 }
 
+// Subscribed with subscribeFunction (function pointer + context), like LcmOutbox itself: LCM's
+// member-function form trips a GCC 12 -fsanitize=vptr miscompilation in lcm-cpp-impl.hpp:88
+// (false "invalid vptr"; see gcc_vptr_pmf_repro.cpp), which the sanitizer run would report.
 struct Collector {
   std::mutex mutex;
   std::vector<ftid_lcm::cycle_sample_t> cycles;
   std::vector<ftid_lcm::compensated_wrench_t> wrenches;
   std::vector<ftid_lcm::loop_stats_t> stats;
-  void onCycle(const lcm::ReceiveBuffer*, const std::string&, const ftid_lcm::cycle_sample_t* m) {
-    std::lock_guard<std::mutex> l(mutex);
-    cycles.push_back(*m);
+  static void onCycle(const lcm::ReceiveBuffer*, const std::string&,
+                      const ftid_lcm::cycle_sample_t* m, Collector* self) {
+    std::lock_guard<std::mutex> l(self->mutex);
+    self->cycles.push_back(*m);
   }
-  void onWrench(const lcm::ReceiveBuffer*, const std::string&,
-                const ftid_lcm::compensated_wrench_t* m) {
-    std::lock_guard<std::mutex> l(mutex);
-    wrenches.push_back(*m);
+  static void onWrench(const lcm::ReceiveBuffer*, const std::string&,
+                       const ftid_lcm::compensated_wrench_t* m, Collector* self) {
+    std::lock_guard<std::mutex> l(self->mutex);
+    self->wrenches.push_back(*m);
   }
-  void onStats(const lcm::ReceiveBuffer*, const std::string&, const ftid_lcm::loop_stats_t* m) {
-    std::lock_guard<std::mutex> l(mutex);
-    stats.push_back(*m);
+  static void onStats(const lcm::ReceiveBuffer*, const std::string&,
+                      const ftid_lcm::loop_stats_t* m, Collector* self) {
+    std::lock_guard<std::mutex> l(self->mutex);
+    self->stats.push_back(*m);
   }
 };
+
+// What a command handler saw; filled on the outbox thread.
+struct SeenCommands {
+  std::atomic<int> count{0};
+  std::atomic<std::int64_t> id{0};
+  static void record(const ftid_lcm::command_t& c, void* ctx) {
+    auto* s = static_cast<SeenCommands*>(ctx);
+    s->id.store(c.request_id);
+    s->count.fetch_add(1);
+  }
+};
+
+// An independent subscriber on the command channel: proves a command really was delivered.
+void countCommand(const lcm::ReceiveBuffer*, const std::string&, const ftid_lcm::command_t*,
+                  std::atomic<int>* count) {
+  count->fetch_add(1);
+}
+
+void publishCommand(lcm::LCM& lc, std::int64_t request_id) {
+  ftid_lcm::command_t cmd{};
+  cmd.request_id = request_id;
+  cmd.command = ftid_lcm::command_t::RELOAD_PARAMETERS;
+  cmd.argument = "";
+  ASSERT_EQ(lc.publish("FTID_COMMAND", &cmd), 0);
+}
+
+// Waits (up to 5 s) until the outbox thread has dispatched at least `n` commands.
+bool waitForCommands(const SeenCommands& seen, int n) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (seen.count.load() < n) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return true;
+}
 
 TEST(LcmOutbox, MemqRoundTripDeliversEveryCycleInOrder) {
   lcm::LCM lc("memq://");
   ASSERT_TRUE(lc.good());
   Collector col;
-  lc.subscribe("FTID_CYCLE", &Collector::onCycle, &col);
-  lc.subscribe("FTID_WRENCH", &Collector::onWrench, &col);
-  lc.subscribe("FTID_STATS", &Collector::onStats, &col);
+  lc.subscribeFunction("FTID_CYCLE", &Collector::onCycle, &col);
+  lc.subscribeFunction("FTID_WRENCH", &Collector::onWrench, &col);
+  lc.subscribeFunction("FTID_STATS", &Collector::onStats, &col);
 
   LcmOutbox outbox(OutboxOptions{}, &lc);
   outbox.start();
@@ -97,8 +137,8 @@ TEST(LcmOutbox, MemqRoundTripDeliversEveryCycleInOrder) {
 TEST(LcmOutbox, WrenchOnlyWhenCyclePublishingIsOff) {
   lcm::LCM lc("memq://");
   Collector col;
-  lc.subscribe("FTID_CYCLE", &Collector::onCycle, &col);
-  lc.subscribe("FTID_WRENCH", &Collector::onWrench, &col);
+  lc.subscribeFunction("FTID_CYCLE", &Collector::onCycle, &col);
+  lc.subscribeFunction("FTID_WRENCH", &Collector::onWrench, &col);
   OutboxOptions opt;
   opt.publish_cycle = false;
   LcmOutbox outbox(opt, &lc);
@@ -164,31 +204,59 @@ TEST(LcmOutbox, RecordsEveryPublishedEventToAnLcmLog) {
 TEST(LcmOutbox, DispatchesCommandsOnItsThread) {
   lcm::LCM lc("memq://");
   LcmOutbox outbox(OutboxOptions{}, &lc);
-  struct Seen {
-    std::atomic<int> count{0};
-    std::atomic<std::int64_t> id{0};
-  } seen;
-  outbox.setCommandHandler(
-      [](const ftid_lcm::command_t& c, void* ctx) {
-        auto* s = static_cast<Seen*>(ctx);
-        s->id.store(c.request_id);
-        s->count.fetch_add(1);
-      },
-      &seen);
+  SeenCommands seen;
+  outbox.setCommandHandler(&SeenCommands::record, &seen);
   outbox.start();
-  ftid_lcm::command_t cmd{};
-  cmd.request_id = 77;
-  cmd.command = ftid_lcm::command_t::RELOAD_PARAMETERS;
-  cmd.argument = "";
   // memq delivers on the next handle() of the instance; the outbox thread handles it.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  lc.publish("FTID_COMMAND", &cmd);
-  while (seen.count.load() == 0 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
+  publishCommand(lc, 77);
+  EXPECT_TRUE(waitForCommands(seen, 1));
   outbox.stop();
   EXPECT_EQ(seen.count.load(), 1);
   EXPECT_EQ(seen.id.load(), 77);
+  EXPECT_EQ(outbox.counters().commands, 1u);
+}
+
+// The shared instance outlives the outbox: after stop() (and after destruction) a command
+// handled on it must not reach the outbox any more (before the fix the subscription stayed, so
+// this dispatched into a stopped, then freed, outbox).
+TEST(LcmOutbox, StopUnsubscribesTheCommandHandlerFromASharedInstance) {
+  lcm::LCM lc("memq://");
+  std::atomic<int> delivered{0};
+  lc.subscribeFunction("FTID_COMMAND", &countCommand, &delivered);
+  SeenCommands seen;
+  {
+    LcmOutbox outbox(OutboxOptions{}, &lc);
+    outbox.setCommandHandler(&SeenCommands::record, &seen);
+    outbox.start();
+    outbox.stop();
+    publishCommand(lc, 1);
+    while (lc.handleTimeout(0) > 0) {
+    }
+    EXPECT_EQ(delivered.load(), 1);
+    EXPECT_EQ(seen.count.load(), 0);
+    EXPECT_EQ(outbox.counters().commands, 0u);
+  }
+  publishCommand(lc, 2);
+  while (lc.handleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(delivered.load(), 2);
+  EXPECT_EQ(seen.count.load(), 0);
+}
+
+// stop() then start() again subscribes once, not twice: each command is dispatched once.
+TEST(LcmOutbox, RestartDispatchesEachCommandOnce) {
+  lcm::LCM lc("memq://");
+  LcmOutbox outbox(OutboxOptions{}, &lc);
+  SeenCommands seen;
+  outbox.setCommandHandler(&SeenCommands::record, &seen);
+  outbox.start();
+  outbox.stop();
+  outbox.start();
+  publishCommand(lc, 5);
+  EXPECT_TRUE(waitForCommands(seen, 1));
+  outbox.stop();  // joins the thread: every handler of that message has run
+  EXPECT_EQ(seen.count.load(), 1);
+  EXPECT_EQ(outbox.counters().commands, 1u);
 }
 
 TEST(LcmOutbox, RejectsOverlongChannelAndBadUrl) {
