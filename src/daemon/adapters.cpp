@@ -1,6 +1,10 @@
 #include "ftid/daemon/adapters.hpp"
 
+#include <poll.h>
+
+#include <cerrno>
 #include <cmath>
+#include <ctime>
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
@@ -91,13 +95,69 @@ void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* 
   out->valid = in.valid;
 }
 
-CanSensorSource::CanSensorSource(std::unique_ptr<can::FtImuSensor> sensor)
-    : sensor_(std::move(sensor)) {}
+CanSensorSource::CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
+                                 const can::SensorHealthOptions& health)
+    : sensor_(std::move(sensor)), options_(health), assembler_(sensor_->layout(), health) {}
 
-void CanSensorSource::tryReadLatest(std::int64_t now_utime,
-                                    transport::SensorSampleRecord* out) noexcept {
-  (void)sensor_->tryReadLatest(sample_, now_utime * 1000);
-  toSensorRecord(sample_, out);
+// The drain loop of CanFtImuSensor::tryReadLatest, except that every complete sample is read
+// (at its own receive time, so that it is never stale there) and appended to the history. The
+// counter-gap and error-frame flags such a read consumes belong to the interval since the
+// previous cycle: they are collected and reported with the newest sample by drain(), as one read
+// per cycle reports them.
+void CanSensorSource::pump(SensorHistory* history) noexcept {
+  constexpr std::uint32_t kIntervalFlags = can::kSampleFlagCounterGap | can::kSampleFlagErrorFrame;
+  can::CanTransport& bus = sensor_->transport();
+  int total = 0;
+  while (total < can::CanFtImuSensor::kMaxFramesPerRead) {
+    can::IoResult status = can::IoResult::kOk;
+    const int n = bus.tryReceiveBatch(batch_.data(), static_cast<int>(batch_.size()), status);
+    for (int i = 0; i < n; ++i) {
+      if (!assembler_.feed(batch_[static_cast<std::size_t>(i)])) continue;
+      assembler_.readLatest(sample_, assembler_.latest().rx_time_ns);
+      interval_flags_ |= sample_.flags & kIntervalFlags;
+      toSensorRecord(sample_, &record_);
+      history->push(record_);
+    }
+    total += n;
+    if (status == can::IoResult::kClosed || status == can::IoResult::kError) {
+      assembler_.noteTransportProblem();
+      break;
+    }
+    if (n < static_cast<int>(batch_.size())) break;  // drained
+  }
+}
+
+void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
+                            transport::SensorSampleRecord* latest) noexcept {
+  pump(history);
+  assembler_.readLatest(sample_, now_utime * 1000);
+  sample_.flags |= interval_flags_;
+  if (((interval_flags_ & can::kSampleFlagCounterGap) != 0 && options_.counter_gap_invalidates) ||
+      ((interval_flags_ & can::kSampleFlagErrorFrame) != 0 && options_.error_frame_invalidates)) {
+    sample_.valid = false;
+  }
+  interval_flags_ = 0;
+  toSensorRecord(sample_, latest);
+}
+
+bool CanSensorSource::waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
+                                    SensorHistory* history) noexcept {
+  auto have = [&] { return !history->empty() && history->newest().recv_utime >= t_utime; };
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  const std::int64_t deadline =
+      static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec + timeout.count();
+  const int fd = sensor_->transport().fd();
+  for (;;) {
+    pump(history);
+    if (have()) return true;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    const std::int64_t left = deadline - (static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec);
+    if (left <= 0 || fd < 0) return false;
+    pollfd p{fd, POLLIN, 0};
+    const timespec wait{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
+    if (ppoll(&p, 1, &wait, nullptr) < 0 && errno != EINTR) return false;
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

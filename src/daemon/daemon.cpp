@@ -187,7 +187,8 @@ int Daemon::run() {
   can_cfg.dbc_path = cfg.sensor.dbc_path;
   can_cfg.health.stale_timeout_ns = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1e6);
   CanSensorSource sensor(retryUntil(options_.connect_timeout_s, "the sensor at " + can_cfg.endpoint,
-                                    [&] { return can::openCanSensor(can_cfg); }));
+                                    [&] { return can::openCanSensor(can_cfg); }),
+                         can_cfg.health);
   std::unique_ptr<RtdeArmSource> arm = retryUntil(
       options_.connect_timeout_s,
       "the robot at " + cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port), [&] {

@@ -1,5 +1,6 @@
 #include "ftid/daemon/daemon_cycle.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
 
@@ -32,10 +33,45 @@ bool sensorFinite(const transport::SensorSampleRecord& s) noexcept {
 
 DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
                          OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
-    : arm_(arm), sensor_(sensor), motion_(motion), params_(params), sink_(sink), options_(options) {}
+    : arm_(arm),
+      sensor_(sensor),
+      motion_(motion),
+      params_(params),
+      sink_(sink),
+      options_(options),
+      clock_map_(options.clock_window_s) {}
 
 Status DaemonCycle::waitForTick(std::chrono::nanoseconds timeout) noexcept {
-  return arm_->waitForState(timeout, &robot_);
+  const Status s = arm_->waitForState(timeout, &robot_);
+  if (s == Status::kOk) awaitBracketingSample();
+  return s;
+}
+
+// The robot state's time on the host clock is normally about when its packet arrived, so the
+// sensor sample after it (needed to interpolate) is usually still in flight: wait for it here,
+// at the loop's blocking point (not counted as compute time), bounded by max_sensor_wait_us and
+// half a robot period, and not at all while the sensor is silent (the cycle is stale anyway).
+void DaemonCycle::awaitBracketingSample() noexcept {
+  const double robot_time = robot_.robot_time;
+  const double period_s = robot_time - prev_wait_robot_time_;
+  prev_wait_robot_time_ = robot_time;
+  if (options_.max_sensor_wait_us <= 0 || !std::isfinite(robot_time) || robot_.recv_utime <= 0) {
+    return;
+  }
+  const std::int64_t t_pair = clock_map_.update(robot_time, robot_.recv_utime);  // step() repeats it
+  if (sensor_->waitForSample(t_pair, std::chrono::nanoseconds(0), &history_)) return;  // there
+  if (history_.empty() ||
+      options_.now_us() - history_.newest().recv_utime > options_.stale_timeout_us) {
+    return;  // no sensor data yet, or the sensor is silent
+  }
+  std::int64_t wait_us = options_.max_sensor_wait_us;
+  if (period_s > 0.0 && period_s < 1.0) {
+    wait_us = std::min(wait_us, static_cast<std::int64_t>(period_s * 0.5e6));
+  }
+  counters_.sensor_waits.fetch_add(1, std::memory_order_relaxed);
+  if (!sensor_->waitForSample(t_pair, std::chrono::microseconds(wait_us), &history_)) {
+    counters_.sensor_wait_timeouts.fetch_add(1, std::memory_order_relaxed);
+  }
 }
 
 CycleAction DaemonCycle::onTick() noexcept {
@@ -78,10 +114,38 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
   }
   if (arm_ != nullptr && arm_->robotStopped()) rec.fault_bits |= kFaultRobotStopped;
 
-  // Sensor: newest sample, flagged if stale, invalid or non-finite.
-  sensor_->tryReadLatest(now, &rec.sensor);
+  // Sensor: every new sample into the history; latest_ is the newest with the driver's flags.
+  sensor_->drain(now, &history_, &latest_);
+  // The sample at the robot state's time on the host clock (interpolated), else the newest.
+  SensorPairing pairing = SensorPairing::kNone;
+  std::int64_t reach_us = 0;
+  last_pair_time_us_ = 0;
+  if (std::isfinite(robot.robot_time) && robot.recv_utime > 0) {
+    last_pair_time_us_ = clock_map_.update(robot.robot_time, robot.recv_utime);
+    pairing = history_.sampleAt(last_pair_time_us_, &rec.sensor, &reach_us);
+  }
+  last_pairing_ = pairing;
+  if (pairing == SensorPairing::kNone) {
+    rec.sensor = latest_;
+    counters_.sensor_unpaired.fetch_add(1, std::memory_order_relaxed);
+  } else {
+    // The newest sample's flags and validity still count (stale, transport down, counter gap,
+    // error frames since the last cycle, an invalid newest value): never less strict than before.
+    rec.sensor.health_flags |= latest_.health_flags;
+    rec.sensor.valid = rec.sensor.valid && latest_.valid;
+    if (reach_us > options_.stale_timeout_us) rec.sensor.health_flags |= transport::kHealthStale;
+    if (pairing == SensorPairing::kInterpolated) {
+      counters_.sensor_interpolated.fetch_add(1, std::memory_order_relaxed);
+    } else {
+      counters_.sensor_one_sided.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+  // Stale: no sample ever, or the newest one older than the timeout at the start of the cycle
+  // (the rule before pairing); the pairing itself (reach_us above) adds the samples' distance
+  // from the robot state's time.
   rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
-  if (rec.sensor.recv_utime <= 0 || rec.sensor_age_us > options_.stale_timeout_us) {
+  if (rec.sensor.recv_utime <= 0 || latest_.recv_utime <= 0 ||
+      now - latest_.recv_utime > options_.stale_timeout_us) {
     rec.sensor.health_flags |= transport::kHealthStale;
   }
   if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= transport::kHealthNonFinite;

@@ -1,13 +1,17 @@
 // Real-time safety of ftidd's loop side: one whole DaemonCycle step with the production
 // kinematics, the production compensation (paper+rigid_body model from a parameter file) and the
-// production sink (LcmOutbox::tryPush), a parameter swap, and the transport codec, all under the
-// allocation counter.
+// production sink (LcmOutbox::tryPush), a parameter swap, the production CAN sensor adapter with
+// the time-consistent pairing (history, bounded wait, interpolation), and the transport codec,
+// all under the allocation counter.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 
+#include <array>
+#include <atomic>
 #include <cstdio>
 #include <map>
+#include <thread>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -15,6 +19,7 @@
 #include "alloc_counter.hpp"
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
+#include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
@@ -89,6 +94,79 @@ TEST(RtDaemon, CycleStepWithProductionMathAndSinkDoesNotAllocate) {
   EXPECT_EQ(outbox.counters().pushed, 51u);
   std::remove(p1.c_str());
   std::remove(p2.c_str());
+}
+
+// The production CAN sensor adapter with a sensor thread sending 1 kHz samples over the
+// SOCK_SEQPACKET stand-in and a robot clock of 125 Hz: the per-sample drain into the history,
+// the bounded wait for the sample that follows the robot state (ppoll), a wait that times out
+// (sensor paused), the clock map and the interpolation, all under the allocation counter.
+class TimedArm : public ArmStateSource {
+ public:
+  std::int64_t next_ns = 0;  // CLOCK_MONOTONIC time of the next state
+  double robot_time = 3600.0;
+  Status waitForState(std::chrono::nanoseconds, transport::RobotStateRecord* out) noexcept override {
+    rt::sleepUntilNs(next_ns);
+    next_ns += 8'000'000;
+    robot_time += 0.008;
+    out->valid = true;
+    out->robot_time = robot_time;
+    out->recv_utime = realtimeNowUs();
+    return Status::kOk;
+  }
+};
+
+TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
+  const can::SensorLayout layout =
+      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  auto pair = can::makeSeqpacketPair();
+  can::CanTransport* bus = pair.a.get();
+  CanSensorSource sensor(std::make_unique<can::CanFtImuSensor>(std::move(pair.b), layout),
+                         can::SensorHealthOptions{});
+  std::atomic<bool> stop{false}, paused{false};
+  std::thread sender([&] {  // the sensor: one sample per millisecond, values linear in time
+    std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
+    can::SensorValues values;
+    std::uint32_t counter = 0;
+    std::int64_t next = rt::monotonicNs();
+    while (!stop.load()) {
+      next += 1'000'000;
+      rt::sleepUntilNs(next);
+      if (paused.load()) continue;
+      values.wrench_S[2] = -10.0 + 1e-3 * static_cast<double>(counter);
+      const int n = can::encodeSample(layout, values, ++counter, frames);
+      for (int i = 0; i < n; ++i) bus->trySend(frames[static_cast<std::size_t>(i)]);
+    }
+  });
+  test::FixedMotion motion;
+  OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
+  TimedArm arm;
+  CycleOptions opt;  // real clock, default wait bound
+  DaemonCycle cycle(&arm, &sensor, &motion, &slot, nullptr, opt);
+  arm.next_ns = rt::monotonicNs() + 20'000'000;
+  auto tick = [&] {
+    ASSERT_EQ(cycle.waitForTick(std::chrono::milliseconds(12)), Status::kOk);
+    cycle.onTick();
+  };
+  for (int i = 0; i < 3; ++i) tick();  // warm-up outside the counter
+
+  std::size_t allocations = 0;
+  {
+    ftid::test::ScopedAllocationCounter counter;
+    for (int i = 0; i < 40; ++i) {
+      paused.store(i == 20);  // tick 20: the sensor is paused, the wait times out
+      tick();
+    }
+    allocations = counter.count();
+  }
+  stop.store(true);
+  sender.join();
+  EXPECT_EQ(allocations, 0u);
+  const CycleCounters& c = cycle.counters();
+  EXPECT_GT(c.sensor_interpolated.load(), 20u);
+  EXPECT_GT(c.sensor_waits.load(), 0u);
+  EXPECT_GT(c.sensor_wait_timeouts.load(), 0u);
+  EXPECT_GT(c.valid.load(), 20u);
+  EXPECT_GT(sensor.health().samples_complete, 200u);
 }
 
 TEST(RtDaemon, CodecAndQueueDoNotAllocate) {

@@ -4,6 +4,7 @@
 // (model), the compensator (compensate) with parameters from a parameter file (identify), and
 // the LcmOutbox (transport). Constructors do set-up and may throw; the loop-side methods are
 // noexcept and allocation-free.
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <memory>
@@ -49,16 +50,35 @@ class RtdeArmSource final : public ArmStateSource {
 /// Converts a can::SensorSample (the CAN driver's) into the published record.
 void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept;
 
-/// The CAN sensor, drained to its newest sample each cycle.
+/// The CAN sensor, drained each cycle with every complete sample handed to the history.
+/// can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
+/// drains the sensor's transport itself and assembles with its own can::SampleAssembler (same
+/// layout and health options, the same rules): the CanFtImuSensor's own assembler is not used,
+/// read health() here instead of sensor->health().
 class CanSensorSource final : public SensorSource {
  public:
-  explicit CanSensorSource(std::unique_ptr<can::FtImuSensor> sensor);
-  void tryReadLatest(std::int64_t now_utime, transport::SensorSampleRecord* out) noexcept override;
-  const can::FtImuSensor& sensor() const noexcept { return *sensor_; }
+  /// `health` must be the options the sensor was opened with (CanSensorConfig::health).
+  CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
+                  const can::SensorHealthOptions& health);
+  void drain(std::int64_t now_utime, SensorHistory* history,
+             transport::SensorSampleRecord* latest) noexcept override;
+  /// Drains, then ppoll()s the transport's descriptor until such a sample is complete or the
+  /// timeout passes (no waiting for a transport without a descriptor, e.g. a candump replay).
+  bool waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
+                     SensorHistory* history) noexcept override;
+  const can::SensorHealth& health() const noexcept { return assembler_.health(); }
 
  private:
-  std::unique_ptr<can::FtImuSensor> sensor_;
+  /// Receives pending frames; every complete sample goes to the history (see adapters.cpp).
+  void pump(SensorHistory* history) noexcept;
+
+  std::unique_ptr<can::CanFtImuSensor> sensor_;  // owns the transport
+  can::SensorHealthOptions options_;
+  can::SampleAssembler assembler_;
+  std::array<can::ReceivedFrame, 64> batch_{};
   can::SensorSample sample_;
+  transport::SensorSampleRecord record_;
+  std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
 };
 
 /// Sensor-frame kinematics from RobotKinematics (with the sensor mount already set).

@@ -3,8 +3,14 @@
 // ftid/daemon/seams.hpp so that it runs in unit tests without threads or hardware.
 //
 //   waitForTick(timeout)  arm->waitForState()                    (the robot is the clock)
+//                         then, if the sample after the robot state's time has not arrived
+//                         yet, sensor->waitForSample() for it, bounded (max_sensor_wait_us,
+//                         half a robot period; not while the sensor is silent)
 //   onTick()              step(): swap in new parameters if a reload posted them
-//                               -> drain the sensor to its newest sample
+//                               -> drain the sensor: every new sample into the history
+//                               -> the sensor sample at the robot state's time: robot_time
+//                                  mapped to the host clock (RobotClockMap), interpolated
+//                                  between the two bracketing samples (SensorHistory)
 //                               -> flag stale/invalid data (never compensated as valid)
 //                               -> sensor motion from the joint state (kinematics)
 //                               -> compensation with the current parameters
@@ -20,6 +26,7 @@
 #include "ftid/common/status.hpp"
 #include "ftid/daemon/seams.hpp"
 #include "ftid/daemon/swap_slot.hpp"
+#include "ftid/daemon/time_pairing.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/loop_stats.hpp"
 #include "ftid/rt/mailbox.hpp"
@@ -33,8 +40,17 @@ using rt::CycleAction;
 std::int64_t realtimeNowUs() noexcept;
 
 struct CycleOptions {
-  /// A sensor sample older than this at the start of a cycle is stale [us].
+  /// A sensor sample older than this at the start of a cycle is stale [us]. The same bound
+  /// applies to the pairing: a sample used for the robot state's time that lies farther than
+  /// this from it (or two bracketing samples farther apart) is stale as well.
   std::int64_t stale_timeout_us = 20'000;
+  /// Window of the robot clock offset estimate (RobotClockMap) in controller seconds.
+  double clock_window_s = 1.0;
+  /// waitForTick() waits at most this long [us] (and at most half a robot period) for the
+  /// sensor sample that follows the robot state's time, so that the two samples bracketing it
+  /// exist (docs/daemon.md, "Time base"). 0: never wait (the newest sample is used whenever the
+  /// following one has not arrived yet).
+  std::int64_t max_sensor_wait_us = 1500;
   /// Clock used for utime and sensor ages (tests inject a fake). Must be noexcept and RT-safe.
   std::int64_t (*now_us)() noexcept = &realtimeNowUs;
 };
@@ -52,6 +68,12 @@ struct CycleCounters {
   std::atomic<std::uint64_t> model_failures{0};  ///< compensation returned non-finite values
   std::atomic<std::uint64_t> sink_dropped{0};    ///< records the sink refused (queue full)
   std::atomic<std::uint64_t> param_swaps{0};     ///< parameter objects taken into use
+  /// How the sensor sample of a cycle was paired with the robot state (SensorPairing):
+  std::atomic<std::uint64_t> sensor_interpolated{0};  ///< at the robot state's time
+  std::atomic<std::uint64_t> sensor_one_sided{0};     ///< nearest sample (kNewest / kOldest)
+  std::atomic<std::uint64_t> sensor_unpaired{0};      ///< newest sample (no history/robot time)
+  std::atomic<std::uint64_t> sensor_waits{0};         ///< waitForTick() waited for a sample
+  std::atomic<std::uint64_t> sensor_wait_timeouts{0}; ///< ... and it did not come in time
   std::atomic<std::int64_t> last_utime{0};       ///< utime of the last cycle
 };
 
@@ -87,8 +109,18 @@ class DaemonCycle {
   std::uint32_t paramVersion() const noexcept { return params_->version(); }
   /// The record of the most recent cycle (loop thread / tests only).
   const transport::CycleRecord& lastRecord() const noexcept { return record_; }
+  /// The newest sensor sample of the most recent cycle as the source reported it (before
+  /// pairing; loop thread / tests only).
+  const transport::SensorSampleRecord& lastNewestSample() const noexcept { return latest_; }
+  /// How the most recent cycle paired its sensor sample (loop thread / tests only).
+  SensorPairing lastPairing() const noexcept { return last_pairing_; }
+  /// Host time [us] the most recent robot state was mapped to (0 if none; loop thread / tests).
+  std::int64_t lastPairTimeUs() const noexcept { return last_pair_time_us_; }
+  const RobotClockMap& clockMap() const noexcept { return clock_map_; }
 
  private:
+  void awaitBracketingSample() noexcept;
+
   ArmStateSource* arm_;
   SensorSource* sensor_;
   const MotionModel* motion_;
@@ -100,6 +132,12 @@ class DaemonCycle {
   transport::RobotStateRecord robot_;  // filled by waitForTick
   transport::CycleRecord record_;
   effects::SampleContext ctx_;
+  SensorHistory history_;
+  RobotClockMap clock_map_;
+  transport::SensorSampleRecord latest_;
+  SensorPairing last_pairing_ = SensorPairing::kNone;
+  std::int64_t last_pair_time_us_ = 0;
+  double prev_wait_robot_time_ = 0.0;  // robot_time of the previous waitForTick() state
   const rt::LoopStats* loop_stats_ = nullptr;
   rt::Mailbox<rt::LoopStats>* stats_box_ = nullptr;
   std::uint32_t stats_every_ = 1;

@@ -9,6 +9,7 @@
 
 #include "ftid/common/status.hpp"
 #include "ftid/common/types.hpp"
+#include "ftid/daemon/time_pairing.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/transport/records.hpp"
@@ -30,14 +31,29 @@ class ArmStateSource {
   virtual std::uint64_t packetsSkipped() const noexcept { return 0; }
 };
 
-/// The F/T+IMU sensor, drained to its newest sample each cycle.
+/// The F/T+IMU sensor, drained each cycle. The cycle pairs the robot state with the sample at
+/// the robot state's time, interpolated from the history (ftid/daemon/time_pairing.hpp).
 class SensorSource {
  public:
   virtual ~SensorSource() = default;
-  /// Drains pending data and writes the newest sample (always written; out->valid and
-  /// out->health_flags tell whether it may be used). now_utime: CLOCK_REALTIME [us].
+  /// Drains pending data: appends every complete sample received since the previous call to
+  /// *history, oldest first (SensorHistory::push; each with its own value flags and validity),
+  /// and writes the newest sample, with the driver's health rules applied at now_utime, to
+  /// *latest (always written; latest->valid and latest->health_flags tell whether it may be
+  /// used, and carry what happened since the previous call: stale, counter gap, error frame,
+  /// transport down). now_utime: CLOCK_REALTIME [us], the clock of recv_utime.
   /// Never blocks, never allocates.
-  virtual void tryReadLatest(std::int64_t now_utime, transport::SensorSampleRecord* out) noexcept = 0;
+  virtual void drain(std::int64_t now_utime, SensorHistory* history,
+                     transport::SensorSampleRecord* latest) noexcept = 0;
+  /// Waits until *history holds a sample received at or after t_utime [us, CLOCK_REALTIME],
+  /// draining into it as drain() does (what a drain reports about the interval is kept for the
+  /// next drain()), or until `timeout` has passed. Returns true if such a sample is there.
+  /// Called by the cycle's waitForTick() only (the loop's blocking point); blocks at most
+  /// `timeout`, never allocates. Default: no waiting.
+  virtual bool waitForSample(std::int64_t t_utime, std::chrono::nanoseconds /*timeout*/,
+                             SensorHistory* history) noexcept {
+    return !history->empty() && history->newest().recv_utime >= t_utime;
+  }
 };
 
 /// Sensor-frame kinematics from the joint state.

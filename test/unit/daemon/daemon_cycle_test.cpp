@@ -237,6 +237,8 @@ TEST(DaemonCycle, ReloadsUnderARunningLoopNeverCostACycle) {
     std::thread loop([&] {
       while (!stop.load() && rig.sink.count < RecordingSink::kCapacity - 1) {
         test::g_fake_now_us += 10;  // only the loop thread writes the fake clock
+        rig.arm.state.robot_time += 10e-6;  // a new robot packet each step
+        rig.arm.state.recv_utime = test::g_fake_now_us;
         rig.cycle->step(rig.arm.state, nullptr);
         std::this_thread::sleep_for(std::chrono::microseconds(200));
       }

@@ -31,14 +31,17 @@ class FakeArm : public ArmStateSource {
   }
 };
 
+/// One settable sample, re-sent every cycle (history and newest alike).
 class FakeSensor : public SensorSource {
  public:
   transport::SensorSampleRecord sample;
   bool follow_clock = true;  ///< stamp each read with the current time (a fresh sample)
   FakeSensor() { sample.valid = true; }
-  void tryReadLatest(std::int64_t now_utime, transport::SensorSampleRecord* out) noexcept override {
+  void drain(std::int64_t now_utime, SensorHistory* history,
+             transport::SensorSampleRecord* latest) noexcept override {
     if (follow_clock) sample.recv_utime = now_utime - 300;
-    *out = sample;
+    history->push(sample);
+    *latest = sample;
   }
 };
 

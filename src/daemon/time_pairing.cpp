@@ -1,0 +1,119 @@
+#include "ftid/daemon/time_pairing.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ftid::daemon {
+
+namespace {
+
+// (1 - a) x0 + a x1 (0 < a < 1 here: a time equal to a sample's returns that sample).
+template <class V>
+V lerp(const V& x0, const V& x1, double a) noexcept {
+  return x0 + a * (x1 - x0);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+void SensorHistory::push(const transport::SensorSampleRecord& sample) noexcept {
+  if (sample.recv_utime <= 0) return;
+  if (count_ > 0) {
+    const std::int64_t newest_t = newest().recv_utime;
+    if (sample.recv_utime == newest_t) {
+      ring_[static_cast<std::size_t>((head_ + kCapacity - 1) % kCapacity)] = sample;
+      return;
+    }
+    if (sample.recv_utime < newest_t) count_ = 0;  // the host clock stepped back
+  }
+  ring_[static_cast<std::size_t>(head_)] = sample;
+  head_ = (head_ + 1) % kCapacity;
+  count_ = std::min(count_ + 1, kCapacity);
+}
+
+SensorPairing SensorHistory::sampleAt(std::int64_t t_us, transport::SensorSampleRecord* out,
+                                      std::int64_t* reach_us) const noexcept {
+  if (count_ == 0) return SensorPairing::kNone;
+  const transport::SensorSampleRecord& last = newest();
+  if (t_us > last.recv_utime) {
+    *out = last;
+    *reach_us = t_us - last.recv_utime;
+    return SensorPairing::kNewest;
+  }
+  // Newest first: the robot state's time is normally within the last sensor period or two.
+  int i1 = count_ - 1;
+  while (i1 > 0 && at(i1 - 1).recv_utime >= t_us) --i1;
+  const transport::SensorSampleRecord& s1 = at(i1);
+  if (s1.recv_utime == t_us) {
+    *out = s1;
+    *reach_us = 0;
+    return SensorPairing::kInterpolated;
+  }
+  if (i1 == 0) {  // t_us before the oldest sample
+    *out = s1;
+    *reach_us = s1.recv_utime - t_us;
+    return SensorPairing::kOldest;
+  }
+  const transport::SensorSampleRecord& s0 = at(i1 - 1);
+  const std::int64_t span = s1.recv_utime - s0.recv_utime;  // > 0: push keeps times increasing
+  const double a = static_cast<double>(t_us - s0.recv_utime) / static_cast<double>(span);
+  out->recv_utime = s1.recv_utime;
+  out->counter = s1.counter;
+  out->status_word = s1.status_word;
+  out->wrench_S = lerp(s0.wrench_S, s1.wrench_S, a);
+  out->has_imu = s0.has_imu && s1.has_imu;
+  if (out->has_imu) {
+    out->imu_acc_S = lerp(s0.imu_acc_S, s1.imu_acc_S, a);
+    out->imu_w_S = lerp(s0.imu_w_S, s1.imu_w_S, a);
+    out->imu_alpha_S = lerp(s0.imu_alpha_S, s1.imu_alpha_S, a);
+  } else {
+    out->imu_acc_S.setZero();
+    out->imu_w_S.setZero();
+    out->imu_alpha_S.setZero();
+  }
+  out->has_temp = s0.has_temp && s1.has_temp;
+  out->temp_degC = out->has_temp ? lerp(s0.temp_degC, s1.temp_degC, a) : 0.0;
+  out->health_flags = s0.health_flags | s1.health_flags;
+  out->valid = s0.valid && s1.valid;
+  *reach_us = span;
+  return SensorPairing::kInterpolated;
+}
+
+// ---------------------------------------------------------------------------------------------
+void RobotClockMap::restart(std::int64_t robot_us, std::int64_t offset) noexcept {
+  if (valid_) ++restarts_;
+  valid_ = true;
+  window_start_us_ = robot_us;
+  min_current_ = offset;
+  min_previous_ = offset;
+}
+
+std::int64_t RobotClockMap::update(double robot_time_s, std::int64_t recv_utime) noexcept {
+  if (!std::isfinite(robot_time_s) || recv_utime <= 0 || std::fabs(robot_time_s) > 1e12) return 0;
+  const std::int64_t robot_us = std::llround(robot_time_s * 1e6);
+  const std::int64_t offset = recv_utime - robot_us;
+  if (!valid_ || robot_us < last_robot_us_ || offset - offsetUs() > kStepThresholdUs) {
+    restart(robot_us, offset);
+  } else {
+    if (robot_us - window_start_us_ >= window_us_) {  // a new window: forget the oldest minimum
+      min_previous_ = min_current_;
+      min_current_ = offset;
+      window_start_us_ = robot_us;
+    } else {
+      min_current_ = std::min(min_current_, offset);
+    }
+  }
+  last_robot_us_ = robot_us;
+  return robot_us + offsetUs();
+}
+
+std::int64_t RobotClockMap::offsetUs() const noexcept {
+  return valid_ ? std::min(min_current_, min_previous_) : 0;
+}
+
+std::int64_t RobotClockMap::hostTimeUs(double robot_time_s) const noexcept {
+  if (!valid_ || !std::isfinite(robot_time_s)) return 0;
+  return std::llround(robot_time_s * 1e6) + offsetUs();
+}
+
+}  // namespace ftid::daemon
