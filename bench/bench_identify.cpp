@@ -1,9 +1,13 @@
 // Identification and compensation timing (docs/performance.md, "Identification and compensation").
 //   - paper method (dynamic; static as a same-run baseline) on 1,251 and 10,001 samples
 //   - fitModel("paper") (variable projection on the tilt, per-axis weights) on the same data
-//   - the stacked linear solve alone: Householder QR (what ftid uses) vs normal equations (baseline)
+//   - the stacked linear solve alone: Householder QR (what fitModel uses) vs normal equations
+//     (baseline)
 //   - Compensator::compute per sample
 // Plain std::chrono, many repetitions, median and p99. Data: f1's simulator, paper cell, noisy.
+// Ratios are printed only against a baseline timed in the same run (never against recorded
+// figures of an earlier build or machine): earlier implementations are not kept in the binary, so
+// an old-vs-new comparison means running the old build's bench on the same machine.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -45,6 +49,11 @@ void report(const std::string& what, int reps, const Stats& s) {
   std::printf("%-58s reps %5d  median %10.1f us  p99 %10.1f us\n", what.c_str(), reps, s.median_us, s.p99_us);
 }
 
+/// Median ratio against a baseline measured in this run.
+void ratio(const std::string& what, const Stats& s, const Stats& baseline) {
+  std::printf("  %-56s %.2fx (medians, same run)\n", what.c_str(), s.median_us / baseline.median_us);
+}
+
 volatile double g_sink = 0.0;
 
 }  // namespace
@@ -62,12 +71,14 @@ int main() {
     const std::string n = std::to_string(s.size()) + " samples";
     const bool small = s.size() < 2000;
 
-    int reps = small ? 500 : 60;
-    report("paper dynamic, " + n, reps, timeIt(reps, [&] { g_sink = identify::identifyPaper(s.samples).weight_N; }));
+    int reps = small ? 2000 : 300;
+    const Stats dyn = timeIt(reps, [&] { g_sink = identify::identifyPaper(s.samples).weight_N; });
+    report("paper dynamic, " + n, reps, dyn);
     identify::PaperOptions st;
     st.method = identify::PaperMethod::kStatic;
-    report("paper static (baseline), " + n, reps,
-           timeIt(reps, [&] { g_sink = identify::identifyPaper(s.samples, st).weight_N; }));
+    const Stats sta = timeIt(reps, [&] { g_sink = identify::identifyPaper(s.samples, st).weight_N; });
+    report("paper static (baseline), " + n, reps, sta);
+    ratio("paper dynamic / static", dyn, sta);
 
     const effects::Model model = effects::Model::fromName("paper");
     reps = small ? 40 : 8;
@@ -84,12 +95,14 @@ int main() {
       y.segment<6>(6 * static_cast<Eigen::Index>(i)) = s.samples[i].wrench_S;
     }
     reps = small ? 500 : 100;
-    report("  linear solve, Householder QR (col-pivoted), " + n, reps,
-           timeIt(reps, [&] { g_sink = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(A).solve(y)(0); }));
-    report("  linear solve, normal equations LDLT (baseline), " + n, reps, timeIt(reps, [&] {
-             const Eigen::MatrixXd AtA = A.transpose() * A;
-             g_sink = AtA.ldlt().solve(A.transpose() * y)(0);
-           }));
+    const Stats qr = timeIt(reps, [&] { g_sink = Eigen::ColPivHouseholderQR<Eigen::MatrixXd>(A).solve(y)(0); });
+    report("  linear solve, Householder QR (col-pivoted), " + n, reps, qr);
+    const Stats ne = timeIt(reps, [&] {
+      const Eigen::MatrixXd AtA = A.transpose() * A;
+      g_sink = AtA.ldlt().solve(A.transpose() * y)(0);
+    });
+    report("  linear solve, normal equations LDLT (baseline), " + n, reps, ne);
+    ratio("QR / normal equations", qr, ne);
 
     if (!small) continue;
     // Per-sample compensation: batches of all samples, divided by the count.

@@ -2,6 +2,7 @@
 #include "ftid/identify/context.hpp"
 
 #include <algorithm>
+#include <utility>
 
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
@@ -21,6 +22,33 @@ ContextSet::ContextSet(const ContextSet& other)
   repoint();
 }
 
+ContextSet::ContextSet(ContextSet&& other) noexcept
+    : source(std::move(other.source)),
+      t_origin(other.t_origin),
+      samples(std::move(other.samples)),
+      extra_names(std::move(other.extra_names)),
+      extra_rows(std::move(other.extra_rows)),
+      has_imu(other.has_imu),
+      has_temp(other.has_temp) {
+  repoint();  // extra_names now lives here (the rows' buffer moved with extra_rows)
+  other.repoint();
+}
+
+ContextSet& ContextSet::operator=(ContextSet&& other) noexcept {
+  if (this != &other) {
+    source = std::move(other.source);
+    t_origin = other.t_origin;
+    samples = std::move(other.samples);
+    extra_names = std::move(other.extra_names);
+    extra_rows = std::move(other.extra_rows);
+    has_imu = other.has_imu;
+    has_temp = other.has_temp;
+    repoint();
+    other.repoint();
+  }
+  return *this;
+}
+
 ContextSet& ContextSet::operator=(const ContextSet& other) {
   if (this != &other) {
     ContextSet copy(other);
@@ -32,7 +60,9 @@ ContextSet& ContextSet::operator=(const ContextSet& other) {
 void ContextSet::repoint() {
   const std::size_t k = extra_names.size();
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    samples[i].extra = (k > 0 && extra_rows.size() >= (i + 1) * k) ? extra_rows.data() + i * k : nullptr;
+    const bool has_row = k > 0 && extra_rows.size() >= (i + 1) * k;
+    samples[i].extra = has_row ? extra_rows.data() + i * k : nullptr;
+    samples[i].extra_names = has_row ? &extra_names : nullptr;
   }
 }
 

@@ -20,6 +20,7 @@ using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 using effects::kSignalModelDerivative;
 
 constexpr double kTiltStep = 1e-6;  // [rad] numeric-Jacobian step
+constexpr double kTiltConverged = 1e-10;  // [rad] a rejected Gauss-Newton step this small ends the search
 
 struct Problem {
   const Model& model;
@@ -29,8 +30,9 @@ struct Problem {
   int p = 0;
   bool estimate_tilt = false;
   bool override_gravity = false;  ///< recompute g_S from the tilt (else use ctx.g_S)
-  bool needs_derivative = false;
-  std::vector<Wrench> dwdt;       ///< per subset sample, when needs_derivative
+  bool needs_derivative = false;  ///< the model reads kSignalModelDerivative signals
+  std::vector<Wrench> dwdt;       ///< SampleContext::dwrench_model_dt per subset sample
+  std::vector<Wrench> wmodel;     ///< SampleContext::wrench_model_S per subset sample
   Eigen::VectorXd y;              ///< stacked measured wrench (6n)
 
   Problem(const Model& m, const std::vector<SampleContext>& c, const std::vector<int>& idx)
@@ -38,8 +40,11 @@ struct Problem {
 
   const SampleContext& at(int i) const { return contexts[static_cast<std::size_t>(indices[static_cast<std::size_t>(i)])]; }
 
-  /// Regressor A (6n x p) for the tilt (u, v), rows scaled by the axis weights.
-  void buildRegressor(double u, double v, const Vec6& weights, Eigen::MatrixXd* A) const {
+  /// Regressor A (6n x p) for the tilt (u, v), rows scaled by the axis weights. The signals
+  /// derived from the modelled wrench are those of dwdt / wmodel, or zero if !with_derived (the
+  /// regressor of the effects that do not read them: those effects are linear in the signals).
+  void buildRegressor(double u, double v, const Vec6& weights, Eigen::MatrixXd* A,
+                      bool with_derived = true) const {
     A->resize(6 * n, p);
     const Vec3 g_B = model::gravityInBase(u, v);
     Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
@@ -47,7 +52,10 @@ struct Problem {
     for (int i = 0; i < n; ++i) {
       c = at(i);
       if (override_gravity) c.g_S = c.R_BS.transpose() * g_B;
-      if (needs_derivative) c.dwrench_model_dt = dwdt[static_cast<std::size_t>(i)];
+      if (needs_derivative) {
+        c.dwrench_model_dt = with_derived ? dwdt[static_cast<std::size_t>(i)] : Wrench::Zero();
+        c.wrench_model_S = with_derived ? wmodel[static_cast<std::size_t>(i)] : Wrench::Zero();
+      }
       model.computeRegressor(c, Y);
       A->middleRows(6 * i, 6) = weights.asDiagonal() * Y;
     }
@@ -122,6 +130,10 @@ LinearSolution fitTilt(const Problem& pb, const Vec6& w, int max_iterations, Til
         lambda = std::max(lambda * 0.1, 1e-12);
         accepted = true;
         if (step.norm() < 1e-13 || old_cost - cost <= 1e-15 * old_cost) return cur;
+      } else if (step.norm() < kTiltConverged) {
+        // At the minimum the cost changes only by rounding and a step is as likely to be rejected
+        // as accepted: stop instead of re-solving with ever more damping (up to 12 solves).
+        return cur;
       } else {
         lambda *= 10.0;
       }
@@ -147,10 +159,26 @@ std::vector<Wrench> timeDerivative(const Problem& pb, const Mat6X& w) {
   return d;
 }
 
-Mat6X predictStacked(const Problem& pb, const Eigen::VectorXd& theta, double u, double v) {
+Mat6X predictStacked(const Problem& pb, const Eigen::VectorXd& theta, double u, double v,
+                     bool with_derived = true) {
   Eigen::MatrixXd A;
-  pb.buildRegressor(u, v, Vec6::Ones(), &A);
+  pb.buildRegressor(u, v, Vec6::Ones(), &A, with_derived);
   return unstack(A * theta, pb.n);
+}
+
+std::vector<Wrench> columns(const Mat6X& w) {
+  std::vector<Wrench> out(static_cast<std::size_t>(w.cols()));
+  for (Eigen::Index i = 0; i < w.cols(); ++i) out[static_cast<std::size_t>(i)] = w.col(i);
+  return out;
+}
+
+/// The signals derived from the model for theta (docs/identification.md, "The general fit"):
+/// d/dt of the current prediction, and the prediction without the effects that read these
+/// signals (what `crosstalk` multiplies).
+void updateDerivedSignals(Problem& pb, const Eigen::VectorXd& theta, double u, double v) {
+  const Mat6X full = predictStacked(pb, theta, u, v);
+  pb.wmodel = columns(predictStacked(pb, theta, u, v, false));
+  pb.dwdt = timeDerivative(pb, full);
 }
 
 void checkFinite(const Problem& pb) {
@@ -238,7 +266,11 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
     pb.y.segment<6>(6 * i) = pb.at(i).wrench_S;
     measured.col(i) = pb.at(i).wrench_S;
   }
-  if (pb.needs_derivative) pb.dwdt = timeDerivative(pb, measured);
+  if (pb.needs_derivative) {
+    // First pass: the measured wrench stands in for the modelled one.
+    pb.dwdt = timeDerivative(pb, measured);
+    pb.wmodel = columns(measured);
+  }
 
   // Initial tilt.
   TiltState tilt;
@@ -281,7 +313,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   auto runFit = [&](int derivative_passes, int tilt_iterations) {
     sol = fitTilt(pb, weights, tilt_iterations, &tilt);
     for (int k = 0; k < derivative_passes; ++k) {
-      pb.dwdt = timeDerivative(pb, predictStacked(pb, sol.theta, tilt.u, tilt.v));
+      updateDerivedSignals(pb, sol.theta, tilt.u, tilt.v);
       sol = fitTilt(pb, weights, tilt_iterations, &tilt);
     }
   };
@@ -331,7 +363,9 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
     all_names.push_back("tilt_u");
     all_names.push_back("tilt_v");
   }
-  const internal::RankReport rr = internal::analyzeRank(J, options.rank_tolerance);
+  // One factorisation of J for the rank check, the condition number and the covariance.
+  const internal::ScaledQR qr_j(J, options.rank_tolerance);
+  const internal::RankReport& rr = qr_j.rank();
   if (rr.rank < n_unknowns) {
     std::vector<std::string> bad;
     for (int j : rr.unexcited_columns) bad.push_back(all_names[static_cast<std::size_t>(j)]);
@@ -343,7 +377,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   res.condition_number = rr.condition_number;
   const int dof = 6 * pb.n - n_unknowns;
   res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
-  res.covariance = res.sigma2 * internal::inverseGram(J);
+  res.covariance = res.sigma2 * qr_j.inverseGram();
   res.theta_std = res.covariance.diagonal().head(pb.p).cwiseMax(0.0).cwiseSqrt();
   if (pb.estimate_tilt) {
     res.tilt_u_std = std::sqrt(std::max(res.covariance(pb.p, pb.p), 0.0));
@@ -393,7 +427,10 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const
   pb.needs_derivative = (model.signals() & kSignalModelDerivative) != 0;
   const double u = tilt_u_rad.value_or(0.0);
   const double v = tilt_v_rad.value_or(0.0);
-  if (pb.needs_derivative) pb.dwdt.assign(static_cast<std::size_t>(pb.n), Wrench::Zero());
+  if (pb.needs_derivative) {
+    pb.dwdt.assign(static_cast<std::size_t>(pb.n), Wrench::Zero());
+    pb.wmodel = columns(predictStacked(pb, theta, u, v, false));
+  }
   Mat6X out = predictStacked(pb, theta, u, v);
   if (pb.needs_derivative) {
     for (int k = 0; k < 3; ++k) {

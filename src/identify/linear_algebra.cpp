@@ -7,70 +7,165 @@
 
 namespace ftid::identify::internal {
 
-RankReport analyzeRank(const Eigen::MatrixXd& A, double relative_tolerance) {
-  const Eigen::Index cols = A.cols();
-  RankReport report;
-  report.column_norms = A.colwise().norm().transpose();
-  Eigen::MatrixXd scaled = A;
-  std::vector<bool> zero(static_cast<std::size_t>(cols), false);
-  double max_norm = 0.0;
-  for (Eigen::Index j = 0; j < cols; ++j) max_norm = std::max(max_norm, report.column_norms(j));
-  for (Eigen::Index j = 0; j < cols; ++j) {
-    const double n = report.column_norms(j);
-    if (!(n > 1e-300) || n <= 1e-14 * max_norm) {
-      zero[static_cast<std::size_t>(j)] = true;
-      scaled.col(j).setZero();
-    } else {
-      scaled.col(j) /= n;
-    }
+namespace {
+
+/// A column counts as zero (not excited) if its norm is 0 or negligible against the largest.
+std::vector<bool> zeroColumns(const Eigen::VectorXd& norms) {
+  const double max_norm = norms.size() > 0 ? norms.maxCoeff() : 0.0;
+  std::vector<bool> zero(static_cast<std::size_t>(norms.size()), false);
+  for (Eigen::Index j = 0; j < norms.size(); ++j) {
+    const double n = norms(j);
+    zero[static_cast<std::size_t>(j)] = !(n > 1e-300) || n <= 1e-14 * max_norm;
   }
-  Eigen::MatrixXd R;
-  if (scaled.rows() >= cols) {
-    Eigen::HouseholderQR<Eigen::MatrixXd> qr(scaled);
-    R = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
-  } else {
-    R = scaled;  // fewer rows than columns: rank-deficient anyway; SVD of A directly
-  }
+  return zero;
+}
+
+/// Rank, condition number and null-space columns from the R factor (k x cols) of the column-scaled
+/// matrix; column k of R is column original_column[k] of the matrix.
+void reportFromR(const Eigen::MatrixXd& R, const std::vector<Eigen::Index>& original_column,
+                 const std::vector<bool>& zero, double relative_tolerance, RankReport* report) {
+  const Eigen::Index cols = static_cast<Eigen::Index>(zero.size());
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeFullV);
-  const Eigen::VectorXd s = svd.singularValues();
+  const Eigen::VectorXd& s = svd.singularValues();
   const double smax = s.size() > 0 ? s(0) : 0.0;
-  report.rank = 0;
+  report->rank = 0;
   for (Eigen::Index i = 0; i < s.size(); ++i) {
-    if (s(i) > relative_tolerance * smax) ++report.rank;
+    if (s(i) > relative_tolerance * smax) ++report->rank;
   }
   const double smin = s.size() > 0 ? s(s.size() - 1) : 0.0;
-  report.condition_number = smin > 0.0 ? smax / smin : std::numeric_limits<double>::infinity();
-  if (report.rank < cols) {
+  report->condition_number = smin > 0.0 ? smax / smin : std::numeric_limits<double>::infinity();
+  if (report->rank < cols) {
     // Participation of each column in the null space; name those with at least a tenth of the
     // largest participation (and always zero columns).
     const Eigen::MatrixXd& V = svd.matrixV();
     Eigen::VectorXd participation = Eigen::VectorXd::Zero(cols);
-    for (Eigen::Index j = 0; j < cols; ++j) {
-      for (Eigen::Index k = report.rank; k < V.cols(); ++k) participation(j) += V(j, k) * V(j, k);
-      participation(j) = std::sqrt(participation(j));
+    for (Eigen::Index k = 0; k < V.rows(); ++k) {
+      double sum = 0.0;
+      for (Eigen::Index c = report->rank; c < V.cols(); ++c) sum += V(k, c) * V(k, c);
+      participation(original_column[static_cast<std::size_t>(k)]) = std::sqrt(sum);
     }
-    double pmax = 0.0;
-    for (Eigen::Index j = 0; j < cols; ++j) pmax = std::max(pmax, participation(j));
+    const double pmax = participation.size() > 0 ? participation.maxCoeff() : 0.0;
     for (Eigen::Index j = 0; j < cols; ++j) {
       if (zero[static_cast<std::size_t>(j)] || participation(j) > 0.1 * pmax) {
-        report.unexcited_columns.push_back(static_cast<int>(j));
+        report->unexcited_columns.push_back(static_cast<int>(j));
       }
     }
   }
+}
+
+Eigen::VectorXd scaleColumnsInPlace(Eigen::MatrixXd& A, Eigen::VectorXd& norms) {
+  norms = A.colwise().norm().transpose();
+  const std::vector<bool> zero = zeroColumns(norms);
+  Eigen::VectorXd scale = Eigen::VectorXd::Ones(A.cols());
+  for (Eigen::Index j = 0; j < A.cols(); ++j) {
+    if (zero[static_cast<std::size_t>(j)]) {
+      A.col(j).setZero();
+    } else {
+      scale(j) = norms(j);
+      A.col(j) /= norms(j);
+    }
+  }
+  return scale;
+}
+
+}  // namespace
+
+RankReport analyzeRank(const Eigen::MatrixXd& A, double relative_tolerance) {
+  const Eigen::Index cols = A.cols();
+  RankReport report;
+  report.column_norms = A.colwise().norm().transpose();
+  const std::vector<bool> zero = zeroColumns(report.column_norms);
+  Eigen::MatrixXd scaled = A;
+  for (Eigen::Index j = 0; j < cols; ++j) {
+    if (zero[static_cast<std::size_t>(j)]) {
+      scaled.col(j).setZero();
+    } else {
+      scaled.col(j) /= report.column_norms(j);
+    }
+  }
+  Eigen::MatrixXd R;
+  if (scaled.rows() >= cols) {
+    Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(scaled);
+    R = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
+  } else {
+    R = scaled;  // fewer rows than columns: rank-deficient anyway; SVD of the scaled A directly
+  }
+  std::vector<Eigen::Index> identity(static_cast<std::size_t>(cols));
+  for (Eigen::Index j = 0; j < cols; ++j) identity[static_cast<std::size_t>(j)] = j;
+  reportFromR(R, identity, zero, relative_tolerance, &report);
   return report;
 }
 
-Eigen::MatrixXd inverseGram(const Eigen::MatrixXd& A) {
+ScaledQR::ScaledQR(Eigen::MatrixXd& A, double rank_tolerance)
+    : scale_(scaleColumnsInPlace(A, norms_)), qr_(A) {
   const Eigen::Index cols = A.cols();
-  const Eigen::VectorXd norms = A.colwise().norm().transpose();
-  Eigen::MatrixXd scaled = A;
-  for (Eigen::Index j = 0; j < cols; ++j) scaled.col(j) /= norms(j);
-  Eigen::HouseholderQR<Eigen::MatrixXd> qr(scaled);
-  const Eigen::MatrixXd R = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
+  report_.column_norms = norms_;
+  std::vector<Eigen::Index> original(static_cast<std::size_t>(cols));
+  for (Eigen::Index k = 0; k < cols; ++k) original[static_cast<std::size_t>(k)] = qr_.colsPermutation().indices()(k);
+  const Eigen::MatrixXd R = qr_.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
+  reportFromR(R, original, zeroColumns(norms_), rank_tolerance, &report_);
+}
+
+void ScaledQR::applyQt(Eigen::VectorXd& y) const { y.applyOnTheLeft(qr_.householderQ().adjoint()); }
+
+Eigen::VectorXd ScaledQR::solveHead(const Eigen::Ref<const Eigen::VectorXd>& z) const {
+  const Eigen::Index cols = qr_.cols();
+  const Eigen::VectorXd xs =
+      qr_.matrixQR().topLeftCorner(cols, cols).triangularView<Eigen::Upper>().solve(z.head(cols));
+  Eigen::VectorXd x(cols);
+  for (Eigen::Index k = 0; k < cols; ++k) {
+    const Eigen::Index j = qr_.colsPermutation().indices()(k);
+    x(j) = xs(k) / scale_(j);
+  }
+  return x;
+}
+
+Eigen::VectorXd ScaledQR::solve(const Eigen::VectorXd& y) const {
+  Eigen::VectorXd z = y;
+  applyQt(z);
+  return solveHead(z);
+}
+
+Eigen::MatrixXd ScaledQR::unpivotUnscale(const Eigen::MatrixXd& S) const {
+  const Eigen::Index cols = S.rows();
+  const auto& perm = qr_.colsPermutation().indices();
+  Eigen::MatrixXd out(cols, cols);
+  for (Eigen::Index a = 0; a < cols; ++a) {
+    for (Eigen::Index b = 0; b < cols; ++b) {
+      out(perm(a), perm(b)) = S(a, b) / (scale_(perm(a)) * scale_(perm(b)));
+    }
+  }
+  return out;
+}
+
+namespace {
+
+/// R^{-1} R^{-T} for an upper-triangular R.
+Eigen::MatrixXd inverseGramOfR(const Eigen::MatrixXd& R) {
   const Eigen::MatrixXd Rinv =
-      R.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(cols, cols));
-  const Eigen::MatrixXd inv_scaled = Rinv * Rinv.transpose();
-  return norms.cwiseInverse().asDiagonal() * inv_scaled * norms.cwiseInverse().asDiagonal();
+      R.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(R.rows(), R.cols()));
+  return Rinv * Rinv.transpose();
+}
+
+}  // namespace
+
+Eigen::MatrixXd ScaledQR::inverseGram() const {
+  const Eigen::Index cols = qr_.cols();
+  return unpivotUnscale(inverseGramOfR(qr_.matrixQR().topLeftCorner(cols, cols).triangularView<Eigen::Upper>()));
+}
+
+Eigen::MatrixXd ScaledQR::inverseGramRankOneUpdate(const Eigen::VectorXd& qt_u, const Eigen::VectorXd& v) const {
+  const Eigen::Index cols = qr_.cols();
+  const auto& perm = qr_.colsPermutation().indices();
+  Eigen::VectorXd w(cols);  // P^T D^{-1} v
+  for (Eigen::Index k = 0; k < cols; ++k) w(k) = v(perm(k)) / scale_(perm(k));
+  Eigen::MatrixXd M(cols + 1, cols);
+  M.topRows(cols) = qr_.matrixQR().topLeftCorner(cols, cols).triangularView<Eigen::Upper>();
+  M.topRows(cols) -= qt_u.head(cols) * w.transpose();
+  M.row(cols) = -qt_u.tail(qt_u.size() - cols).norm() * w.transpose();
+  Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(M);
+  const Eigen::MatrixXd RM = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
+  return unpivotUnscale(inverseGramOfR(RM));
 }
 
 std::string joinNames(const std::vector<std::string>& names) {

@@ -1,8 +1,10 @@
 // The paper's two-stage identification (include/ftid/identify/paper_method.hpp).
 #include "ftid/identify/paper_method.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "fit_internal.hpp"
 #include "ftid/common/error.hpp"
@@ -12,7 +14,6 @@ namespace ftid::identify {
 namespace {
 
 using effects::SampleContext;
-using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
 /// Names of the force-stage unknowns [L, F0] for messages: L is "the gravity vector in B".
 std::string forceStageNames(const std::vector<int>& cols) {
@@ -36,6 +37,48 @@ std::string torqueStageNames(const std::vector<int>& cols) {
   const char* t[3] = {"t0_x", "t0_y", "t0_z"};
   for (int j : cols) names.push_back(j < 3 ? c[j] : t[j - 3]);
   return internal::joinNames(names);
+}
+
+// Exact row compression. A stage's stacked rows for axis a are D_a C_a: D_a holds one row of
+// data per sample (n x d), C_a is a constant d x k map. With the thin QR D_a = Q_a R_a the rows are
+// Q_a (R_a C_a), and Q_a has orthonormal columns, so the 3n-row problem and the compressed
+// [R_0 C_0; R_1 C_1; R_2 C_2] (3 min(n, d) rows) have the same column norms, Gram matrix, singular
+// values, least-squares solutions and residual norms. One thin QR of n x d data replaces the QR of
+// the 3n x 6 regressor and the application of its Q to the right-hand sides.
+
+/// R of the thin QR of D (min(n, d) x d, upper trapezoidal). D is overwritten.
+Eigen::MatrixXd thinR(Eigen::MatrixXd& D) {
+  const Eigen::Index r = std::min(D.rows(), D.cols());
+  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(D);
+  return qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
+}
+
+/// Force stage, axis a: row [R_i(:, a)^T, 1, f_i(a), a_i(a)] D -> [R_i^T row a, e_a^T | f_i(a) | a_i(a)].
+Eigen::MatrixXd forceRowMap(int a) {
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(6, 8);
+  for (int j = 0; j < 3; ++j) C(j, j) = 1.0;
+  C(3, 3 + a) = 1.0;
+  C(4, 6) = 1.0;
+  C(5, 7) = 1.0;
+  return C;
+}
+
+/// Torque stage, axis a: row [f^T, 1 (, t^T)] -> row a of [-skew(f), I (| t)] (with_rhs: 7 x 7).
+Eigen::MatrixXd torqueRowMap(int a, bool with_rhs) {
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(with_rhs ? 7 : 4, with_rhs ? 7 : 6);
+  for (int j = 0; j < 3; ++j) C.block<1, 3>(j, 0) = (-skew(Vec3::Unit(j))).row(a);
+  C(3, 3 + a) = 1.0;
+  if (with_rhs) C(4 + a, 6) = 1.0;
+  return C;
+}
+
+/// Compressed torque-stage problem from the shared data D = [f_i^T, 1 (, t_i^T)] (overwritten).
+Eigen::MatrixXd compressTorqueStage(Eigen::MatrixXd& D, bool with_rhs) {
+  const Eigen::MatrixXd R = thinR(D);
+  const Eigen::Index r = R.rows();
+  Eigen::MatrixXd K(3 * r, with_rhs ? 7 : 6);
+  for (int a = 0; a < 3; ++a) K.middleRows(a * r, r).noalias() = R * torqueRowMap(a, with_rhs);
+  return K;
 }
 
 }  // namespace
@@ -71,34 +114,51 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
   PaperResult res;
   res.method = options.method;
   res.n_samples = n;
+  auto at = [&contexts](int i) -> const SampleContext& { return contexts[static_cast<std::size_t>(i)]; };
 
   // ---- Force stage (Eq. 14-20; dynamic Eq. 31-38 corrected): f_i + (G/g) a_i = R_i^T L + F0.
-  Eigen::MatrixXd Af(3 * n, 6);
-  Eigen::VectorXd f(3 * n);
-  for (int i = 0; i < n; ++i) {
-    const SampleContext& c = contexts[static_cast<std::size_t>(i)];
-    Af.block<3, 3>(3 * i, 0) = c.R_BS.transpose();
-    Af.block<3, 3>(3 * i, 3) = Mat3::Identity();
-    f.segment<3>(3 * i) = c.wrench_S.head<3>();
+  // Rows for axis a: [R_i(:, a)^T, e_a^T | f_i(a) | a_i(a)], compressed exactly (thinR) to 18 x 8. One column-scaled pivoted QR of the compressed regressor serves the rank check, every
+  // fixed-point solve (Q^T is linear: Q^T (f + s a) = Q^T f + s Q^T a) and the covariance (a
+  // rank-one update of its R).
+  Eigen::MatrixXd K_f = Eigen::MatrixXd::Zero(18, 8);  // zero rows (n < 6) change nothing
+  {
+    // D[a] = [R_i(:, a)^T, 1, f_i(a), a_i(a)], one row per sample
+    std::vector<Eigen::MatrixXd> D(3, Eigen::MatrixXd(n, 6));
+    for (int i = 0; i < n; ++i) {
+      const SampleContext& c = at(i);
+      for (int a = 0; a < 3; ++a) {
+        Eigen::MatrixXd& Da = D[static_cast<std::size_t>(a)];
+        Da.block<1, 3>(i, 0) = c.R_BS.col(a).transpose();
+        Da(i, 3) = 1.0;
+        Da(i, 4) = c.wrench_S(a);
+        Da(i, 5) = c.a_S(a);
+      }
+    }
+    for (int a = 0; a < 3; ++a) {
+      const Eigen::MatrixXd R = thinR(D[static_cast<std::size_t>(a)]);
+      K_f.middleRows(6 * a, R.rows()).noalias() = R * forceRowMap(a);
+    }
   }
-  const internal::RankReport rank_f = internal::analyzeRank(Af, options.rank_tolerance);
-  if (rank_f.rank < 6) {
-    throw IdentificationError("the data do not determine " + forceStageNames(rank_f.unexcited_columns) +
-                              " (force stage rank " + std::to_string(rank_f.rank) +
+  Eigen::MatrixXd Af = K_f.leftCols<6>();
+  Eigen::VectorXd qt_f = K_f.col(6);  // f, then Q^T f
+  Eigen::VectorXd qt_a = K_f.col(7);  // a, then Q^T a
+  const internal::ScaledQR qr_f(Af, options.rank_tolerance);
+  if (qr_f.rank().rank < 6) {
+    throw IdentificationError("the data do not determine " + forceStageNames(qr_f.rank().unexcited_columns) +
+                              " (force stage rank " + std::to_string(qr_f.rank().rank) +
                               " of 6): use more distinct sensor orientations");
   }
-  res.condition_force = rank_f.condition_number;
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_f(Af);
-  Eigen::Matrix<double, 6, 1> l = qr_f.solve(f);
+  res.condition_force = qr_f.rank().condition_number;
+  qr_f.applyQt(qt_f);
+  const Vec6 l_f = qr_f.solveHead(qt_f.head<6>());
+  Vec6 l = l_f;
   if (dynamic) {
-    Eigen::VectorXd rhs = f;
+    qr_f.applyQt(qt_a);
+    const Vec6 l_a = qr_f.solveHead(qt_a.head<6>());  // l(G) = l_f + (G/g) l_a
     double G = l.head<3>().norm();
     for (int it = 0; it < options.max_iterations; ++it) {
       res.iterations = it + 1;
-      for (int i = 0; i < n; ++i) {
-        rhs.segment<3>(3 * i) = f.segment<3>(3 * i) + (G / kStandardGravity) * contexts[static_cast<std::size_t>(i)].a_S;
-      }
-      l = qr_f.solve(rhs);
+      l = l_f + (G / kStandardGravity) * l_a;
       const double G_new = l.head<3>().norm();
       const double change = std::abs(G_new - G);
       G = G_new;
@@ -110,54 +170,57 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
   const double G = L.norm();
   const double m = G / kStandardGravity;
 
-  // Force-stage covariance from the Jacobian of the stage model at the solution.
-  Eigen::MatrixXd Jf = Af;
-  Eigen::VectorXd rf(3 * n);
+  // Force-stage residual; torque-stage data rows [f_i, 1, t_i] (measured force) and [f_model_i, 1].
+  double sse_f = 0.0;
+  Eigen::MatrixXd D_meas(n, 7);
+  Eigen::MatrixXd D_model(n, 4);
   for (int i = 0; i < n; ++i) {
-    const SampleContext& c = contexts[static_cast<std::size_t>(i)];
+    const SampleContext& c = at(i);
     Vec3 model_f = c.R_BS.transpose() * L + F0;
-    if (dynamic) {
-      model_f -= m * c.a_S;
-      Jf.block<3, 3>(3 * i, 0) -= c.a_S * L.transpose() / (kStandardGravity * G);
-    }
-    rf.segment<3>(3 * i) = c.wrench_S.head<3>() - model_f;
+    if (dynamic) model_f -= m * c.a_S;
+    sse_f += (c.wrench_S.head<3>() - model_f).squaredNorm();
+    D_meas.block<1, 3>(i, 0) = c.wrench_S.head<3>().transpose();
+    D_meas(i, 3) = 1.0;
+    D_meas.block<1, 3>(i, 4) = c.wrench_S.tail<3>().transpose();
+    D_model.block<1, 3>(i, 0) = model_f.transpose();
+    D_model(i, 3) = 1.0;
   }
-  const double s2_f = rf.squaredNorm() / (3 * n - 6);
-  const Eigen::MatrixXd cov_l = s2_f * internal::inverseGram(Jf);
+  // Covariance from the Jacobian of the stage model at the solution: Af itself (static), or
+  // Af - a v^T with v = [L / (g G); 0] (dynamic, the G dependence of the inertial term).
+  Eigen::MatrixXd cov_l;
+  if (dynamic) {
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(6);
+    v.head<3>() = L / (kStandardGravity * G);
+    cov_l = qr_f.inverseGramRankOneUpdate(qt_a, v);
+  } else {
+    cov_l = qr_f.inverseGram();
+  }
+  cov_l *= sse_f / (3 * n - 6);
 
   // ---- Torque stage (Eq. 5-9, corrected sign): t_i = -skew(f_i) c + k, k = T0 - c x F0.
   // The measured force already contains the inertial force -m a_S, so the same equation holds in
   // motion (no extra inertial term: paper Eq. 33/34/39 count it twice).
-  Eigen::MatrixXd At(3 * n, 6);
-  Eigen::MatrixXd At_model(3 * n, 6);  // same with the modelled (noise-free) force, for the rank
-  Eigen::VectorXd t(3 * n);
-  for (int i = 0; i < n; ++i) {
-    const SampleContext& c = contexts[static_cast<std::size_t>(i)];
-    const Vec3 fi = c.wrench_S.head<3>();
-    At.block<3, 3>(3 * i, 0) = -skew(fi);
-    At.block<3, 3>(3 * i, 3) = Mat3::Identity();
-    Vec3 model_f = c.R_BS.transpose() * L + F0;
-    if (dynamic) model_f -= m * c.a_S;
-    At_model.block<3, 3>(3 * i, 0) = -skew(model_f);
-    At_model.block<3, 3>(3 * i, 3) = Mat3::Identity();
-    t.segment<3>(3 * i) = c.wrench_S.tail<3>();
-  }
-  const internal::RankReport rank_t_model = internal::analyzeRank(At_model, options.rank_tolerance);
+  // Rank from the regressor of the modelled (noise-free) force; solution, condition number and
+  // covariance from that of the measured force. Both are compressed exactly.
+  Eigen::MatrixXd K_model = compressTorqueStage(D_model, false);
+  const internal::RankReport rank_t_model = internal::analyzeRank(K_model, options.rank_tolerance);
   if (rank_t_model.rank < 6) {
     throw IdentificationError("the data do not determine " +
                               torqueStageNames(rank_t_model.unexcited_columns) +
                               " (torque stage rank " + std::to_string(rank_t_model.rank) +
                               " of 6): the payload force must take several non-parallel directions");
   }
-  const internal::RankReport rank_t = internal::analyzeRank(At, options.rank_tolerance);
-  res.condition_torque = rank_t.condition_number;
-  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr_t(At);
-  const Eigen::Matrix<double, 6, 1> h = qr_t.solve(t);
+  const Eigen::MatrixXd K_meas = compressTorqueStage(D_meas, true);
+  Eigen::MatrixXd At = K_meas.leftCols<6>();
+  Eigen::VectorXd qt_t = K_meas.col(6);
+  const internal::ScaledQR qr_t(At, options.rank_tolerance);
+  res.condition_torque = qr_t.rank().condition_number;
+  qr_t.applyQt(qt_t);
+  const Vec6 h = qr_t.solveHead(qt_t.head<6>());
   const Vec3 c_S = h.head<3>();
   const Vec3 k = h.tail<3>();
-  const Eigen::VectorXd rt = t - At * h;
-  const double s2_t = rt.squaredNorm() / (3 * n - 6);
-  const Eigen::MatrixXd cov_h = s2_t * internal::inverseGram(At);
+  const double sse_t = qt_t.tail(qt_t.size() - 6).squaredNorm();  // |t - At h|^2
+  const Eigen::MatrixXd cov_h = (sse_t / (3 * n - 6)) * qr_t.inverseGram();
 
   // ---- Transforms (Eq. 21-23) and the delta method.
   res.gravity_force_B = L;

@@ -6,7 +6,9 @@
 //   g_S                              = R_BS^T g_B(U, V)          (for the tilt in the options)
 //   wrench_S, IMU columns, temp      = copied from the log
 //   t                                = log t minus the first sample's t
-//   extra                            = pointer to this sample's extra columns (row-major copy)
+//   extra, extra_names               = pointers to this sample's extra columns (row-major copy)
+//                                      and to the set's column names (generic effects such as
+//                                      poly(<column>,n) read them)
 #include <string>
 #include <vector>
 
@@ -31,7 +33,8 @@ struct ContextOptions {
 };
 
 /// The contexts of one log. Owns the row-major copy of the extra columns that
-/// SampleContext::extra points into; copying re-points the copies.
+/// SampleContext::extra points into and the names SampleContext::extra_names points to; copying
+/// and moving re-point the samples to the new owner.
 struct ContextSet {
   std::string source;                    ///< log file (for messages)
   double t_origin = 0.0;                 ///< log t of the first sample (SampleContext::t is relative)
@@ -44,14 +47,15 @@ struct ContextSet {
   ContextSet() = default;
   ContextSet(const ContextSet& other);
   ContextSet& operator=(const ContextSet& other);
-  ContextSet(ContextSet&&) noexcept = default;
-  ContextSet& operator=(ContextSet&&) noexcept = default;
+  ContextSet(ContextSet&& other) noexcept;
+  ContextSet& operator=(ContextSet&& other) noexcept;
   ~ContextSet() = default;
 
   /// Index of an extra column by name, or -1.
   int extraIndex(const std::string& name) const;
   std::size_t size() const { return samples.size(); }
-  /// Points every SampleContext::extra at its row of extra_rows (after editing either).
+  /// Points every SampleContext::extra at its row of extra_rows and extra_names at extra_names
+  /// (after editing either; nullptr when there are no extra columns).
   void repoint();
 };
 

@@ -8,9 +8,13 @@
 // equations); the tilt, when the model contains the `tilt` effect, by variable projection: an
 // outer Levenberg-damped Gauss-Newton on (U, V) with a numeric Jacobian of the stacked residual,
 // started from the paper's force stage (direction of the identified gravity vector in B).
-// Effects that read kSignalModelDerivative get SampleContext::dwrench_model_dt filled with the
-// central time difference of the current model prediction (first pass: of the measured wrench),
-// and the fit is iterated. Details and the uncertainty model: docs/identification.md.
+// Effects that read kSignalModelDerivative get the signals derived from the current fit, and the
+// fit is iterated (a fixed point; first pass: the measured wrench stands in for the model):
+//   SampleContext::dwrench_model_dt  central time difference of the current model prediction
+//                                    (sensor_delay)
+//   SampleContext::wrench_model_S    the current prediction without the effects that read these
+//                                    signals (crosstalk: reading = (I + E) w_model)
+// predictWrench fills them the same way. Details and the uncertainty model: docs/identification.md.
 #include <optional>
 #include <string>
 #include <vector>
@@ -29,7 +33,7 @@ struct FitOptions {
   std::optional<double> tilt_v_rad;
   bool axis_weights = true;        ///< per-axis weights 1/RMS (re-estimated once)
   int max_tilt_iterations = 50;    ///< outer Gauss-Newton iterations on (U, V)
-  int derivative_iterations = 4;   ///< refits for effects that read d/dt of the modelled wrench
+  int derivative_iterations = 4;   ///< refits for effects that read the modelled wrench or its d/dt
   /// Relative threshold on the pivots / singular values of the column-scaled regressor below which
   /// a direction counts as not excited (rank deficiency).
   double rank_tolerance = 1e-9;

@@ -7,8 +7,12 @@
 //     dynamic (Eq. 31-38):   f_i + (G/g) a_S,i = R_BS,i^T L + F0, G = |L| from the previous
 //                            iterate (fixed point started from the static solution)
 //  then G = |L|, m = G/g, U = asin(-L_y/G), V = atan2(L_x, -L_z), T0 = k + c x F0 (Eq. 21-23).
-// Both stages are stacked least-squares problems solved with Householder QR. Standard errors by
-// the delta method through these transforms.
+// Both stages are stacked least-squares problems (3N rows, 6 unknowns) solved with Householder QR.
+// Each is first compressed exactly (thin QR of the per-sample data: same solution, residual norm,
+// singular values) and then factored once (column-scaled, column-pivoted QR); that one
+// factorisation gives the rank check, every fixed-point solve, the condition number and the
+// covariance (docs/identification.md, "Computation"). Standard errors by the delta method through
+// these transforms.
 #include <string>
 #include <vector>
 

@@ -1,5 +1,6 @@
 // fitModel beyond Table 2: subsets, held-out prediction, fixed tilt, the model-derivative hook,
-// and parameter files / JSON.
+// crosstalk (against the simulator's matrix), generic effects on extra log columns, and parameter
+// files / JSON.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -7,7 +8,9 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/identify/fit.hpp"
+#include "ftid/identify/offline.hpp"
 #include "ftid/identify/parameter_set.hpp"
+#include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
 
 namespace ftid::identify {
@@ -107,14 +110,115 @@ TEST(FitModel, ModelDerivativeHookRecoversADelay) {
   EXPECT_LT(rms.maxCoeff(), 2.0 * delayed.residual_rms.maxCoeff() + 1e-6);
 }
 
-TEST(FitModel, NonFiniteInputIsADataError) {
-  std::vector<SampleContext> c = clean().samples;
-  c[17].wrench_S(3) = std::nan("");
-  EXPECT_THROW(fitModel(Model::fromName("paper"), c), DataError);
+int axisIndex(const std::string& name) {
+  for (int a = 0; a < 6; ++a) {
+    if (name == kWrenchAxisNames[a]) return a;
+  }
+  return -1;
+}
+
+TEST(FitModel, CrosstalkRecoversTheSimulatorsMatrix) {
+  // The simulator reads (I + E) load + offsets (src/sim). Data and model:
+  //  - full rigid-body physics and the rigid_body effect: with the paper's physics alone the
+  //    reading is affine in g_S - a_S (24 numbers), too little for the 31 crosstalk parameters;
+  //  - with rigid_body, a common gain of all six axes is the one direction of E that the payload
+  //    parameters absorb (every one scales with it); the effect leaves out E(fz,fz), E(tz,tz) and
+  //    the antisymmetric force-to-moment block. So the simulator's matrix is taken with
+  //    E(tz,tz) = E(fz,fz) = n and a symmetric force-to-moment block, and then exactly
+  //      reading = (I + E_fit) w',  I + E = (1 + n)(I + E_fit),
+  //      w' = (1 + n) load + (I + E_fit)^{-1} offsets   (payload parameters scaled by 1 + n).
+  sim::CellSimConfig cfg = test::paperConfig(false, 21);
+  cfg.full_rigid_body = true;
+  cfg.crosstalk.enabled = true;
+  Mat6 E = sim::CrosstalkSwitch::defaultMatrix();
+  E(5, 5) = E(2, 2);
+  const Mat3 E_tf = E.bottomLeftCorner<3, 3>();
+  E.bottomLeftCorner<3, 3>() = 0.5 * (E_tf + E_tf.transpose());
+  cfg.crosstalk.E = E;
+  const double n = E(2, 2);
+  const Mat6 E_fit = (Mat6::Identity() + E) / (1.0 + n) - Mat6::Identity();
+  const Wrench offsets_fit = (Mat6::Identity() + E_fit).inverse() * (Wrench() << Table2::f0(), Table2::t0()).finished();
+
+  const ContextSet s = test::contextsOf(cfg);
+  const Model model = Model::fromName("paper+rigid_body+crosstalk");
+  const FitResult fit = fitModel(model, s.samples);
+  int checked = 0;
+  for (const auto& p : fit.params) {
+    if (p.name.rfind("xt_", 0) != 0) continue;
+    const int r = axisIndex(p.name.substr(3, 2));
+    const int c = axisIndex(p.name.substr(6, 2));
+    ASSERT_GE(r, 0) << p.name;
+    ASSERT_GE(c, 0) << p.name;
+    EXPECT_NEAR(fit.value(p.name), E_fit(r, c), 1e-9) << p.name;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 31);
+  const double m = (1.0 + n) * Table2::mass();
+  EXPECT_NEAR(fit.value("mass"), m, 1e-9);
+  EXPECT_NEAR(fit.value("com_x"), Table2::com().x(), 1e-9);
+  EXPECT_NEAR(fit.value("com_y"), Table2::com().y(), 1e-9);
+  EXPECT_NEAR(fit.value("com_z"), Table2::com().z(), 1e-9);
+  const char* offset_names[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
+  for (int a = 0; a < 6; ++a) EXPECT_NEAR(fit.value(offset_names[a]), offsets_fit(a), 1e-9) << offset_names[a];
+  EXPECT_NEAR(fit.tilt_u_rad, Table2::u(), 1e-9);
+  EXPECT_NEAR(fit.tilt_v_rad, Table2::v(), 1e-9);
+  EXPECT_LT(fit.residual_rms.maxCoeff(), 1e-9);
+  // Without the effect the same data leave a crosstalk-sized residual.
+  const FitResult plain = fitModel(Model::fromName("paper+rigid_body"), s.samples);
+  EXPECT_GT(plain.residual_rms.maxCoeff(), 1e3 * fit.residual_rms.maxCoeff());
+  // predictWrench fills the modelled wrench the same way.
+  const auto pred = predictWrench(model, fit, s.samples);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    worst = std::max(worst, (pred.col(static_cast<Eigen::Index>(i)) - s.samples[i].wrench_S).cwiseAbs().maxCoeff());
+  }
+  EXPECT_LT(worst, 1e-9);
 }
 
 std::string tempPath(const std::string& name) {
   return std::string(FTID_BINARY_DIR) + "/identify_test_" + name;
+}
+
+TEST(IdentifyLogFile, GenericEffectOnAnExtraCsvColumn) {
+  // A log with an extra column (a humidity probe) on which the reading depends quadratically,
+  // written as CSV and identified the way `ftid identify --model` does.
+  const sim::CellSimConfig cfg = test::paperConfig(false, 31);
+  logio::LogData log = sim::CellSim(cfg).run();
+  Vec6 c1, c2;
+  c1 << 0.02, -0.03, 0.05, 0.002, -0.001, 0.003;
+  c2 << -0.004, 0.003, 0.002, 0.0003, 0.0002, -0.0004;
+  log.extra_names.push_back("humidity");
+  log.extra_columns.emplace_back();
+  for (auto& sample : log.samples) {
+    const double h = 45.0 + 8.0 * std::sin(0.9 * sample.t) + 3.0 * std::cos(2.3 * sample.t);
+    log.extra_columns.back().push_back(h);
+    sample.wrench_S += c1 * (h - 40.0) + c2 * (h - 40.0) * (h - 40.0);
+  }
+  const std::string path = tempPath("GenericEffectOnAnExtraCsvColumn.csv");
+  logio::writeLog(path, log);
+  IdentifyRequest request;
+  request.log_path = path;
+  request.model = "paper+poly(humidity,2,40)";
+  request.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  const ParameterSet set = identifyLogFile(request);
+  std::remove(path.c_str());
+  for (int a = 0; a < 6; ++a) {
+    const std::string ax = kWrenchAxisNames[a];
+    const NamedValue* p1 = set.find("poly_humidity_1_" + ax);
+    const NamedValue* p2 = set.find("poly_humidity_2_" + ax);
+    ASSERT_NE(p1, nullptr) << ax;
+    ASSERT_NE(p2, nullptr) << ax;
+    EXPECT_NEAR(p1->value, c1(a), 1e-6) << ax;
+    EXPECT_NEAR(p2->value, c2(a), 1e-7) << ax;
+  }
+  EXPECT_NEAR(set.find("mass")->value, Table2::mass(), 1e-6);
+  EXPECT_LT(set.residual_rms.maxCoeff(), 1e-5);
+}
+
+TEST(FitModel, NonFiniteInputIsADataError) {
+  std::vector<SampleContext> c = clean().samples;
+  c[17].wrench_S(3) = std::nan("");
+  EXPECT_THROW(fitModel(Model::fromName("paper"), c), DataError);
 }
 
 TEST(ParameterFile, RoundTripKeepsBackupAndNamesBadKeys) {

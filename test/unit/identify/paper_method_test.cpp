@@ -178,6 +178,22 @@ TEST(RankDeficiency, RotationAboutOneAxisNamesTheUnexcitedParameters) {
   EXPECT_EQ(fit.find("f0_x"), std::string::npos) << fit;
 }
 
+TEST(RankDeficiency, NoPayloadNamesTheCentreOfMass) {
+  // Readings of an empty sensor (offsets only) on the excitation run: the force stage is well
+  // posed (L = 0), but the payload force never changes direction, so the torque stage cannot
+  // determine c.
+  ContextSet s = test::contextsOf(test::paperConfig(false, 1));
+  for (auto& c : s.samples) c.wrench_S << Table2::f0(), Table2::t0();
+  for (PaperMethod method : {PaperMethod::kStatic, PaperMethod::kDynamic}) {
+    PaperOptions o;
+    o.method = method;
+    const std::string msg = messageOf([&] { identifyPaper(s.samples, o); });
+    EXPECT_NE(msg.find("torque stage"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("com_x"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("com_z"), std::string::npos) << msg;
+  }
+}
+
 TEST(RankDeficiency, TooFewSamples) {
   ContextSet s = test::contextsOf(oneAxisConfig(false));
   s.samples.resize(1);
