@@ -2,6 +2,7 @@
 // infeasible requests, independent re-check, baselines and a simulated identification.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -257,10 +258,13 @@ TEST_F(DesignRun, CheckTrajectoryCommandExitsNonZeroOnAViolation) {
   } else {
     GTEST_SKIP() << "ftid executable not built: " << ftid;
   }
-  const std::string dir = ::testing::TempDir();
+  // /tmp is shared by every build and every user of the machine: test name and pid in the names.
+  const std::string stem = ::testing::TempDir() + "ftid_design_" +
+                           ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
+                           std::to_string(::getpid());
   trajectory::TrajectoryFile file = result_->file;
   file.robot = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
-  const std::string good = dir + "/ftid_design_good.yaml", bad = dir + "/ftid_design_bad.yaml";
+  const std::string good = stem + "_good.yaml", bad = stem + "_bad.yaml";
   trajectory::writeTrajectoryFile(good, file);
   double amax = 0.0;
   for (const auto& m : result_->check.margins) {
@@ -281,6 +285,8 @@ TEST_F(DesignRun, CheckTrajectoryCommandExitsNonZeroOnAViolation) {
   EXPECT_EQ(run(bad, out_bad), 1) << out_bad;
   EXPECT_NE(out_bad.find("joint 6 |acceleration|"), std::string::npos) << out_bad;
   EXPECT_NE(out_bad.find("VIOLATED"), std::string::npos) << out_bad;
+  std::remove(good.c_str());
+  std::remove(bad.c_str());
 }
 
 TEST(Design, InfeasibleRequestsGetClearErrors) {
