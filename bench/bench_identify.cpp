@@ -107,7 +107,7 @@ int main() {
     if (!small) continue;
     // Per-sample compensation: batches of all samples, divided by the count.
     const identify::ParameterSet set = identify::identifyPaper(s.samples).toParameterSet();
-    compensate::Compensator comp(model, identify::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
+    compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
     std::vector<double> per_sample_ns;
     Wrench contact;
     for (int r = 0; r < 400; ++r) {

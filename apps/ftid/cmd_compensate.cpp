@@ -31,8 +31,12 @@ int runCompensate(const std::vector<std::string>& argv) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
   const auto s = ftid::identify::compensateLogFile(req);
-  std::printf("%d samples compensated -> %s\n%-6s %12s %12s\n", s.n_samples, req.out_csv.c_str(), "axis",
-              "raw RMS", "contact RMS");
+  std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
+  if (s.n_without_kinematics > 0) {
+    std::printf("%d samples left out: with the identified sensor delay their kinematics lie outside the log\n",
+                s.n_without_kinematics);
+  }
+  std::printf("%-6s %12s %12s\n", "axis", "raw RMS", "contact RMS");
   const char* axes[6] = {"fx", "fy", "fz", "tx", "ty", "tz"};
   for (int a = 0; a < 6; ++a) std::printf("%-6s %12.4g %12.4g\n", axes[a], s.raw_rms(a), s.contact_rms(a));
   return 0;

@@ -99,7 +99,7 @@ int runPaperDemo(const DemoOptions& opt) {
   const identify::ContextSet check = identify::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
   const identify::ParameterSet set = r.toParameterSet();
   const effects::Model model = effects::Model::fromName(set.model);
-  compensate::Compensator comp(model, identify::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
+  compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
   Vec6 raw = Vec6::Zero(), residual = Vec6::Zero();
   for (const auto& ctx : check.samples) {
     Wrench contact;

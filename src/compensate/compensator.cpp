@@ -1,6 +1,7 @@
 // Real-time compensation (include/ftid/compensate/compensator.hpp).
 #include "ftid/compensate/compensator.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -11,60 +12,107 @@ namespace ftid::compensate {
 
 namespace {
 
-bool finiteContext(const SampleContext& c, bool use_context_gravity) noexcept {
+bool finiteContext(const SampleContext& c) noexcept {
   bool ok = std::isfinite(c.t) && c.wrench_S.allFinite() && c.R_BS.allFinite() && c.w_S.allFinite() &&
-            c.alpha_S.allFinite() && c.a_S.allFinite() && c.q.allFinite() && c.qd.allFinite();
-  if (use_context_gravity) ok = ok && c.g_S.allFinite();
+            c.alpha_S.allFinite() && c.a_S.allFinite() && c.q.allFinite() && c.qd.allFinite() &&
+            c.p_BS_B.allFinite();
   if (c.has_imu) ok = ok && c.imu_acc_S.allFinite() && c.imu_w_S.allFinite() && c.imu_alpha_S.allFinite();
   if (c.has_temp) ok = ok && std::isfinite(c.temp_degC);
   return ok;
 }
 
-}  // namespace
+constexpr double kMaxDelayS = 10.0;
 
-Compensator::Compensator(const effects::Model& model, const Eigen::VectorXd& theta, double tilt_u_rad,
-                         double tilt_v_rad, bool use_context_gravity)
-    : model_(model),
-      theta_(theta),
-      g_B_(model::gravityInBase(tilt_u_rad, tilt_v_rad)),
-      use_context_gravity_(use_context_gravity),
-      needs_derivative_((model.signals() & effects::kSignalModelDerivative) != 0),
-      Y_(6, model.numParams()) {
-  if (theta.size() != model.numParams()) {
-    throw ConfigError("compensator: " + std::to_string(theta.size()) + " parameters given, model '" +
-                      model.name() + "' has " + std::to_string(model.numParams()));
-  }
-  if (!theta.allFinite() || !std::isfinite(tilt_u_rad) || !std::isfinite(tilt_v_rad)) {
-    throw ConfigError("compensator: non-finite parameter or tilt");
-  }
-  Y_.setZero();
+int ringCapacity(double delay_s) {
+  if (delay_s == 0.0) return 0;
+  return static_cast<int>(std::ceil(std::abs(delay_s) * Compensator::kMaxRateHz * 1.25)) + 8;
 }
 
+}  // namespace
+
+Compensator::Compensator(const effects::Model& model, const Eigen::VectorXd& theta,
+                         const NonlinearParams& nonlinear)
+    : eval_(model, theta),
+      nl_(nonlinear),
+      g_B_(model::gravityInBase(nonlinear.tilt_u_rad, nonlinear.tilt_v_rad)),
+      R_SM_(effects::mountingRotation(nonlinear.mount_rpy_rad)),
+      mounting_(model.estimatesMounting()),
+      delay_s_(model.estimatesDelay() ? nonlinear.delay_s : 0.0) {
+  if (!theta.allFinite() || !std::isfinite(nonlinear.tilt_u_rad) || !std::isfinite(nonlinear.tilt_v_rad) ||
+      !nonlinear.mount_rpy_rad.allFinite() || !std::isfinite(nonlinear.delay_s)) {
+    throw ConfigError("compensator: non-finite parameter, tilt, mounting angle or delay");
+  }
+  if (std::abs(delay_s_) > kMaxDelayS) {
+    throw ConfigError("compensator: delay " + std::to_string(delay_s_) + " s is beyond +-" +
+                      std::to_string(kMaxDelayS) + " s");
+  }
+  if (!mounting_) R_SM_.setIdentity();
+  ring_.resize(static_cast<std::size_t>(ringCapacity(delay_s_)));
+}
+
+Compensator::Compensator(const effects::Model& model, const Eigen::VectorXd& theta, double tilt_u_rad,
+                         double tilt_v_rad)
+    : Compensator(model, theta, NonlinearParams{tilt_u_rad, tilt_v_rad, Vec3::Zero(), 0.0}) {}
+
 void Compensator::reset() noexcept {
-  has_prev_ = false;
-  dwdt_.setZero();
+  ring_head_ = 0;
+  ring_count_ = 0;
+}
+
+const SampleContext& Compensator::ringAt(int i) const noexcept {
+  const int cap = static_cast<int>(ring_.size());
+  return ring_[static_cast<std::size_t>((ring_head_ + i) % cap)];
+}
+
+void Compensator::push(const SampleContext& ctx) noexcept {
+  const int cap = static_cast<int>(ring_.size());
+  if (ring_count_ > 0 && !(ctx.t > ringAt(ring_count_ - 1).t)) reset();  // time went back: restart
+  if (ring_count_ < cap) {
+    ring_[static_cast<std::size_t>((ring_head_ + ring_count_) % cap)] = ctx;
+    ++ring_count_;
+  } else {
+    ring_[static_cast<std::size_t>(ring_head_)] = ctx;
+    ring_head_ = (ring_head_ + 1) % cap;
+  }
+}
+
+// `work_` holds the reading with its kinematics already at the right time.
+Status Compensator::evaluate(const SampleContext& reading, Wrench* contact_S, Wrench* modelled_S) noexcept {
+  if (mounting_) effects::applyMounting(R_SM_, &work_);
+  work_.g_S.noalias() = work_.R_BS.transpose() * g_B_;
+  work_.wrench_S = reading.wrench_S;
+  Wrench modelled;
+  const Wrench contact = eval_.contact(work_, &modelled);
+  if (!modelled.allFinite() || !contact.allFinite()) return Status::kInvalidInput;
+  output_t_ = reading.t;
+  if (modelled_S != nullptr) *modelled_S = modelled;
+  if (contact_S != nullptr) *contact_S = contact;
+  return Status::kOk;
 }
 
 Status Compensator::compute(const SampleContext& ctx, Wrench* contact_S, Wrench* modelled_S) noexcept {
-  if (!finiteContext(ctx, use_context_gravity_)) return Status::kInvalidInput;
-  work_ = ctx;  // fixed-size copy (no allocation); ctx.extra is a pointer
-  if (!use_context_gravity_) work_.g_S.noalias() = ctx.R_BS.transpose() * g_B_;
-  if (needs_derivative_) work_.dwrench_model_dt = dwdt_;
-  model_.computeRegressor(work_, Y_);
-  Wrench modelled;
-  modelled.noalias() = Y_ * theta_;
-  if (!modelled.allFinite()) return Status::kInvalidInput;
-  if (needs_derivative_) {
-    // Backward difference of the modelled wrench, used at the next sample.
-    const double dt = ctx.t - prev_t_;
-    dwdt_ = (has_prev_ && dt > 0.0) ? Wrench((modelled - prev_modelled_) / dt) : Wrench::Zero();
-    prev_modelled_ = modelled;
-    prev_t_ = ctx.t;
-    has_prev_ = true;
+  if (!finiteContext(ctx)) return Status::kInvalidInput;
+  if (delay_s_ == 0.0) {
+    work_ = ctx;  // fixed-size copy (no allocation); ctx.extra is a pointer
+    return evaluate(ctx, contact_S, modelled_S);
   }
-  if (modelled_S != nullptr) *modelled_S = modelled;
-  if (contact_S != nullptr) *contact_S = ctx.wrench_S - modelled;
-  return Status::kOk;
+  push(ctx);
+  auto at = [this](int i) -> const SampleContext& { return ringAt(i); };
+  if (delay_s_ > 0.0) {
+    // The current reading belongs to the kinematics at t - tau.
+    work_ = ctx;
+    if (!effects::kinematicsAt(at, ring_count_, ctx.t - delay_s_, &work_)) return Status::kNotReady;
+    return evaluate(ctx, contact_S, modelled_S);
+  }
+  // tau < 0: the newest reading r with t_r + |tau| <= t_now (its kinematics have arrived).
+  const double t_needed = ctx.t + delay_s_;  // = t_now - |tau|
+  int r = ring_count_ - 1;
+  while (r >= 0 && ringAt(r).t > t_needed + 1e-9) --r;
+  if (r < 0) return Status::kNotReady;
+  const SampleContext& reading = ringAt(r);
+  work_ = reading;
+  if (!effects::kinematicsAt(at, ring_count_, reading.t - delay_s_, &work_)) return Status::kNotReady;
+  return evaluate(reading, contact_S, modelled_S);
 }
 
 }  // namespace ftid::compensate

@@ -181,7 +181,8 @@ ParameterFileCompensation::ParameterFileCompensation(const std::string& path) {
   tilt_u_ = set.tilt_u_rad;
   tilt_v_ = set.tilt_v_rad;
   model_name_ = model.name();
-  compensator_ = std::make_unique<compensate::Compensator>(model, theta, tilt_u_, tilt_v_);
+  compensator_ = std::make_unique<compensate::Compensator>(model, theta,
+                                                           identify::nonlinearFor(model, set, path));
 }
 
 bool ParameterFileCompensation::compute(const effects::SampleContext& ctx, Wrench* contact,

@@ -1,7 +1,7 @@
 // The `crosstalk` effect: small gain and cross-axis errors of the sensor calibration,
 //   reading = (I + E) w + offsets   ~   w_model + E w_model        (first order in E)
-// with w_model the current modelled wrench (SampleContext::wrench_model_S, filled by the fitter
-// like dwrench_model_dt; using the measured wrench instead would regress a reading on its own
+// with w_model the current modelled wrench (SampleContext::wrench_model_S, filled by
+// effects::ModelEvaluator and the fitter; using the measured wrench instead would regress a reading on its own
 // noise). E(r, c) is the part of axis c that leaks into the reading of axis r.
 // Directions of E that the payload parameters already express are left out (they would make the
 // fit rank deficient): a common force gain (= the mass), a common moment gain (= the first moment
@@ -64,7 +64,7 @@ class CrosstalkEffect final : public Effect {
     }
     return p;
   }
-  std::uint32_t signals() const override { return kSignalModelDerivative; }
+  std::uint32_t signals() const override { return kSignalModelWrench; }
   void bind(const ParamIndex& index) override {
     const auto p = params();
     cols_.clear();

@@ -1,8 +1,9 @@
-// The `sensor_delay` effect: the wrench stream lags the kinematics/IMU by tau. To first order,
-//   w_measured(t) = w_model(t - tau) ~ w_model(t) - tau d/dt w_model(t)
-// so the column of the parameter `delay` (tau [s]) is -d/dt of the modelled wrench, which the
-// fitter supplies in SampleContext::dwrench_model_dt (kSignalModelDerivative) and iterates.
-// Valid while tau times the highest motion frequency is small (second-order error tau^2/2 w'').
+// The `sensor_delay` effect: the wrench stream lags (or leads) the kinematics/IMU by tau,
+//   w_measured(t) = w_model(kinematics at t - tau)                      (exact, either sign)
+// tau is a nonlinear parameter (`delay` [s], effects/nonlinear.hpp): the fitter estimates it by
+// shifting the kinematics in time with interpolation (search range configurable, the first-order
+// estimate -tau dw/dt only as a start), and the compensator pairs each reading with the
+// kinematic state tau earlier from a fixed ring of recent states. No regressor columns.
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,20 +21,27 @@ class SensorDelayEffect final : public Effect {
  public:
   std::string name() const override { return "sensor_delay"; }
   std::string description() const override {
-    return "the wrench stream lags the kinematics/IMU by a delay tau (first order: -tau dw/dt)";
+    return "the wrench stream lags the kinematics/IMU by a delay tau (exact time shift, either sign)";
   }
-  std::vector<ParamInfo> params() const override {
-    return {{"delay", "s", "delay tau of the wrench reading behind the kinematics"}};
-  }
-  std::uint32_t signals() const override { return kSignalModelDerivative; }
-  void bind(const ParamIndex& index) override { col_ = requireColumn(index, "delay", name()); }
-  void addRegressor(const SampleContext& ctx, RegressorRef Y) const noexcept override {
-    for (int i = 0; i < 6; ++i) Y(i, col_) -= ctx.dwrench_model_dt(i);
-  }
+  std::vector<ParamInfo> params() const override { return {}; }
+  bool estimatesDelay() const override { return true; }
+  void bind(const ParamIndex& /*index*/) override {}
+  void addRegressor(const SampleContext& /*ctx*/, RegressorRef /*Y*/) const noexcept override {}
   std::unique_ptr<Effect> clone() const override { return std::make_unique<SensorDelayEffect>(*this); }
+};
 
- private:
-  int col_ = 0;
+class MountingEffect final : public Effect {
+ public:
+  std::string name() const override { return "mounting"; }
+  std::string description() const override {
+    return "the sensor is mounted rotated against the configured X_FS (roll, pitch, yaw)";
+  }
+  std::vector<ParamInfo> params() const override { return {}; }
+  std::vector<std::string> requires() const override { return {"gravity"}; }
+  bool estimatesMounting() const override { return true; }
+  void bind(const ParamIndex& /*index*/) override {}
+  void addRegressor(const SampleContext& /*ctx*/, RegressorRef /*Y*/) const noexcept override {}
+  std::unique_ptr<Effect> clone() const override { return std::make_unique<MountingEffect>(*this); }
 };
 
 }  // namespace
@@ -41,6 +49,11 @@ class SensorDelayEffect final : public Effect {
 std::unique_ptr<Effect> makeSensorDelayEffect(const std::string& args) {
   if (!args.empty()) throw ConfigError("effect 'sensor_delay' takes no arguments (got '" + args + "')");
   return std::make_unique<SensorDelayEffect>();
+}
+
+std::unique_ptr<Effect> makeMountingEffect(const std::string& args) {
+  if (!args.empty()) throw ConfigError("effect 'mounting' takes no arguments (got '" + args + "')");
+  return std::make_unique<MountingEffect>();
 }
 
 }  // namespace ftid::effects

@@ -121,6 +121,14 @@ bool Model::estimatesTilt() const {
   return std::any_of(effects_.begin(), effects_.end(), [](const auto& e) { return e->estimatesTilt(); });
 }
 
+bool Model::estimatesMounting() const {
+  return std::any_of(effects_.begin(), effects_.end(), [](const auto& e) { return e->estimatesMounting(); });
+}
+
+bool Model::estimatesDelay() const {
+  return std::any_of(effects_.begin(), effects_.end(), [](const auto& e) { return e->estimatesDelay(); });
+}
+
 std::uint32_t Model::signals() const {
   std::uint32_t s = kSignalNone;
   for (const auto& e : effects_) s |= e->signals();

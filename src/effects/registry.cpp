@@ -23,7 +23,8 @@
   X("cable", makeCableEffect, "cable/hose pulling the tool toward a fixed anchor (linear spring)")  \
   X("temperature_drift", makeTemperatureDriftEffect, "offsets linear in the sensor temperature")    \
   X("time_drift", makeTimeDriftEffect, "offsets drifting linearly with time")                        \
-  X("sensor_delay", makeSensorDelayEffect, "wrench lags the kinematics by tau: -tau dw/dt")          \
+  X("sensor_delay", makeSensorDelayEffect, "wrench lags the kinematics by tau (exact time shift)")    \
+  X("mounting", makeMountingEffect, "sensor mounted rotated against X_FS (roll, pitch, yaw)")       \
   X("crosstalk", makeCrosstalkEffect, "gain and cross-axis errors: reading = (I + E) wrench")       \
   X("harmonic", makeHarmonicEffect, "harmonic(s,n): Fourier series in signal s on every axis")       \
   X("poly", makePolyEffect, "poly(s,n[,ref]): polynomial in signal s on every axis")

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -17,10 +19,41 @@ namespace ftid::identify {
 namespace {
 
 using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
-using effects::kSignalModelDerivative;
+using effects::kSignalModelWrench;
+using effects::NonlinearParams;
 
-constexpr double kTiltStep = 1e-6;  // [rad] numeric-Jacobian step
-constexpr double kTiltConverged = 1e-10;  // [rad] a rejected Gauss-Newton step this small ends the search
+constexpr double kAngleStep = 1e-6;       // [rad] numeric-Jacobian step for tilt and mounting
+constexpr double kDelayStep = 1e-6;       // [s] numeric-Jacobian step for the delay
+constexpr double kStepConverged = 1e-10;  // a rejected Gauss-Newton step this small ends the search
+
+/// Which nonlinear parameters a model estimates, and where they sit in the vector phi.
+struct PhiLayout {
+  int tilt = -1;   ///< index of U (V follows), or -1
+  int mount = -1;  ///< index of roll (pitch, yaw follow), or -1
+  int delay = -1;  ///< index of the delay, or -1
+  int size = 0;
+
+  explicit PhiLayout(const Model& m) {
+    if (m.estimatesTilt()) { tilt = size; size += 2; }
+    if (m.estimatesMounting()) { mount = size; size += 3; }
+    if (m.estimatesDelay()) { delay = size; size += 1; }
+  }
+  double step(int k) const { return k == delay ? kDelayStep : kAngleStep; }
+  NonlinearParams params(const Eigen::VectorXd& phi, const NonlinearParams& fixed) const {
+    NonlinearParams p = fixed;
+    if (tilt >= 0) { p.tilt_u_rad = phi(tilt); p.tilt_v_rad = phi(tilt + 1); }
+    if (mount >= 0) p.mount_rpy_rad = phi.segment<3>(mount);
+    if (delay >= 0) p.delay_s = phi(delay);
+    return p;
+  }
+  Eigen::VectorXd vector(const NonlinearParams& p) const {
+    Eigen::VectorXd phi(size);
+    if (tilt >= 0) { phi(tilt) = p.tilt_u_rad; phi(tilt + 1) = p.tilt_v_rad; }
+    if (mount >= 0) phi.segment<3>(mount) = p.mount_rpy_rad;
+    if (delay >= 0) phi(delay) = p.delay_s;
+    return phi;
+  }
+};
 
 struct Problem {
   const Model& model;
@@ -28,43 +61,146 @@ struct Problem {
   const std::vector<int>& indices;
   int n = 0;
   int p = 0;
-  bool estimate_tilt = false;
   bool override_gravity = false;  ///< recompute g_S from the tilt (else use ctx.g_S)
-  bool needs_derivative = false;  ///< the model reads kSignalModelDerivative signals
-  std::vector<Wrench> dwdt;       ///< SampleContext::dwrench_model_dt per subset sample
+  bool mounting = false;
+  bool delay = false;
+  bool reads_wmodel = false;      ///< the model reads kSignalModelWrench
   std::vector<Wrench> wmodel;     ///< SampleContext::wrench_model_S per subset sample
+  /// Gauss-Newton linearisation of the effects that read the modelled wrench (crosstalk): with
+  /// gn_theta set (the current solution), the model (I + E) w_base(theta) is linearised at it,
+  ///   f ~ (I + E0) Y_base theta + X(w_base0) e - E0 w_base0,
+  /// so the base columns get E0 applied and the measurement gets + E0 w_base0 (buildRegressor's
+  /// rhs); a plain fixed point (wrench_model_S frozen) converges far too slowly with noise.
+  Eigen::VectorXd gn_theta;
+  double gn_lambda = 0.0;         ///< Levenberg damping of theta towards gn_theta (scaled columns)
+  std::vector<char> derived_col;  ///< columns owned by effects that read the modelled wrench
+  std::vector<const effects::Effect*> derived_effects;  ///< those effects
+  std::vector<char> active;       ///< samples whose delayed kinematics lie inside the data
+  int n_active = 0;
   Eigen::VectorXd y;              ///< stacked measured wrench (6n)
 
   Problem(const Model& m, const std::vector<SampleContext>& c, const std::vector<int>& idx)
-      : model(m), contexts(c), indices(idx) {}
+      : model(m), contexts(c), indices(idx), n(static_cast<int>(idx.size())), p(m.numParams()),
+        mounting(m.estimatesMounting()), delay(m.estimatesDelay()),
+        reads_wmodel((m.signals() & kSignalModelWrench) != 0),
+        derived_col(static_cast<std::size_t>(m.numParams()), 0),
+        derived_effects(effects::modelWrenchEffects(m)),
+        active(static_cast<std::size_t>(idx.size()), 1), n_active(static_cast<int>(idx.size())) {
+    for (const auto& e : m.effectList()) {
+      if ((e->signals() & kSignalModelWrench) == 0) continue;
+      for (const auto& info : e->params()) {
+        const int col = m.paramIndex().column(info.name);
+        if (col >= 0) derived_col[static_cast<std::size_t>(col)] = 1;
+      }
+    }
+  }
 
   const SampleContext& at(int i) const { return contexts[static_cast<std::size_t>(indices[static_cast<std::size_t>(i)])]; }
 
-  /// Regressor A (6n x p) for the tilt (u, v), rows scaled by the axis weights. The signals
-  /// derived from the modelled wrench are those of dwdt / wmodel, or zero if !with_derived (the
-  /// regressor of the effects that do not read them: those effects are linear in the signals).
-  void buildRegressor(double u, double v, const Vec6& weights, Eigen::MatrixXd* A,
-                      bool with_derived = true) const {
+  /// Sample i prepared for the nonlinear parameters (effects/nonlinear.hpp): the reading with the
+  /// kinematics at t_i - delay (nearest end outside the data), the mounting rotation, gravity.
+  void prepare(int i, const NonlinearParams& nl, const Vec3& g_B, const Mat3& R_SM, SampleContext* c) const {
+    *c = at(i);
+    if (delay && nl.delay_s != 0.0) {
+      const double ts = std::clamp(c->t - nl.delay_s, at(0).t, at(n - 1).t);
+      effects::kinematicsAt([this](int k) -> const SampleContext& { return at(k); }, n, ts, c);
+    }
+    if (mounting) effects::applyMounting(R_SM, c);
+    if (override_gravity) c->g_S = c->R_BS.transpose() * g_B;
+  }
+
+  /// Marks the samples whose delayed kinematics stay inside the data for every delay in [lo, hi].
+  void setActiveWindow(double lo, double hi) {
+    n_active = 0;
+    for (int i = 0; i < n; ++i) {
+      const double t = at(i).t;
+      const bool ok = !delay || (t - hi >= at(0).t - 1e-9 && t - lo <= at(n - 1).t + 1e-9);
+      active[static_cast<std::size_t>(i)] = ok ? 1 : 0;
+      n_active += ok ? 1 : 0;
+    }
+  }
+
+  /// Regressor A (6n x p) for the nonlinear parameters, rows scaled by the axis weights and
+  /// zero for inactive samples. wrench_model_S is that of wmodel, or zero if !with_derived (the
+  /// regressor of the effects that do not read it: those effects are linear in it). With gn_theta
+  /// set, the Gauss-Newton form (see gn_theta) and its measurement shift, weighted, in *rhs.
+  void buildRegressor(const NonlinearParams& nl, const Vec6& weights, Eigen::MatrixXd* A,
+                      bool with_derived = true, Eigen::VectorXd* rhs = nullptr) const {
     A->resize(6 * n, p);
-    const Vec3 g_B = model::gravityInBase(u, v);
+    const bool gn = with_derived && reads_wmodel && gn_theta.size() == p;
+    if (rhs != nullptr) rhs->setZero(6 * n);
+    const Vec3 g_B = model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad);
+    const Mat3 R_SM = effects::mountingRotation(nl.mount_rpy_rad);
     Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Y2(6, p);
     SampleContext c;
     for (int i = 0; i < n; ++i) {
-      c = at(i);
-      if (override_gravity) c.g_S = c.R_BS.transpose() * g_B;
-      if (needs_derivative) {
-        c.dwrench_model_dt = with_derived ? dwdt[static_cast<std::size_t>(i)] : Wrench::Zero();
-        c.wrench_model_S = with_derived ? wmodel[static_cast<std::size_t>(i)] : Wrench::Zero();
+      if (!active[static_cast<std::size_t>(i)]) {
+        A->middleRows(6 * i, 6).setZero();
+        continue;
       }
+      prepare(i, nl, g_B, R_SM, &c);
+      c.wrench_model_S = (reads_wmodel && with_derived) ? wmodel[static_cast<std::size_t>(i)] : Wrench::Zero();
       model.computeRegressor(c, Y);
+      if (gn) {
+        // E0 as a 6 x 6 matrix for this sample: the derived effects are linear in wrench_model_S,
+        // so column k is their contribution with wrench_model_S = e_k (only those effects run).
+        const Mat6 E0 = effects::modelWrenchMap(derived_effects, c, gn_theta, Y2);
+        const Wrench shift = E0 * wmodel[static_cast<std::size_t>(i)];
+        for (int j = 0; j < p; ++j) {
+          if (!derived_col[static_cast<std::size_t>(j)]) Y.col(j) += E0 * Y.col(j);
+        }
+        if (rhs != nullptr) rhs->segment<6>(6 * i) = weights.cwiseProduct(shift);
+      }
       A->middleRows(6 * i, 6) = weights.asDiagonal() * Y;
     }
   }
 
   Eigen::VectorXd weightedMeasurement(const Vec6& weights) const {
     Eigen::VectorXd yw(6 * n);
-    for (int i = 0; i < n; ++i) yw.segment<6>(6 * i) = weights.cwiseProduct(y.segment<6>(6 * i));
+    for (int i = 0; i < n; ++i) {
+      yw.segment<6>(6 * i) = active[static_cast<std::size_t>(i)] ? Vec6(weights.cwiseProduct(y.segment<6>(6 * i)))
+                                                                 : Vec6::Zero();
+    }
     return yw;
+  }
+
+  /// Modelled wrench (6 x n, unweighted) of theta with effects::ModelEvaluator (the compensator's
+  /// code); with reads_wmodel and !self_consistent, wrench_model_S comes from wmodel instead.
+  Mat6X predict(const Eigen::VectorXd& theta, const NonlinearParams& nl) const {
+    const Vec3 g_B = model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad);
+    const Mat3 R_SM = effects::mountingRotation(nl.mount_rpy_rad);
+    effects::ModelEvaluator eval(model, theta);
+    Mat6X out(6, n);
+    SampleContext c;
+    for (int i = 0; i < n; ++i) {
+      prepare(i, nl, g_B, R_SM, &c);
+      out.col(i) = eval.evaluate(c);
+    }
+    return out;
+  }
+
+  /// The prediction of the effects that do not read the modelled wrench (what crosstalk multiplies).
+  std::vector<Wrench> basePrediction(const Eigen::VectorXd& theta, const NonlinearParams& nl) const {
+    const Mat6X w = predictWithoutDerived(theta, nl);
+    std::vector<Wrench> out(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) out[static_cast<std::size_t>(i)] = w.col(i);
+    return out;
+  }
+
+  Mat6X predictWithoutDerived(const Eigen::VectorXd& theta, const NonlinearParams& nl) const {
+    const Vec3 g_B = model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad);
+    const Mat3 R_SM = effects::mountingRotation(nl.mount_rpy_rad);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
+    Mat6X out(6, n);
+    SampleContext c;
+    for (int i = 0; i < n; ++i) {
+      prepare(i, nl, g_B, R_SM, &c);
+      c.wrench_model_S.setZero();
+      model.computeRegressor(c, Y);
+      out.col(i) = Y * theta;
+    }
+    return out;
   }
 };
 
@@ -81,56 +217,80 @@ LinearSolution solveLinear(const Eigen::MatrixXd& A, const Eigen::VectorXd& yw) 
   return s;
 }
 
-/// Variable-projection residual for tilt (u, v).
-LinearSolution projectedResidual(const Problem& pb, double u, double v, const Vec6& w,
+/// Variable-projection residual for the nonlinear parameters.
+LinearSolution projectedResidual(const Problem& pb, const NonlinearParams& nl, const Vec6& w,
                                  const Eigen::VectorXd& yw, Eigen::MatrixXd* A) {
-  pb.buildRegressor(u, v, w, A);
+  if (pb.reads_wmodel && pb.gn_theta.size() == pb.p) {
+    Eigen::VectorXd shift;
+    pb.buildRegressor(nl, w, A, true, &shift);
+    if (!(pb.gn_lambda > 0.0)) return solveLinear(*A, yw + shift);
+    // Damped step: [A; sqrt(lambda) D] theta = [y + shift; sqrt(lambda) D theta0], D = column norms.
+    const Eigen::Index rows = A->rows();
+    const Eigen::VectorXd d = A->colwise().norm().transpose().cwiseMax(1e-300) * std::sqrt(pb.gn_lambda);
+    Eigen::MatrixXd Aa(rows + pb.p, pb.p);
+    Aa.topRows(rows) = *A;
+    Aa.bottomRows(pb.p) = d.asDiagonal();
+    Eigen::VectorXd ya(rows + pb.p);
+    ya.head(rows) = yw + shift;
+    ya.tail(pb.p) = d.cwiseProduct(pb.gn_theta);
+    return solveLinear(Aa, ya);
+  }
+  pb.buildRegressor(nl, w, A);
   return solveLinear(*A, yw);
 }
 
-struct TiltState {
-  double u = 0.0;
-  double v = 0.0;
+struct PhiState {
+  Eigen::VectorXd phi;
+  NonlinearParams fixed;  ///< values of the parameters the model does not estimate
   int iterations = 0;
+  NonlinearParams params(const PhiLayout& L) const { return L.params(phi, fixed); }
 };
 
-/// Levenberg-damped Gauss-Newton on (u, v) minimising the projected residual.
-LinearSolution fitTilt(const Problem& pb, const Vec6& w, int max_iterations, TiltState* tilt) {
+/// Levenberg-damped Gauss-Newton on phi minimising the projected residual. With a delay, steps
+/// stay inside [delay_lo, delay_hi] (the window the active samples were chosen for).
+LinearSolution fitNonlinear(const Problem& pb, const PhiLayout& L, const Vec6& w, int max_iterations,
+                            PhiState* st, double delay_lo = -1e300, double delay_hi = 1e300) {
   const Eigen::VectorXd yw = pb.weightedMeasurement(w);
   Eigen::MatrixXd A;
-  LinearSolution cur = projectedResidual(pb, tilt->u, tilt->v, w, yw, &A);
-  if (!pb.estimate_tilt) return cur;
+  LinearSolution cur = projectedResidual(pb, st->params(L), w, yw, &A);
+  const int k = L.size;
+  if (k == 0) return cur;
   double cost = cur.residual.squaredNorm();
   double lambda = 1e-6;
   for (int it = 0; it < max_iterations; ++it) {
-    tilt->iterations = it + 1;
-    Eigen::MatrixXd J(cur.residual.size(), 2);
-    J.col(0) = (projectedResidual(pb, tilt->u + kTiltStep, tilt->v, w, yw, &A).residual - cur.residual) / kTiltStep;
-    J.col(1) = (projectedResidual(pb, tilt->u, tilt->v + kTiltStep, w, yw, &A).residual - cur.residual) / kTiltStep;
-    const Eigen::Vector2d jn = J.colwise().norm();
+    st->iterations = it + 1;
+    Eigen::MatrixXd J(cur.residual.size(), k);
+    for (int j = 0; j < k; ++j) {
+      PhiState t = *st;
+      t.phi(j) += L.step(j);
+      J.col(j) = (projectedResidual(pb, t.params(L), w, yw, &A).residual - cur.residual) / L.step(j);
+    }
+    const Eigen::VectorXd jn = J.colwise().norm();
     if (!(jn.minCoeff() > 0.0)) break;
     bool accepted = false;
-    Eigen::Vector2d step = Eigen::Vector2d::Zero();
     for (int attempt = 0; attempt < 12 && !accepted; ++attempt) {
       // Damped step from the augmented least-squares problem [J; sqrt(lambda) D] d = [-r; 0].
-      Eigen::MatrixXd Ja(J.rows() + 2, 2);
+      Eigen::MatrixXd Ja(J.rows() + k, k);
       Ja.topRows(J.rows()) = J;
-      Ja.bottomRows(2) = (std::sqrt(lambda) * jn).asDiagonal();
-      Eigen::VectorXd ra = Eigen::VectorXd::Zero(J.rows() + 2);
+      Ja.bottomRows(k) = (std::sqrt(lambda) * jn).asDiagonal();
+      Eigen::VectorXd ra = Eigen::VectorXd::Zero(J.rows() + k);
       ra.head(J.rows()) = -cur.residual;
-      step = Ja.householderQr().solve(ra);
-      LinearSolution trial = projectedResidual(pb, tilt->u + step(0), tilt->v + step(1), w, yw, &A);
+      Eigen::VectorXd step = Ja.householderQr().solve(ra);
+      PhiState trial_state = *st;
+      trial_state.phi += step;
+      if (L.delay >= 0) trial_state.phi(L.delay) = std::clamp(trial_state.phi(L.delay), delay_lo, delay_hi);
+      step = trial_state.phi - st->phi;
+      LinearSolution trial = projectedResidual(pb, trial_state.params(L), w, yw, &A);
       const double trial_cost = trial.residual.squaredNorm();
       if (trial_cost <= cost) {
-        tilt->u += step(0);
-        tilt->v += step(1);
+        st->phi = trial_state.phi;
         cur = std::move(trial);
         const double old_cost = cost;
         cost = trial_cost;
         lambda = std::max(lambda * 0.1, 1e-12);
         accepted = true;
         if (step.norm() < 1e-13 || old_cost - cost <= 1e-15 * old_cost) return cur;
-      } else if (step.norm() < kTiltConverged) {
+      } else if (step.norm() < kStepConverged) {
         // At the minimum the cost changes only by rounding and a step is as likely to be rejected
         // as accepted: stop instead of re-solving with ever more damping (up to 12 solves).
         return cur;
@@ -147,40 +307,6 @@ Mat6X unstack(const Eigen::VectorXd& v, int n) {
   return Eigen::Map<const Mat6X>(v.data(), 6, n);
 }
 
-/// Central time differences of a 6 x n signal along the subset order.
-std::vector<Wrench> timeDerivative(const Problem& pb, const Mat6X& w) {
-  std::vector<Wrench> d(static_cast<std::size_t>(pb.n), Wrench::Zero());
-  for (int i = 0; i < pb.n; ++i) {
-    const int a = std::max(i - 1, 0);
-    const int b = std::min(i + 1, pb.n - 1);
-    const double dt = pb.at(b).t - pb.at(a).t;
-    if (b > a && dt > 0.0) d[static_cast<std::size_t>(i)] = (w.col(b) - w.col(a)) / dt;
-  }
-  return d;
-}
-
-Mat6X predictStacked(const Problem& pb, const Eigen::VectorXd& theta, double u, double v,
-                     bool with_derived = true) {
-  Eigen::MatrixXd A;
-  pb.buildRegressor(u, v, Vec6::Ones(), &A, with_derived);
-  return unstack(A * theta, pb.n);
-}
-
-std::vector<Wrench> columns(const Mat6X& w) {
-  std::vector<Wrench> out(static_cast<std::size_t>(w.cols()));
-  for (Eigen::Index i = 0; i < w.cols(); ++i) out[static_cast<std::size_t>(i)] = w.col(i);
-  return out;
-}
-
-/// The signals derived from the model for theta (docs/identification.md, "The general fit"):
-/// d/dt of the current prediction, and the prediction without the effects that read these
-/// signals (what `crosstalk` multiplies).
-void updateDerivedSignals(Problem& pb, const Eigen::VectorXd& theta, double u, double v) {
-  const Mat6X full = predictStacked(pb, theta, u, v);
-  pb.wmodel = columns(predictStacked(pb, theta, u, v, false));
-  pb.dwdt = timeDerivative(pb, full);
-}
-
 void checkFinite(const Problem& pb) {
   for (int i = 0; i < pb.n; ++i) {
     const SampleContext& c = pb.at(i);
@@ -195,9 +321,86 @@ void checkFinite(const Problem& pb) {
   }
 }
 
+void checkTimeOrder(const Problem& pb) {
+  for (int i = 1; i < pb.n; ++i) {
+    if (!(pb.at(i).t > pb.at(i - 1).t)) {
+      throw DataError("model with sensor_delay: sample " + std::to_string(pb.indices[static_cast<std::size_t>(i)]) +
+                      " (t = " + std::to_string(pb.at(i).t) +
+                      " s) is not later than the one before it; a delay needs a time series");
+    }
+  }
+}
+
 std::vector<std::string> paramNames(const Model& model) { return model.paramIndex().names(); }
 
 }  // namespace
+
+double initialDelayEstimate(const std::vector<double>& t, const Mat6X& measured, const Mat6X& pred,
+                            const Vec6& w, double max_delay_s) {
+  const int n = static_cast<int>(t.size());
+  if (n < 3 || measured.cols() != n || pred.cols() != n) return 0.0;
+  const double t0 = t.front();
+  const double t1 = t.back();
+  auto cost = [&](double tau) {
+    double sse = 0.0;
+    int count = 0;
+    int k = 0;
+    for (int i = 0; i < n; ++i) {
+      const double ts = t[static_cast<std::size_t>(i)] - tau;
+      if (ts < t0 || ts > t1) continue;
+      while (k + 1 < n - 1 && t[static_cast<std::size_t>(k + 1)] <= ts) ++k;
+      while (k > 0 && t[static_cast<std::size_t>(k)] > ts) --k;
+      const int k1 = std::min(k + 1, n - 1);
+      const double dt = t[static_cast<std::size_t>(k1)] - t[static_cast<std::size_t>(k)];
+      const double s = dt > 0.0 ? std::clamp((ts - t[static_cast<std::size_t>(k)]) / dt, 0.0, 1.0) : 0.0;
+      const Vec6 m = (1.0 - s) * pred.col(k) + s * pred.col(k1);
+      sse += w.cwiseProduct(measured.col(i) - m).squaredNorm();
+      ++count;
+    }
+    // Shifts that keep too little of the data are not trusted.
+    return count >= std::max(8, n / 4) ? sse / count : std::numeric_limits<double>::infinity();
+  };
+  // First-order estimate: residual ~ -tau dw/dt (central differences).
+  double num = 0.0;
+  double den = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const int a = std::max(i - 1, 0);
+    const int b = std::min(i + 1, n - 1);
+    const double dt = t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)];
+    if (!(dt > 0.0)) continue;
+    const Vec6 d = -w.cwiseProduct(pred.col(b) - pred.col(a)) / dt;
+    const Vec6 r = w.cwiseProduct(measured.col(i) - pred.col(i));
+    num += d.dot(r);
+    den += d.squaredNorm();
+  }
+  double best = 0.0;
+  double best_cost = cost(0.0);
+  auto consider = [&](double tau) {
+    if (!(std::abs(tau) <= max_delay_s)) return;
+    const double c = cost(tau);
+    if (c < best_cost) {
+      best_cost = c;
+      best = tau;
+    }
+  };
+  if (den > 0.0) consider(num / den);
+  const double dt_mean = (t1 - t0) / (n - 1);
+  const double h = std::max(dt_mean, max_delay_s / 200.0);
+  const int steps = static_cast<int>(std::ceil(max_delay_s / h));
+  for (int s = -steps; s <= steps; ++s) consider(s * h);
+  const double center = best;
+  for (int s = -10; s <= 10; ++s) consider(center + s * h / 10.0);
+  return best;
+}
+
+effects::NonlinearParams FitResult::nonlinear() const {
+  effects::NonlinearParams p;
+  p.tilt_u_rad = tilt_u_rad;
+  p.tilt_v_rad = tilt_v_rad;
+  p.mount_rpy_rad = mount_rpy_rad;
+  p.delay_s = delay_s;
+  return p;
+}
 
 double FitResult::value(const std::string& name) const {
   for (std::size_t j = 0; j < params.size(); ++j) {
@@ -208,6 +411,10 @@ double FitResult::value(const std::string& name) const {
   }
   if (name == "tilt_u") return tilt_u_rad;
   if (name == "tilt_v") return tilt_v_rad;
+  for (int k = 0; k < 3; ++k) {
+    if (mounting_estimated && name == effects::kMountParamNames[k]) return mount_rpy_rad(k);
+  }
+  if (delay_estimated && name == effects::kDelayParamName) return delay_s;
   throw std::out_of_range("fit result has no parameter '" + name + "'");
 }
 
@@ -220,6 +427,10 @@ double FitResult::stddev(const std::string& name) const {
   }
   if (name == "tilt_u") return tilt_u_std;
   if (name == "tilt_v") return tilt_v_std;
+  for (int k = 0; k < 3; ++k) {
+    if (mounting_estimated && name == effects::kMountParamNames[k]) return mount_rpy_std(k);
+  }
+  if (delay_estimated && name == effects::kDelayParamName) return delay_std;
   throw std::out_of_range("fit result has no parameter '" + name + "'");
 }
 
@@ -242,17 +453,15 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
 FitResult fitModel(const Model& model, const std::vector<SampleContext>& contexts,
                    const std::vector<int>& indices, const FitOptions& options) {
   Problem pb(model, contexts, indices);
-  pb.n = static_cast<int>(indices.size());
-  pb.p = model.numParams();
-  pb.estimate_tilt = model.estimatesTilt();
-  pb.override_gravity = pb.estimate_tilt || (options.tilt_u_rad && options.tilt_v_rad);
-  pb.needs_derivative = (model.signals() & kSignalModelDerivative) != 0;
+  const PhiLayout L(model);
+  const bool estimate_tilt = L.tilt >= 0;
+  pb.override_gravity = estimate_tilt || (options.tilt_u_rad && options.tilt_v_rad);
   for (int idx : indices) {
     if (idx < 0 || static_cast<std::size_t>(idx) >= contexts.size()) {
       throw std::out_of_range("fitModel: sample index " + std::to_string(idx) + " out of range");
     }
   }
-  const int n_unknowns = pb.p + (pb.estimate_tilt ? 2 : 0);
+  const int n_unknowns = pb.p + L.size;
   if (pb.p == 0) throw IdentificationError("model '" + model.name() + "' has no parameters to fit");
   if (6 * pb.n < n_unknowns + 1) {
     throw IdentificationError("too few samples: " + std::to_string(pb.n) + " samples give " +
@@ -260,23 +469,26 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
                               std::to_string(n_unknowns) + " unknowns of model '" + model.name() + "'");
   }
   checkFinite(pb);
+  if (pb.delay) checkTimeOrder(pb);
+  if (pb.delay && !(options.max_delay_s > 0.0 && std::isfinite(options.max_delay_s))) {
+    throw ConfigError("fit: the delay search range must be positive (got " + std::to_string(options.max_delay_s) + " s)");
+  }
   pb.y.resize(6 * pb.n);
   Mat6X measured(6, pb.n);
   for (int i = 0; i < pb.n; ++i) {
     pb.y.segment<6>(6 * i) = pb.at(i).wrench_S;
     measured.col(i) = pb.at(i).wrench_S;
   }
-  if (pb.needs_derivative) {
-    // First pass: the measured wrench stands in for the modelled one.
-    pb.dwdt = timeDerivative(pb, measured);
-    pb.wmodel = columns(measured);
-  }
+  // First pass of models that read the modelled wrench: wrench_model_S = 0, so their columns
+  // vanish and the solve is the other effects' fit with E = 0 (a calibration error is small; the
+  // measured wrench as a stand-in is an errors-in-variables start that can end in a false minimum).
+  if (pb.reads_wmodel) pb.wmodel = std::vector<Wrench>(static_cast<std::size_t>(pb.n), Wrench::Zero());
 
-  // Initial tilt.
-  TiltState tilt;
-  if (options.tilt_u_rad) tilt.u = *options.tilt_u_rad;
-  if (options.tilt_v_rad) tilt.v = *options.tilt_v_rad;
-  if (pb.estimate_tilt && !(options.tilt_u_rad && options.tilt_v_rad)) {
+  // Initial nonlinear parameters.
+  PhiState st;
+  st.fixed.tilt_u_rad = options.tilt_u_rad.value_or(0.0);
+  st.fixed.tilt_v_rad = options.tilt_v_rad.value_or(0.0);
+  if (estimate_tilt && !(options.tilt_u_rad && options.tilt_v_rad)) {
     // The paper's force stage (static): direction of the identified gravity vector in B.
     std::vector<SampleContext> subset;
     subset.reserve(indices.size());
@@ -285,18 +497,23 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
       PaperOptions po;
       po.method = PaperMethod::kStatic;
       const PaperResult pr = identifyPaper(subset, po);
-      tilt.u = pr.tilt_u_rad;
-      tilt.v = pr.tilt_v_rad;
+      st.fixed.tilt_u_rad = pr.tilt_u_rad;
+      st.fixed.tilt_v_rad = pr.tilt_v_rad;
     } catch (const Error&) {
       // Not determinable by the paper's method: start level; the rank check below decides.
     }
   }
+  st.phi = L.vector(st.fixed);
 
   const std::vector<std::string> names = paramNames(model);
-  // Rank of the linear part at the initial tilt.
+  // Rank of the linear part at the initial point (the measured wrench stands in for the modelled
+  // one of the effects that read it).
   {
+    if (pb.reads_wmodel) {
+      for (int i = 0; i < pb.n; ++i) pb.wmodel[static_cast<std::size_t>(i)] = measured.col(i);
+    }
     Eigen::MatrixXd A;
-    pb.buildRegressor(tilt.u, tilt.v, Vec6::Ones(), &A);
+    pb.buildRegressor(st.params(L), Vec6::Ones(), &A);
     const internal::RankReport rr = internal::analyzeRank(A, options.rank_tolerance);
     if (rr.rank < pb.p) {
       std::vector<std::string> bad;
@@ -308,61 +525,157 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
     }
   }
 
+  if (pb.reads_wmodel) std::fill(pb.wmodel.begin(), pb.wmodel.end(), Wrench::Zero());
+
   Vec6 weights = Vec6::Ones();
   LinearSolution sol;
-  auto runFit = [&](int derivative_passes, int tilt_iterations) {
-    sol = fitTilt(pb, weights, tilt_iterations, &tilt);
-    for (int k = 0; k < derivative_passes; ++k) {
-      updateDerivedSignals(pb, sol.theta, tilt.u, tilt.v);
-      sol = fitTilt(pb, weights, tilt_iterations, &tilt);
+  double delay_lo = -1e300;
+  double delay_hi = 1e300;
+  const double dt_mean = pb.n > 1 ? (pb.at(pb.n - 1).t - pb.at(0).t) / (pb.n - 1) : 0.0;
+  auto setDelayWindow = [&](double center) {
+    const double margin = std::max(0.02 * options.max_delay_s, 4.0 * dt_mean);
+    delay_lo = std::max(-options.max_delay_s, center - margin);
+    delay_hi = std::min(options.max_delay_s, center + margin);
+    pb.setActiveWindow(delay_lo, delay_hi);
+    if (6 * pb.n_active < n_unknowns + 1) {
+      throw IdentificationError("a delay of " + std::to_string(center) + " s leaves too few samples (" +
+                                std::to_string(pb.n_active) + ") inside the log");
     }
   };
-  // The unweighted pass only has to give the per-axis residual RMS for the weights: a few tilt
+  // Weighted sum of squares of the true model (effects::ModelEvaluator) over the active samples.
+  auto trueCost = [&](const Eigen::VectorXd& theta, const NonlinearParams& nl) {
+    const Mat6X r = measured - pb.predict(theta, nl);
+    double sse = 0.0;
+    for (int i = 0; i < pb.n; ++i) {
+      if (pb.active[static_cast<std::size_t>(i)]) sse += weights.cwiseProduct(r.col(i)).squaredNorm();
+    }
+    return sse;
+  };
+  auto runFit = [&](int derivative_passes, int iterations) {
+    pb.gn_lambda = 0.0;
+    sol = fitNonlinear(pb, L, weights, iterations, &st, delay_lo, delay_hi);
+    if (derivative_passes == 0) return;
+    // Levenberg-damped Gauss-Newton passes on the modelled-wrench effects (Problem::gn_theta),
+    // each accepted only if the true (bilinear) model's cost falls.
+    double cost = trueCost(sol.theta, st.params(L));
+    double lambda = 1e-4;
+    for (int k = 0; k < 4 * derivative_passes && lambda < 1e8; ++k) {
+      const LinearSolution saved_sol = sol;
+      const PhiState saved_st = st;
+      pb.wmodel = pb.basePrediction(sol.theta, st.params(L));
+      pb.gn_theta = sol.theta;
+      pb.gn_lambda = lambda;
+      // The passes themselves iterate: a couple of nonlinear steps per pass suffice.
+      sol = fitNonlinear(pb, L, weights, std::min(iterations, 2), &st, delay_lo, delay_hi);
+      const double trial = trueCost(sol.theta, st.params(L));
+      if (trial <= cost) {
+        const double change = cost - trial;
+        cost = trial;
+        lambda = std::max(lambda * 0.1, 1e-12);
+        if (change <= 1e-10 * cost) break;
+      } else {
+        sol = saved_sol;
+        st = saved_st;
+        lambda *= 10.0;
+      }
+    }
+    // Leave the linearisation at the solution, undamped (the Jacobian and covariance use it).
+    pb.wmodel = pb.basePrediction(sol.theta, st.params(L));
+    pb.gn_theta = sol.theta;
+    pb.gn_lambda = 0.0;
+    Eigen::VectorXd r(6 * pb.n);
+    const Mat6X m = pb.predict(sol.theta, st.params(L));
+    for (int i = 0; i < pb.n; ++i) {
+      r.segment<6>(6 * i) = pb.active[static_cast<std::size_t>(i)]
+                                ? Vec6(weights.cwiseProduct(measured.col(i) - m.col(i)))
+                                : Vec6::Zero();
+    }
+    sol.residual = r;
+  };
+  if (pb.delay) {
+    // Start: fit everything else with no delay, then scan the delay on that prediction.
+    st.phi(L.delay) = 0.0;
+    delay_lo = delay_hi = 0.0;
+    pb.setActiveWindow(0.0, 0.0);
+    runFit(pb.reads_wmodel ? 1 : 0, std::min(options.max_tilt_iterations, 4));
+    const Mat6X r0 = unstack(sol.residual, pb.n);
+    Vec6 w0 = Vec6::Ones();
+    const Vec6 rms0 = (r0.rowwise().squaredNorm() / pb.n).cwiseSqrt();
+    const double fl0 = std::max(1e-3 * rms0.maxCoeff(), 1e-12);
+    for (int a = 0; a < 6; ++a) w0(a) = 1.0 / std::max(rms0(a), fl0);
+    const Mat6X pred0 = pb.predict(sol.theta, st.params(L));
+    std::vector<double> times(static_cast<std::size_t>(pb.n));
+    for (int i = 0; i < pb.n; ++i) times[static_cast<std::size_t>(i)] = pb.at(i).t;
+    const double tau0 = initialDelayEstimate(times, measured, pred0, w0, options.max_delay_s);
+    st.phi(L.delay) = tau0;
+    setDelayWindow(tau0);
+  }
+  // The unweighted pass only has to give the per-axis residual RMS for the weights: a few
   // iterations suffice; the weighted pass then converges fully from there.
-  runFit(pb.needs_derivative ? options.derivative_iterations : 0,
+  runFit(pb.reads_wmodel ? options.derivative_iterations : 0,
          options.axis_weights ? std::min(options.max_tilt_iterations, 4) : options.max_tilt_iterations);
   if (options.axis_weights) {
     const Mat6X r = unstack(sol.residual, pb.n);
-    const Vec6 rms = (r.rowwise().squaredNorm() / pb.n).cwiseSqrt();
+    const Vec6 rms = (r.rowwise().squaredNorm() / std::max(1, pb.n_active)).cwiseSqrt();
     const double floor = std::max(1e-3 * rms.maxCoeff(), 1e-12);
     for (int a = 0; a < 6; ++a) weights(a) = 1.0 / std::max(rms(a), floor);
-    runFit(pb.needs_derivative ? 2 : 0, options.max_tilt_iterations);
+    runFit(pb.reads_wmodel ? 2 : 0, options.max_tilt_iterations);
   }
+  // A delay that ran into its window's edge: move the window and refit (a few times at most).
+  for (int k = 0; pb.delay && k < 3; ++k) {
+    const double tau = st.phi(L.delay);
+    const bool at_edge = (tau <= delay_lo + 1e-12 && delay_lo > -options.max_delay_s) ||
+                         (tau >= delay_hi - 1e-12 && delay_hi < options.max_delay_s);
+    if (!at_edge) break;
+    setDelayWindow(tau);
+    runFit(pb.reads_wmodel ? 2 : 0, options.max_tilt_iterations);
+  }
+  const NonlinearParams nl = st.params(L);
 
   FitResult res;
   res.model_name = model.name();
   res.params = model.params();
   res.theta = sol.theta;
-  res.tilt_estimated = pb.estimate_tilt;
+  res.tilt_estimated = estimate_tilt;
   res.tilt_applied = pb.override_gravity;
-  res.tilt_u_rad = pb.override_gravity ? tilt.u : 0.0;
-  res.tilt_v_rad = pb.override_gravity ? tilt.v : 0.0;
-  res.tilt_iterations = tilt.iterations;
+  res.tilt_u_rad = pb.override_gravity ? nl.tilt_u_rad : 0.0;
+  res.tilt_v_rad = pb.override_gravity ? nl.tilt_v_rad : 0.0;
+  res.mounting_estimated = pb.mounting;
+  res.mount_rpy_rad = pb.mounting ? nl.mount_rpy_rad : Vec3::Zero();
+  res.delay_estimated = pb.delay;
+  res.delay_s = pb.delay ? nl.delay_s : 0.0;
+  res.n_excluded = pb.n - pb.n_active;
+  res.tilt_iterations = st.iterations;
   res.axis_weights = weights;
-  res.n_samples = pb.n;
+  res.n_samples = pb.n_active;
 
-  // Joint Jacobian of the weighted model wrt [theta, U, V] at the solution.
+  // Joint Jacobian of the weighted model wrt [theta, phi] at the solution.
   Eigen::MatrixXd J(6 * pb.n, n_unknowns);
   {
     Eigen::MatrixXd A;
-    pb.buildRegressor(tilt.u, tilt.v, weights, &A);
+    pb.buildRegressor(nl, weights, &A);
     J.leftCols(pb.p) = A;
-    if (pb.estimate_tilt) {
-      Eigen::MatrixXd Ap, Am;
-      const double h = 1e-5;
-      pb.buildRegressor(tilt.u + h, tilt.v, weights, &Ap);
-      pb.buildRegressor(tilt.u - h, tilt.v, weights, &Am);
-      J.col(pb.p) = (Ap - Am) * sol.theta / (2.0 * h);
-      pb.buildRegressor(tilt.u, tilt.v + h, weights, &Ap);
-      pb.buildRegressor(tilt.u, tilt.v - h, weights, &Am);
-      J.col(pb.p + 1) = (Ap - Am) * sol.theta / (2.0 * h);
+    Eigen::MatrixXd Ap, Am;
+    for (int j = 0; j < L.size; ++j) {
+      const double h = j == L.delay ? std::max(1e-5, 0.05 * dt_mean) : 1e-5;
+      PhiState sp = st;
+      PhiState sm = st;
+      sp.phi(j) += h;
+      sm.phi(j) -= h;
+      pb.buildRegressor(sp.params(L), weights, &Ap);
+      pb.buildRegressor(sm.params(L), weights, &Am);
+      J.col(pb.p + j) = (Ap - Am) * sol.theta / (2.0 * h);
     }
   }
   std::vector<std::string> all_names = names;
-  if (pb.estimate_tilt) {
+  if (L.tilt >= 0) {
     all_names.push_back("tilt_u");
     all_names.push_back("tilt_v");
   }
+  if (L.mount >= 0) {
+    for (const char* m : effects::kMountParamNames) all_names.push_back(m);
+  }
+  if (L.delay >= 0) all_names.push_back(effects::kDelayParamName);
   // One factorisation of J for the rank check, the condition number and the covariance.
   const internal::ScaledQR qr_j(J, options.rank_tolerance);
   const internal::RankReport& rr = qr_j.rank();
@@ -375,18 +688,26 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
                               "): excite them with more distinct orientations/motions");
   }
   res.condition_number = rr.condition_number;
-  const int dof = 6 * pb.n - n_unknowns;
+  const int dof = 6 * pb.n_active - n_unknowns;
   res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
   res.covariance = res.sigma2 * qr_j.inverseGram();
   res.theta_std = res.covariance.diagonal().head(pb.p).cwiseMax(0.0).cwiseSqrt();
-  if (pb.estimate_tilt) {
-    res.tilt_u_std = std::sqrt(std::max(res.covariance(pb.p, pb.p), 0.0));
-    res.tilt_v_std = std::sqrt(std::max(res.covariance(pb.p + 1, pb.p + 1), 0.0));
+  auto sd = [&](int j) { return std::sqrt(std::max(res.covariance(pb.p + j, pb.p + j), 0.0)); };
+  if (L.tilt >= 0) {
+    res.tilt_u_std = sd(L.tilt);
+    res.tilt_v_std = sd(L.tilt + 1);
   }
+  if (L.mount >= 0) {
+    for (int k = 0; k < 3; ++k) res.mount_rpy_std(k) = sd(L.mount + k);
+  }
+  if (L.delay >= 0) res.delay_std = sd(L.delay);
 
-  // Unweighted residual.
-  res.residual = measured - predictStacked(pb, sol.theta, tilt.u, tilt.v);
-  res.residual_rms = (res.residual.rowwise().squaredNorm() / pb.n).cwiseSqrt();
+  // Unweighted residual (the compensator's evaluation); excluded samples count as zero.
+  res.residual = measured - pb.predict(sol.theta, nl);
+  for (int i = 0; i < pb.n; ++i) {
+    if (!pb.active[static_cast<std::size_t>(i)]) res.residual.col(i).setZero();
+  }
+  res.residual_rms = (res.residual.rowwise().squaredNorm() / std::max(1, pb.n_active)).cwiseSqrt();
 
   // Derived parameters: com = mass_com / mass, weight = m g (delta method).
   const auto& index = model.paramIndex();
@@ -411,8 +732,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
 }
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const Eigen::VectorXd& theta,
-                                                       std::optional<double> tilt_u_rad,
-                                                       std::optional<double> tilt_v_rad,
+                                                       const effects::NonlinearParams& nonlinear,
+                                                       bool apply_tilt,
                                                        const std::vector<SampleContext>& contexts,
                                                        const std::vector<int>& indices) {
   if (theta.size() != model.numParams()) {
@@ -421,35 +742,26 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const
                                 std::to_string(model.numParams()) + " parameters");
   }
   Problem pb(model, contexts, indices);
-  pb.n = static_cast<int>(indices.size());
-  pb.p = model.numParams();
-  pb.override_gravity = tilt_u_rad.has_value() && tilt_v_rad.has_value();
-  pb.needs_derivative = (model.signals() & kSignalModelDerivative) != 0;
-  const double u = tilt_u_rad.value_or(0.0);
-  const double v = tilt_v_rad.value_or(0.0);
-  if (pb.needs_derivative) {
-    pb.dwdt.assign(static_cast<std::size_t>(pb.n), Wrench::Zero());
-    pb.wmodel = columns(predictStacked(pb, theta, u, v, false));
-  }
-  Mat6X out = predictStacked(pb, theta, u, v);
-  if (pb.needs_derivative) {
-    for (int k = 0; k < 3; ++k) {
-      pb.dwdt = timeDerivative(pb, out);
-      out = predictStacked(pb, theta, u, v);
-    }
-  }
-  return out;
+  pb.override_gravity = apply_tilt;
+  if (pb.n == 0) return Mat6X(6, 0);
+  return pb.predict(theta, nonlinear);
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const Eigen::VectorXd& theta,
+                                                       std::optional<double> tilt_u_rad,
+                                                       std::optional<double> tilt_v_rad,
+                                                       const std::vector<SampleContext>& contexts,
+                                                       const std::vector<int>& indices) {
+  effects::NonlinearParams nl;
+  nl.tilt_u_rad = tilt_u_rad.value_or(0.0);
+  nl.tilt_v_rad = tilt_v_rad.value_or(0.0);
+  return predictWrench(model, theta, nl, tilt_u_rad.has_value() && tilt_v_rad.has_value(), contexts, indices);
 }
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const FitResult& fit,
                                                        const std::vector<SampleContext>& contexts,
                                                        const std::vector<int>& indices) {
-  std::optional<double> u, v;
-  if (fit.tilt_applied) {
-    u = fit.tilt_u_rad;
-    v = fit.tilt_v_rad;
-  }
-  return predictWrench(model, fit.theta, u, v, contexts, indices);
+  return predictWrench(model, fit.theta, fit.nonlinear(), fit.tilt_applied, contexts, indices);
 }
 
 Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const FitResult& fit,

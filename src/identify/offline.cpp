@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <unistd.h>
@@ -123,22 +124,32 @@ CompensateSummary compensateLogFile(const CompensateRequest& request) {
   const Model model = Model::fromName(set.model);
   const Eigen::VectorXd theta = thetaFor(model, set, request.params_path);
   const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, nullptr);
-  compensate::Compensator comp(model, theta, set.tilt_u_rad, set.tilt_v_rad);
+  compensate::Compensator comp(model, theta, nonlinearFor(model, set, request.params_path));
 
   CompensateSummary summary;
-  summary.n_samples = static_cast<int>(contexts.size());
   std::ostringstream os;
   os << "t,fx,fy,fz,tx,ty,tz,model_fx,model_fy,model_fz,model_tx,model_ty,model_tz\n";
   char buf[64];
+  double last_t = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < contexts.size(); ++i) {
     const SampleContext& ctx = contexts.samples[i];
     Wrench contact, modelled;
-    if (comp.compute(ctx, &contact, &modelled) != Status::kOk) {
+    const Status st = comp.compute(ctx, &contact, &modelled);
+    if (st == Status::kNotReady) {
+      ++summary.n_without_kinematics;
+      continue;
+    }
+    if (st != Status::kOk) {
       throw DataError(request.log_path + ": sample " + std::to_string(i) + " cannot be compensated (non-finite)");
     }
-    summary.raw_rms += ctx.wrench_S.cwiseAbs2();
+    // With a negative delay the output belongs to an earlier reading (comp.outputTime()).
+    const double t_out = comp.outputTime();
+    if (!(t_out > last_t)) continue;
+    last_t = t_out;
+    ++summary.n_samples;
+    summary.raw_rms += (contact + modelled).cwiseAbs2();
     summary.contact_rms += contact.cwiseAbs2();
-    std::snprintf(buf, sizeof(buf), "%.9f", ctx.t + contexts.t_origin);
+    std::snprintf(buf, sizeof(buf), "%.9f", t_out + contexts.t_origin);
     os << buf;
     for (int a = 0; a < 6; ++a) {
       std::snprintf(buf, sizeof(buf), ",%.9g", contact(a));
@@ -150,6 +161,7 @@ CompensateSummary compensateLogFile(const CompensateRequest& request) {
     }
     os << "\n";
   }
+  summary.n_without_kinematics = static_cast<int>(contexts.size()) - summary.n_samples;
   if (summary.n_samples > 0) {
     summary.raw_rms = (summary.raw_rms / summary.n_samples).cwiseSqrt();
     summary.contact_rms = (summary.contact_rms / summary.n_samples).cwiseSqrt();

@@ -18,6 +18,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/fit.hpp"
 
 namespace ftid::identify {
@@ -123,6 +124,12 @@ ParameterSet toParameterSet(const FitResult& fit) {
   set.tilt_v_rad = fit.tilt_v_rad;
   set.tilt_u_std = fit.tilt_u_std;
   set.tilt_v_std = fit.tilt_v_std;
+  if (fit.mounting_estimated) {
+    for (int k = 0; k < 3; ++k) {
+      set.params.push_back({effects::kMountParamNames[k], fit.mount_rpy_rad(k), fit.mount_rpy_std(k), "rad"});
+    }
+  }
+  if (fit.delay_estimated) set.params.push_back({effects::kDelayParamName, fit.delay_s, fit.delay_std, "s"});
   set.residual_rms = fit.residual_rms;
   set.condition_number = fit.condition_number;
   set.extras.push_back({"tilt_iterations", static_cast<double>(fit.tilt_iterations), 0.0, ""});
@@ -147,6 +154,28 @@ Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set, c
     theta(static_cast<Eigen::Index>(j)) = p->value;
   }
   return theta;
+}
+
+effects::NonlinearParams nonlinearFor(const effects::Model& model, const ParameterSet& set,
+                                      const std::string& source) {
+  effects::NonlinearParams nl;
+  nl.tilt_u_rad = set.tilt_u_rad;
+  nl.tilt_v_rad = set.tilt_v_rad;
+  auto need = [&](const char* name) {
+    for (const auto& q : set.params) {
+      if (q.name == name) {
+        if (!std::isfinite(q.value)) throw ConfigError(source + ": key 'parameters." + name + "' is not finite");
+        return q.value;
+      }
+    }
+    throw ConfigError(source + ": key 'parameters." + name + "' is missing (model '" + model.name() +
+                      "' needs it)");
+  };
+  if (model.estimatesMounting()) {
+    for (int k = 0; k < 3; ++k) nl.mount_rpy_rad(k) = need(effects::kMountParamNames[k]);
+  }
+  if (model.estimatesDelay()) nl.delay_s = need(effects::kDelayParamName);
+  return nl;
 }
 
 ParameterSet readParameterFile(const std::string& path) {
@@ -213,7 +242,8 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
   std::ostringstream os;
   os << "# ftid payload parameters, written by `ftid identify` (docs/identification.md).\n"
         "# Frames, units and signs: docs/conventions.md. Each entry: {value, std (standard error), unit}.\n"
-        "# `parameters` are the linear parameters of the model (what compensation uses);\n"
+        "# `parameters` are the model's parameters (what compensation uses): the linear ones and,\n"
+        "# for `mounting` / `sensor_delay`, mount_roll/pitch/yaw [rad] and delay [s];\n"
         "# `derived` (centre of mass, weight) and `provenance` are for information.\n";
   os << "model: " << quoted(set.model) << "\n";
   os << "parameters:\n";

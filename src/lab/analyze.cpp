@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "engine.hpp"
+#include "ftid/effects/nonlinear.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
 #include "ftid/effects/model.hpp"
@@ -74,6 +75,16 @@ ModelReport makeReport(const Engine& eng, const Model& model, const Linearizatio
   if (lin.tilt_columns) {
     r.params.push_back({"tilt_u", "rad", r.tilt_u_rad, stdOf(p)});
     r.params.push_back({"tilt_v", "rad", r.tilt_v_rad, stdOf(p + 1)});
+  }
+  if (lin.mount_columns) {
+    const int c = lin.mountColumn(p);
+    for (int k = 0; k < 3; ++k) {
+      r.params.push_back({effects::kMountParamNames[k], "rad", lin.mount(k) + sol.theta(c + k), stdOf(c + k)});
+    }
+  }
+  if (lin.delay_column) {
+    const int c = lin.delayColumn(p);
+    r.params.push_back({effects::kDelayParamName, "s", lin.delay + sol.theta(c), stdOf(c)});
   }
   const auto& idx = model.paramIndex();
   const int cm = idx.column("mass");
@@ -187,8 +198,18 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
       eng.tiltColumns(base.model, lin, base.sol.theta);
       lin.tilt_columns = true;
     }
+    // Nonlinear candidates are screened to first order at the base solution (their Jacobian
+    // columns); --explain then fits them fully (Engine::fitFully).
+    if (cand.estimatesMounting() && !lin.mount_columns) {
+      eng.mountColumns(base.model, lin, base.sol.theta);
+      lin.mount_columns = true;
+    }
+    if (cand.estimatesDelay() && !lin.delay_column) {
+      eng.delayColumn(base.model, lin, base.sol.theta);
+      lin.delay_column = true;
+    }
     // The base model's columns must keep their meaning in the candidate (nested models).
-    const Solution s = lin.tilt_columns == base.lin.tilt_columns
+    const Solution s = lin.extraColumns() == base.lin.extraColumns()
                            ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
                            : eng.solve(eng.design(cand, lin));
     c.added_params = s.rank - base.sol.rank;
@@ -307,6 +328,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   Dataset d;
   d.ctx = fit;
   d.n_fit = n_fit;
+  d.max_delay_s = options.max_delay_s;
   d.segment_start = {0};
   if (validate != nullptr) {
     d.external = true;

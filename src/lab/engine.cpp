@@ -7,6 +7,8 @@
 #include <cmath>
 
 #include "ftid/common/error.hpp"
+#include "ftid/effects/nonlinear.hpp"
+#include "ftid/identify/fit.hpp"
 #include "ftid/model/frames.hpp"
 
 namespace ftid::lab::detail {
@@ -74,15 +76,57 @@ Engine::Engine(Dataset data) : data_(std::move(data)) {
   }
 }
 
-SampleContext Engine::contextAt(int i, const Linearization& lin) const {
+int Engine::segmentOf(int i) const {
+  const auto& st = data_.segment_start;
+  int seg = 0;
+  for (std::size_t k = 0; k < st.size(); ++k) {
+    if (st[k] <= i) seg = static_cast<int>(k);
+  }
+  return seg;
+}
+
+SampleContext Engine::prepare(int i, const Linearization& lin, const Vec3& g_B, const Mat3& R_SM) const {
   SampleContext c = data_.ctx[static_cast<std::size_t>(i)];
-  c.g_S = c.R_BS.transpose() * model::gravityInBase(lin.u, lin.v);
+  if (lin.delay != 0.0) {
+    // The kinematics at t - delay, interpolated within this sample's own log (nearest end outside).
+    const int seg = segmentOf(i);
+    const int begin = data_.segment_start.empty() ? 0 : data_.segment_start[static_cast<std::size_t>(seg)];
+    const int end = static_cast<std::size_t>(seg + 1) < data_.segment_start.size()
+                        ? data_.segment_start[static_cast<std::size_t>(seg + 1)]
+                        : data_.size();
+    auto at = [&](int k) -> const SampleContext& { return data_.ctx[static_cast<std::size_t>(begin + k)]; };
+    const int n = end - begin;
+    const double ts = std::clamp(c.t - lin.delay, at(0).t, at(n - 1).t);
+    effects::kinematicsAt(at, n, ts, &c);
+  }
+  if (lin.mount.squaredNorm() > 0.0) effects::applyMounting(R_SM, &c);
+  c.g_S = c.R_BS.transpose() * g_B;
+  return c;
+}
+
+void Engine::updateActive(Linearization& lin) const {
+  lin.active.clear();
+  if (lin.delay == 0.0) return;
+  lin.active.assign(static_cast<std::size_t>(data_.size()), 1);
+  std::vector<int> starts = data_.segment_start;
+  if (starts.empty()) starts.push_back(0);
+  starts.push_back(data_.size());
+  for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+    const double t0 = data_.ctx[static_cast<std::size_t>(starts[s])].t;
+    const double t1 = data_.ctx[static_cast<std::size_t>(starts[s + 1] - 1)].t;
+    for (int i = starts[s]; i < starts[s + 1]; ++i) {
+      const double ts = data_.ctx[static_cast<std::size_t>(i)].t - lin.delay;
+      lin.active[static_cast<std::size_t>(i)] = (ts >= t0 - 1e-9 && ts <= t1 + 1e-9) ? 1 : 0;
+    }
+  }
+}
+
+SampleContext Engine::contextAt(int i, const Linearization& lin) const {
+  SampleContext c = prepare(i, lin, model::gravityInBase(lin.u, lin.v), effects::mountingRotation(lin.mount));
   if (lin.w_model.cols() == data_.size()) {
     c.wrench_model_S = lin.w_model.col(i);
-    c.dwrench_model_dt = lin.dw_dt.col(i);
   } else {
     c.wrench_model_S.setZero();
-    c.dwrench_model_dt.setZero();
   }
   return c;
 }
@@ -95,22 +139,30 @@ int Engine::rowOf(int i, int a) const {
 Engine::Design Engine::design(const Model& model, const Linearization& lin) const {
   const int n = data_.size();
   const int p = model.numParams();
-  const int pt = p + (lin.tilt_columns ? 2 : 0);
+  const int pt = p + lin.extraColumns();
   Design X(6 * n, pt + 1);
   Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
   const Vec3 g_B = model::gravityInBase(lin.u, lin.v);
+  const Mat3 R_SM = effects::mountingRotation(lin.mount);
   const bool has_derived = lin.w_model.cols() == n;
+  const bool masked = lin.active.size() == static_cast<std::size_t>(n);
   const Vec6& w = data_.weights;
+  const int mc = lin.mountColumn(p);
+  const int dc = lin.delayColumn(p);
   SampleContext c;
   for (int i = 0; i < n; ++i) {
-    c = data_.ctx[static_cast<std::size_t>(i)];
-    c.g_S = c.R_BS.transpose() * g_B;
+    if (masked && !lin.active[static_cast<std::size_t>(i)]) {
+      for (int a = 0; a < 6; ++a) {
+        double* row = X.data() + static_cast<std::ptrdiff_t>(rowOf(i, a)) * (pt + 1);
+        std::fill(row, row + pt + 1, 0.0);
+      }
+      continue;
+    }
+    c = prepare(i, lin, g_B, R_SM);
     if (has_derived) {
       c.wrench_model_S = lin.w_model.col(i);
-      c.dwrench_model_dt = lin.dw_dt.col(i);
     } else {
       c.wrench_model_S.setZero();
-      c.dwrench_model_dt.setZero();
     }
     model.computeRegressor(c, Y);
     for (int a = 0; a < 6; ++a) {
@@ -120,6 +172,10 @@ Engine::Design Engine::design(const Model& model, const Linearization& lin) cons
         row[p] = w(a) * lin.j_u(a, i);
         row[p + 1] = w(a) * lin.j_v(a, i);
       }
+      if (lin.mount_columns) {
+        for (int k = 0; k < 3; ++k) row[mc + k] = w(a) * lin.j_m[k](a, i);
+      }
+      if (lin.delay_column) row[dc] = w(a) * lin.j_d(a, i);
       row[pt] = w(a) * c.wrench_S(a);
     }
   }
@@ -136,7 +192,7 @@ Engine::Design Engine::designExtended(const Model& base, const Design& base_desi
                                       const Linearization& lin, const std::vector<SampleContext>& prepared_ctx) const {
   const int pb = base.numParams();
   const int pc = cand.numParams();
-  const int tilt = lin.tilt_columns ? 2 : 0;
+  const int tilt = lin.extraColumns();  // nonlinear columns, copied from the base design
   const auto& bn = base.paramIndex().names();
   const auto& cn = cand.paramIndex().names();
   bool prefix = base_design.cols() == pb + tilt + 1 && pc >= pb;
@@ -257,10 +313,7 @@ Mat6X Engine::predict(const Model& model, const Linearization& lin, const Eigen:
   Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, p);
   for (int i = 0; i < n; ++i) {
     SampleContext c = contextAt(i, lin);
-    if (exclude_derived) {
-      c.wrench_model_S.setZero();
-      c.dwrench_model_dt.setZero();
-    }
+    if (exclude_derived) c.wrench_model_S.setZero();
     model.computeRegressor(c, Y);
     out.col(i) = Y * theta.head(p);
   }
@@ -309,6 +362,22 @@ void Engine::tiltColumns(const Model& model, Linearization& lin, const Eigen::Ve
   }
 }
 
+void Engine::mountColumns(const Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
+  const double h = 1e-5;
+  for (int k = 0; k < 3; ++k) {
+    Linearization lp = lin;
+    Linearization lm = lin;
+    lp.mount(k) += h;
+    lm.mount(k) -= h;
+    lin.j_m[k] = (predict(model, lp, theta, false) - predict(model, lm, theta, false)) / (2.0 * h);
+  }
+}
+
+void Engine::delayColumn(const Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
+  // d/dtau w(kinematics at t - tau) = -(dw/dt)(t - tau): minus the time derivative of the prediction.
+  lin.j_d = -timeDerivative(predict(model, lin, theta, false));
+}
+
 Linearization Engine::initial(const Model& model) const {
   Linearization lin;
   if (model.estimatesTilt()) {
@@ -338,31 +407,62 @@ std::pair<Linearization, Solution> Engine::fitFully(const Model& model, const Li
   Linearization lin = start;
   const int p = model.numParams();
   const bool tilt = model.estimatesTilt();
-  const bool derived = (model.signals() & effects::kSignalModelDerivative) != 0;
+  const bool mount = model.estimatesMounting();
+  const bool delay = model.estimatesDelay();
+  const bool derived = (model.signals() & effects::kSignalModelWrench) != 0;
   lin.tilt_columns = false;
+  lin.mount_columns = false;
+  lin.delay_column = false;
+  if (!mount) lin.mount.setZero();
+  if (!delay) lin.delay = 0.0;
+  updateActive(lin);
   Eigen::VectorXd theta;
   {
     const Solution s0 = solve(design(model, lin), false);
     theta = s0.theta.head(p);
   }
+  if (delay && lin.delay == 0.0) {
+    // Start for the delay: scan the shifted prediction of the model without delay (fit.hpp),
+    // on the fitting data's first log.
+    const int end = data_.segment_start.size() > 1 ? data_.segment_start[1] : data_.n_fit;
+    const int n0 = std::min(end, data_.n_fit);
+    std::vector<double> t(static_cast<std::size_t>(n0));
+    Mat6X measured(6, n0);
+    for (int i = 0; i < n0; ++i) {
+      t[static_cast<std::size_t>(i)] = data_.ctx[static_cast<std::size_t>(i)].t;
+      measured.col(i) = data_.ctx[static_cast<std::size_t>(i)].wrench_S;
+    }
+    const Mat6X pred = predict(model, lin, theta, false).leftCols(n0);
+    lin.delay = identify::initialDelayEstimate(t, measured, pred, data_.weights, data_.max_delay_s);
+    updateActive(lin);
+    const Solution s1 = solve(design(model, lin), false);
+    theta = s1.theta.head(p);
+  }
   for (int it = 0; it < 30; ++it) {
     double change = 0.0;
     if (derived) {
       const Mat6X w = predict(model, lin, theta, true);
-      const Mat6X dw = timeDerivative(w);
-      if (lin.dw_dt.cols() == dw.cols()) {
-        const double scale = std::max(1e-12, dw.cwiseAbs().maxCoeff());
-        change = (dw - lin.dw_dt).cwiseAbs().maxCoeff() / scale;
+      if (lin.w_model.cols() == w.cols()) {
+        const double scale = std::max(1e-12, w.cwiseAbs().maxCoeff());
+        change = (w - lin.w_model).cwiseAbs().maxCoeff() / scale;
       } else {
         change = 1.0;
       }
       lin.w_model = w;
-      lin.dw_dt = dw;
+      lin.dw_dt = timeDerivative(w);
     }
     double step = 0.0;
     if (tilt) {
       tiltColumns(model, lin, theta);
       lin.tilt_columns = true;
+    }
+    if (mount) {
+      mountColumns(model, lin, theta);
+      lin.mount_columns = true;
+    }
+    if (delay) {
+      delayColumn(model, lin, theta);
+      lin.delay_column = true;
     }
     const Solution s = solve(design(model, lin), false);
     theta = s.theta.head(p);
@@ -373,11 +473,26 @@ std::pair<Linearization, Solution> Engine::fitFully(const Model& model, const Li
       lin.v += dv;
       step = std::max(std::abs(du), std::abs(dv));
     }
+    if (mount) {
+      const Vec3 dm = s.theta.segment<3>(lin.mountColumn(p));
+      lin.mount += dm;
+      step = std::max(step, dm.cwiseAbs().maxCoeff());
+    }
+    if (delay) {
+      const double dd = std::clamp(s.theta(lin.delayColumn(p)), -data_.max_delay_s - lin.delay, data_.max_delay_s - lin.delay);
+      lin.delay += dd;
+      step = std::max(step, std::abs(dd));
+      updateActive(lin);
+    }
     if (step < 1e-9 && change < 1e-6) break;
   }
   // Final linearisation at the converged point; the derived signals of this model for candidates.
   if (tilt) tiltColumns(model, lin, theta);
+  if (mount) mountColumns(model, lin, theta);
+  if (delay) delayColumn(model, lin, theta);
   lin.tilt_columns = tilt;
+  lin.mount_columns = mount;
+  lin.delay_column = delay;
   Solution sol = solve(design(model, lin), true, true);
   if (!derived) {
     lin.w_model = predict(model, lin, sol.theta, true);

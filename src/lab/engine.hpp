@@ -38,6 +38,7 @@ struct Dataset {
   bool external = false;
   Vec6 weights = Vec6::Ones();     ///< 1 / noise floor
   std::vector<int> segment_start;  ///< sample index where a log starts (for time derivatives)
+  double max_delay_s = 1.0;        ///< delay search range of `sensor_delay` [s]
 
   int size() const { return static_cast<int>(ctx.size()); }
   /// Test block of fold f, and whether block b is in the training set of fold f.
@@ -48,11 +49,24 @@ struct Dataset {
   }
 };
 
-/// The linearisation point: tilt and the model-derived signals.
+/// The linearisation point: the nonlinear parameters (effects/nonlinear.hpp) and the
+/// model-derived signals.
 struct Linearization {
   double u = 0.0, v = 0.0;
   bool tilt_columns = false;    ///< append dY/dU theta, dY/dV theta
   Mat6X j_u, j_v;               ///< per sample (6 x N), when tilt_columns
+  Vec3 mount = Vec3::Zero();    ///< mounting roll, pitch, yaw [rad]
+  bool mount_columns = false;   ///< append d(Y theta)/d mount (3 columns)
+  Mat6X j_m[3];
+  double delay = 0.0;           ///< [s] the reading lags the kinematics
+  bool delay_column = false;    ///< append d(Y theta)/d delay = -d/dt of the prediction
+  Mat6X j_d;
+  /// Samples whose delayed kinematics lie inside their log (empty: all); the others get zero rows.
+  std::vector<char> active;
+  /// Columns appended after the model's parameters: tilt (2), mounting (3), delay (1).
+  int extraColumns() const { return (tilt_columns ? 2 : 0) + (mount_columns ? 3 : 0) + (delay_column ? 1 : 0); }
+  int mountColumn(int p) const { return p + (tilt_columns ? 2 : 0); }
+  int delayColumn(int p) const { return mountColumn(p) + (mount_columns ? 3 : 0); }
   Mat6X w_model;                ///< modelled wrench without derivative-reading effects (6 x N)
   Mat6X dw_dt;                  ///< its time derivative (6 x N)
 };
@@ -112,12 +126,21 @@ class Engine {
   Mat6X timeDerivative(const Mat6X& w) const;
   /// Tilt Jacobian columns J_U, J_V (6 x N) of the model with theta.
   void tiltColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
+  /// Mounting Jacobian columns (central differences of the prediction in roll, pitch, yaw).
+  void mountColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
+  /// Delay Jacobian column: -d/dt of the prediction (the exact shift's first-order change).
+  void delayColumn(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
+  /// Marks the samples whose kinematics at t - lin.delay lie inside their own log.
+  void updateActive(Linearization& lin) const;
 
   /// Indices of the evaluated (test) samples in order.
   const std::vector<int>& testSamples() const { return test_samples_; }
 
  private:
   SampleContext contextAt(int i, const Linearization& lin) const;
+  /// Sample i prepared for lin (delay shift within its log, mounting, gravity g_B).
+  SampleContext prepare(int i, const Linearization& lin, const Vec3& g_B, const Mat3& R_SM) const;
+  int segmentOf(int i) const;
   Dataset data_;
   std::vector<int> test_samples_;
   std::vector<int> block_of_;  ///< block index of every sample

@@ -83,8 +83,8 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
               std::isfinite(c.temperature_drift.reference_degC),
           "temperature_drift", "not finite");
   require(finite3(c.time_drift.dF0_dt_N_per_s) && finite3(c.time_drift.dT0_dt_Nm_per_s), "time_drift", "not finite");
-  require(std::isfinite(c.sensor_delay.tau_s) && c.sensor_delay.tau_s >= 0.0 && c.sensor_delay.tau_s < 1.0,
-          "sensor_delay.tau_s", "must be in [0, 1) s");
+  require(std::isfinite(c.sensor_delay.tau_s) && std::abs(c.sensor_delay.tau_s) < 1.0,
+          "sensor_delay.tau_s", "must be in (-1, 1) s");
   require(c.crosstalk.E.allFinite(), "crosstalk.E", "not finite");
   require(std::isfinite(c.contact.t_start_s) && std::isfinite(c.contact.t_end_s) &&
               c.contact.t_end_s > c.contact.t_start_s,
@@ -185,8 +185,8 @@ SensorReading CellSim::sampleAt(double t_s) const {
   const trajectory::TrajectoryPoint x = stateAt(t_s);
   SensorReading r = readingAt(x.q, x.qd, x.qdd, t_s);
   const double tau = sensorDelay();
-  if (tau > 0.0) {
-    // Exact delay: the wrench (and the contact truth that is part of it) is the full physical
+  if (tau != 0.0) {
+    // Exact delay (either sign): the wrench (and the contact truth that is part of it) is the full physical
     // reading of the instant t - tau, re-evaluated from the trajectory.
     const double td = t_s - tau;
     const trajectory::TrajectoryPoint xd = stateAt(td);

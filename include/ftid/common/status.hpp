@@ -12,6 +12,7 @@ enum class Status : std::uint8_t {
   kStale,          ///< data too old to use
   kRejected,       ///< a command was refused by the last-hop safety check
   kFault,          ///< a device reported a fault (protective stop, bus-off, ...)
+  kNotReady,       ///< not enough history yet (e.g. a compensator's delay line is filling)
 };
 
 /// Fault bits, combined in a FaultWord. Set from the loop with fetch_or, read by the supervisor.

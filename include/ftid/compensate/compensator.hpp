@@ -1,49 +1,76 @@
 #pragma once
-// Real-time compensation (paper Eq. 24-30, docs/conventions.md "Contact (compensated) wrench"):
+// Real-time compensation (paper Eq. 24-30, docs/conventions.md "Contact (compensated) wrench",
+// docs/effects.md "How each effect is compensated online"):
 //
-//   modelled_S = Y(ctx; U, V) * theta          (offsets + gravity + inertia + every other effect)
-//   contact_S  = ctx.wrench_S - modelled_S
+//   modelled = ModelEvaluator(prepared context)      (every effect, crosstalk included)
+//   contact  = reading - modelled,  or with crosstalk (I + E)^-1 reading - w_base
+//              (effects::ModelEvaluator::contact: the calibration error is undone on the contact too)
 //
-// compute() is real-time safe: no heap allocation (regressor preallocated at construction), no
-// exceptions, no locks, no I/O. Non-finite input is rejected with Status::kInvalidInput and the
-// outputs are left untouched. One instance per thread (it keeps the preallocated workspace and the
-// previous modelled wrench for effects that read its time derivative).
+// The prepared context is the one the fit uses (effects/nonlinear.hpp): mounting rotation
+// applied to the kinematics, g = R_BM^T g_B(U, V), and, with a delay tau, the kinematics at the
+// reading's time minus tau, interpolated from a fixed ring of recent samples:
+//   tau > 0 (the reading lags): each reading is paired with the state tau earlier; the output
+//           belongs to the current reading; the first tau seconds give Status::kNotReady.
+//   tau < 0 (the reading leads): the newest reading whose state (|tau| later) has arrived is
+//           output, so the output is |tau| late; outputTime() tells which reading it is.
+// Nothing differentiates the compensator's own output.
+//
+// compute() is real-time safe: no heap allocation (workspace and ring preallocated at
+// construction), no exceptions, no locks, no I/O. Non-finite input is rejected with
+// Status::kInvalidInput and the outputs are left untouched. One instance per thread.
+#include <vector>
+
 #include "ftid/common/status.hpp"
-#include "ftid/effects/model.hpp"
+#include "ftid/effects/nonlinear.hpp"
 
 namespace ftid::compensate {
 
+using effects::NonlinearParams;
 using effects::SampleContext;
 
 class Compensator {
  public:
-  /// theta ordered as model.paramIndex(); tilt in rad. Throws ConfigError if theta has the wrong
-  /// size or is not finite. If use_context_gravity, ctx.g_S is used as given instead of
-  /// R_BS^T g_B(U, V) (e.g. gravity from an IMU).
-  Compensator(const effects::Model& model, const Eigen::VectorXd& theta, double tilt_u_rad,
-              double tilt_v_rad, bool use_context_gravity = false);
+  /// The highest sample rate the delay ring is sized for [Hz]: ring = |tau| * rate * 1.25 + 8.
+  static constexpr double kMaxRateHz = 2000.0;
 
-  /// contact_S = reading - modelled; either output may be nullptr.
+  /// theta ordered as model.paramIndex(); nonlinear parameters as fitted (those the model does
+  /// not estimate are ignored except the tilt, which always sets gravity). Throws ConfigError if
+  /// theta has the wrong size, a value is not finite, or |delay| > 10 s.
+  Compensator(const effects::Model& model, const Eigen::VectorXd& theta, const NonlinearParams& nonlinear);
+  /// Paper-style: tilt only.
+  Compensator(const effects::Model& model, const Eigen::VectorXd& theta, double tilt_u_rad,
+              double tilt_v_rad);
+
+  /// contact = reading - modelled; either output may be nullptr. kNotReady while a delay line
+  /// fills, kInvalidInput for non-finite input or output.
   Status compute(const SampleContext& ctx, Wrench* contact_S, Wrench* modelled_S) noexcept;
 
-  /// Forgets the previous sample (time-derivative state), e.g. after a gap in the data.
+  /// Time (SampleContext::t) of the reading the last successful output belongs to.
+  double outputTime() const noexcept { return output_t_; }
+
+  /// Forgets the history (delay line), e.g. after a gap in the data.
   void reset() noexcept;
 
-  const effects::Model& model() const noexcept { return model_; }
-  const Eigen::VectorXd& theta() const noexcept { return theta_; }
+  const effects::Model& model() const noexcept { return eval_.model(); }
+  const Eigen::VectorXd& theta() const noexcept { return eval_.theta(); }
+  const NonlinearParams& nonlinear() const noexcept { return nl_; }
 
  private:
-  effects::Model model_;
-  Eigen::VectorXd theta_;
+  const SampleContext& ringAt(int i) const noexcept;  ///< 0 = oldest
+  void push(const SampleContext& ctx) noexcept;
+  Status evaluate(const SampleContext& reading, Wrench* contact_S, Wrench* modelled_S) noexcept;
+
+  effects::ModelEvaluator eval_;
+  NonlinearParams nl_;
   Vec3 g_B_;
-  bool use_context_gravity_;
-  bool needs_derivative_;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> Y_;
+  Mat3 R_SM_;
+  bool mounting_;
+  double delay_s_;                  ///< 0 unless the model estimates a delay
+  std::vector<SampleContext> ring_; ///< fixed capacity; used only when delay_s_ != 0
+  int ring_head_ = 0;               ///< index of the oldest entry
+  int ring_count_ = 0;
   SampleContext work_;
-  Wrench prev_modelled_ = Wrench::Zero();
-  Wrench dwdt_ = Wrench::Zero();
-  double prev_t_ = 0.0;
-  bool has_prev_ = false;
+  double output_t_ = 0.0;
 };
 
 }  // namespace ftid::compensate

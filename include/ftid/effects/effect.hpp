@@ -26,7 +26,7 @@ enum Signal : std::uint32_t {
   kSignalImu = 1u << 0,          ///< IMU columns (ax..alz)
   kSignalTemperature = 1u << 1,  ///< temp column
   kSignalTime = 1u << 2,         ///< t (always present in a log, but named for documentation)
-  kSignalModelDerivative = 1u << 3,  ///< d/dt of the modelled wrench (filled by the fitter)
+  kSignalModelWrench = 1u << 3,  ///< the modelled wrench of the other effects (wrench_model_S)
   kSignalExtraColumn = 1u << 4,  ///< an extra log column by name
 };
 
@@ -47,13 +47,12 @@ struct SampleContext {
   Vec3 imu_w_S = Vec3::Zero();
   Vec3 imu_alpha_S = Vec3::Zero();
   double temp_degC = 0.0;                ///< (if has_temp)
-  Wrench dwrench_model_dt = Wrench::Zero();  ///< d/dt of the current modelled wrench (fitter)
   const double* extra = nullptr;         ///< this sample's extra log columns, or nullptr
   /// Names of the extra columns (same order as `extra`), or nullptr; read by generic effects such
   /// as poly(<column>,n). Set by whoever owns the names (e.g. the ContextSet's owner).
   const std::vector<std::string>* extra_names = nullptr;
-  /// The current modelled wrench (fitter, like dwrench_model_dt), without the effects that read it.
-  /// Read by `crosstalk` (kSignalModelDerivative).
+  /// The modelled wrench of the effects that do not read it (effects::ModelEvaluator, the fitter).
+  /// Read by `crosstalk` (kSignalModelWrench).
   Wrench wrench_model_S = Wrench::Zero();
   bool has_imu = false;
   bool has_temp = false;
@@ -95,6 +94,10 @@ class Effect {
   virtual std::uint32_t signals() const { return kSignalNone; }
   /// True for the tilt effect: the fitter estimates U, V when the model contains it.
   virtual bool estimatesTilt() const { return false; }
+  /// True for `mounting`: the fitter estimates the sensor's mounting rotation (effects/nonlinear.hpp).
+  virtual bool estimatesMounting() const { return false; }
+  /// True for `sensor_delay`: the fitter estimates the reading's delay (effects/nonlinear.hpp).
+  virtual bool estimatesDelay() const { return false; }
 
   /// Resolve the columns this effect writes. Called once when the model is composed.
   /// Throws ConfigError if a parameter it needs is missing.

@@ -34,6 +34,8 @@ class Model {
   std::vector<ParamInfo> params() const;  ///< in column order
   int numParams() const { return index_.size(); }
   bool estimatesTilt() const;
+  bool estimatesMounting() const;
+  bool estimatesDelay() const;
   std::uint32_t signals() const;  ///< union of the effects' signals
   bool contains(const std::string& effect_name) const;
 

@@ -8,18 +8,21 @@
 // equations); the tilt, when the model contains the `tilt` effect, by variable projection: an
 // outer Levenberg-damped Gauss-Newton on (U, V) with a numeric Jacobian of the stacked residual,
 // started from the paper's force stage (direction of the identified gravity vector in B).
-// Effects that read kSignalModelDerivative get the signals derived from the current fit, and the
-// fit is iterated (a fixed point; first pass: the measured wrench stands in for the model):
-//   SampleContext::dwrench_model_dt  central time difference of the current model prediction
-//                                    (sensor_delay)
-//   SampleContext::wrench_model_S    the current prediction without the effects that read these
-//                                    signals (crosstalk: reading = (I + E) w_model)
+// The other nonlinear parameters (effects/nonlinear.hpp) join the tilt in the same outer search:
+// the `mounting` rotation (roll, pitch, yaw of the true sensor frame against the configured one)
+// and the `sensor_delay` (an exact time shift of the kinematics, found by a scan of the shifted
+// prediction over +-max_delay_s, the first-order estimate -tau dw/dt as one more start, then
+// refined with the others). Effects that read kSignalModelWrench (crosstalk) get
+// SampleContext::wrench_model_S = the prediction of the other effects, iterated to a fixed point
+// (first pass: the measured wrench stands in for it); predictions use effects::ModelEvaluator,
+// the same code as the compensator.
 // predictWrench fills them the same way. Details and the uncertainty model: docs/identification.md.
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/nonlinear.hpp"
 
 namespace ftid::identify {
 
@@ -33,7 +36,9 @@ struct FitOptions {
   std::optional<double> tilt_v_rad;
   bool axis_weights = true;        ///< per-axis weights 1/RMS (re-estimated once)
   int max_tilt_iterations = 50;    ///< outer Gauss-Newton iterations on (U, V)
-  int derivative_iterations = 4;   ///< refits for effects that read the modelled wrench or its d/dt
+  int derivative_iterations = 8;   ///< Gauss-Newton passes for effects that read the modelled wrench
+  /// Models with `sensor_delay`: the delay is searched in [-max_delay_s, +max_delay_s] [s].
+  double max_delay_s = 1.0;
   /// Relative threshold on the pivots / singular values of the column-scaled regressor below which
   /// a direction counts as not excited (rank deficiency).
   double rank_tolerance = 1e-9;
@@ -60,6 +65,13 @@ struct FitResult {
   double tilt_v_rad = 0.0;
   double tilt_u_std = 0.0;
   double tilt_v_std = 0.0;
+  bool mounting_estimated = false;      ///< model has `mounting`
+  Vec3 mount_rpy_rad = Vec3::Zero();    ///< roll, pitch, yaw of the true sensor frame in S
+  Vec3 mount_rpy_std = Vec3::Zero();
+  bool delay_estimated = false;         ///< model has `sensor_delay`
+  double delay_s = 0.0;                 ///< the reading lags the kinematics by this
+  double delay_std = 0.0;
+  int n_excluded = 0;                   ///< samples whose delayed kinematics lie outside the log
   std::vector<DerivedParam> derived;    ///< com_x/y/z, weight (when the model has gravity)
   Eigen::Matrix<double, 6, Eigen::Dynamic> residual;  ///< measured - modelled, per sample (6 x N)
   Vec6 residual_rms = Vec6::Zero();     ///< per axis, unweighted [N, Nm]
@@ -69,7 +81,11 @@ struct FitResult {
   int n_samples = 0;
   int tilt_iterations = 0;
 
-  /// Value / std of a parameter or derived parameter (also "tilt_u", "tilt_v"); throws
+  /// The nonlinear parameters as the compensator takes them.
+  effects::NonlinearParams nonlinear() const;
+
+  /// Value / std of a parameter or derived parameter (also "tilt_u", "tilt_v", "mount_roll",
+  /// "mount_pitch", "mount_yaw", "delay"); throws
   /// std::out_of_range naming it if absent.
   double value(const std::string& name) const;
   double stddev(const std::string& name) const;
@@ -93,7 +109,25 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const
                                                        const std::vector<SampleContext>& contexts,
                                                        const std::vector<int>& indices);
 
-/// Modelled wrench for given theta and tilt (shared by predictWrench and the fitter).
+/// Start for a delay (docs/identification.md): the prediction series `predicted` (6 x n, at times
+/// t, of a model without the delay) is shifted by each delay on a grid over [-max, max] (linear
+/// interpolation) and compared with `measured`; the first-order estimate (regression of the
+/// residual on -d predicted/dt) is one more candidate. Returns the delay with the smallest weighted
+/// mean square difference over the samples the shift keeps inside the data (0 if none is better).
+double initialDelayEstimate(const std::vector<double>& t, const Eigen::Matrix<double, 6, Eigen::Dynamic>& measured,
+                            const Eigen::Matrix<double, 6, Eigen::Dynamic>& predicted, const Vec6& weights,
+                            double max_delay_s);
+
+/// Modelled wrench for given theta and nonlinear parameters; gravity from the tilt if
+/// apply_tilt, else ctx.g_S. Samples whose delayed kinematics lie outside the data use the
+/// nearest end.
+Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const Eigen::VectorXd& theta,
+                                                       const effects::NonlinearParams& nonlinear,
+                                                       bool apply_tilt,
+                                                       const std::vector<SampleContext>& contexts,
+                                                       const std::vector<int>& indices);
+
+/// Modelled wrench for given theta and tilt (no mounting or delay).
 Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const Eigen::VectorXd& theta,
                                                        std::optional<double> tilt_u_rad,
                                                        std::optional<double> tilt_v_rad,

@@ -36,13 +36,16 @@ struct CompensateRequest {
 };
 
 struct CompensateSummary {
-  int n_samples = 0;
+  int n_samples = 0;                ///< rows written
+  int n_without_kinematics = 0;     ///< samples left out: their delayed kinematics lie outside the log
   Vec6 raw_rms = Vec6::Zero();      ///< RMS of the reading
   Vec6 contact_rms = Vec6::Zero();  ///< RMS of the compensated (contact) wrench
 };
 
 /// Writes OUT.csv (atomically) with columns t, fx..tz (contact wrench = reading - modelled) and
-/// model_fx..model_tz (modelled wrench), one row per log sample.
+/// model_fx..model_tz (modelled wrench), one row per log sample, through the real-time
+/// compensator (ftidd's code). With a `sensor_delay`, samples whose delayed kinematics lie outside
+/// the log (the first |delay| seconds, or the last ones for a negative delay) are left out.
 CompensateSummary compensateLogFile(const CompensateRequest& request);
 
 /// Default robot description: `config/ur10.urdf` relative to the working directory, else next to

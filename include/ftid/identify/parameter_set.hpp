@@ -6,10 +6,8 @@
 #include <vector>
 
 #include "ftid/common/types.hpp"
+#include "ftid/effects/nonlinear.hpp"
 
-namespace ftid::effects {
-class Model;
-}
 
 namespace ftid::identify {
 
@@ -32,7 +30,9 @@ struct Provenance {
 
 struct ParameterSet {
   std::string model;                 ///< canonical model name, e.g. "paper"
-  std::vector<NamedValue> params;    ///< the model's linear parameters (theta), in any order
+  /// The model's parameters in any order: the linear ones (theta) and, for models with
+  /// `mounting` / `sensor_delay`, mount_roll/pitch/yaw [rad] and delay [s].
+  std::vector<NamedValue> params;
   std::vector<NamedValue> derived;   ///< mass-derived quantities (com_*, weight), informational
   bool tilt_estimated = false;
   double tilt_u_rad = 0.0;
@@ -55,6 +55,11 @@ ParameterSet toParameterSet(const FitResult& fit);
 /// source (file) and the missing parameter.
 Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set,
                          const std::string& source = "parameter set");
+
+/// The nonlinear parameters for `model` from the set (tilt always; mounting and delay when the
+/// model estimates them). Throws ConfigError naming the source and the missing parameter.
+effects::NonlinearParams nonlinearFor(const effects::Model& model, const ParameterSet& set,
+                                      const std::string& source = "parameter set");
 
 /// Reads a parameter file (YAML). Throws ConfigError naming the file and the key.
 ParameterSet readParameterFile(const std::string& path);

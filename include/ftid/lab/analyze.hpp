@@ -33,6 +33,7 @@ struct AnalyzeOptions {
   int top_windows = 3;              ///< failing time windows reported
   int window_count = 20;            ///< the log is cut into this many windows
   int top_correlations = 8;
+  double max_delay_s = 1.0;         ///< delay search range of `sensor_delay` [s]
   /// Progress lines (stderr in the CLI); may be empty.
   std::function<void(const std::string&)> progress;
 };

@@ -18,6 +18,7 @@
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/parameter_set.hpp"
+#include "ftid/sim/cell_sim.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -115,6 +116,110 @@ TEST(DaemonCompensation, ContactWrenchMatchesAnIndependentStaticModel) {
   }
   std::remove(path.c_str());
 }
+
+// The robot MOVES (qd, qdd != 0): the arm reports the excitation's joint state, the sensor reads
+// the cell simulator's own Newton-Euler physics (src/sim: never the regressor) with a contact push,
+// and the parameter file holds the simulator's truth (inertia about S by the parallel-axis theorem,
+// written out here). A wrong sign or a lost term anywhere in the daemon's motion path (qd, qdd, the
+// kinematics, the inertial effects, the delay line) shows as contact where there is none.
+struct MovingCase {
+  const char* name;
+  const char* model;
+  double delay_s;
+};
+
+void PrintTo(const MovingCase& c, std::ostream* os) { *os << c.name; }
+
+class DaemonMovingCompensation : public ::testing::TestWithParam<MovingCase> {};
+
+TEST_P(DaemonMovingCompensation, ContactIsTheSimulatorsPushWhileTheArmMoves) {
+  const MovingCase mc = GetParam();
+  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  sim::CellSimConfig cfg = sim::paperCellConfig(kin);
+  cfg.full_rigid_body = true;
+  cfg.contact.enabled = true;
+  cfg.contact.t_start_s = 3.0;
+  cfg.contact.t_end_s = 4.0;
+  if (mc.delay_s != 0.0) {
+    cfg.sensor_delay.enabled = true;
+    cfg.sensor_delay.tau_s = mc.delay_s;
+  }
+  const sim::CellSim cell(cfg);
+
+  // The truth as a parameter file of the model.
+  const sim::PayloadTruth& pl = cfg.payload;
+  const Vec3 c = pl.p_SC_S;
+  const Mat3 I_S = pl.I_C_S + pl.mass_kg * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
+  std::map<std::string, double> v = {
+      {"mass", pl.mass_kg},      {"mass_com_x", pl.mass_kg * c.x()}, {"mass_com_y", pl.mass_kg * c.y()},
+      {"mass_com_z", pl.mass_kg * c.z()}, {"f0_x", cfg.F0_N.x()},   {"f0_y", cfg.F0_N.y()},
+      {"f0_z", cfg.F0_N.z()},    {"t0_x", cfg.T0_Nm.x()},           {"t0_y", cfg.T0_Nm.y()},
+      {"t0_z", cfg.T0_Nm.z()},   {"i_s_xx", I_S(0, 0)},             {"i_s_yy", I_S(1, 1)},
+      {"i_s_zz", I_S(2, 2)},     {"i_s_xy", I_S(0, 1)},             {"i_s_xz", I_S(0, 2)},
+      {"i_s_yz", I_S(1, 2)},     {"delay", mc.delay_s}};
+  const effects::Model model = effects::Model::fromName(mc.model);
+  identify::ParameterSet set;
+  set.model = model.name();
+  for (const auto& name : model.paramIndex().names()) set.params.push_back({name, v.at(name), 0.0, ""});
+  if (model.estimatesDelay()) set.params.push_back({"delay", mc.delay_s, 0.0, "s"});
+  set.tilt_u_rad = cfg.tilt_u_rad;
+  set.tilt_v_rad = cfg.tilt_v_rad;
+  const std::string path = ::testing::TempDir() + "ftid_daemon_moving_" + mc.name + "_" +
+                           std::to_string(::getpid()) + ".yaml";
+  identify::writeParameterFile(path, set);
+
+  KinematicsMotionModel motion(kin);
+  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  std::remove(path.c_str());
+  test::FakeArm arm;
+  test::FakeSensor sensor;
+  test::RecordingSink sink;
+  CycleOptions opt;
+  opt.now_us = &test::fakeNowUs;
+  DaemonCycle cycle(&arm, &sensor, &motion, &slot, &sink, opt);
+
+  const double t_robot0 = arm.state.robot_time + 0.008;  // first tick's robot time
+  double worst = 0.0, peak = 0.0, raw_dynamic = 0.0, max_qdd = 0.0;
+  int valid = 0;
+  const int n = 7 * 125;
+  for (int k = 0; k < n; ++k) {
+    const double t = k * 0.008;
+    const trajectory::TrajectoryPoint x = cell.stateAt(t);
+    const sim::SensorReading r = cell.sampleAt(t);
+    arm.state.q = x.q;
+    arm.state.qd = x.qd;
+    arm.state.qdd = x.qdd;
+    sensor.sample.wrench_S = r.wrench_S;
+    test::g_fake_now_us += 8000;
+    ASSERT_EQ(cycle.waitForTick(std::chrono::milliseconds(12)), Status::kOk);
+    cycle.onTick();
+    const auto& rec = sink.records[static_cast<std::size_t>((sink.count - 1) % test::RecordingSink::kCapacity)];
+    EXPECT_NEAR(rec.robot.robot_time - t_robot0, t, 1e-9);
+    max_qdd = std::max(max_qdd, x.qdd.cwiseAbs().maxCoeff());
+    if (!rec.wrench_valid) {
+      EXPECT_LT(t, std::abs(mc.delay_s) + 0.02) << "only the delay line's filling may be invalid";
+      continue;
+    }
+    ++valid;
+    const Wrench truth = r.contact_S;
+    worst = std::max(worst, (rec.contact_S - truth).cwiseAbs().maxCoeff());
+    peak = std::max(peak, truth.head<3>().norm());
+    // The dynamic part the daemon must remove: the reading minus its static (gravity) part.
+    const Wrench statics = cell.readingAt(x.q, JointVector::Zero(), JointVector::Zero(), t).wrench_S;
+    raw_dynamic = std::max(raw_dynamic, (cell.readingAt(x.q, x.qd, x.qdd, t).wrench_S - statics).cwiseAbs().maxCoeff());
+    if (sink.count >= test::RecordingSink::kCapacity) sink.count = 0;
+  }
+  EXPECT_GT(max_qdd, 0.5);        // the arm really accelerates
+  EXPECT_GT(raw_dynamic, 0.2);    // and the inertial wrench is far above the tolerance
+  EXPECT_NEAR(peak, 8.0, 0.05);   // the push happened (sampled near its peak)
+  EXPECT_GT(valid, n - 10);
+  EXPECT_LT(worst, 2e-3) << "largest |contact - truth| while moving";
+}
+
+INSTANTIATE_TEST_SUITE_P(Models, DaemonMovingCompensation,
+                         ::testing::Values(MovingCase{"rigid_body", "paper+rigid_body", 0.0},
+                                           MovingCase{"delay_24ms", "paper+rigid_body+sensor_delay", 0.024}),
+                         [](const ::testing::TestParamInfo<MovingCase>& p) { return std::string(p.param.name); });
 
 TEST(DaemonCompensation, BadParameterFileIsAConfigErrorNamingTheFile) {
   const std::string path =

@@ -7,6 +7,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/nonlinear.hpp"
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/model/frames.hpp"
@@ -46,7 +47,6 @@ SampleContext randomContext(Rng& rng) {
   c.temp_degC = rng.uni(20.0, 35.0);
   c.has_temp = true;
   for (int a = 0; a < 6; ++a) {
-    c.dwrench_model_dt(a) = rng.uni(-10.0, 10.0);
     c.wrench_model_S(a) = rng.uni(-20.0, 20.0);
   }
   return c;
@@ -209,21 +209,112 @@ TEST(DriftEffects, TemperatureAndTimeAreLinearOffsets) {
   EXPECT_NE(effects::createEffect("temperature_drift")->name().find("temperature_drift"), std::string::npos);
 }
 
-TEST(SensorDelayEffect, FirstOrderDelayOfTheModelledWrench) {
-  // w(t - tau) for w = A sin(2 pi f t) against w(t) - tau * dw/dt: error O(tau^2).
-  const Model model = Model::fromName("sensor_delay");
-  const double tau = 0.004, f = 0.8;
-  Eigen::VectorXd theta(1);
-  theta << tau;
-  for (double t = 0.0; t < 2.0; t += 0.1) {
-    SampleContext ctx;
-    Vec6 A;
-    A << 10, -5, 20, 1, 0.5, -0.7;
-    const double wf = 2.0 * M_PI * f;
-    ctx.dwrench_model_dt = A * wf * std::cos(wf * t);
-    const Vec6 delayed = A * std::sin(wf * (t - tau));
-    const Vec6 model_now = A * std::sin(wf * t) + evaluate(model, ctx, theta);
-    EXPECT_LT((delayed - model_now).cwiseAbs().maxCoeff(), 0.5 * tau * tau * wf * wf * 20.0 + 1e-12);
+TEST(SensorDelayEffect, IsAnExactShiftWithoutColumns) {
+  const Model model = Model::fromName("paper+sensor_delay");
+  EXPECT_TRUE(model.estimatesDelay());
+  EXPECT_FALSE(model.estimatesMounting());
+  EXPECT_EQ(model.numParams(), Model::fromName("paper").numParams());
+}
+
+TEST(Nonlinear, KinematicsAtInterpolatesBetweenTheBracketingSamples) {
+  // Samples of linear functions of time at irregular times: linear interpolation is exact.
+  std::vector<SampleContext> series;
+  for (double t : {0.0, 0.01, 0.025, 0.03, 0.05}) {
+    SampleContext c;
+    c.t = t;
+    c.w_S = Vec3(1.0 + 2.0 * t, -3.0 * t, 0.5);
+    c.a_S = Vec3(4.0 * t, 1.0, -t);
+    c.q(5) = 10.0 * t;
+    c.wrench_S.setConstant(100.0 * t);  // a reading field: never interpolated
+    series.push_back(c);
+  }
+  auto at = [&](int i) -> const SampleContext& { return series[static_cast<std::size_t>(i)]; };
+  for (double t : {0.0, 0.004, 0.0123, 0.027, 0.05}) {
+    SampleContext out;
+    out.wrench_S.setConstant(-7.0);
+    ASSERT_TRUE(effects::kinematicsAt(at, 5, t, &out)) << t;
+    EXPECT_NEAR(out.w_S.x(), 1.0 + 2.0 * t, 1e-12);
+    EXPECT_NEAR(out.w_S.y(), -3.0 * t, 1e-12);
+    EXPECT_NEAR(out.a_S.z(), -t, 1e-12);
+    EXPECT_NEAR(out.q(5), 10.0 * t, 1e-12);
+    EXPECT_EQ(out.wrench_S(0), -7.0);
+  }
+  SampleContext out;
+  EXPECT_FALSE(effects::kinematicsAt(at, 5, -0.001, &out));
+  EXPECT_FALSE(effects::kinematicsAt(at, 5, 0.0501, &out));
+  EXPECT_FALSE(effects::kinematicsAt(at, 0, 0.0, &out));
+}
+
+TEST(Nonlinear, MountingRotationIsRzRyRx) {
+  const Vec3 rpy(0.3, -0.2, 1.1);
+  const Mat3 expected = (Eigen::AngleAxisd(rpy.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vec3::UnitY()) *
+                         Eigen::AngleAxisd(rpy.x(), Vec3::UnitX()))
+                            .toRotationMatrix();
+  EXPECT_LT((effects::mountingRotation(rpy) - expected).norm(), 1e-14);
+}
+
+TEST(Nonlinear, ApplyMountingReexpressesTheKinematicsInTheTrueFrame) {
+  // Physical vectors in the base frame, seen from a frame M = S rotated by R_SM.
+  Rng rng;
+  const Mat3 R_BS = rng.rotation();
+  const Mat3 R_SM = rng.rotation();
+  const Vec3 w_B = rng.vec(2.0), al_B = rng.vec(3.0), a_B = rng.vec(4.0), g_B(0.1, -0.2, -9.8);
+  SampleContext c;
+  c.R_BS = R_BS;
+  c.w_S = R_BS.transpose() * w_B;
+  c.alpha_S = R_BS.transpose() * al_B;
+  c.a_S = R_BS.transpose() * a_B;
+  c.g_S = R_BS.transpose() * g_B;
+  c.imu_acc_S = Vec3(1.0, 2.0, 3.0);
+  effects::applyMounting(R_SM, &c);
+  const Mat3 R_BM = R_BS * R_SM;
+  EXPECT_LT((c.R_BS - R_BM).norm(), 1e-14);
+  EXPECT_LT((c.w_S - R_BM.transpose() * w_B).norm(), 1e-12);
+  EXPECT_LT((c.alpha_S - R_BM.transpose() * al_B).norm(), 1e-12);
+  EXPECT_LT((c.a_S - R_BM.transpose() * a_B).norm(), 1e-12);
+  EXPECT_LT((c.g_S - R_BM.transpose() * g_B).norm(), 1e-12);
+  EXPECT_EQ(c.imu_acc_S, Vec3(1.0, 2.0, 3.0));  // measured in M already
+}
+
+TEST(Nonlinear, EvaluatorAppliesCrosstalkToTheOtherEffectsWrench) {
+  // reading = (I + E) w_base: the evaluator's two passes against the base model evaluated alone.
+  Rng rng;
+  const Model base = Model::fromName("paper+rigid_body");
+  const Model model = Model::fromName("paper+rigid_body+crosstalk");
+  Eigen::VectorXd theta(model.numParams());
+  for (int k = 0; k < theta.size(); ++k) theta(k) = rng.uni(-0.03, 0.03);
+  theta(model.paramIndex().column("mass")) = 2.0;
+  Eigen::VectorXd theta_base(base.numParams());
+  for (int k = 0; k < base.numParams(); ++k) {
+    theta_base(k) = theta(model.paramIndex().column(base.paramIndex().names()[static_cast<std::size_t>(k)]));
+  }
+  // E from the names (xt_<row>_<col>, E(t,f) symmetric).
+  Mat6 E = Mat6::Zero();
+  auto axis = [](const std::string& s) {
+    for (int a = 0; a < 6; ++a) {
+      if (s == kWrenchAxisNames[a]) return a;
+    }
+    return -1;
+  };
+  for (const auto& n : model.paramIndex().names()) {
+    if (n.rfind("xt_", 0) != 0) continue;
+    const int r = axis(n.substr(3, 2)), c = axis(n.substr(6, 2));
+    const double v = theta(model.paramIndex().column(n));
+    E(r, c) = v;
+    if (r >= 3 && c < 3 && c != r - 3) E(c + 3, r - 3) = v;
+  }
+  effects::ModelEvaluator eval(model, theta);
+  effects::ModelEvaluator eval_base(base, theta_base);
+  for (int i = 0; i < 20; ++i) {
+    SampleContext ctx = randomContext(rng);
+    const Vec6 w_base = eval_base.evaluate(ctx);
+    EXPECT_LT((eval.evaluate(ctx) - (w_base + E * w_base)).cwiseAbs().maxCoeff(), 1e-10);
+    // The contact is read through the same calibration error and comes back undistorted.
+    const Vec6 push = rng.vec(10.0).homogeneous().head<3>().replicate(2, 1);
+    ctx.wrench_S = (Mat6::Identity() + E) * (w_base + push);
+    Vec6 modelled;
+    EXPECT_LT((eval.contact(ctx, &modelled) - push).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_LT((modelled - (w_base + E * w_base)).cwiseAbs().maxCoeff(), 1e-10);
   }
 }
 
