@@ -16,6 +16,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "../unit/daemon/fakes.hpp"
+#include "alloc_controls.hpp"
 #include "alloc_counter.hpp"
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
@@ -196,3 +197,6 @@ TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
 
 }  // namespace
 }  // namespace ftid::daemon
+
+// Positive controls: in this binary the counter sees a deliberate allocation of every kind.
+FTID_ALLOCATION_COUNTER_CONTROLS();
