@@ -56,6 +56,30 @@ inline NoiseModel simulatorWhiteNoise(const sim::CellSimConfig& config) {
   };
 }
 
+/// Coloured (AR(1)) noise on the wrench readings, added to whatever is there: per axis
+/// x_k = phi x_{k-1} + sqrt(1 - phi^2) std_axis e_k, stationary std std_axis, correlation time
+/// -1 / ln(phi) samples. White noise is phi = 0.
+inline NoiseModel ar1WrenchNoise(const Vec6& std_axis, double phi) {
+  return [std_axis, phi](std::vector<SampleContext>& ctx, std::mt19937_64& rng) {
+    std::normal_distribution<double> n01(0.0, 1.0);
+    const double innovation = std::sqrt(1.0 - phi * phi);
+    Vec6 x;
+    for (int a = 0; a < 6; ++a) x(a) = std_axis(a) * n01(rng);
+    for (auto& c : ctx) {
+      for (int a = 0; a < 6; ++a) x(a) = phi * x(a) + innovation * std_axis(a) * n01(rng);
+      c.wrench_S += x;
+    }
+  };
+}
+
+/// Several noise models applied in turn (e.g. white sensor noise plus a coloured part).
+inline NoiseModel both(NoiseModel first, NoiseModel second) {
+  return [first, second](std::vector<SampleContext>& ctx, std::mt19937_64& rng) {
+    first(ctx, rng);
+    second(ctx, rng);
+  };
+}
+
 struct Series {
   std::vector<double> values;
   std::vector<double> stds;
