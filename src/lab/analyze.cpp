@@ -216,6 +216,7 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
     c.residual_rms = (s.sse_heldout_axis / std::max(1, s.n_heldout)).cwiseSqrt();
     const double rr = 1.0 - s.sse_heldout / base.sol.sse_heldout;
     c.relative_reduction = std::clamp(rr, 0.0, 1.0);
+    c.fit_relative_reduction = std::clamp(1.0 - s.sse_fit / base.sol.sse_fit, 0.0, 1.0);
     c.delta_bic = rows_ho * std::log(std::max(1e-300, s.sse_heldout / base.sol.sse_heldout)) +
                   std::max(0, c.added_params) * std::log(static_cast<double>(rows_ho));
     c.next_command = "ftid analyze " + log_cmd + " --model " + base.model.name() + "+" + c.effect;

@@ -8,7 +8,6 @@
 #include <Eigen/Eigenvalues>
 
 #include "ftid/common/error.hpp"
-#include "ftid/model/frames.hpp"
 
 namespace ftid::sim {
 
@@ -91,7 +90,11 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
           "contact", "needs t_end_s > t_start_s");
   require(finite3(c.contact.force_B) && finite3(c.contact.p_SP_S), "contact", "force/point not finite");
   config_.robot->setSensorMount(c.R_FS, c.p_FS_F);
-  g_B_ = model::gravityInBase(c.tilt_u_rad, c.tilt_v_rad);
+  // Gravity in B written out from the paper's Eq. 13 (R_WB = Rx(U) Ry(V), g_B = R_WB^T g_W), not
+  // taken from model::gravityInBase: the tilt convention of the fit is then checked against an
+  // independent formulation (a wrong rotation order in src/model fails the fit tests).
+  const double U = c.tilt_u_rad, V = c.tilt_v_rad;
+  g_B_ = kStandardGravity * Vec3(std::cos(U) * std::sin(V), -std::sin(U), -std::cos(U) * std::cos(V));
 }
 
 std::size_t CellSim::sampleCount() const {

@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "alloc_controls.hpp"
 #include "alloc_counter.hpp"
 #include "ftid/drivers/can/candump.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
@@ -89,3 +90,6 @@ TEST(RtCanSensor, ReplayTransportDoesNotAllocate) {
 
 }  // namespace
 }  // namespace ftid::can
+
+// Positive controls: in this binary the counter sees a deliberate allocation of every kind.
+FTID_ALLOCATION_COUNTER_CONTROLS();

@@ -4,6 +4,7 @@
 
 #include <limits>
 
+#include "alloc_controls.hpp"
 #include "alloc_counter.hpp"
 #include "ftid/compensate/compensator.hpp"
 
@@ -46,3 +47,6 @@ TEST(RtCompensator, ComputeDoesNotAllocate) {
 
 }  // namespace
 }  // namespace ftid::compensate
+
+// Positive controls: in this binary the counter sees a deliberate allocation of every kind.
+FTID_ALLOCATION_COUNTER_CONTROLS();

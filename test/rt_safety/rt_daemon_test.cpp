@@ -16,6 +16,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "../unit/daemon/fakes.hpp"
+#include "alloc_controls.hpp"
 #include "alloc_counter.hpp"
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
@@ -48,6 +49,13 @@ TEST(RtDaemon, CycleStepWithProductionMathAndSinkDoesNotAllocate) {
   const std::string dir = ::testing::TempDir() + "ftid_rt_daemon_" + std::to_string(::getpid());
   const std::string p1 = writeParams("paper+rigid_body", dir + "_a.yaml", 1.5);
   const std::string p2 = writeParams("paper", dir + "_b.yaml", 2.5);
+  struct RemoveOnExit {  // however the test ends
+    std::string a, b;
+    ~RemoveOnExit() {
+      std::remove(a.c_str());
+      std::remove(b.c_str());
+    }
+  } remove_on_exit{p1, p2};
 
   model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
   KinematicsMotionModel motion(kin);
@@ -92,8 +100,6 @@ TEST(RtDaemon, CycleStepWithProductionMathAndSinkDoesNotAllocate) {
   ASSERT_TRUE(outbox.waitIdle(std::chrono::seconds(5)));
   outbox.stop();
   EXPECT_EQ(outbox.counters().pushed, 51u);
-  std::remove(p1.c_str());
-  std::remove(p2.c_str());
 }
 
 // The production CAN sensor adapter with a sensor thread sending 1 kHz samples over the
@@ -196,3 +202,6 @@ TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
 
 }  // namespace
 }  // namespace ftid::daemon
+
+// Positive controls: in this binary the counter sees a deliberate allocation of every kind.
+FTID_ALLOCATION_COUNTER_CONTROLS();

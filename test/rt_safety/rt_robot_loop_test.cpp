@@ -6,6 +6,7 @@
 #include <optional>
 #include <thread>
 
+#include "alloc_controls.hpp"
 #include "alloc_counter.hpp"
 #include "ftid/drivers/ur/rtde_arm.hpp"
 #include "ftid/drivers/ur/rtde_client.hpp"
@@ -152,3 +153,6 @@ TEST(RtRobotLoop, RtdeStreamingCallsDoNotAllocate) {
   EXPECT_GT(ok, 900u);
   EXPECT_EQ(allocations, 0u);
 }
+
+// Positive controls: in this binary the counter sees a deliberate allocation of every kind.
+FTID_ALLOCATION_COUNTER_CONTROLS();

@@ -76,6 +76,9 @@ struct CandidateResult {
   std::string description;          ///< physical meaning in words
   int added_params = 0;             ///< rank gained
   double relative_reduction = 0.0;  ///< of the held-out (noise-weighted) sum of squares, clamped to 0..1
+  /// Same on the fitting data (in-sample), clamped to 0..1: never used for ranking or significance
+  /// (a flexible candidate always gains in-sample); reported for comparison.
+  double fit_relative_reduction = 0.0;
   Vec6 residual_rms = Vec6::Zero(); ///< held-out, per axis, with the effect added
   double f_statistic = 0.0;         ///< nested-model F on the fitting data
   double p_value = 1.0;

@@ -4,8 +4,10 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -35,11 +37,26 @@ std::string findChromium() {
   return "";
 }
 
-std::string tempDir() {
-  char tmpl[] = "/tmp/ftid_report_XXXXXX";
-  const char* d = ::mkdtemp(tmpl);
-  return d ? d : "/tmp";
-}
+/// A fresh scratch directory under the test temp dir, removed with everything in it (Chromium's
+/// profile too) when the test ends, however it ends.
+class ScratchDir {
+ public:
+  ScratchDir() {
+    std::string tmpl = ::testing::TempDir() + "ftid_report_XXXXXX";
+    if (::mkdtemp(tmpl.data()) == nullptr) throw std::runtime_error("mkdtemp failed for " + tmpl);
+    path_ = tmpl;
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
 
 std::uint32_t be32(const std::string& s, std::size_t at) {
   return (static_cast<std::uint32_t>(static_cast<unsigned char>(s[at])) << 24) |
@@ -85,7 +102,8 @@ TEST_F(Report, IsSelfContained) {
 TEST_F(Report, RendersInHeadlessChromium) {
   const std::string chromium = findChromium();
   if (chromium.empty()) GTEST_SKIP() << "chromium is not installed (apt-get install -y chromium)";
-  const std::string dir = tempDir();
+  const ScratchDir scratch;
+  const std::string dir = scratch.path();
   const std::string html_path = dir + "/report.html";
   const std::string png_path = dir + "/out.png";
   lab::writeTextFileAtomically(html_path, *html_);

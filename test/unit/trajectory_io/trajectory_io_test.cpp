@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -17,10 +18,26 @@
 namespace ftid::trajectory {
 namespace {
 
+std::string tempPrefix() { return "ftid_trajio_" + std::to_string(::getpid()) + "_"; }
+
 std::string tempPath(const std::string& name) {
-  return std::string(::testing::TempDir()) + "/ftid_trajio_" + std::to_string(::getpid()) + "_" +
-         name;
+  return std::string(::testing::TempDir()) + "/" + tempPrefix() + name;
 }
+
+/// Removes every file this process created under the temp dir (tempPath names, and the CSV and
+/// temporary files derived from them) when the test program ends.
+class RemoveTempFiles : public ::testing::Environment {
+ public:
+  void TearDown() override {
+    std::error_code ec;
+    const std::string prefix = tempPrefix();
+    for (const auto& e : std::filesystem::directory_iterator(::testing::TempDir(), ec)) {
+      if (e.path().filename().string().rfind(prefix, 0) == 0) std::filesystem::remove(e.path(), ec);
+    }
+  }
+};
+[[maybe_unused]] ::testing::Environment* const g_remove_temp_files =
+    ::testing::AddGlobalTestEnvironment(new RemoveTempFiles);
 
 std::string readText(const std::string& path) {
   std::ifstream in(path);
