@@ -207,14 +207,21 @@ while IFS= read -r line; do
 done < "$console"
 # GoogleTest per-test result lines (with the run time; the summary repeats names without it).
 ok=$(grep -cE '^\[       OK \] [A-Za-z0-9_]+\.[A-Za-z0-9_/]+ \([0-9]+ ms\)$' "$console" || true)
-bad=$(grep -E '^\[  (FAILED|SKIPPED) \] [A-Za-z0-9_]+\.[A-Za-z0-9_/]+ \([0-9]+ ms\)$' "$console" || true)
+bad=$(grep -E '^\[  (FAILED  |SKIPPED )\] [A-Za-z0-9_]+\.[A-Za-z0-9_/]+ \([0-9]+ ms\)$' "$console" || true)
 passed=$((passed + ok))
 if [ -n "$bad" ]; then
   failed=$((failed + $(echo "$bad" | wc -l)))
-  echo "$bad" | sed 's/^/kernel-rig: FAILED (a skip is a failure here): /'
+  echo "$bad" | sed -e 's/^\[  SKIPPED \]/[  SKIPPED ] (a skip is a failure here)/' -e 's/^/kernel-rig: FAILED: /'
 fi
-# Every listed GoogleTest binary must have run and exited 0 (a crash prints no FAILED line).
+# Every listed GoogleTest binary must have run at least one test and exited 0 (a crash prints no
+# FAILED line; a filter that matches nothing runs no test).
 for g in socketcan_unit kernel; do
+  ran=$(awk -v g="$g" '$0 == "@@RIG gtest " g {on = 1; next} /^@@RIG gtest/ {on = 0}
+                       on && /^\[ RUN      \]/ {n++} END {print n + 0}' "$console")
+  if [ "$ran" -eq 0 ]; then
+    failed=$((failed + 1))
+    echo "kernel-rig: FAILED: test program '$g' ran no test"
+  fi
   if ! grep -q "^@@RIG gtest-exit $g 0$" "$console"; then
     failed=$((failed + 1))
     echo "kernel-rig: FAILED: test program '$g' did not finish cleanly: $(grep "^@@RIG gtest-exit $g " "$console" || echo 'no exit line')"
