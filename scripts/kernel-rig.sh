@@ -17,6 +17,12 @@
 # /var/cache/ftid-kernel-rig if writable, else BUILD_DIR/kernel-rig-cache. The console log of the
 # last run: BUILD_DIR/kernel-rig/console.log.
 # If qemu cannot boot the kernel here, this script fails and says why: it never skips.
+#
+# Latency mode (KVM or bare-metal-like hosts; not part of the test command):
+#   FTID_KERNEL_RIG_ACCEL=kvm FTID_KERNEL_RIG_LATENCY_S=60 scripts/kernel-rig.sh build
+# boots the same initramfs plus rt-tests' cyclictest and build/bench/bench_rt_loop, and instead of
+# the tests runs cyclictest alone, then bench_rt_loop with cyclictest beside it, and prints both
+# (docs/kernel-rig.md, "Measuring latency"). Under TCG the figures mean nothing.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(dirname "$here")"
@@ -24,6 +30,10 @@ build="$(cd "${1:-${FTID_BUILD_DIR:-$root/build}}" 2>/dev/null && pwd)" || {
   echo "kernel-rig: build directory '${1:-${FTID_BUILD_DIR:-$root/build}}' does not exist" >&2
   echo "kernel-rig: 0 passed, 1 failed"; exit 1; }
 timeout_s="${FTID_KERNEL_RIG_TIMEOUT:-240}"   # whole VM run, wall clock
+accel="${FTID_KERNEL_RIG_ACCEL:-tcg}"          # tcg (default) or kvm
+latency_s="${FTID_KERNEL_RIG_LATENCY_S:-0}"    # > 0: latency mode, seconds per measurement
+case "$accel" in tcg|kvm) ;; *) echo "kernel-rig: FTID_KERNEL_RIG_ACCEL must be tcg or kvm" >&2; exit 2 ;; esac
+case "$latency_s" in ''|*[!0-9]*) echo "kernel-rig: FTID_KERNEL_RIG_LATENCY_S must be whole seconds" >&2; exit 2 ;; esac
 smp="${FTID_KERNEL_RIG_CPUS:-2}"
 mem_mb="${FTID_KERNEL_RIG_MEM_MB:-1536}"
 start=$(date +%s)
@@ -38,7 +48,9 @@ log() { echo "kernel-rig: $*"; }
 
 # ---- 1. packages -------------------------------------------------------------------------------
 need_pkgs=()
-for p in qemu-system-x86 busybox-static cpio iproute2 xz-utils binutils; do
+rig_pkgs="qemu-system-x86 busybox-static cpio iproute2 xz-utils binutils"
+[ "$latency_s" -gt 0 ] && rig_pkgs="$rig_pkgs rt-tests"
+for p in $rig_pkgs; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q 'install ok installed' || need_pkgs+=("$p")
 done
 if [ ${#need_pkgs[@]} -gt 0 ]; then
@@ -136,8 +148,8 @@ if [ ! -f "$base" ]; then
   # Only iproute2's ip understands "type vcan"; it must win over busybox's applet.
   [ -e "$stage/bin/ip" ] || ln -s /sbin/ip "$stage/bin/ip"
   cp "$kdir"/modules/*.ko "$stage/rig/modules/"
-  (cd "$stage" && find . -mindepth 1 | cpio -o -H newc --quiet | gzip -1) > "$base.tmp"
-  mv "$base.tmp" "$base"
+  (cd "$stage" && find . -mindepth 1 | cpio -o -H newc --quiet | gzip -1) > "$base.tmp.$$"
+  mv "$base.tmp.$$" "$base"
   rm -rf "$stage"
 fi
 
@@ -147,12 +159,15 @@ ftid="$build/apps/ftid/ftid"
 ftidd="$build/apps/ftidd/ftidd"
 cantest="$build/test/unit/drivers/can/ftid_drivers_can_test"
 ktest="$build/test/kernel/ftid_kernel_test"
-for b in "$ftid" "$ftidd" "$cantest" "$ktest"; do
-  [ -x "$b" ] || fail "$b is not built (cmake --build $build --target ftid ftidd ftid_drivers_can_test ftid_kernel_test)"
+bench="$build/bench/bench_rt_loop"
+programs=("$ftid" "$ftidd" "$cantest" "$ktest")
+[ "$latency_s" -gt 0 ] && programs+=("$bench" "$(command -v cyclictest || echo /usr/bin/cyclictest)")
+for b in "${programs[@]}"; do
+  [ -x "$b" ] || fail "$b is not built (cmake --build $build --target ftid ftidd ftid_drivers_can_test ftid_kernel_test bench_rt_loop)"
 done
 stage="$(mktemp -d "$work/stage.XXXXXX")"
 trap 'rm -rf "$stage"' EXIT
-for b in "$ftid" "$ftidd" "$cantest" "$ktest"; do copy_with_libs "$b" "$stage" strip; done
+for b in "${programs[@]}"; do copy_with_libs "$b" "$stage" strip; done
 for f in config/ur10.urdf config/ftsensor.dbc; do
   mkdir -p "$stage$root/$(dirname "$f")"
   cp "$root/$f" "$stage$root/$f"
@@ -162,9 +177,14 @@ cp "$root/test/kernel/rig_init.sh" "$stage/init"
 chmod 755 "$stage/init"
 # The SocketCAN unit tests, all of them: ConstructorExplainsMissingSupport checks the error on a
 # kernel WITHOUT AF_CAN and is excluded here (it runs, and passes, on the build machines).
+gtests="socketcan_unit=$cantest:SocketCan.*:-SocketCan.ConstructorExplainsMissingSupport kernel=$ktest"
+gtest_names="socketcan_unit kernel"
+if [ "$latency_s" -gt 0 ]; then gtests=""; gtest_names=""; fi  # measure on a quiet VM
 cat > "$stage/rig/env" <<EOF
 RIG_MODULES="$modules"
-RIG_GTESTS="socketcan_unit=$cantest:SocketCan.*:-SocketCan.ConstructorExplainsMissingSupport kernel=$ktest"
+RIG_GTESTS="$gtests"
+RIG_LATENCY_S=$latency_s
+RIG_BENCH="$bench"
 EOF
 initrd="$work/initrd.cpio.gz"
 cp "$base" "$initrd"
@@ -176,9 +196,15 @@ trap - EXIT
 console="$work/console.log"
 prep_s=$(( $(date +%s) - start ))
 vm_start=$(date +%s)
-log "booting $kpkg in qemu (TCG, $smp CPUs, $mem_mb MB; initramfs $(du -m "$initrd" | cut -f1) MB)"
+log "booting $kpkg in qemu ($accel, $smp CPUs, $mem_mb MB; initramfs $(du -m "$initrd" | cut -f1) MB)"
+if [ "$accel" = kvm ]; then
+  accel_args=(-accel kvm -cpu host)
+else
+  accel_args=(-accel tcg -cpu max)
+fi
+[ "$latency_s" -gt 0 ] && timeout_s=$(( timeout_s + 12 * latency_s ))
 set +e
-timeout --kill-after=10 "$timeout_s" qemu-system-x86_64 -accel tcg -cpu max -smp "$smp" -m "$mem_mb" \
+timeout --kill-after=10 "$timeout_s" qemu-system-x86_64 "${accel_args[@]}" -smp "$smp" -m "$mem_mb" \
   -kernel "$kdir/vmlinuz" -initrd "$initrd" \
   -append "console=ttyS0 panic=-1 quiet loglevel=3 rdinit=/init" \
   -display none -no-reboot -nic none -monitor none -serial stdio </dev/null > "$console" 2>&1
@@ -215,7 +241,7 @@ if [ -n "$bad" ]; then
 fi
 # Every listed GoogleTest binary must have run at least one test and exited 0 (a crash prints no
 # FAILED line; a filter that matches nothing runs no test).
-for g in socketcan_unit kernel; do
+for g in $gtest_names; do
   ran=$(awk -v g="$g" '$0 == "@@RIG gtest " g {on = 1; next} /^@@RIG gtest/ {on = 0}
                        on && /^\[ RUN      \]/ {n++} END {print n + 0}' "$console")
   if [ "$ran" -eq 0 ]; then

@@ -335,18 +335,19 @@ TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
         << "sensor:\n  transport: socketcan\n  can_interface: " << kIface
         << "\n  dbc_path: " << kSrc << "/config/ftsensor.dbc\n  stale_timeout_ms: 50\n"
         << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
-        << "lcm:\n  url: \"" << url << "\"\n  stats_period_s: 0.5\n"
+        << "lcm:\n  url: \"" << url << "\"\n  stats_period_s: 0.5\n  publish_cycle: false\n"
         << "rt:\n  require_rt: true\n  lock_memory: true\n  priority: 80\n";
   }
   // ftidd opens socketcan:vcan0 without a peer, so it starts before the sensor: the sensor's
   // fault schedule (seconds after its first robot state) then falls inside ftidd's run.
-  // The sensor runs at 250 Hz and ftidd's stale timeout is 50 ms: qemu's TCG emulation is 10 to
-  // 50 times slower than the host, and a 1 kHz sensor could not keep up with its own clock.
-  //   2.0 s  silent for 60 samples (240 ms > the 50 ms stale timeout)
-  //   3.0 s  Fx out of range for 25 samples (100 ms)
-  //   4.0 s  7 counter values skipped
-  //   4.5 s  3 error frames (CAN_ERR_FLAG | CAN_ERR_CRTL)
-  //   6.0 s  the sensor stops (--duration)
+  // The sensor runs at 125 Hz, ftidd's stale timeout is 50 ms and ftidd does not publish
+  // FTID_CYCLE: qemu's TCG emulation is 10 to 50 times slower than the host (more when the host is
+  // loaded), and a 1 kHz sensor cannot keep up with its own clock there.
+  //   2.0 s  silent for 30 samples (240 ms > the 50 ms stale timeout)
+  //   3.5 s  Fx out of range for 13 samples (104 ms)
+  //   5.0 s  7 counter values skipped
+  //   5.5 s  3 error frames (CAN_ERR_FLAG | CAN_ERR_CRTL)
+  //   7.0 s  the sensor stops (--duration)
   std::ofstream script(dir + "/run.sh");
   script << "set -u\n"
          << "cd '" << dir << "'\n"
@@ -358,8 +359,8 @@ TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
          << "done\n"
          << "'" << ftid << "' sim-sensor --socket '" << dir << "/ft.sock' --can-interface " << kIface
          << " --urdf " << kSrc << "/config/ur10.urdf --dbc " << kSrc << "/config/ftsensor.dbc"
-         << " --rate 250 --fault 2.0:silent:60 --fault 3.0:out_of_range:25"
-         << " --fault 4.0:counter_gap:7 --fault 4.5:error_frame:3 --duration 6"
+         << " --rate 125 --fault 2.0:silent:30 --fault 3.5:out_of_range:13"
+         << " --fault 5.0:counter_gap:7 --fault 5.5:error_frame:3 --duration 7"
          << " > sensor.log 2>&1; SRC=$?\n"
          << "sleep 0.3\n"
          << "kill -TERM $D; wait $D; RC=$?\n"
@@ -423,7 +424,7 @@ TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
     std::printf("robot time span %.2f s; wall clock of the run: see the logs below on failure\n",
                 w.back().robot_time - w.front().robot_time);
   }
-  ASSERT_GT(w.size(), 200u) << "too few FTID_WRENCH messages\nftidd log:\n"
+  ASSERT_GT(w.size(), 100u) << "too few FTID_WRENCH messages\nftidd log:\n"
                             << slurp(dir + "/ftidd.log") << "\nsim-sensor log:\n"
                             << slurp(dir + "/sensor.log");
   // Sensor health bits as published (sensor_sample_t.health_flags, transport/records.hpp).
@@ -473,27 +474,33 @@ TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
   // counters skip outside the injected faults, so the counts are lower bounds, and each fault is
   // recognised by its own flag: stale (silence), out of range (the simulator's broken gauge),
   // counter gap, error frame.
-  EXPECT_GT(valid, 50);
+  EXPECT_GT(valid, 25);
   EXPECT_EQ(unexplained_invalid, 0);
   EXPECT_EQ(flagged_valid, 0);
   EXPECT_GE(stale_invalid, 1) << "240 ms of silence must make cycles invalid (stale)";
   EXPECT_GE(out_of_range_invalid, 1) << "100 ms of out-of-range Fx must invalidate cycles";
-  EXPECT_GT(valid_after_stale, 10) << "ftidd must recover after the silence";
-  EXPECT_GT(valid_after_oor, 10) << "ftidd must recover after the out-of-range samples";
+  EXPECT_GT(valid_after_stale, 5) << "ftidd must recover after the silence";
+  EXPECT_GT(valid_after_oor, 5) << "ftidd must recover after the out-of-range samples";
   EXPECT_GE(gap_flagged, 1) << "the silence and the skipped counters are counter gaps";
   EXPECT_GE(error_flagged, 1) << "error frames must reach ftidd";
   // Compensation against the truth.
   EXPECT_LT(max_contact_err, 0.02);
   EXPECT_LT(max_raw_err, 0.03);
-  // Rate: one message per robot packet (8 ms of controller time); drain-to-latest may skip
-  // packets on this emulated machine, so only the throughput is bounded, not the timing.
+  // Rate: every cycle ftidd ran was published (consecutive cycle numbers above, and as many as
+  // its own count), at most one per robot packet (8 ms of controller time). Drain-to-latest skips
+  // packets when the emulated machine falls behind, so the lower bound is only that the loop kept
+  // up with a quarter of them; no timing is asserted.
   const double span_s = w.back().robot_time - w.front().robot_time;
-  ASSERT_GT(span_s, 2.0);
+  ASSERT_GT(span_s, 1.0);
   const double rate_hz = static_cast<double>(w.size() - 1) / span_s;
-  RecordProperty("wrench_rate_hz", static_cast<int>(rate_hz));
+  std::printf("FTID_WRENCH rate %.1f per controller second (robot packets: 125)\n", rate_hz);
   EXPECT_LE(rate_hz, 125.0 * 1.01);
-  EXPECT_GE(rate_hz, 125.0 * 0.5);
+  EXPECT_GE(rate_hz, 125.0 * 0.25);
   // Loop statistics: published, and the loop really was real-time (SCHED_FIFO + mlockall).
+  const auto at = ftidd_log.find("stopped after ");
+  ASSERT_NE(at, std::string::npos) << ftidd_log;
+  EXPECT_EQ(static_cast<long>(w.size()), std::atol(ftidd_log.c_str() + at + 14))
+      << "the subscriber must receive every cycle ftidd ran";
   ASSERT_GE(got.stats.size(), 4u);
   for (const auto& st : got.stats) EXPECT_TRUE(st.realtime);
   EXPECT_GT(got.stats.back().stale_sensor_cycles, 0);

@@ -58,6 +58,23 @@ for t in $RIG_GTESTS; do
   fi
   echo "@@RIG gtest-exit $name $?"
 done
+if [ "${RIG_LATENCY_S:-0}" -gt 0 ]; then
+  # Latency mode (docs/kernel-rig.md): cyclictest alone, then bench_rt_loop with cyclictest
+  # beside it on the same CPUs. Figures are printed, not judged.
+  ct="cyclictest --mlockall --priority=90 --interval=1000 --distance=0 --smp --quiet"
+  echo "@@RIG latency cyclictest alone (${RIG_LATENCY_S} s)"
+  check cyclictest_alone sh -c "$ct --duration=${RIG_LATENCY_S} > /tmp/ct1.txt 2>&1"
+  cat /tmp/ct1.txt
+  echo "@@RIG latency bench_rt_loop ${RIG_LATENCY_S} s per run, cyclictest beside it"
+  $ct > /tmp/ct2.txt 2>&1 &
+  ctpid=$!
+  check bench_rt_loop sh -c "'$RIG_BENCH' $RIG_LATENCY_S > /tmp/bench.txt 2>&1"
+  cat /tmp/bench.txt
+  kill -INT $ctpid 2>/dev/null
+  wait $ctpid
+  echo "@@RIG latency cyclictest beside bench_rt_loop"
+  cat /tmp/ct2.txt
+fi
 echo "@@RIG done"
 sync
 poweroff -f
