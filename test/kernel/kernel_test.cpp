@@ -152,6 +152,7 @@ TEST(PreemptRt, RealtimeSetUpSucceedsAndTheLoopRuns) {
 
 TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   requireVcan();
+  if (HasFatalFailure()) return;
   using simsensor::SensorFault;
   const can::SensorLayout layout =
       can::SensorLayout::fromDbc(can::loadDbc(kSrc + "/config/ftsensor.dbc"));
@@ -320,6 +321,7 @@ class Subscriber {
 
 TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
   requireVcan();
+  if (HasFatalFailure()) return;
   const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
   const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
   ASSERT_EQ(access(ftid.c_str(), X_OK), 0) << ftid;
