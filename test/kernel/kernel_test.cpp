@@ -34,6 +34,7 @@
 #include <thread>
 #include <vector>
 
+#include "ftid/common/error.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
 #include "ftid/effects/model.hpp"
@@ -255,6 +256,27 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   EXPECT_EQ(sensor->health().bus_off_events, 1u);
   EXPECT_EQ(sensor->health().samples_incomplete, 0u);
   EXPECT_EQ(sensor->health().frames_malformed, 0u);
+}
+
+// On a kernel WITH AF_CAN the set-up errors still name what is wrong (the converse of
+// SocketCan.ConstructorExplainsMissingSupport, which runs where AF_CAN is missing).
+TEST(SocketCanSensor, UnknownInterfaceIsNamedInTheError) {
+  requireVcan();
+  if (HasFatalFailure()) return;
+  can::SocketCanOptions o;
+  o.interface = "vcan9";
+  try {
+    can::SocketCanTransport t(o);
+    FAIL() << "opened a socket on a missing interface";
+  } catch (const DriverError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("socketcan:vcan9"), std::string::npos) << what;
+    EXPECT_NE(what.find("no such network interface"), std::string::npos) << what;
+  }
+  can::CanSensorConfig sc;
+  sc.endpoint = "socketcan:vcan9";
+  sc.dbc_path = kSrc + "/config/ftsensor.dbc";
+  EXPECT_THROW(can::openCanSensor(sc), DriverError);
 }
 
 // ---- ftidd end to end on socketcan:vcan0 -----------------------------------------------------
