@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets everything up and runs the whole test suite:
-#   1. install packages, build (warnings are errors), run every CTest test;
+#   1. install packages, build (warnings are errors), run every CTest test, then the kernel rig
+#      (scripts/kernel-rig.sh: SocketCAN and PREEMPT_RT tests inside qemu);
 #   2. rebuild the unit tests with AddressSanitizer + UndefinedBehaviorSanitizer and run them;
 #   3. build the Debian package and verify the systemd unit (scripts/check_package.sh).
 # Set FTID_TEST_QUICK=1 to skip steps 2 and 3.
@@ -15,6 +16,9 @@ start=$(date +%s)
 echo "== test: ctest ($build)"
 summary="$(mktemp)"
 (cd "$build" && ctest --output-on-failure -j"$jobs" --timeout 600) | tee "$summary"
+# Real SocketCAN (vcan0) and PREEMPT_RT: Debian's RT kernel in qemu (docs/kernel-rig.md, ~1 min).
+echo "== test: kernel rig (PREEMPT_RT kernel in qemu: SocketCAN on vcan0, RT set-up, ftidd)"
+"$here/kernel-rig.sh" "$build" | tee -a "$summary"
 
 if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   asan="$root/build-asan"
@@ -34,5 +38,6 @@ echo "== test: everything passed in $(( $(date +%s) - start )) s"
 # One plain closing line for CI: the main CTest run's counts.
 total=$(grep -oE 'tests failed out of [0-9]+' "$summary" | grep -oE '[0-9]+$' || echo 0)
 skipped=$(grep -cE '\(Skipped\)$' "$summary" || true)
+grep -E '^kernel-rig: [0-9]+ passed' "$summary" || true
 rm -f "$summary"
 echo "ctest: $((total - skipped)) passed, 0 failed, ${skipped} skipped"
