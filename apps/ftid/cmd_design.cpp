@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/design/excitation_metric.hpp"
 #include "ftid/effects/model.hpp"
@@ -184,6 +185,8 @@ int runDesign(const std::vector<std::string>& argv) {
               << " Hz is neither 125 (CB3) nor 500 (e-Series)\n";
   }
   (void)effects::Model::fromName(o.model);  // unknown model: clear error before any work
+  checkOutputPath(out);                        // and a bad --out too
+  checkOutputPath(trajectory::csvPathFor(out));
 
   const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
   if (config.empty() && fileExists("config/design.yaml")) config = "config/design.yaml";

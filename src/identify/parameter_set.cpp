@@ -18,6 +18,10 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/rigid_body.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_strict.hpp"
 #include "ftid/identify/fit.hpp"
 
 namespace ftid::identify {
@@ -149,15 +153,79 @@ Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set, c
   return theta;
 }
 
-ParameterSet readParameterFile(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError(path + ": cannot open the parameter file");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set) {
+  auto bad = [](const std::string& key, const std::string& msg) {
+    return std::optional<ParameterProblem>(ParameterProblem{key, msg});
+  };
+  for (const auto* group : {&set.params, &set.derived}) {
+    const std::string prefix = group == &set.params ? "parameters." : "derived.";
+    for (const auto& p : *group) {
+      if (!std::isfinite(p.value)) return bad(prefix + p.name, "value is not finite");
+      if (!std::isfinite(p.std)) return bad(prefix + p.name, "standard error is not finite");
+      if (p.std < 0.0) return bad(prefix + p.name, "standard error is negative");
+    }
   }
+  if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_u_std)) return bad("tilt.u", "not finite");
+  if (!std::isfinite(set.tilt_v_rad) || !std::isfinite(set.tilt_v_std)) return bad("tilt.v", "not finite");
+  for (int a = 0; a < 6; ++a) {
+    if (!std::isfinite(set.residual_rms(a))) {
+      return bad(std::string("provenance.residual_rms.") + kWrenchAxisNames[a], "not finite");
+    }
+  }
+  if (!std::isfinite(set.condition_number)) return bad("provenance.condition_number", "not finite");
+  const auto findParam = [&](const char* name) -> const NamedValue* {
+    for (const auto& p : set.params) {
+      if (p.name == name) return &p;
+    }
+    return nullptr;
+  };
+  const NamedValue* mass = findParam("mass");
+  if (mass != nullptr && !(mass->value > 0.0)) {
+    return bad("parameters.mass", "mass " + number(mass->value) + " kg is not positive (a payload has a positive mass)");
+  }
+  const NamedValue* is[6];
+  int n_is = 0;
+  for (int k = 0; k < 6; ++k) {
+    is[k] = findParam(effects::kInertiaParamNames[k]);
+    if (is[k] != nullptr) ++n_is;
+  }
+  if (n_is > 0 && mass != nullptr) {
+    Eigen::Matrix<double, 10, 1> p = Eigen::Matrix<double, 10, 1>::Zero();
+    Eigen::Matrix<double, 10, 10> cov = Eigen::Matrix<double, 10, 10>::Zero();
+    p(0) = mass->value;
+    cov(0, 0) = mass->std * mass->std;
+    const char* mc[3] = {"mass_com_x", "mass_com_y", "mass_com_z"};
+    for (int k = 0; k < 3; ++k) {
+      if (const NamedValue* v = findParam(mc[k])) {
+        p(1 + k) = v->value;
+        cov(1 + k, 1 + k) = v->std * v->std;
+      }
+    }
+    for (int k = 0; k < 6; ++k) {
+      if (is[k] != nullptr) {
+        p(4 + k) = is[k]->value;
+        cov(4 + k, 4 + k) = is[k]->std * is[k]->std;
+      }
+    }
+    if (n_is != 6) return bad("parameters.i_s_xx", "the inertia needs all six i_s_* parameters");
+    const effects::InertiaAboutCom ic = effects::inertiaAboutCom(p, cov);
+    if (!ic.valid_within_uncertainty) return bad("parameters.i_s_xx", "invalid inertia: " + ic.explanation);
+  }
+  return std::nullopt;
+}
+
+ParameterSet readParameterFile(const std::string& path) {
+  std::string text;
+  try {
+    text = readInputFile(path, "parameter file", kMaxTextConfigBytes);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
+  }
+  return parseParameterText(text, path);
+}
+
+ParameterSet parseParameterText(const std::string& text, const std::string& path) {
+  const YAML::Node root = loadYamlStrict(text, path);
   if (!root.IsMap()) throw ConfigError(path + ": not a parameter file (expected a YAML mapping)");
   ParameterSet set;
   try {
@@ -206,10 +274,27 @@ ParameterSet readParameterFile(const std::string& path) {
   } catch (const YAML::Exception& e) {
     throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
+  if (const auto problem = findParameterProblem(set)) {
+    // Name the line of the offending key when it is in the file.
+    std::string where = path;
+    const auto dot = problem->key.find('.');
+    if (dot != std::string::npos) {
+      const YAML::Node section = root[problem->key.substr(0, dot)];
+      if (section && section.IsMap()) {
+        const YAML::Node entry = section[problem->key.substr(dot + 1)];
+        if (entry && entry.Mark().line >= 0) where += ":" + std::to_string(entry.Mark().line + 1);
+      }
+    }
+    throw ConfigError(where + ": key '" + problem->key + "': " + problem->message);
+  }
   return set;
 }
 
 void writeParameterFile(const std::string& path, const ParameterSet& set) {
+  if (const auto problem = findParameterProblem(set)) {
+    throw IdentificationError(path + ": not written (the previous file is untouched): '" + problem->key + "': " +
+                              problem->message);
+  }
   std::ostringstream os;
   os << "# ftid payload parameters, written by `ftid identify` (docs/identification.md).\n"
         "# Frames, units and signs: docs/conventions.md. Each entry: {value, std (standard error), unit}.\n"
@@ -238,49 +323,13 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
   os << "}\n";
   os << "  condition_number: " << number(set.condition_number) << "\n";
 
-  // Atomic replacement: write a temporary file in the same directory, fsync it, keep the previous
-  // file as PATH.bak, rename over PATH, fsync the directory. Any failure leaves PATH untouched.
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const std::string text = os.str();
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw ConfigError(path + ": cannot create " + tmp + " (" + std::strerror(errno) + ")");
-  std::size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = errno;
-      ::close(fd);
-      std::remove(tmp.c_str());
-      throw ConfigError(path + ": write failed (" + std::strerror(err) + ")");
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0 || ::close(fd) != 0) {
-    const int err = errno;
-    std::remove(tmp.c_str());
-    throw ConfigError(path + ": write failed (" + std::strerror(err) + ")");
-  }
-  if (std::ifstream(path).good()) {
-    const std::string bak = path + ".bak";
-    std::remove(bak.c_str());
-    if (::link(path.c_str(), bak.c_str()) != 0) {
-      // Filesystems without hard links: copy instead.
-      std::ifstream src(path, std::ios::binary);
-      std::ofstream dst(bak, std::ios::binary | std::ios::trunc);
-      dst << src.rdbuf();
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    std::remove(tmp.c_str());
-    throw ConfigError(path + ": cannot rename the temporary file into place (" + std::strerror(err) + ")");
-  }
-  const std::string dir = path.find('/') == std::string::npos ? "." : path.substr(0, path.rfind('/') + 1);
-  const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
+  // Atomic replacement (ftid/fileio/atomic_file.hpp); the previous file is kept as PATH.bak.
+  AtomicWriteOptions options;
+  options.keep_backup = true;
+  try {
+    writeFileAtomically(path, os.str(), options);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
   }
 }
 
