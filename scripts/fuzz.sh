@@ -32,13 +32,14 @@ launcher=()
 command -v ccache >/dev/null 2>&1 && launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 
 flags="-O1 -g1 -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined"
+mkdir -p "$build"
 start=$(date +%s)
 echo "fuzz.sh: building ${#targets[@]} target(s) with $cxx in $build"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=None \
   -DCMAKE_C_COMPILER="$cc" -DCMAKE_CXX_COMPILER="$cxx" "${launcher[@]}" \
   -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
-  -DFTID_BUILD_FUZZ=ON -DFTID_BUILD_TESTS=OFF -DFTID_BUILD_BENCH=OFF -DFTID_WERROR=OFF >"$build.configure.log" 2>&1 \
-  || { cat "$build.configure.log" >&2; exit 1; }
+  -DFTID_BUILD_FUZZ=ON -DFTID_BUILD_TESTS=OFF -DFTID_BUILD_BENCH=OFF -DFTID_WERROR=OFF >"$build/configure.log" 2>&1 \
+  || { cat "$build/configure.log" >&2; exit 1; }
 cmake --build "$build" -j"$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
 echo "fuzz.sh: built in $(( $(date +%s) - start )) s; running each target for $seconds s"
 
