@@ -1,5 +1,7 @@
 // `ftid design`: NLopt excitation-trajectory designer (docs/design.md). Parses arguments and calls
 // ftid::design; writes traj.yaml and traj.csv beside it.
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -108,11 +110,10 @@ std::map<std::string, double> parseNominal(const std::string& text) {
   return out;
 }
 
+/// Whether something exists at `path` (never opened: a FIFO would block; the reader then refuses it).
 bool fileExists(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "r");
-  if (f == nullptr) return false;
-  std::fclose(f);
-  return true;
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0;
 }
 
 void printStd(const std::map<std::string, double>& s,

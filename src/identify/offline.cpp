@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "ftid/common/error.hpp"
@@ -20,7 +21,11 @@ namespace ftid::identify {
 
 namespace {
 
-bool fileExists(const std::string& p) { return std::ifstream(p).good(); }
+/// Whether something exists at `p` (never opened: a FIFO would block; the reader then refuses it).
+bool fileExists(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0;
+}
 
 std::string exeDir() {
   char buf[4096];
