@@ -324,8 +324,23 @@ Mat3 SensorConfig::R_FS() const {
   return (rz * ry * rx).toRotationMatrix();
 }
 
+namespace {
+DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std::string& source_name,
+                                        const std::string& base_dir);
+}  // namespace
+
 DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& source_name,
                                const std::string& base_dir) {
+  try {
+    return parseDaemonConfigUnguarded(yaml_text, source_name, base_dir);
+  } catch (const YAML::Exception& e) {  // a node of an unexpected kind: never escapes as a crash
+    throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) + ": unexpected structure: " + e.msg);
+  }
+}
+
+namespace {
+DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std::string& source_name,
+                                        const std::string& base_dir) {
   const YAML::Node root = loadYamlStrict(yaml_text, source_name);  // duplicate keys are errors
   DaemonConfig c;
   c.source = source_name;
@@ -412,6 +427,7 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
   }, &c.warnings);
   return c;
 }
+}  // namespace
 
 DaemonConfig loadDaemonConfig(const std::string& path) {
   std::string text;

@@ -234,8 +234,22 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
   return parseTrajectoryText(text, path);
 }
 
+namespace {
+TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& path);
+}  // namespace
+
 TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& path) {
   const YAML::Node root = loadYamlStrict(text, path);
+  try {
+    return parseTrajectoryNode(root, path);
+  } catch (const YAML::Exception& e) {
+    // A node of an unexpected kind (found by fuzzing: a scalar where a mapping belongs).
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": unexpected structure: " + e.msg);
+  }
+}
+
+namespace {
+TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& path) {
   Reader r(path);
   if (!root.IsMap()) r.fail("format", "file is not a YAML mapping");
   const YAML::Node fmt = r.require(root, "format", "format");
@@ -307,6 +321,7 @@ TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& p
       for (std::size_t i = 0; i < ko.size(); ++i) {
         const std::string key = "constraints.keep_out[" + std::to_string(i) + "]";
         KeepOutSphere s;
+        if (!ko[i].IsMap()) r.fail(key, "expected {name, center, radius}");
         if (ko[i]["name"]) s.name = ko[i]["name"].as<std::string>();
         s.center_B = r.vec3(ko[i], "center", key + ".center");
         s.radius = r.number(ko[i], "radius", key + ".radius");
@@ -357,6 +372,7 @@ TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& p
   }
   return f;
 }
+}  // namespace
 
 void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory,
                         double rate_hz) {
