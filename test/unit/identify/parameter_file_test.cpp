@@ -55,6 +55,7 @@ ParameterSet paperSet(double mass) {
 
 TEST(ParameterFile, RoundTripOfAValidSet) {
   const std::string p = scratch("p.yaml");
+  std::filesystem::remove(p);
   writeParameterFile(p, paperSet(0.9));
   const ParameterSet back = readParameterFile(p);
   ASSERT_NE(back.find("mass"), nullptr);
@@ -100,6 +101,7 @@ TEST(ParameterFile, InvalidInertiaIsRefused) {
   ASSERT_TRUE(problem.has_value());
   EXPECT_NE(problem->message.find("invalid inertia"), std::string::npos) << problem->message;
   const std::string p = scratch("inertia.yaml");
+  std::filesystem::remove(p);
   EXPECT_THROW(writeParameterFile(p, s), IdentificationError);
   EXPECT_FALSE(std::filesystem::exists(p));
 }
@@ -108,6 +110,7 @@ TEST(ParameterFile, InvalidInertiaIsRefused) {
 // to .bak. Whatever produces such a set, the writer refuses it and touches nothing.
 TEST(ParameterFile, WriterRefusesNonFiniteAndLeavesPreviousFileAndBackupUntouched) {
   const std::string p = scratch("params.yaml");
+  std::filesystem::remove(p);  // leftovers of an interrupted run would be rotated into .bak
   std::filesystem::remove(p + ".bak");
   writeParameterFile(p, paperSet(0.9));
   const std::string before = slurp(p);
