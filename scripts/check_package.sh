@@ -60,4 +60,18 @@ if [ -n "$out" ]; then
   echo "package: systemd-analyze verify printed the above for ftidd.service" >&2
   exit 1
 fi
+echo "== package: systemd-analyze security (exposure must be <= 1.5, docs/operations.md)"
+sec="$(systemd-analyze security --offline=true "$unit" 2>&1 || true)"
+exposure="$(printf '%s\n' "$sec" | sed -n 's/.*Overall exposure level for [^:]*: \([0-9.]*\).*/\1/p' | tail -1)"
+if [ -z "$exposure" ]; then
+  echo "$sec" >&2
+  echo "package: could not read the exposure level from systemd-analyze security" >&2
+  exit 1
+fi
+echo "ftidd.service exposure: $exposure"
+if ! awk -v e="$exposure" 'BEGIN { exit !(e <= 1.5) }'; then
+  printf '%s\n' "$sec" | grep -F '✗' >&2 || true
+  echo "package: ftidd.service exposure $exposure is above 1.5" >&2
+  exit 1
+fi
 echo "== package: OK"

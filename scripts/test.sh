@@ -3,8 +3,10 @@
 #   1. install packages, build (warnings are errors), run every CTest test, then the kernel rig
 #      (scripts/kernel-rig.sh: SocketCAN and PREEMPT_RT tests inside qemu);
 #   2. rebuild the unit tests with AddressSanitizer + UndefinedBehaviorSanitizer and run them;
-#   3. build the Debian package and verify the systemd unit (scripts/check_package.sh).
-# Set FTID_TEST_QUICK=1 to skip steps 2 and 3.
+#   3. fuzz every parser for ~20 s with libFuzzer + ASan + UBSan (scripts/fuzz.sh, docs/fuzzing.md;
+#      FTID_FUZZ_SECONDS sets the time per target);
+#   4. build the Debian package and verify the systemd unit (scripts/check_package.sh).
+# Set FTID_TEST_QUICK=1 to skip steps 2 to 4.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(dirname "$here")"
@@ -29,6 +31,8 @@ if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   cmake --build "$asan" -j"$jobs" --target ftid_unit_tests
   (cd "$asan" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
       ctest --output-on-failure -j"$jobs" --timeout 900 -LE 'integration|slow' -E '_NOT_BUILT$')
+  echo "== test: fuzzing (scripts/fuzz.sh)"
+  "$here/fuzz.sh" "${FTID_FUZZ_SECONDS:-20}"
   if [ -x "$here/check_package.sh" ]; then
     echo "== test: Debian package and systemd unit"
     "$here/check_package.sh"

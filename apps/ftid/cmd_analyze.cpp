@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace {
@@ -75,6 +76,7 @@ int runAnalyze(const std::vector<std::string>& argv) {
   } catch (const std::exception&) {
     throw ftid::cli::UsageError("--folds must be an integer 2..50 and --alpha a number in (0, 1)");
   }
+  if (!report.empty()) ftid::checkOutputPath(report);  // before the work
   if (!candidates.empty()) req.options.candidates = splitList(candidates);
   req.options.progress = [](const std::string& line) { std::cerr << "ftid analyze: " << line << "\n"; };
   const ftid::lab::AnalysisResult result = ftid::lab::analyzeLogFiles(req);

@@ -1,8 +1,10 @@
 // `ftid decode-candump`: decode a candump log with the sensor DBC into CSV samples.
 #include <cinttypes>
 #include <cstdio>
+#include <cstdlib>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/candump.hpp"
 #include "ftid/drivers/can/sensor_layout.hpp"
@@ -44,11 +46,12 @@ int runDecodeCandump(const std::vector<std::string>& argv) {
   }
   const SensorLayout layout = SensorLayout::fromDbc(loadDbc(dbc));
   SampleAssembler assembler(layout, health);
-  std::FILE* out = stdout;
-  if (!output.empty()) {
-    out = std::fopen(output.c_str(), "w");
-    if (out == nullptr) throw ftid::DataError(output + ": cannot write");
-  }
+  // Rows go to stdout, or with --output through the atomic writer (never over a symlink/device).
+  if (!output.empty()) ftid::checkOutputPath(output);
+  char* text_buf = nullptr;
+  std::size_t text_size = 0;
+  std::FILE* out = output.empty() ? stdout : ::open_memstream(&text_buf, &text_size);
+  if (out == nullptr) throw ftid::DataError(output + ": cannot allocate the output buffer");
   std::fprintf(out, "t,counter,fx,fy,fz,tx,ty,tz,ax,ay,az,wx,wy,wz,alx,aly,alz,temp,status,valid,flags\n");
   std::uint64_t rows = 0;
   SensorSample s;
@@ -63,7 +66,12 @@ int runDecodeCandump(const std::vector<std::string>& argv) {
     std::fprintf(out, ",%.4g,%u,%d,0x%x\n", s.temp_degC, s.status_word, s.valid ? 1 : 0, s.flags);
     ++rows;
   }
-  if (out != stdout) std::fclose(out);
+  if (out != stdout) {
+    std::fclose(out);
+    const std::string text(text_buf, text_size);
+    std::free(text_buf);
+    ftid::writeFileAtomically(output, text);
+  }
   const SensorHealth& h = assembler.health();
   std::fprintf(stderr,
                "decode-candump: %" PRIu64 " samples from %" PRIu64 " frames; incomplete %" PRIu64

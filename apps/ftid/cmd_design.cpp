@@ -1,5 +1,7 @@
 // `ftid design`: NLopt excitation-trajectory designer (docs/design.md). Parses arguments and calls
 // ftid::design; writes traj.yaml and traj.csv beside it.
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -8,6 +10,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/design/excitation_metric.hpp"
 #include "ftid/effects/model.hpp"
@@ -107,11 +110,10 @@ std::map<std::string, double> parseNominal(const std::string& text) {
   return out;
 }
 
+/// Whether something exists at `path` (never opened: a FIFO would block; the reader then refuses it).
 bool fileExists(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "r");
-  if (f == nullptr) return false;
-  std::fclose(f);
-  return true;
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0;
 }
 
 void printStd(const std::map<std::string, double>& s,
@@ -184,6 +186,8 @@ int runDesign(const std::vector<std::string>& argv) {
               << " Hz is neither 125 (CB3) nor 500 (e-Series)\n";
   }
   (void)effects::Model::fromName(o.model);  // unknown model: clear error before any work
+  checkOutputPath(out);                        // and a bad --out too
+  checkOutputPath(trajectory::csvPathFor(out));
 
   const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
   if (config.empty() && fileExists("config/design.yaml")) config = "config/design.yaml";

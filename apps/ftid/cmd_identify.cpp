@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/offline.hpp"
 
 namespace {
@@ -39,6 +40,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (req.method != "static" && req.method != "dynamic") {
     throw ftid::cli::UsageError("--method must be 'static' or 'dynamic'");
   }
+  if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::ParameterSet set = ftid::identify::identifyLogFile(req);
   if (!out.empty()) ftid::identify::writeParameterFile(out, set);

@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/transport/lcm_to_csv.hpp"
 
@@ -33,6 +34,7 @@ int runLcmToCsv(const std::vector<std::string>& argv) {
   args.finish();
   if (inputs.size() != 1) throw ftid::cli::UsageError("exactly one LCM log file is required");
   if (out.empty()) throw ftid::cli::UsageError("--out is required");
+  ftid::checkOutputPath(out);
   ftid::transport::LcmToLogReport report;
   const ftid::logio::LogData log = ftid::transport::lcmLogToLogData(inputs[0], options, &report);
   ftid::logio::writeLog(out, log);

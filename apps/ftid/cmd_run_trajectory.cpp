@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/motion/recording_log.hpp"
@@ -84,6 +85,7 @@ int runRunTrajectory(const std::vector<std::string>& argv) {
   args.finish();
   if (pos.size() != 1) throw ftid::cli::UsageError("expected exactly one trajectory file");
   if (out.empty()) throw ftid::cli::UsageError("--out is required");
+  ftid::checkOutputPath(out);  // before the robot moves
   if (!(cfg.motion.approach_velocity > 0 && cfg.motion.approach_velocity <= 1.0)) {
     throw ftid::cli::UsageError("--approach-speed must be in (0, 1] rad/s");
   }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -204,6 +205,8 @@ int runSimulate(const std::vector<std::string>& argv) {
   }
   args.finish();
   if (out.empty()) throw UsageError("--out is required");
+  checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
+  if (!truth.empty()) checkOutputPath(truth);
 
   if (robot_path.empty()) {
     robot_path = "config/ur10.urdf";

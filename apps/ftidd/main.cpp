@@ -90,8 +90,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "ftidd: %s\n", e.what());
     return 2;
   }
+  for (const auto& w : config.warnings) std::fprintf(stderr, "ftidd: warning: %s\n", w.c_str());
   if (check_only) {
-    std::printf("%sconfiguration OK\n", ftid::config::describeDaemonConfig(config).c_str());
+    std::printf("%sconfiguration OK%s\n", ftid::config::describeDaemonConfig(config).c_str(),
+                config.warnings.empty() ? "" : " (with warnings, see above)");
     return 0;
   }
   try {

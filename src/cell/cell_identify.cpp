@@ -18,6 +18,7 @@
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/cell/exports.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/context.hpp"
@@ -58,25 +59,8 @@ std::string fmt(int decimals, double v) {
   return buf;
 }
 
-/// Writes text atomically: temporary file in the same directory, fsync, rename.
-void writeTextAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << text;
-    out.flush();
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw Error(path + ": cannot write (" + std::string(std::strerror(errno)) + ")");
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::error_code ec;
-    fs::remove(tmp, ec);
-    throw Error(path + ": cannot rename into place (" + std::string(std::strerror(errno)) + ")");
-  }
-}
+/// Writes text through the one atomic writer (ftid/fileio/atomic_file.hpp).
+void writeTextAtomic(const std::string& path, const std::string& text) { writeFileAtomically(path, text); }
 
 /// Default excitation trajectory: next to the config, the installed defaults, the source tree.
 std::string findDefaultTrajectory(const std::string& config_source) {

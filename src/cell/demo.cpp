@@ -24,6 +24,7 @@
 
 #include "ftid/cell/cell_identify.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/transport/codec.hpp"
 
 extern char** environ;
@@ -166,11 +167,7 @@ fs::path findConfigDir() {
   throw Error("cannot find ftid's config directory (ur10.urdf, ftsensor.dbc)");
 }
 
-void writeFile(const fs::path& p, const std::string& text) {
-  std::ofstream out(p, std::ios::trunc);
-  out << text;
-  if (!out) throw Error(p.string() + ": cannot write");
-}
+void writeFile(const fs::path& p, const std::string& text) { writeFileAtomically(p.string(), text); }
 
 std::string f3(double v) {
   char b[32];

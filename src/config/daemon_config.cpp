@@ -1,8 +1,12 @@
 #include "ftid/config/daemon_config.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <cctype>
+#include <cstdint>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -13,6 +17,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_strict.hpp"
 
 namespace ftid::config {
 namespace {
@@ -126,9 +132,22 @@ void readSection(const Reader& r, const YAML::Node& map, const std::string& pref
   }
 }
 
+/// A readable regular file (never opened here: a FIFO would block).
 bool fileReadable(const std::string& path) {
-  std::ifstream f(path);
-  return f.good();
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode) && ::access(path.c_str(), R_OK) == 0;
+}
+
+bool parseUint(const std::string& s, unsigned long max, unsigned long& out) {
+  if (s.empty() || s.size() > 10) return false;
+  unsigned long v = 0;
+  for (char ch : s) {
+    if (ch < '0' || ch > '9') return false;
+    v = v * 10 + static_cast<unsigned long>(ch - '0');
+  }
+  if (v > max) return false;
+  out = v;
+  return true;
 }
 
 bool isDirectory(const std::string& path) {
@@ -144,7 +163,8 @@ std::string dirOf(const std::string& path) {
 }
 
 // Cross-field and file checks. `where(key)` gives the location prefix for a key.
-void validate(const DaemonConfig& c, const std::function<std::string(const std::string&)>& where) {
+void validate(const DaemonConfig& c, const std::function<std::string(const std::string&)>& where,
+              std::vector<std::string>* warnings) {
   auto fail = [&](const std::string& key, const std::string& what) {
     throw ConfigError(where(key) + ": key '" + key + "': " + what);
   };
@@ -188,13 +208,7 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (c.parameters.required && !fileReadable(c.parameters.path)) {
     fail("parameters.path", "cannot read '" + c.parameters.path + "' (parameters.required is true)");
   }
-  if (c.lcm.url.empty()) fail("lcm.url", "must not be empty");
-  const auto scheme = c.lcm.url.substr(0, c.lcm.url.find("://"));
-  if (c.lcm.url.find("://") == std::string::npos ||
-      (scheme != "udpm" && scheme != "memq" && scheme != "file" && scheme != "tcpq")) {
-    fail("lcm.url", "must be an LCM provider URL (udpm://, memq://, file://, tcpq://), got '" +
-                        c.lcm.url + "'");
-  }
+  checkLcmUrl(c.lcm.url, where("lcm.url"), warnings);
   const std::pair<const char*, const std::string*> channels[] = {
       {"lcm.channels.cycle", &c.lcm.channels.cycle},   {"lcm.channels.wrench", &c.lcm.channels.wrench},
       {"lcm.channels.stats", &c.lcm.channels.stats},   {"lcm.channels.command", &c.lcm.channels.command},
@@ -234,6 +248,75 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
 
 }  // namespace
 
+void checkLcmUrl(const std::string& url, const std::string& where, std::vector<std::string>* warnings) {
+  auto fail = [&](const std::string& what) {
+    throw ConfigError(where + ": key 'lcm.url': " + what + " (got '" + url + "'; default " +
+                      LcmConfig().url + ")");
+  };
+  if (url.empty()) fail("must not be empty");
+  if (url.size() > 512) fail("is too long");
+  const auto sep = url.find("://");
+  if (sep == std::string::npos) fail("must be an LCM provider URL (udpm://, memq://, file://, tcpq://)");
+  const std::string scheme = url.substr(0, sep);
+  const std::string rest = url.substr(sep + 3);
+  const auto q = rest.find('?');
+  const std::string target = rest.substr(0, q);
+  const std::string options = q == std::string::npos ? "" : rest.substr(q + 1);
+  if (scheme == "memq") {
+    if (!rest.empty()) fail("memq:// takes no address or options");
+    return;
+  }
+  if (scheme == "file") {
+    if (target.empty()) fail("file:// needs a path");
+    return;
+  }
+  auto hostPort = [&](bool multicast) {
+    const auto colon = target.rfind(':');
+    if (colon == std::string::npos) fail("needs ADDRESS:PORT");
+    const std::string host = target.substr(0, colon);
+    unsigned long port = 0;
+    if (!parseUint(target.substr(colon + 1), 65535, port) || port == 0) fail("port must be 1..65535");
+    if (multicast) {
+      in_addr addr{};
+      if (::inet_pton(AF_INET, host.c_str(), &addr) != 1) fail("'" + host + "' is not an IPv4 address");
+      const std::uint32_t a = ntohl(addr.s_addr);
+      if ((a >> 28) != 0xE) fail("'" + host + "' is not a multicast address (224.0.0.0 - 239.255.255.255)");
+    } else if (host.empty()) {
+      fail("needs a host");
+    }
+  };
+  if (scheme == "tcpq") {
+    hostPort(false);
+    return;
+  }
+  if (scheme != "udpm") fail("unknown provider '" + scheme + "' (udpm://, memq://, file://, tcpq://)");
+  hostPort(true);
+  std::size_t start = 0;
+  while (start < options.size()) {
+    auto amp = options.find('&', start);
+    if (amp == std::string::npos) amp = options.size();
+    const std::string opt = options.substr(start, amp - start);
+    start = amp + 1;
+    if (opt.empty()) continue;
+    const auto eq = opt.find('=');
+    const std::string name = opt.substr(0, eq);
+    const std::string value = eq == std::string::npos ? "" : opt.substr(eq + 1);
+    unsigned long v = 0;
+    if (name == "ttl") {
+      if (!parseUint(value, 255, v)) fail("ttl must be an integer 0..255");
+      if (v > 1 && warnings != nullptr) {
+        warnings->push_back(where + ": key 'lcm.url': ttl=" + value +
+                            " lets ftidd's messages be routed beyond this host's network; use ttl=0 "
+                            "(this host only) or ttl=1 (the local subnet)");
+      }
+    } else if (name == "recv_buf_size") {
+      if (!parseUint(value, 1UL << 30, v)) fail("recv_buf_size must be a byte count");
+    } else {
+      fail("unknown udpm option '" + name + "' (known: ttl, recv_buf_size)");
+    }
+  }
+}
+
 Mat3 SensorConfig::R_FS() const {
   const Eigen::AngleAxisd rx(mount_rpy.x(), Vec3::UnitX());
   const Eigen::AngleAxisd ry(mount_rpy.y(), Vec3::UnitY());
@@ -241,15 +324,24 @@ Mat3 SensorConfig::R_FS() const {
   return (rz * ry * rx).toRotationMatrix();
 }
 
+namespace {
+DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std::string& source_name,
+                                        const std::string& base_dir);
+}  // namespace
+
 DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& source_name,
                                const std::string& base_dir) {
-  YAML::Node root;
   try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) +
-                      ": YAML syntax error: " + e.msg);
+    return parseDaemonConfigUnguarded(yaml_text, source_name, base_dir);
+  } catch (const YAML::Exception& e) {  // a node of an unexpected kind: never escapes as a crash
+    throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) + ": unexpected structure: " + e.msg);
   }
+}
+
+namespace {
+DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std::string& source_name,
+                                        const std::string& base_dir) {
+  const YAML::Node root = loadYamlStrict(yaml_text, source_name);  // duplicate keys are errors
   DaemonConfig c;
   c.source = source_name;
   const Reader r(source_name, base_dir);
@@ -332,21 +424,24 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
     const auto it = lines.find(key);
     if (it == lines.end()) return source_name + " (default value)";
     return source_name + ":" + std::to_string(it->second);
-  });
+  }, &c.warnings);
   return c;
 }
+}  // namespace
 
 DaemonConfig loadDaemonConfig(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open config file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parseDaemonConfig(ss.str(), path, dirOf(path));
+  std::string text;
+  try {
+    text = readInputFile(path, "config file", kMaxTextConfigBytes);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
+  }
+  return parseDaemonConfig(text, path, dirOf(path));
 }
 
 void validateDaemonConfig(const DaemonConfig& config) {
   const std::string src = config.source.empty() ? std::string("<config>") : config.source;
-  validate(config, [&](const std::string&) { return src; });
+  validate(config, [&](const std::string&) { return src; }, nullptr);
 }
 
 std::string describeDaemonConfig(const DaemonConfig& c) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <string>
 
+#include "ftid/fileio/yaml_strict.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/design/designer.hpp"
 
@@ -85,15 +86,7 @@ trajectory::TrajectoryConstraints loadDesignConstraints(const std::string& confi
   c.tool = {{Vec3(0.0, 0.0, 0.05), 0.08}};
 
   if (!config_path.empty()) {
-    YAML::Node root;
-    try {
-      root = YAML::LoadFile(config_path);
-    } catch (const YAML::BadFile&) {
-      throw ConfigError(config_path + ": cannot open design configuration");
-    } catch (const YAML::Exception& e) {
-      throw ConfigError(config_path + ":" + std::to_string(e.mark.line + 1) +
-                        ": YAML syntax error: " + e.msg);
-    }
+    const YAML::Node root = loadYamlFileStrict(config_path, "design configuration");
     Cfg cfg(config_path);
     if (!root.IsNull()) {
       cfg.checkKeys(root, "", {"limits", "workspace", "sensor_mount"});

@@ -7,10 +7,12 @@
 #include <limits>
 #include <sstream>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/logio/log.hpp"
@@ -20,7 +22,11 @@ namespace ftid::identify {
 
 namespace {
 
-bool fileExists(const std::string& p) { return std::ifstream(p).good(); }
+/// Whether something exists at `p` (never opened: a FIFO would block; the reader then refuses it).
+bool fileExists(const std::string& p) {
+  struct stat st {};
+  return ::stat(p.c_str(), &st) == 0;
+}
 
 std::string exeDir() {
   char buf[4096];
@@ -120,6 +126,7 @@ std::string formatParameterTable(const ParameterSet& set) {
 }
 
 CompensateSummary compensateLogFile(const CompensateRequest& request) {
+  checkOutputPath(request.out_csv);  // refuse a symlink, device, FIFO or directory before the work
   const ParameterSet set = readParameterFile(request.params_path);
   const Model model = Model::fromName(set.model);
   const Eigen::VectorXd theta = thetaFor(model, set, request.params_path);
@@ -166,20 +173,10 @@ CompensateSummary compensateLogFile(const CompensateRequest& request) {
     summary.raw_rms = (summary.raw_rms / summary.n_samples).cwiseSqrt();
     summary.contact_rms = (summary.contact_rms / summary.n_samples).cwiseSqrt();
   }
-  const std::string tmp = request.out_csv + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    if (!out) throw ConfigError(request.out_csv + ": cannot write");
-    out << os.str();
-    out.flush();
-    if (!out) {
-      std::remove(tmp.c_str());
-      throw ConfigError(request.out_csv + ": write failed");
-    }
-  }
-  if (std::rename(tmp.c_str(), request.out_csv.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw ConfigError(request.out_csv + ": cannot rename the temporary file into place");
+  try {
+    writeFileAtomically(request.out_csv, os.str());
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
   }
   return summary;
 }

@@ -5,6 +5,7 @@
 #include <fstream>
 
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/lab/analyze.hpp"
@@ -40,19 +41,7 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
 }
 
 void writeTextFileAtomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error(path + ": cannot write (" + std::strerror(errno) + ")");
-    out << text;
-    out.flush();
-    if (!out) throw Error(path + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::remove(tmp.c_str());
-    throw Error(path + ": cannot rename the temporary file (" + why + ")");
-  }
+  writeFileAtomically(path, text);  // ftid/fileio/atomic_file.hpp
 }
 
 }  // namespace ftid::lab

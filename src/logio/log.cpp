@@ -18,8 +18,11 @@
 #include <string_view>
 #include <system_error>
 #include <tuple>
+#include <unordered_map>
 
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/input_file.hpp"
 
 namespace ftid::logio {
 
@@ -79,38 +82,49 @@ std::string_view trim(std::string_view v) {
 }
 
 // Parses one number; returns false with a reason if it is not a finite number.
+/// At most 40 characters of a field, for messages.
+std::string shown(std::string_view v) {
+  return v.size() <= 40 ? std::string(v) : std::string(v.substr(0, 40)) + "...";
+}
+
 bool parseNumber(std::string_view field, double& out, std::string& why) {
-  std::string_view v = trim(field);
+  const std::string_view v = trim(field);
   if (v.empty()) {
     why = "empty field";
     return false;
   }
   std::string_view body = v;
-  if (body.front() == '+') body.remove_prefix(1);
+  if (body.front() == '+') {
+    body.remove_prefix(1);
+    if (!body.empty() && (body.front() == '-' || body.front() == '+')) {
+      why = "not a number: '" + shown(v) + "'";
+      return false;
+    }
+  }
   const char* first = body.data();
   const char* last = body.data() + body.size();
   auto res = std::from_chars(first, last, out);
   if (res.ec == std::errc::result_out_of_range) {
-    why = "number '" + std::string(v) + "' is out of the range of a double";
+    why = "number '" + shown(v) + "' is out of the range of a double";
     return false;
   }
   if (res.ec != std::errc() || res.ptr != last) {
-    why = "not a number: '" + std::string(v) + "'";
+    why = "not a number: '" + shown(v) + "'";
     return false;
   }
   if (!std::isfinite(out)) {
-    why = "non-finite value '" + std::string(v) + "' (NaN and infinity are not allowed)";
+    why = "non-finite value '" + shown(v) + "' (NaN and infinity are not allowed)";
     return false;
   }
   return true;
 }
 
 std::string readWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(path + ":0:0: cannot open log file: " + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  try {
+    return readInputFile(path, "log file", kMaxLogBytes);
+  } catch (const FileError& e) {
+    throw DataError(e.what());
+  }
 }
 
 struct LineCursor {
@@ -130,6 +144,32 @@ struct LineCursor {
   }
 };
 
+/// Largest plausible |value| of every known column (LogReadOptions, docs/log-format.md).
+std::array<double, kNumKnown> plausibleLimits(const LogReadOptions& o) {
+  std::array<double, kNumKnown> lim{};
+  for (int k = 0; k < kNumKnown; ++k) {
+    double l = 0.0;
+    if (k == 0) l = o.max_abs_t_s;
+    else if (k <= 6) l = o.max_abs_q_rad;
+    else if (k <= 12) l = o.max_abs_qd_rad_s;
+    else if (k <= 18) l = o.max_abs_qdd_rad_s2;
+    else if (k <= 24) l = o.max_abs_wrench_S[static_cast<std::size_t>(k - 19)];
+    else if (k <= 27) l = o.max_abs_acc_m_s2;
+    else if (k <= 30) l = o.max_abs_w_rad_s;
+    else if (k <= 33) l = o.max_abs_alpha_rad_s2;
+    else l = o.max_abs_temp_degC;
+    lim[static_cast<std::size_t>(k)] = l;
+  }
+  return lim;
+}
+
+const char* limitReason(int k) {
+  if (k >= 1 && k <= 6) return "rad (joint angles within +-4 pi)";
+  if (k >= 19 && k <= 21) return "N (100x the sensor's rated range)";
+  if (k >= 22 && k <= 24) return "Nm (100x the sensor's rated range)";
+  return "(SI units; see docs/log-format.md)";
+}
+
 bool isBlankOrComment(std::string_view line) {
   std::string_view v = trim(line);
   return v.empty() || v.front() == '#';
@@ -137,8 +177,11 @@ bool isBlankOrComment(std::string_view line) {
 
 }  // namespace
 
-LogData readLog(const std::string& path, LogKind kind) {
-  const std::string text = readWholeFile(path);
+LogData readLog(const std::string& path, LogKind kind, const LogReadOptions& options) {
+  return parseLogText(readWholeFile(path), path, kind, options);
+}
+
+LogData parseLogText(std::string_view text, const std::string& path, LogKind kind, const LogReadOptions& options) {
   LogData log;
   log.source = path;
   LineCursor cur{text};
@@ -156,28 +199,38 @@ LogData readLog(const std::string& path, LogKind kind) {
   const std::size_t header_line = cur.line_no;
 
   const auto& known = knownColumns();
+  if (line.size() > kMaxHeaderBytes) {
+    dataError(path, header_line, 1,
+              "header row is " + std::to_string(line.size()) + " characters long; at most " +
+                  std::to_string(kMaxHeaderBytes) + " are accepted");
+  }
   std::vector<int> field_known;       // per field: known column index or -1
   std::vector<int> field_extra;       // per field: extra column index or -1
   std::array<int, kNumKnown> known_field;
   known_field.fill(-1);
   {
+    // Duplicate names are found with a hash map: linear in the header length.
+    std::unordered_map<std::string_view, std::size_t> seen;  // name -> its 1-based column
     std::size_t start = 0;
     int field = 0;
     while (true) {
       std::size_t comma = line.find(',', start);
       std::string_view name = trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
       if (name.empty()) dataError(path, header_line, start + 1, "empty column name in header");
+      if (static_cast<std::size_t>(field) >= kMaxColumns) {
+        dataError(path, header_line, start + 1,
+                  "too many columns in the header (at most " + std::to_string(kMaxColumns) + ")");
+      }
+      const auto [it, inserted] = seen.emplace(name, start + 1);
+      if (!inserted) {
+        dataError(path, header_line, start + 1,
+                  "duplicate column '" + shown(name) + "' (first at column " + std::to_string(it->second) + ")");
+      }
       int k = -1;
       for (int i = 0; i < kNumKnown; ++i) {
         if (name == known[static_cast<std::size_t>(i)].name) k = i;
       }
-      for (std::size_t e = 0; e < log.extra_names.size(); ++e) {
-        if (log.extra_names[e] == name) dataError(path, header_line, start + 1, "duplicate column '" + std::string(name) + "'");
-      }
       if (k >= 0) {
-        if (known_field[static_cast<std::size_t>(k)] >= 0) {
-          dataError(path, header_line, start + 1, "duplicate column '" + std::string(name) + "'");
-        }
         known_field[static_cast<std::size_t>(k)] = field;
         field_known.push_back(k);
         field_extra.push_back(-1);
@@ -232,6 +285,7 @@ LogData readLog(const std::string& path, LogKind kind) {
   log.extra_columns.assign(log.extra_names.size(), {});
 
   // Rows.
+  const std::array<double, kNumKnown> limits = plausibleLimits(options);
   const std::size_t n_fields = field_known.size();
   const std::size_t rows_estimate = text.size() / (n_fields * 8 + 1) + 1;
   log.samples.reserve(rows_estimate);
@@ -263,6 +317,13 @@ LogData readLog(const std::string& path, LogKind kind) {
       const int k = field_known[field];
       if (k == 0) t_column = start + 1;
       if (k >= 0) {
+        const double limit = limits[static_cast<std::size_t>(k)];
+        if (!(std::abs(v) <= limit)) {
+          char buf[200];
+          std::snprintf(buf, sizeof buf, "column '%s': value %.6g is outside the plausible range +-%.6g %s",
+                        known[static_cast<std::size_t>(k)].name, v, limit, limitReason(k));
+          dataError(path, cur.line_no, start + 1, buf);
+        }
         *slotOf(sample, k) = v;
       } else {
         log.extra_columns[static_cast<std::size_t>(field_extra[field])].push_back(v);
@@ -296,20 +357,6 @@ void appendNumber(std::string& out, double v) {
   char buf[32];
   auto res = std::to_chars(buf, buf + sizeof buf, v);  // shortest representation that round-trips
   out.append(buf, res.ptr);
-}
-
-void writeAll(int fd, const std::string& data, const std::string& tmp) {
-  const char* p = data.data();
-  std::size_t left = data.size();
-  while (left > 0) {
-    const ssize_t n = ::write(fd, p, left);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      throw DataError(tmp + ": write failed: " + std::strerror(errno));
-    }
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
 }
 
 }  // namespace
@@ -374,31 +421,11 @@ void writeLog(const std::string& path, const LogData& log) {
     out += '\n';
   }
 
-  // Atomic replace: temporary file in the same directory, fsync, rename.
-  std::string tmp_template = path + ".tmp-XXXXXX";
-  std::vector<char> name(tmp_template.begin(), tmp_template.end());
-  name.push_back('\0');
-  const int fd = ::mkstemp(name.data());
-  const std::string tmp(name.data());
-  if (fd < 0) throw DataError(path + ": cannot create temporary file: " + std::strerror(errno));
+  // Atomic replace (ftid/fileio/atomic_file.hpp): refuses symlinks, devices, FIFOs, directories.
   try {
-    writeAll(fd, out, tmp);
-    if (::fchmod(fd, 0644) != 0 || ::fsync(fd) != 0) {
-      throw DataError(tmp + ": fsync failed: " + std::strerror(errno));
-    }
-  } catch (...) {
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    throw;
-  }
-  if (::close(fd) != 0) {
-    ::unlink(tmp.c_str());
-    throw DataError(tmp + ": close failed: " + std::strerror(errno));
-  }
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    throw DataError(path + ": cannot rename temporary file into place: " + std::strerror(err));
+    writeFileAtomically(path, out);
+  } catch (const FileError& e) {
+    throw DataError(e.what());
   }
 }
 

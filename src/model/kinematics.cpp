@@ -9,6 +9,7 @@
 // KDL::Vector live on the stack), so computeSensorMotion does not allocate.
 #include "ftid/model/kinematics.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -22,6 +23,7 @@
 #include <urdf_model/model.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include "ftid/fileio/input_file.hpp"
 #include "ftid/common/error.hpp"
 
 namespace ftid::model {
@@ -67,6 +69,50 @@ Eigen::Isometry3d toIsometry(const KDL::Frame& f) {
 
 }  // namespace
 
+std::size_t xmlNestingDepth(std::string_view xml) {
+  std::size_t depth = 0, deepest = 0;
+  std::size_t i = 0;
+  const std::size_t n = xml.size();
+  auto skipPast = [&](std::string_view end) {
+    const std::size_t k = xml.find(end, i);
+    i = k == std::string_view::npos ? n : k + end.size();
+  };
+  while (i < n) {
+    const std::size_t lt = xml.find('<', i);
+    if (lt == std::string_view::npos) break;
+    i = lt + 1;
+    const std::string_view rest = xml.substr(i);
+    if (rest.substr(0, 3) == "!--") {
+      skipPast("-->");
+    } else if (rest.substr(0, 8) == "![CDATA[") {
+      skipPast("]]>");
+    } else if (!rest.empty() && (rest.front() == '?' || rest.front() == '!')) {
+      skipPast(">");  // declaration, processing instruction, DOCTYPE
+    } else if (!rest.empty() && rest.front() == '/') {
+      skipPast(">");
+      if (depth > 0) --depth;
+    } else {
+      // Start tag: find its end outside quoted attribute values.
+      char quote = 0;
+      bool self_closing = false;
+      while (i < n) {
+        const char ch = xml[i++];
+        if (quote != 0) {
+          if (ch == quote) quote = 0;
+        } else if (ch == '"' || ch == '\'') {
+          quote = ch;
+        } else if (ch == '>') {
+          self_closing = i >= 2 && xml[i - 2] == '/';
+          break;
+        }
+      }
+      deepest = std::max(deepest, depth + 1);
+      if (!self_closing) ++depth;
+    }
+  }
+  return deepest;
+}
+
 RobotKinematics::RobotKinematics(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 RobotKinematics::RobotKinematics(const RobotKinematics& other)
     : impl_(std::make_unique<Impl>(*other.impl_)) {}
@@ -80,17 +126,25 @@ RobotKinematics::~RobotKinematics() = default;
 
 RobotKinematics RobotKinematics::fromUrdfFile(const std::string& path, const std::string& base_link,
                                               const std::string& tip_link) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot open URDF file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return fromUrdfString(ss.str(), base_link, tip_link, path);
+  std::string xml;
+  try {
+    xml = readInputFile(path, "URDF file", kMaxTextConfigBytes);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
+  }
+  return fromUrdfString(xml, base_link, tip_link, path);
 }
 
 RobotKinematics RobotKinematics::fromUrdfString(const std::string& xml, const std::string& base_link,
                                                 const std::string& tip_link,
                                                 const std::string& source_name) {
   if (xml.find_first_not_of(" \t\r\n") == std::string::npos) fail(source_name, "URDF is empty");
+  // The XML parser recurses once per nesting level: refuse deep nesting before it runs.
+  const std::size_t depth = xmlNestingDepth(xml);
+  if (depth > kMaxUrdfDepth) {
+    fail(source_name, "XML elements nested " + std::to_string(depth) + " deep; a URDF needs at most " +
+                          std::to_string(kMaxUrdfDepth) + " levels (refused before parsing)");
+  }
   urdf::ModelInterfaceSharedPtr model;
   try {
     model = urdf::parseURDF(xml);

@@ -11,6 +11,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
 namespace ftid::sim {
@@ -126,27 +127,7 @@ std::string truthYaml(const CellSimConfig& c) {
 }
 
 void writeTruthYaml(const std::string& path, const CellSimConfig& config) {
-  const std::string text = truthYaml(config);
-  std::string tmpl = path + ".tmp-XXXXXX";
-  std::vector<char> name(tmpl.begin(), tmpl.end());
-  name.push_back('\0');
-  const int fd = ::mkstemp(name.data());
-  if (fd < 0) throw Error(path + ": cannot create temporary file: " + std::strerror(errno));
-  const std::string tmp(name.data());
-  std::size_t off = 0;
-  bool ok = true;
-  while (ok && off < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + off, text.size() - off);
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) ok = false; else off += static_cast<std::size_t>(n);
-  }
-  ok = ok && ::fchmod(fd, 0644) == 0 && ::fsync(fd) == 0;
-  const int err = errno;
-  ok = (::close(fd) == 0) && ok;
-  if (!ok || ::rename(tmp.c_str(), path.c_str()) != 0) {
-    ::unlink(tmp.c_str());
-    throw Error(path + ": cannot write truth file: " + std::strerror(ok ? errno : err));
-  }
+  writeFileAtomically(path, truthYaml(config));  // ftid/fileio/atomic_file.hpp
 }
 
 }  // namespace ftid::sim

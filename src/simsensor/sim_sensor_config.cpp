@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "ftid/fileio/yaml_strict.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
 
@@ -115,14 +116,7 @@ void enableEffect(const std::string& name, SimSensorConfig& config) {
 }
 
 void loadSimSensorYaml(const std::string& path, SimSensorConfig& config) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError(path + ": cannot read the file");
-  } catch (const YAML::ParserException& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
-  }
+  const YAML::Node root = loadYamlFileStrict(path, "sensor simulator config");
   if (root.IsNull()) return;
   const YamlReader r(path);
   r.onlyKeys(root, "", {"robot", "output", "payload", "offsets", "tilt_deg", "mount", "noise",

@@ -15,6 +15,9 @@
 #include <type_traits>
 
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_strict.hpp"
 
 namespace ftid::trajectory {
 
@@ -51,24 +54,12 @@ std::string quoted(const std::string& s) {
   return out + "\"";
 }
 
-/// Writes `text` to `path` atomically: temporary file in the same directory, fsync, rename.
+/// Writes `text` to `path` through the one atomic writer (ftid/fileio/atomic_file.hpp).
 void writeAtomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  std::FILE* f = std::fopen(tmp.c_str(), "wb");
-  if (f == nullptr) {
-    throw ConfigError(path + ": cannot write (" + std::strerror(errno) + ")");
-  }
-  const bool ok = std::fwrite(text.data(), 1, text.size(), f) == text.size() &&
-                  std::fflush(f) == 0 && ::fsync(::fileno(f)) == 0;
-  const int close_rc = std::fclose(f);
-  if (!ok || close_rc != 0) {
-    std::remove(tmp.c_str());
-    throw ConfigError(path + ": write failed (" + std::strerror(errno) + ")");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const std::string why = std::strerror(errno);
-    std::remove(tmp.c_str());
-    throw ConfigError(path + ": cannot rename temporary file into place (" + why + ")");
+  try {
+    writeFileAtomically(path, text);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
   }
 }
 
@@ -234,15 +225,31 @@ void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file) {
 }
 
 TrajectoryFile readTrajectoryFile(const std::string& path) {
-  YAML::Node root;
+  std::string text;
   try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError(path + ": cannot open trajectory file");
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) +
-                      ": YAML syntax error: " + e.msg);
+    text = readInputFile(path, "trajectory file", kMaxTextConfigBytes);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
   }
+  return parseTrajectoryText(text, path);
+}
+
+namespace {
+TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& path);
+}  // namespace
+
+TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& path) {
+  const YAML::Node root = loadYamlStrict(text, path);
+  try {
+    return parseTrajectoryNode(root, path);
+  } catch (const YAML::Exception& e) {
+    // A node of an unexpected kind (found by fuzzing: a scalar where a mapping belongs).
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": unexpected structure: " + e.msg);
+  }
+}
+
+namespace {
+TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& path) {
   Reader r(path);
   if (!root.IsMap()) r.fail("format", "file is not a YAML mapping");
   const YAML::Node fmt = r.require(root, "format", "format");
@@ -314,6 +321,7 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
       for (std::size_t i = 0; i < ko.size(); ++i) {
         const std::string key = "constraints.keep_out[" + std::to_string(i) + "]";
         KeepOutSphere s;
+        if (!ko[i].IsMap()) r.fail(key, "expected {name, center, radius}");
         if (ko[i]["name"]) s.name = ko[i]["name"].as<std::string>();
         s.center_B = r.vec3(ko[i], "center", key + ".center");
         s.radius = r.number(ko[i], "radius", key + ".radius");
@@ -364,6 +372,7 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
   }
   return f;
 }
+}  // namespace
 
 void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory,
                         double rate_hz) {

@@ -1,9 +1,14 @@
 #include "ftid/transport/lcm_log.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 
 namespace ftid::transport {
 namespace {
@@ -29,13 +34,37 @@ std::uint64_t getU64(const std::uint8_t* p) {
   return v;
 }
 
+/// Opens `path` with `flags` (plus O_NONBLOCK, O_CLOEXEC; for writing O_NOFOLLOW: a symlink is
+/// refused) and
+/// returns a stdio stream on it only if it is a regular file; else throws naming the path.
+std::FILE* openRegular(const std::string& path, int flags, const char* mode, const std::string& what) {
+  const int nofollow = (flags & O_ACCMODE) == O_RDONLY ? 0 : O_NOFOLLOW;
+  const int fd = ::open(path.c_str(), flags | O_NONBLOCK | O_CLOEXEC | nofollow, 0644);
+  if (fd < 0) {
+    const int err = errno;
+    if (err == ELOOP) throw FileError(path + ": refusing to " + what + " through a symbolic link");
+    throw FileError(path + ": cannot " + what + ": " + std::strerror(err));
+  }
+  struct stat st {};
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw FileError(path + ": cannot " + what + ": it is a " + fileKindName(st.st_mode) + ", not a regular file");
+  }
+  // Regular files never block; clear O_NONBLOCK anyway for stdio.
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  std::FILE* f = ::fdopen(fd, mode);
+  if (f == nullptr) {
+    ::close(fd);
+    throw FileError(path + ": cannot " + what + ": " + std::strerror(errno));
+  }
+  return f;
+}
+
 }  // namespace
 
 LcmLogWriter::LcmLogWriter(const std::string& path) : path_(path) {
-  file_ = std::fopen(path.c_str(), "wb");
-  if (file_ == nullptr) {
-    throw Error(path + ": cannot create LCM log: " + std::strerror(errno));
-  }
+  checkOutputPath(path);  // a device node, FIFO or directory is refused before it is opened
+  file_ = openRegular(path, O_WRONLY | O_CREAT | O_TRUNC, "wb", "create the LCM log");
 }
 
 LcmLogWriter::~LcmLogWriter() {
@@ -66,9 +95,15 @@ void LcmLogWriter::flush() {
 }
 
 LcmLogReader::LcmLogReader(const std::string& path) : path_(path) {
-  file_ = std::fopen(path.c_str(), "rb");
-  if (file_ == nullptr) {
-    throw DataError(path + ": cannot open LCM log: " + std::strerror(errno));
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {  // never open a device or FIFO
+    throw DataError(path + ": cannot open the LCM log: it is a " + fileKindName(st.st_mode) +
+                    ", not a regular file");
+  }
+  try {
+    file_ = openRegular(path, O_RDONLY, "rb", "open the LCM log");
+  } catch (const FileError& e) {
+    throw DataError(e.what());
   }
 }
 

@@ -36,7 +36,12 @@ std::string writeParams(const std::string& model_name, const std::string& path, 
   set.model = model.name();
   double k = 0.01;
   for (const auto& name : model.paramIndex().names()) {
-    set.params.push_back({name, name == "mass" ? mass : k, 0.0, ""});
+    double v = name == "mass" ? mass : k;
+    // A physically valid inertia (parameter files with an invalid one are refused, issue 14).
+    if (name == "i_s_xx" || name == "i_s_yy") v = 0.2;
+    if (name == "i_s_zz") v = 0.1;
+    if (name == "i_s_xy" || name == "i_s_xz" || name == "i_s_yz") v = 0.0;
+    set.params.push_back({name, v, 0.0, ""});
     k += 0.01;
   }
   set.tilt_u_rad = 0.01;

@@ -5,6 +5,7 @@
 // Relative paths in a config file are resolved against the directory of that file.
 #include <chrono>
 #include <string>
+#include <vector>
 
 #include "ftid/common/types.hpp"
 
@@ -95,11 +96,21 @@ struct DaemonConfig {
   RtConfig rt;
   RecordConfig record;
   std::string source;  ///< the file this was loaded from ("" for defaults)
+  /// Legal but risky settings found by validation (e.g. lcm.url ttl > 1); ftidd and
+  /// --check-config print them.
+  std::vector<std::string> warnings;
 };
 
-/// Loads and validates a config file. Keys not given keep their defaults. Throws ConfigError
-/// "FILE:LINE: key 'section.name': problem" for unknown keys, wrong types and bad values, or
-/// "FILE: ..." if the file cannot be read or parsed.
+/// Checks an LCM provider URL. udpm://ADDR:PORT?opts needs an IPv4 multicast ADDR
+/// (224.0.0.0/4), PORT 1..65535 and options among ttl=0..255 and recv_buf_size=N; memq:// takes
+/// nothing; file://PATH and tcpq://HOST:PORT are checked for shape. Throws ConfigError
+/// "WHERE: key 'lcm.url': ..."; appends a warning if ttl > 1 (datagrams routed beyond one hop).
+void checkLcmUrl(const std::string& url, const std::string& where, std::vector<std::string>* warnings);
+
+/// Loads and validates a config file (a regular file, opened with O_NONBLOCK; duplicate keys are
+/// errors). Keys not given keep their defaults. Throws ConfigError
+/// "FILE:LINE: key 'section.name': problem" for unknown keys, duplicate keys, wrong types and bad
+/// values, or "FILE: ..." if the file cannot be read or parsed.
 DaemonConfig loadDaemonConfig(const std::string& path);
 
 /// Same, from YAML text; source_name is used in messages and relative paths resolve against

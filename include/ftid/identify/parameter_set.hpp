@@ -61,9 +61,26 @@ Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set,
 effects::NonlinearParams nonlinearFor(const effects::Model& model, const ParameterSet& set,
                                       const std::string& source = "parameter set");
 
-/// Reads a parameter file (YAML). Throws ConfigError naming the file and the key.
+/// A problem that makes a parameter set unusable: the key (e.g. "parameters.mass") and why.
+struct ParameterProblem {
+  std::string key;
+  std::string message;
+};
+
+/// First reason the set is not physically usable, if any: a non-finite value or standard error;
+/// a non-positive `mass`; a non-finite centre of mass; with rigid_body's i_s_* parameters, an
+/// inertia about the centre of mass that is not positive definite or violates the triangle
+/// inequalities beyond 3 standard errors (effects::inertiaAboutCom).
+std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set);
+
+/// Reads a parameter file (YAML): a regular file, no duplicate keys, every value finite, and
+/// findParameterProblem() empty. Throws ConfigError naming the file, line and key.
 ParameterSet readParameterFile(const std::string& path);
-/// Writes it atomically (temporary file + rename); an existing file is kept as PATH.bak.
+/// The same from text already in memory (`path` names it in messages; the fuzz target's entry).
+ParameterSet parseParameterText(const std::string& text, const std::string& path);
+/// Writes it atomically through ftid::writeFileAtomically (never over a symlink, device, FIFO or
+/// directory); an existing file is kept as PATH.bak. Throws IdentificationError (and writes
+/// nothing, rotates nothing) if findParameterProblem() finds a problem.
 void writeParameterFile(const std::string& path, const ParameterSet& set);
 
 /// The `ftid identify --json` object (one line of JSON, no trailing newline).

@@ -5,7 +5,10 @@
 // The IMU group (ax..alz) and temp may be absent; extra columns are kept by name, unused by default.
 // Readers reject NaN/inf, non-monotonic t and wrong column counts with a DataError naming
 // file, line and column.
+#include <array>
+#include <cstddef>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ftid/common/types.hpp"
@@ -42,8 +45,42 @@ enum class LogKind {
   kTrajectory,   ///< only t, q, qd, qdd required (designed trajectories)
 };
 
-/// Reads a CSV log. Throws DataError("FILE:LINE:COLUMN: message") on any malformed input.
-LogData readLog(const std::string& path, LogKind kind = LogKind::kMeasurement);
+/// Limits on what the reader accepts from an untrusted file (docs/log-format.md).
+inline constexpr std::size_t kMaxColumns = 1024;         ///< header columns
+inline constexpr std::size_t kMaxHeaderBytes = 65536;    ///< header row length
+/// Rated range of the shipped sensor (config/ftsensor.dbc): Fx, Fy, Fz [N], Tx, Ty, Tz [Nm].
+inline constexpr std::array<double, 6> kDefaultRatedWrench_S = {300.0, 300.0, 500.0, 25.0, 25.0, 25.0};
+
+/// Largest plausible |value| per column; a value beyond it is a DataError naming line and column.
+struct LogReadOptions {
+  double max_abs_t_s = 1e12;
+  double max_abs_q_rad = 4.0 * 3.14159265358979323846;  ///< joint angles: +-4 pi
+  double max_abs_qd_rad_s = 1e3;
+  double max_abs_qdd_rad_s2 = 1e6;
+  /// 100x the sensor's rated range (withRatedWrench; default: the shipped DBC's range).
+  std::array<double, 6> max_abs_wrench_S = {3e4, 3e4, 5e4, 2.5e3, 2.5e3, 2.5e3};
+  double max_abs_acc_m_s2 = 1e4;
+  double max_abs_w_rad_s = 1e3;
+  double max_abs_alpha_rad_s2 = 1e6;
+  double max_abs_temp_degC = 1e3;
+
+  /// Options with the wrench limits set to 100x `rated_S` (e.g. the [min|max] ranges of a DBC).
+  static LogReadOptions withRatedWrench(const std::array<double, 6>& rated_S) {
+    LogReadOptions o;
+    for (std::size_t a = 0; a < 6; ++a) o.max_abs_wrench_S[a] = 100.0 * rated_S[a];
+    return o;
+  }
+};
+
+/// Reads a CSV log: a regular file (FIFOs, directories and devices are refused, see
+/// ftid/fileio/input_file.hpp), at most kMaxColumns columns with distinct names, every value
+/// finite and within `options`. Throws DataError("FILE:LINE:COLUMN: message") on any malformed input.
+LogData readLog(const std::string& path, LogKind kind = LogKind::kMeasurement,
+                const LogReadOptions& options = {});
+
+/// The same checks on a log already in memory (`path` names it in messages; the fuzz target's entry).
+LogData parseLogText(std::string_view text, const std::string& path, LogKind kind = LogKind::kMeasurement,
+                     const LogReadOptions& options = {});
 
 /// Writes a CSV log atomically (temporary file + rename). Writes the IMU and temp columns only if
 /// the corresponding has_* flag is set, and the extra columns after them.

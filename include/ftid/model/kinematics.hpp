@@ -8,8 +8,10 @@
 //   alpha_S       = d/dt(w_S_in_B) expressed in S
 //   a_S           = R_BS^T * d^2/dt^2 (p_BS_B)   (classical acceleration of the S origin, no gravity)
 #include <array>
+#include <cstddef>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "ftid/common/types.hpp"
 
@@ -30,6 +32,13 @@ struct JointLimits {
   JointVector velocity = JointVector::Constant(3.14);                   ///< [rad/s]
   JointVector acceleration = JointVector::Constant(40.0);               ///< [rad/s^2] (not in URDF)
 };
+
+/// Deepest element nesting of an XML text (a cheap scan: comments, CDATA, declarations and quoted
+/// attribute values are skipped). fromUrdfString refuses more than kMaxUrdfDepth levels before
+/// the XML parser runs, because the parser recurses once per level (a deeply nested file would
+/// overflow the stack).
+std::size_t xmlNestingDepth(std::string_view xml);
+inline constexpr std::size_t kMaxUrdfDepth = 64;
 
 class RobotKinematics {
  public:

@@ -70,6 +70,8 @@ struct TrajectoryFile {
 
 /// Reads traj.yaml. Throws ConfigError("FILE: key 'x': message") on anything missing or invalid.
 TrajectoryFile readTrajectoryFile(const std::string& path);
+/// The same from text already in memory (`path` names it in messages; the fuzz target's entry).
+TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& path);
 
 /// Writes traj.yaml atomically (temporary file + rename); doubles round-trip exactly.
 void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file);

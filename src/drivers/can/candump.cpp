@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <sstream>
 
+#include "ftid/fileio/input_file.hpp"
 #include "ftid/common/error.hpp"
 
 namespace ftid::can {
@@ -149,8 +151,12 @@ std::string formatCandumpLine(const ReceivedFrame& rf, const std::string& interf
 }
 
 std::vector<CandumpRecord> loadCandump(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw DataError(path + ": cannot open candump log");
+  std::istringstream in;
+  try {
+    in.str(readInputFile(path, "candump log", kMaxLogBytes));
+  } catch (const FileError& e) {
+    throw DataError(e.what());
+  }
   std::vector<CandumpRecord> out;
   std::string l;
   int line = 0;

@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "ftid/fileio/input_file.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/codec.hpp"
 
@@ -426,11 +427,11 @@ DbcDatabase parseDbc(const std::string& text, const std::string& source_name) {
 }
 
 DbcDatabase loadDbc(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(path + ": cannot open DBC file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return parseDbc(ss.str(), path);
+  try {
+    return parseDbc(readInputFile(path, "DBC file", kMaxTextConfigBytes), path);
+  } catch (const FileError& e) {
+    throw DataError(e.what());
+  }
 }
 
 }  // namespace ftid::can

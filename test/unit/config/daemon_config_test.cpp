@@ -2,6 +2,7 @@
 // naming the key and the file (and the line where the key is).
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -152,10 +153,62 @@ TEST_F(DaemonConfigTest, SyntaxErrorsAndUnreadableFilesNameTheFile) {
   }
 }
 
+// Issue 14: duplicate keys used to take the last value silently.
+TEST_F(DaemonConfigTest, DuplicateKeysAreErrors) {
+  try {
+    parseDaemonConfig(base() + "rt:\n  priority: 10\n  priority: 90\n", "test.yaml", dir_);
+    FAIL();
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("test.yaml:7: duplicate key 'priority' (first on line 6)"), std::string::npos) << msg;
+  }
+  EXPECT_THROW(parseDaemonConfig(base() + "robot:\n  host: 10.0.0.2\n", "test.yaml", dir_), ConfigError);
+}
+
+// Issue 14: a garbage LCM URL passed --check-config, ttl=255 passed without a warning.
+TEST_F(DaemonConfigTest, LcmUrlIsValidated) {
+  expectError(base() + "lcm:\n  url: udpm://garbage\n", "lcm.url", 6, "ADDRESS:PORT");
+  expectError(base() + "lcm:\n  url: udpm://10.1.2.3:7667\n", "lcm.url", 6, "not a multicast address");
+  expectError(base() + "lcm:\n  url: udpm://239.255.76.67:0\n", "lcm.url", 6, "1..65535");
+  expectError(base() + "lcm:\n  url: udpm://239.255.76.67:99999\n", "lcm.url", 6, "1..65535");
+  expectError(base() + "lcm:\n  url: udpm://239.255.76.67:7667?ttl=256\n", "lcm.url", 6, "0..255");
+  expectError(base() + "lcm:\n  url: udpm://239.255.76.67:7667?ttl=-1\n", "lcm.url", 6, "0..255");
+  expectError(base() + "lcm:\n  url: udpm://239.255.76.67:7667?tll=0\n", "lcm.url", 6, "unknown udpm option 'tll'");
+  expectError(base() + "lcm:\n  url: udpm://300.1.1.1:7667\n", "lcm.url", 6, "not an IPv4 address");
+  expectError(base() + "lcm:\n  url: memq://x\n", "lcm.url", 6);
+  EXPECT_TRUE(parse("lcm:\n  url: udpm://239.255.76.67:7667?ttl=1&recv_buf_size=2097152\n").warnings.empty());
+  const DaemonConfig c = parse("lcm:\n  url: udpm://239.255.76.67:7667?ttl=255\n");
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_NE(c.warnings[0].find("test.yaml:6"), std::string::npos) << c.warnings[0];
+  EXPECT_NE(c.warnings[0].find("ttl=255"), std::string::npos) << c.warnings[0];
+  EXPECT_TRUE(parse("").warnings.empty()) << "the default URL (ttl=0) gives no warning";
+}
+
+// Issue 14: a FIFO or a directory as config or parameter file hung or gave no file name.
+TEST_F(DaemonConfigTest, FifoAndDirectoryAreRefusedWithoutBlocking) {
+  const std::string fifo = dir_ + "/cfg.fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    loadDaemonConfig(fifo);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(fifo + ": cannot read the config file: it is a FIFO"), std::string::npos)
+        << e.what();
+  }
+  try {
+    loadDaemonConfig(dir_);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("it is a directory"), std::string::npos) << e.what();
+  }
+  expectError(base() + "parameters:\n  path: cfg.fifo\n  required: true\n", "parameters.path", 6, "cfg.fifo");
+}
+
 TEST(DaemonConfigFile, ShippedConfigIsValid) {
   const DaemonConfig c = loadDaemonConfig(FTID_SOURCE_DIR "/config/ftidd.yaml");
   EXPECT_EQ(c.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
   EXPECT_NE(describeDaemonConfig(c).find("lcm.url"), std::string::npos);
+  EXPECT_TRUE(c.warnings.empty());
 }
 
 }  // namespace

@@ -1,4 +1,6 @@
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -69,6 +71,16 @@ LogData randomLog(std::size_t n, bool imu, bool temp, bool extra, unsigned seed)
   return log;
 }
 
+/// The random logs span magnitudes from 1e-300 to 1e5 to test the bit-exact round trip; they lie
+/// outside the plausible ranges the reader enforces by default, so these tests lift the limits.
+LogReadOptions unbounded() {
+  LogReadOptions o;
+  o.max_abs_t_s = o.max_abs_q_rad = o.max_abs_qd_rad_s = o.max_abs_qdd_rad_s2 = 1e308;
+  o.max_abs_acc_m_s2 = o.max_abs_w_rad_s = o.max_abs_alpha_rad_s2 = o.max_abs_temp_degC = 1e308;
+  o.max_abs_wrench_S.fill(1e308);
+  return o;
+}
+
 void expectSame(const LogData& a, const LogData& b) {
   ASSERT_EQ(a.samples.size(), b.samples.size());
   EXPECT_EQ(a.has_imu, b.has_imu);
@@ -99,7 +111,7 @@ TEST(LogIo, RoundTripIsBitExact) {
     const LogData log = randomLog(200, variant & 1, variant & 2, variant == 3, 7u + static_cast<unsigned>(variant));
     const std::string path = tempPath("roundtrip.csv");
     writeLog(path, log);
-    const LogData back = readLog(path);
+    const LogData back = readLog(path, LogKind::kMeasurement, unbounded());
     EXPECT_EQ(back.source, path);
     expectSame(log, back);
   }
@@ -240,7 +252,7 @@ TEST(LogIo, WriteReplacesAtomically) {
   writeLog(path, randomLog(5, false, false, false, 1));
   const LogData second = randomLog(7, true, true, false, 2);
   writeLog(path, second);
-  expectSame(second, readLog(path));
+  expectSame(second, readLog(path, LogKind::kMeasurement, unbounded()));
   EXPECT_THROW(writeLog(std::string(FTID_BINARY_DIR) + "/no-such-dir/x.csv", second), DataError);
 }
 
@@ -258,11 +270,107 @@ TEST(LogIo, ReadsTenThousandRowsQuickly) {
     return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
   };
   const double start_ms = cpuMs();
-  const LogData back = readLog(path);
+  const LogData back = readLog(path, LogKind::kMeasurement, unbounded());
   const double ms = cpuMs() - start_ms;
   expectSame(log, back);
   EXPECT_LT(ms, 2000.0);
   std::printf("read 10000 rows x 35 columns in %.1f ms (thread CPU time)\n", ms);
+}
+
+// Issue 14 regressions: values far outside the plausible range are refused with line and column
+// (they used to give exit 0 and garbage: tz = -1e300 on every row, q5 = 1e308, one fz = 1e308).
+TEST(LogIo, ImplausibleValuesNameLineAndColumn) {
+  const std::string h = std::string(kHeader) + "\n";
+  auto withField = [](double t, int k, const std::string& v) {
+    std::ostringstream s;
+    s << t;
+    for (int i = 0; i < 24; ++i) s << "," << (i == k ? v : std::to_string(0.5 + 0.01 * i));
+    return s.str();
+  };
+  auto col = [&](double t, int k) {  // 1-based character of field k+1 in withField's row
+    const std::string r = withField(t, k, "X");
+    return static_cast<int>(r.find('X')) + 1;
+  };
+  // tz (field 24) = -1e300 on every row: refused at the first row.
+  std::string tz_rows = h;
+  for (int i = 0; i < 5; ++i) tz_rows += withField(0.1 * (i + 1), 23, "-1e300") + "\n";
+  expectError("tz1e300.csv", tz_rows, 2, col(0.1, 23), "column 'tz': value -1e+300 is outside the plausible range");
+  // q5 (field 5) = 1e308 on line 3.
+  expectError("q5.csv", h + row(0.1) + "\n" + withField(0.2, 4, "1e308") + "\n", 3, col(0.2, 4),
+              "column 'q5': value 1e+308");
+  expectError("q5b.csv", h + row(0.1) + "\n" + withField(0.2, 4, "12.6") + "\n", 3, col(0.2, 4), "+-4 pi");
+  // A single fz = 1e308 cell (it used to surface as a misleading "rank 0").
+  expectError("fz.csv", h + row(0.1) + "\n" + row(0.2) + "\n" + withField(0.3, 20, "1e308") + "\n", 4, col(0.3, 20),
+              "100x the sensor's rated range");
+  // Within 4 pi and within 100x the rated range: accepted.
+  EXPECT_NO_THROW((void)readLog(writeText("ok.csv", h + withField(0.1, 4, "12.5") + "\n" + withField(0.2, 20, "49999") + "\n")));
+  // The rated range can come from the DBC (withRatedWrench): fz rated 50 N allows 5000 N.
+  const std::string p = writeText("rated.csv", h + withField(0.1, 20, "5001") + "\n");
+  EXPECT_THROW((void)readLog(p, LogKind::kMeasurement, LogReadOptions::withRatedWrench({30, 30, 50, 2, 2, 2})),
+               DataError);
+}
+
+TEST(LogIo, HugeHeadersAreRefusedAndDuplicatesFoundAtTheEnd) {
+  // 200,000 columns (used to take over 20 s in a quadratic duplicate check): refused at once.
+  std::string big = kHeader;
+  for (int i = 0; i < 200000; ++i) big += ",c" + std::to_string(i);
+  expectError("bigheader.csv", big + "\n" + row(0.1) + "\n", 1, 1, "at most 65536");
+  // Column count: kMaxColumns distinct short names are accepted in the header, one more is not.
+  std::string many = kHeader;
+  for (std::size_t i = 25; i < kMaxColumns; ++i) many += ",e" + std::to_string(i);
+  std::string many_row = row(0.1);
+  for (std::size_t i = 25; i < kMaxColumns; ++i) many_row += ",1";
+  const LogData log = readLog(writeText("many.csv", many + "\n" + many_row + "\n"));
+  EXPECT_EQ(log.extra_names.size(), kMaxColumns - 25);
+  expectError("toomany.csv", many + ",one_more\n" + many_row + ",1\n", 1, static_cast<int>(many.size()) + 2,
+              "too many columns");
+  // A duplicate at the very end of a maximal header names both positions.
+  std::string dup = many;
+  dup.resize(dup.rfind(','));
+  dup += ",e30";
+  expectError("dupend.csv", dup + "\n" + many_row + "\n", 1, static_cast<int>(dup.rfind(',')) + 2,
+              "duplicate column 'e30' (first at column");
+}
+
+TEST(LogIo, FifoAndDirectoryAreRefusedNamingTheFile) {
+  const std::string fifo = tempPath("fifo.csv");
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);  // no writer: the old reader blocked forever here
+  try {
+    (void)readLog(fifo);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find(fifo + ": cannot read the log file: it is a FIFO"), std::string::npos)
+        << e.what();
+  }
+  std::remove(fifo.c_str());
+  const std::string dir = std::string(FTID_BINARY_DIR);
+  try {
+    (void)readLog(dir);
+    FAIL();
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find(dir + ": cannot read the log file: it is a directory"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(LogIo, WriterRefusesSymlinkAndDirectory) {
+  const std::string target = tempPath("link_target.csv");
+  const std::string link = tempPath("link.csv");
+  std::remove(link.c_str());
+  std::ofstream(target) << "keep\n";
+  ASSERT_EQ(::symlink(target.c_str(), link.c_str()), 0);
+  EXPECT_THROW(writeLog(link, randomLog(3, false, false, false, 5)), DataError);
+  std::ifstream in(target);
+  std::string first;
+  std::getline(in, first);
+  EXPECT_EQ(first, "keep");
+  struct stat st {};
+  ASSERT_EQ(::lstat(link.c_str(), &st), 0);
+  EXPECT_TRUE(S_ISLNK(st.st_mode));
+  std::remove(link.c_str());
+  std::remove(target.c_str());
+  EXPECT_THROW(writeLog(std::string(FTID_BINARY_DIR), randomLog(3, false, false, false, 5)), DataError);
 }
 
 }  // namespace

@@ -1,9 +1,12 @@
 // Kinematics checked against an independent closed-form DH product (written here), the FK test
 // vectors of ../shared/reference/ur-interface-notes.md §4.3, and finite differences of FK.
+#include <sys/stat.h>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -275,6 +278,47 @@ TEST(Kinematics, BadUrdfGivesConfigErrorNamingTheFile) {
     EXPECT_NE(std::string(e.what()).find("no_such_link"), std::string::npos);
     EXPECT_NE(std::string(e.what()).find("ur10.urdf"), std::string::npos);
   }
+}
+
+// Issue 14: a URDF with 60,000 nested elements crashed (SIGSEGV, stack overflow in the XML parser).
+// It is now refused by a cheap scan before the parser runs.
+TEST(Kinematics, DeeplyNestedUrdfIsRefusedBeforeParsing) {
+  std::string deep = "<?xml version=\"1.0\"?>\n<robot name=\"x\">";
+  for (int i = 0; i < 60000; ++i) deep += "<a>";
+  for (int i = 0; i < 60000; ++i) deep += "</a>";
+  deep += "</robot>\n";
+  const std::string path = writeTemp("kin_test_deep.urdf", deep);
+  try {
+    (void)RobotKinematics::fromUrdfFile(path);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ": XML elements nested 60001 deep"), std::string::npos) << e.what();
+  }
+  std::remove(path.c_str());
+}
+
+TEST(Kinematics, XmlNestingDepthScan) {
+  EXPECT_EQ(xmlNestingDepth(""), 0u);
+  EXPECT_EQ(xmlNestingDepth("<a/>"), 1u);
+  EXPECT_EQ(xmlNestingDepth("<a><b/><c><d x='>' y=\"/>\"></d></c></a>"), 3u);
+  EXPECT_EQ(xmlNestingDepth("<?xml version='1.0'?><!-- <x><y><z> --><a><![CDATA[<b><c>]]></a>"), 1u);
+  EXPECT_EQ(xmlNestingDepth("<!DOCTYPE r><r><s></s><s><t/></s></r>"), 3u);
+  // The shipped URDFs are far below the limit.
+  for (const char* name : {"ur10.urdf", "ur10e.urdf"}) {
+    std::ifstream in(urdfPath(name));
+    std::stringstream ss;
+    ss << in.rdbuf();
+    EXPECT_LE(xmlNestingDepth(ss.str()), 8u) << name;
+    EXPECT_GE(xmlNestingDepth(ss.str()), 3u) << name;
+  }
+}
+
+TEST(Kinematics, FifoAsUrdfIsRefusedWithoutBlocking) {
+  const std::string fifo = std::string(FTID_BINARY_DIR) + "/kin_test_fifo.urdf";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expectConfigError(fifo, "FIFO");
+  std::remove(fifo.c_str());
 }
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include "ftid/trajectory/trajectory_io.hpp"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -171,6 +172,29 @@ TEST(TrajectoryIo, ReaderErrorsNameFileAndKey) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("does_not_exist.yaml"), std::string::npos);
   }
+}
+
+// Issue 14: duplicate keys, wrong node kinds (a libFuzzer finding: a keep-out entry that is a
+// scalar threw YAML::BadSubscript, which escaped as a crash) and FIFOs give clear errors.
+TEST(TrajectoryIo, HostileFilesGiveClearErrors) {
+  const std::string good_path = tempPath("good2.yaml");
+  writeTrajectoryFile(good_path, sampleFile());
+  const std::string good = readText(good_path);
+  expectConfigError(replaceOnce(good, "harmonics: 4", "harmonics: 4\nharmonics: 5"), "duplicate key 'harmonics'");
+  expectConfigError(replaceOnce(good, "  keep_out:", "  keep_out:\n    - NULL[0.0, 1.0]"),
+                    "key 'constraints.keep_out[0]': expected {name, center, radius}");
+  expectConfigError(replaceOnce(good, "constraints:", "constraints: 3\nconstraints_was:"), "");
+  const std::string fifo = tempPath("fifo.yaml");
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    (void)readTrajectoryFile(fifo);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(fifo + ": cannot read the trajectory file: it is a FIFO"), std::string::npos)
+        << e.what();
+  }
+  std::remove(fifo.c_str());
 }
 
 TEST(TrajectoryIo, CsvHasLogColumnsAndMatchesTheTrajectory) {

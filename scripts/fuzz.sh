@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Builds ftid's libFuzzer targets (fuzz/, docs/fuzzing.md) with clang, AddressSanitizer and
+# UndefinedBehaviorSanitizer in their own build directory, then runs each for a bounded time.
+#
+#   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]     (default: 20 s, every target)
+#
+# Targets: csv_log parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet.
+# The seed corpus of each is fuzz/<target>/corpus/ (in git); inputs the fuzzer finds interesting are
+# kept in $FTID_FUZZ_BUILD_DIR/corpus/<target>/ (not in git) so later runs continue from them.
+# A crash, sanitizer report, uncaught non-ftid exception, leak or 10 s hang fails the run: the
+# reproducer is saved as $FTID_FUZZ_BUILD_DIR/artifacts/<target>/crash-* (rerun the target binary
+# with that file as its only argument) and the script exits 1.
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+seconds=${1:-20}
+shift || true
+targets=("$@")
+[ ${#targets[@]} -eq 0 ] && targets=(csv_log parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet)
+case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS_PER_TARGET must be a whole number, got '$seconds'" >&2; exit 2;; esac
+build=${FTID_FUZZ_BUILD_DIR:-$root/build-fuzz}
+jobs=${FTID_FUZZ_JOBS:-2}
+
+cc=""; cxx=""
+for v in "" -14 -15 -16; do
+  if command -v "clang++$v" >/dev/null 2>&1 && command -v "clang$v" >/dev/null 2>&1; then cc="clang$v"; cxx="clang++$v"; break; fi
+done
+if [ -z "$cxx" ]; then
+  echo "fuzz.sh: clang not found; install clang-14 and libclang-rt-14-dev (scripts/packages.txt)" >&2
+  exit 2
+fi
+launcher=()
+command -v ccache >/dev/null 2>&1 && launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
+flags="-O1 -g1 -fno-omit-frame-pointer -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=undefined"
+mkdir -p "$build"
+start=$(date +%s)
+echo "fuzz.sh: building ${#targets[@]} target(s) with $cxx in $build"
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=None \
+  -DCMAKE_C_COMPILER="$cc" -DCMAKE_CXX_COMPILER="$cxx" "${launcher[@]}" \
+  -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_C_FLAGS="$flags" \
+  -DFTID_BUILD_FUZZ=ON -DFTID_BUILD_TESTS=OFF -DFTID_BUILD_BENCH=OFF -DFTID_WERROR=OFF >"$build/configure.log" 2>&1 \
+  || { cat "$build/configure.log" >&2; exit 1; }
+cmake --build "$build" -j"$jobs" --target $(printf 'fuzz_%s ' "${targets[@]}")
+echo "fuzz.sh: built in $(( $(date +%s) - start )) s; running each target for $seconds s"
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:allocator_may_return_null=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+failed=()
+for t in "${targets[@]}"; do
+  seeds="$root/fuzz/$t/corpus"
+  [ -d "$seeds" ] || { echo "fuzz.sh: unknown target '$t' (no $seeds)" >&2; exit 2; }
+  work="$build/corpus/$t"
+  art="$build/artifacts/$t"
+  mkdir -p "$work" "$art"
+  log="$build/fuzz-$t.log"
+  if "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
+       -print_final_stats=1 -artifact_prefix="$art/" "$work" "$seeds" >"$log" 2>&1; then
+    execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+    cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
+    echo "fuzz.sh: $t: ok (${execs:-?} inputs, coverage ${cov:-?} edges, corpus $(ls "$work" | wc -l) files)"
+  else
+    echo "fuzz.sh: $t: FAILED; last lines of $log:" >&2
+    tail -40 "$log" >&2
+    ls "$art" >&2 || true
+    failed+=("$t")
+  fi
+done
+echo "fuzz.sh: total $(( $(date +%s) - start )) s"
+if [ ${#failed[@]} -gt 0 ]; then
+  echo "fuzz.sh: FAILED: ${failed[*]} (reproducers in $build/artifacts/)" >&2
+  exit 1
+fi

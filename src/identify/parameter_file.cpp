@@ -1,0 +1,339 @@
+// Parameter files (YAML) and the --json object: reading, validation, atomic writing. Needs no fit
+// or effect machinery (only the inertia math), so the parameter_yaml fuzz target links just this.
+#include "ftid/identify/parameter_set.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "ftid/common/error.hpp"
+#include "ftid/effects/rigid_body.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_strict.hpp"
+
+namespace ftid::identify {
+
+namespace {
+
+std::string number(double v) {
+  if (!std::isfinite(v)) return "null";
+  char buf[40];
+  std::snprintf(buf, sizeof(buf), "%.17g", v);
+  return buf;
+}
+
+std::string quoted(const std::string& s) {
+  std::string out = "\"";
+  for (char ch : s) {
+    switch (ch) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\t': out += "\\t"; break;
+      case '\r': out += "\\r"; break;
+      default:
+        if (static_cast<unsigned char>(ch) < 0x20) {
+          char buf[8];
+          std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(ch)));
+          out += buf;
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+std::string nowUtc() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+[[noreturn]] void fail(const std::string& path, const std::string& key, const std::string& what,
+                       const YAML::Node* node = nullptr) {
+  std::string where = path;
+  if (node != nullptr && node->Mark().line >= 0) where += ":" + std::to_string(node->Mark().line + 1);
+  throw ConfigError(where + ": key '" + key + "': " + what);
+}
+
+double readNumber(const YAML::Node& node, const std::string& path, const std::string& key) {
+  if (!node || !node.IsScalar()) fail(path, key, "missing or not a number", &node);
+  double v = 0.0;
+  try {
+    v = node.as<double>();
+  } catch (const YAML::Exception&) {
+    fail(path, key, "'" + node.Scalar() + "' is not a number", &node);
+  }
+  if (!std::isfinite(v)) fail(path, key, "value is not finite", &node);
+  return v;
+}
+
+NamedValue readEntry(const YAML::Node& node, const std::string& name, const std::string& path,
+                     const std::string& prefix) {
+  const std::string key = prefix + "." + name;
+  if (!node.IsMap()) fail(path, key, "expected {value, std, unit}", &node);
+  NamedValue nv;
+  nv.name = name;
+  nv.value = readNumber(node["value"], path, key + ".value");
+  if (node["std"]) nv.std = readNumber(node["std"], path, key + ".std");
+  if (node["unit"]) nv.unit = node["unit"].as<std::string>();
+  return nv;
+}
+
+void yamlEntry(std::ostream& os, const std::string& indent, const NamedValue& p) {
+  os << indent << p.name << ": {value: " << number(p.value) << ", std: " << number(p.std)
+     << ", unit: " << quoted(p.unit) << "}\n";
+}
+
+}  // namespace
+
+const NamedValue* ParameterSet::find(const std::string& name) const {
+  for (const auto& p : params) {
+    if (p.name == name) return &p;
+  }
+  for (const auto& p : derived) {
+    if (p.name == name) return &p;
+  }
+  return nullptr;
+}
+
+std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set) {
+  auto bad = [](const std::string& key, const std::string& msg) {
+    return std::optional<ParameterProblem>(ParameterProblem{key, msg});
+  };
+  for (const auto* group : {&set.params, &set.derived}) {
+    const std::string prefix = group == &set.params ? "parameters." : "derived.";
+    for (const auto& p : *group) {
+      if (!std::isfinite(p.value)) return bad(prefix + p.name, "value is not finite");
+      if (!std::isfinite(p.std)) return bad(prefix + p.name, "standard error is not finite");
+      if (p.std < 0.0) return bad(prefix + p.name, "standard error is negative");
+    }
+  }
+  if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_u_std)) return bad("tilt.u", "not finite");
+  if (!std::isfinite(set.tilt_v_rad) || !std::isfinite(set.tilt_v_std)) return bad("tilt.v", "not finite");
+  for (int a = 0; a < 6; ++a) {
+    if (!std::isfinite(set.residual_rms(a))) {
+      return bad(std::string("provenance.residual_rms.") + kWrenchAxisNames[a], "not finite");
+    }
+  }
+  if (!std::isfinite(set.condition_number)) return bad("provenance.condition_number", "not finite");
+  const auto findParam = [&](const char* name) -> const NamedValue* {
+    for (const auto& p : set.params) {
+      if (p.name == name) return &p;
+    }
+    return nullptr;
+  };
+  const NamedValue* mass = findParam("mass");
+  if (mass != nullptr && !(mass->value > 0.0)) {
+    return bad("parameters.mass", "mass " + number(mass->value) + " kg is not positive (a payload has a positive mass)");
+  }
+  const NamedValue* is[6];
+  int n_is = 0;
+  for (int k = 0; k < 6; ++k) {
+    is[k] = findParam(effects::kInertiaParamNames[k]);
+    if (is[k] != nullptr) ++n_is;
+  }
+  if (n_is > 0 && mass != nullptr) {
+    Eigen::Matrix<double, 10, 1> p = Eigen::Matrix<double, 10, 1>::Zero();
+    Eigen::Matrix<double, 10, 10> cov = Eigen::Matrix<double, 10, 10>::Zero();
+    p(0) = mass->value;
+    cov(0, 0) = mass->std * mass->std;
+    const char* mc[3] = {"mass_com_x", "mass_com_y", "mass_com_z"};
+    for (int k = 0; k < 3; ++k) {
+      if (const NamedValue* v = findParam(mc[k])) {
+        p(1 + k) = v->value;
+        cov(1 + k, 1 + k) = v->std * v->std;
+      }
+    }
+    for (int k = 0; k < 6; ++k) {
+      if (is[k] != nullptr) {
+        p(4 + k) = is[k]->value;
+        cov(4 + k, 4 + k) = is[k]->std * is[k]->std;
+      }
+    }
+    if (n_is != 6) return bad("parameters.i_s_xx", "the inertia needs all six i_s_* parameters");
+    const effects::InertiaAboutCom ic = effects::inertiaAboutCom(p, cov);
+    if (!ic.valid_within_uncertainty) return bad("parameters.i_s_xx", "invalid inertia: " + ic.explanation);
+  }
+  return std::nullopt;
+}
+
+ParameterSet readParameterFile(const std::string& path) {
+  std::string text;
+  try {
+    text = readInputFile(path, "parameter file", kMaxTextConfigBytes);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
+  }
+  return parseParameterText(text, path);
+}
+
+ParameterSet parseParameterText(const std::string& text, const std::string& path) {
+  const YAML::Node root = loadYamlStrict(text, path);
+  if (!root.IsMap()) throw ConfigError(path + ": not a parameter file (expected a YAML mapping)");
+  ParameterSet set;
+  try {
+    const YAML::Node model = root["model"];
+    if (!model || !model.IsScalar()) fail(path, "model", "missing (e.g. 'model: paper')");
+    set.model = model.as<std::string>();
+    const YAML::Node params = root["parameters"];
+    if (!params || !params.IsMap()) fail(path, "parameters", "missing or not a mapping");
+    for (const auto& kv : params) {
+      set.params.push_back(readEntry(kv.second, kv.first.as<std::string>(), path, "parameters"));
+    }
+    if (const YAML::Node derived = root["derived"]) {
+      if (!derived.IsMap()) fail(path, "derived", "not a mapping", &derived);
+      for (const auto& kv : derived) {
+        set.derived.push_back(readEntry(kv.second, kv.first.as<std::string>(), path, "derived"));
+      }
+    }
+    if (const YAML::Node tilt = root["tilt"]) {
+      if (!tilt.IsMap()) fail(path, "tilt", "not a mapping", &tilt);
+      if (tilt["estimated"]) set.tilt_estimated = tilt["estimated"].as<bool>();
+      const NamedValue u = readEntry(tilt["u"], "u", path, "tilt");
+      const NamedValue v = readEntry(tilt["v"], "v", path, "tilt");
+      set.tilt_u_rad = u.value;
+      set.tilt_u_std = u.std;
+      set.tilt_v_rad = v.value;
+      set.tilt_v_std = v.std;
+    }
+    if (const YAML::Node prov = root["provenance"]) {
+      if (prov["date"]) set.provenance.date_utc = prov["date"].as<std::string>();
+      if (prov["data_file"]) set.provenance.data_file = prov["data_file"].as<std::string>();
+      if (prov["method"]) set.provenance.method = prov["method"].as<std::string>();
+      if (prov["trajectory"]) set.provenance.trajectory = prov["trajectory"].as<std::string>();
+      if (prov["n_samples"]) set.provenance.n_samples = prov["n_samples"].as<int>();
+      if (const YAML::Node rms = prov["residual_rms"]) {
+        for (int a = 0; a < 6; ++a) {
+          if (rms[kWrenchAxisNames[a]]) {
+            set.residual_rms(a) = readNumber(rms[kWrenchAxisNames[a]], path,
+                                             std::string("provenance.residual_rms.") + kWrenchAxisNames[a]);
+          }
+        }
+      }
+      if (prov["condition_number"]) {
+        set.condition_number = prov["condition_number"].as<double>();
+      }
+    }
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  if (const auto problem = findParameterProblem(set)) {
+    // Name the line of the offending key when it is in the file.
+    std::string where = path;
+    const auto dot = problem->key.find('.');
+    if (dot != std::string::npos) {
+      const YAML::Node section = root[problem->key.substr(0, dot)];
+      if (section && section.IsMap()) {
+        const YAML::Node entry = section[problem->key.substr(dot + 1)];
+        if (entry && entry.Mark().line >= 0) where += ":" + std::to_string(entry.Mark().line + 1);
+      }
+    }
+    throw ConfigError(where + ": key '" + problem->key + "': " + problem->message);
+  }
+  return set;
+}
+
+void writeParameterFile(const std::string& path, const ParameterSet& set) {
+  if (const auto problem = findParameterProblem(set)) {
+    throw IdentificationError(path + ": not written (the previous file is untouched): '" + problem->key + "': " +
+                              problem->message);
+  }
+  std::ostringstream os;
+  os << "# ftid payload parameters, written by `ftid identify` (docs/identification.md).\n"
+        "# Frames, units and signs: docs/conventions.md. Each entry: {value, std (standard error), unit}.\n"
+        "# `parameters` are the linear parameters of the model (what compensation uses);\n"
+        "# `derived` (centre of mass, weight) and `provenance` are for information.\n";
+  os << "model: " << quoted(set.model) << "\n";
+  os << "parameters:\n";
+  for (const auto& p : set.params) yamlEntry(os, "  ", p);
+  if (!set.derived.empty()) {
+    os << "derived:\n";
+    for (const auto& p : set.derived) yamlEntry(os, "  ", p);
+  }
+  os << "tilt:  # base mounting tilt R_WB = Rx(u) Ry(v)\n";
+  os << "  estimated: " << (set.tilt_estimated ? "true" : "false") << "\n";
+  yamlEntry(os, "  ", {"u", set.tilt_u_rad, set.tilt_u_std, "rad"});
+  yamlEntry(os, "  ", {"v", set.tilt_v_rad, set.tilt_v_std, "rad"});
+  os << "provenance:\n";
+  os << "  date: " << quoted(set.provenance.date_utc.empty() ? nowUtc() : set.provenance.date_utc) << "\n";
+  os << "  data_file: " << quoted(set.provenance.data_file) << "\n";
+  os << "  model: " << quoted(set.model) << "\n";
+  os << "  method: " << quoted(set.provenance.method) << "\n";
+  os << "  trajectory: " << quoted(set.provenance.trajectory) << "\n";
+  os << "  n_samples: " << set.provenance.n_samples << "\n";
+  os << "  residual_rms: {";
+  for (int a = 0; a < 6; ++a) os << (a ? ", " : "") << kWrenchAxisNames[a] << ": " << number(set.residual_rms(a));
+  os << "}\n";
+  os << "  condition_number: " << number(set.condition_number) << "\n";
+
+  // Atomic replacement (ftid/fileio/atomic_file.hpp); the previous file is kept as PATH.bak.
+  AtomicWriteOptions options;
+  options.keep_backup = true;
+  try {
+    writeFileAtomically(path, os.str(), options);
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
+  }
+}
+
+std::string toJson(const ParameterSet& set) {
+  std::ostringstream os;
+  os << "{\"model\":" << quoted(set.model) << ",\"method\":" << quoted(set.provenance.method)
+     << ",\"n_samples\":" << set.provenance.n_samples << ",\"parameters\":{";
+  bool first = true;
+  auto entry = [&](const std::string& name, double value, double sd) {
+    os << (first ? "" : ",") << quoted(name) << ":{\"value\":" << number(value) << ",\"std\":" << number(sd) << "}";
+    first = false;
+  };
+  std::vector<std::string> done;
+  for (const char* name : {"mass", "weight", "com_x", "com_y", "com_z", "f0_x", "f0_y", "f0_z", "t0_x",
+                           "t0_y", "t0_z"}) {
+    if (const NamedValue* p = set.find(name)) {
+      entry(name, p->value, p->std);
+      done.push_back(name);
+    }
+  }
+  entry("tilt_u", set.tilt_u_rad, set.tilt_u_std);
+  entry("tilt_v", set.tilt_v_rad, set.tilt_v_std);
+  for (const auto& p : set.params) {
+    if (std::find(done.begin(), done.end(), p.name) == done.end()) entry(p.name, p.value, p.std);
+  }
+  os << "},\"residual_rms\":{";
+  for (int a = 0; a < 6; ++a) os << (a ? "," : "") << quoted(kWrenchAxisNames[a]) << ":" << number(set.residual_rms(a));
+  os << "},\"condition_number\":" << number(set.condition_number);
+  os << ",\"tilt_estimated\":" << (set.tilt_estimated ? "true" : "false");
+  os << ",\"units\":{";
+  first = true;
+  for (const auto* group : {&set.params, &set.derived}) {
+    for (const auto& p : *group) {
+      os << (first ? "" : ",") << quoted(p.name) << ":" << quoted(p.unit);
+      first = false;
+    }
+  }
+  os << (first ? "" : ",") << "\"tilt_u\":\"rad\",\"tilt_v\":\"rad\"}";
+  os << ",\"extras\":{";
+  for (std::size_t i = 0; i < set.extras.size(); ++i) {
+    os << (i ? "," : "") << quoted(set.extras[i].name) << ":" << number(set.extras[i].value);
+  }
+  os << "},\"data_file\":" << quoted(set.provenance.data_file) << "}";
+  return os.str();
+}
+
+}  // namespace ftid::identify
