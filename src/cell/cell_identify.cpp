@@ -30,6 +30,7 @@
 #include "ftid/motion/robot_session.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
+#include "ftid/transport/command_auth.hpp"
 
 namespace fs = std::filesystem;
 
@@ -76,6 +77,13 @@ void writeTextAtomic(const std::string& path, const std::string& text) {
     fs::remove(tmp, ec);
     throw Error(path + ": cannot rename into place (" + std::string(std::strerror(errno)) + ")");
   }
+}
+
+/// True if both paths name the same file (or, if it does not exist yet, the same normalised path).
+bool sameFile(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
 }
 
 /// Default excitation trajectory: next to the config, the installed defaults, the source tree.
@@ -159,8 +167,15 @@ std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
 }  // namespace
 
 std::string requestDaemonReload(const std::string& lcm_url, const std::string& command_channel,
-                                const std::string& ack_channel, const std::string& params_path,
+                                const std::string& ack_channel, const std::string& key_path,
                                 double timeout_s) {
+  transport::CommandKey key;
+  try {
+    key = transport::loadCommandKey(key_path);
+  } catch (const std::exception& e) {
+    return std::string("cannot sign the reload command: ") + e.what() +
+           " (run as root or as a member of the ftid group)";
+  }
   lcm::LCM lc(lcm_url);
   if (!lc.good()) return "LCM: cannot open '" + lcm_url + "'";
   struct AckWaiter {
@@ -183,11 +198,11 @@ std::string requestDaemonReload(const std::string& lcm_url, const std::string& c
                                             .count());
   cmd.request_id = waiter.request_id;
   cmd.command = ftid_lcm::command_t::RELOAD_PARAMETERS;
-  cmd.argument = params_path;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   auto next_send = std::chrono::steady_clock::now();
   while (!waiter.got && std::chrono::steady_clock::now() < deadline) {
     if (std::chrono::steady_clock::now() >= next_send) {  // resend: the first may race the subscription
+      transport::signCommand(&cmd, key);  // a fresh sequence each time: a resend is no replay
       lc.publish(command_channel, &cmd);
       next_send += std::chrono::milliseconds(500);
     }
@@ -215,6 +230,14 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
                                                                      cfg.robot.tip_link);
   kin.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   const std::string params_path = o.params_path.empty() ? cfg.parameters.path : o.params_path;
+  if (o.reload_daemon && !sameFile(params_path, cfg.parameters.path)) {
+    // ftidd reloads only its configured file (a RELOAD command carries no path), and a restart
+    // would go back to it anyway: writing elsewhere and "reloading" would be a silent lie.
+    throw ConfigError("--params " + params_path + " is not ftidd's parameter file (parameters.path in " +
+                      cfg.source + " is " + cfg.parameters.path +
+                      "); ftidd loads only that file. Change parameters.path in the config, or add "
+                      "--no-reload to write " + params_path + " without touching ftidd; nothing moved");
+  }
   const fs::path runs_dir = o.runs_dir.empty() ? fs::path(params_path).parent_path() / "runs" : fs::path(o.runs_dir);
   const fs::path run_dir = runs_dir / utcStamp(false);
   fs::create_directories(run_dir);
@@ -434,7 +457,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
 
   if (o.reload_daemon) {
     const std::string err = requestDaemonReload(cfg.lcm.url, cfg.lcm.channels.command, cfg.lcm.channels.ack,
-                                                params_path, 3.0);
+                                                cfg.lcm.command_key_path, 3.0);
     if (err.empty()) {
       result.reloaded = true;
       print("ftidd reloaded the new parameters.");

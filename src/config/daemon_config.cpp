@@ -300,6 +300,8 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
           {"url", S([&](const YAML::Node& v, const std::string& key) { c.lcm.url = r.string(v, key); })},
           {"publish_cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.publish_cycle = r.boolean(v, key); })},
           {"stats_period_s", S([&](const YAML::Node& v, const std::string& key) { c.lcm.stats_period_s = r.number(v, key); })},
+          {"command_key_path", S([&](const YAML::Node& v, const std::string& key) { c.lcm.command_key_path = r.path(v, key); })},
+          {"accept_remote", S([&](const YAML::Node& v, const std::string& key) { c.lcm.accept_remote = r.boolean(v, key); })},
           {"channels", [&](const YAML::Node& cn, const std::string& ck) {
             readSection(r, cn, ck, {
               {"cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.cycle = r.string(v, key); })},
@@ -377,6 +379,8 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << " ack=" << c.lcm.channels.ack << "\n"
      << "lcm.publish_cycle: " << b(c.lcm.publish_cycle) << "\n"
      << "lcm.stats_period_s: " << c.lcm.stats_period_s << "\n"
+     << "lcm.command_key_path: " << c.lcm.command_key_path << "\n"
+     << "lcm.accept_remote: " << b(c.lcm.accept_remote) << "\n"
      << "rt.require_rt: " << b(c.rt.require_rt) << "\n"
      << "rt.lock_memory: " << b(c.rt.lock_memory) << "\n"
      << "rt.priority: " << c.rt.priority << "\n"

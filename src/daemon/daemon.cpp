@@ -23,7 +23,9 @@
 #include "ftid/rt/rt_setup.hpp"
 #include "ftid/rt/rt_thread.hpp"
 #include "ftid/transport/codec.hpp"
+#include "ftid/transport/command_auth.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
+#include "ftid/transport/source_filter.hpp"
 #include "systemd_notify.hpp"
 
 namespace ftid::daemon {
@@ -102,6 +104,35 @@ struct CommandQueue {
 
 }  // namespace
 
+std::string checkCommand(const ftid_lcm::command_t& cmd, transport::CommandVerifier* verifier,
+                         CommandCounters* counters) {
+  const transport::CommandVerdict v = verifier->verify(cmd, transport::realtimeUs());
+  std::string why;
+  switch (v) {
+    case transport::CommandVerdict::kAccepted: break;
+    case transport::CommandVerdict::kBadMac:
+      ++counters->auth;
+      why = verifier->hasKey() ? "bad authenticator (wrong key or altered message)"
+                               : "no command key configured (lcm.command_key_path)";
+      break;
+    case transport::CommandVerdict::kStale:
+      ++counters->stale;
+      why = "stale: signed outside +-30 s of ftidd's clock or before ftidd started";
+      break;
+    case transport::CommandVerdict::kReplayed:
+      ++counters->replay;
+      why = "replayed: sequence not above the last accepted command";
+      break;
+  }
+  if (why.empty() && cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS && !cmd.argument.empty()) {
+    ++counters->malformed;
+    why = "RELOAD_PARAMETERS takes no path: ftidd reloads only its configured parameter file";
+  }
+  if (why.empty()) return {};
+  return "command " + std::to_string(static_cast<int>(cmd.command)) + " (request " +
+         std::to_string(cmd.request_id) + ") refused: " + why;
+}
+
 std::string expandTimePattern(const std::string& pattern) {
   const std::time_t t = std::time(nullptr);
   std::tm tm{};
@@ -170,12 +201,23 @@ int Daemon::run() {
   out_opt.channels.command = cfg.lcm.channels.command;
   out_opt.channels.ack = cfg.lcm.channels.ack;
   out_opt.publish_cycle = cfg.lcm.publish_cycle;
+  if (!cfg.lcm.accept_remote) out_opt.allowed_sources = transport::localSources();
   if (!options_.record_path.empty()) {
     out_opt.record_path = expandTimePattern(options_.record_path);
   } else if (cfg.record.enabled) {
     out_opt.record_path = expandTimePattern(cfg.record.path);
   }
   transport::LcmOutbox outbox(out_opt);
+  // Commands: authenticated with the shared key (docs/operations.md, "Network and commands").
+  transport::CommandKey command_key;
+  try {
+    command_key = transport::loadCommandKey(cfg.lcm.command_key_path);
+  } catch (const ConfigError& e) {
+    logLine(std::string("commands disabled, every command will be refused: ") + e.what() +
+            " (SIGHUP still reloads the parameters)");
+  }
+  transport::CommandVerifier verifier(std::move(command_key), transport::realtimeUs());
+  CommandCounters refused;
   CommandQueue commands;
   outbox.setCommandHandler(&CommandQueue::push, &commands);
   if (!out_opt.record_path.empty()) logLine("recording to " + out_opt.record_path);
@@ -283,8 +325,13 @@ int Daemon::run() {
       ftid_lcm::ack_t ack{};
       ack.request_id = cmd.request_id;
       ack.command = cmd.command;
-      if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
-        const ReloadResult r = doReload(cmd.argument.empty() ? cfg.parameters.path : cmd.argument);
+      const std::string refusal = checkCommand(cmd, &verifier, &refused);
+      if (!refusal.empty()) {
+        ack.ok = false;
+        ack.message = refusal;
+        logLine(refusal);
+      } else if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
+        const ReloadResult r = doReload(cfg.parameters.path);  // never a path from the network
         ack.ok = r.ok && r.applied;
         ack.message = r.message;
       } else if (cmd.command == ftid_lcm::command_t::PING) {
@@ -354,6 +401,10 @@ int Daemon::run() {
       s.reloads_applied = reloads_applied;
       s.reloads_failed = reloads_failed;
       s.param_version = static_cast<std::int32_t>(params.version());
+      s.commands_refused_auth = refused.auth;
+      s.commands_refused_stale = refused.stale;
+      s.commands_refused_replay = refused.replay;
+      s.commands_refused_malformed = refused.malformed;
       s.fault_bits = faults_since_report;
       s.realtime = loop_fifo.load() && (rt_report.memory_locked || !cfg.rt.lock_memory);
       outbox.publishStats(s);

@@ -90,6 +90,10 @@ tilt:
 YAML
 cp "$PARAMS" "$WORK/previous.yaml"
 
+# The shared command key (the Debian package creates /etc/ftid/command.key the same way).
+head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/command.key"
+chmod 0600 "$WORK/command.key"
+
 cat > "$WORK/ftidd.yaml" <<YAML
 robot:
   rtde_frequency_hz: 125
@@ -101,6 +105,7 @@ parameters:
   path: $PARAMS
 lcm:
   url: "udpm://239.255.76.67:7667?ttl=0"
+  command_key_path: $WORK/command.key
 rt:
   lock_memory: false
 YAML

@@ -68,6 +68,10 @@ struct LcmConfig {
   LcmChannels channels;
   bool publish_cycle = true;  ///< publish cycle_sample_t (raw synchronised data)
   double stats_period_s = 1.0;  ///< loop_stats_t period
+  /// Shared HMAC key for command_t (ftid/transport/command_auth.hpp); hex, mode 0640.
+  std::string command_key_path = "/etc/ftid/command.key";
+  /// false: receive LCM datagrams only from this host (kernel socket filter on the source address).
+  bool accept_remote = false;
 };
 
 struct RtConfig {
