@@ -251,6 +251,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   const double rate = cfg.robot.rtde_frequency_hz > 0 ? cfg.robot.rtde_frequency_hz : 125.0;
   CycleRecorder recorder(cfg.lcm.url, cfg.lcm.channels.cycle,
                          static_cast<std::size_t>((traj.duration() + 180.0) * rate * 1.2));
+  if (!cfg.lcm.accept_remote) recorder.restrictSources(transport::localSources());
   recorder.start();
   if (!recorder.waitForRecords(10, std::chrono::milliseconds(static_cast<int>(o.startup_wait_s * 1000)))) {
     result.message = "ftidd is not publishing cycle samples on " + cfg.lcm.channels.cycle + " (" + cfg.lcm.url +
@@ -331,8 +332,13 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     t0 = run.excitation_start_timestamp;
     t1 = t0 + traj.duration();
   }
+  // The stream must follow the controller's clock: duplicates are dropped, a second publisher
+  // (conflicting samples, off-grid times) makes the run unusable.
+  std::vector<transport::CycleRecord> clean;
+  const CycleStreamReport stream =
+      checkCycleStream(records, rate, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, &clean);
   RecordsToLogReport conv;
-  logio::LogData log = recordsToLog(records, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300,
+  logio::LogData log = recordsToLog(clean, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300,
                                     (run_dir / "run.csv").string(), &conv);
   if (!log.samples.empty()) {
     try {
@@ -354,6 +360,13 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
       default: break;
     }
     result.message = "identification run aborted: " + why + "; the arm is stopped, parameters unchanged, " + data_note;
+    return result;
+  }
+  print("  cycle stream: " + stream.describe());
+  if (!stream.ok()) {
+    result.message = "identification refused: the recorded " + cfg.lcm.channels.cycle +
+                     " stream does not match the controller (" + stream.describe() +
+                     "); parameters unchanged, " + data_note;
     return result;
   }
   print("  motion complete: " + std::to_string(conv.converted) + " synchronised samples (" +

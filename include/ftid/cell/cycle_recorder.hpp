@@ -13,6 +13,7 @@
 
 #include "ftid/logio/log.hpp"
 #include "ftid/transport/records.hpp"
+#include "ftid/transport/source_filter.hpp"
 
 namespace ftid::cell {
 
@@ -27,8 +28,12 @@ class CycleRecorder {
   CycleRecorder(const CycleRecorder&) = delete;
   CycleRecorder& operator=(const CycleRecorder&) = delete;
 
+  /// Before start(): receive only datagrams from these sources (kernel socket filter on the udpm
+  /// receive socket; ftid/transport/source_filter.hpp). Empty (default) = any source.
+  void restrictSources(std::vector<transport::Ipv4Net> allowed) { allowed_ = std::move(allowed); }
+
   /// Creates the LCM instance and the receive thread. Throws DriverError naming the URL if LCM
-  /// cannot be created (e.g. no multicast route).
+  /// cannot be created (e.g. no multicast route) or the source filter cannot be installed.
   void start();
   void stop() noexcept;
 
@@ -52,6 +57,7 @@ class CycleRecorder {
   std::string url_;
   std::string channel_;
   std::size_t capacity_;
+  std::vector<transport::Ipv4Net> allowed_;
   std::unique_ptr<Impl> impl_;
   mutable std::mutex mutex_;
   std::vector<transport::CycleRecord> records_;
@@ -62,6 +68,36 @@ class CycleRecorder {
   std::atomic<std::size_t> count_{0};
   std::atomic<std::size_t> dropped_{0};
 };
+
+/// Consistency of a recorded FTID_CYCLE stream with the controller's clock (docs/operations.md,
+/// "Network and commands"). ftidd publishes one record per robot packet: cycle numbers increase by
+/// one per record, robot times are whole controller periods apart. A second publisher on the
+/// channel (a replayed or forged stream) shows up as records that share a cycle number or a robot
+/// time with different content, as spacing that is not a whole number of periods, or as more
+/// records than the controller can have produced.
+struct CycleStreamReport {
+  std::size_t received = 0;            ///< records in the window as received
+  std::size_t unique = 0;              ///< after removing exact duplicates
+  std::size_t exact_duplicates = 0;    ///< byte-for-byte repeats of a record (dropped)
+  std::size_t conflicts = 0;           ///< same cycle number or robot time, different content
+  std::size_t bad_spacing = 0;         ///< robot-time step not a whole number (>= 1) of periods
+  std::size_t bad_sequence = 0;        ///< cycle number not increasing, or more cycles than periods
+  std::size_t out_of_order = 0;        ///< arrived with a robot time below the previous one
+  std::size_t expected = 0;            ///< periods spanned by the window (+1)
+  std::size_t missing = 0;             ///< expected - unique (gaps), if positive
+  double max_missing_fraction = 0.2;   ///< limit used by ok()
+  /// True if the stream can be trusted for identification: no conflicts, spacing or sequence
+  /// errors, not more records than periods and at most max_missing_fraction missing.
+  bool ok() const noexcept;
+  /// One line: counts, and what is wrong if !ok().
+  std::string describe() const;
+};
+
+/// Checks the records with t_min <= robot_time <= t_max against the controller rate and returns the
+/// verdict; *clean receives the records in robot-time order with exact duplicates removed.
+CycleStreamReport checkCycleStream(const std::vector<transport::CycleRecord>& records, double rate_hz,
+                                   double t_min, double t_max,
+                                   std::vector<transport::CycleRecord>* clean = nullptr);
 
 struct RecordsToLogReport {
   std::size_t converted = 0;
