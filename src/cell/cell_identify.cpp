@@ -19,6 +19,7 @@
 #include "ftid/cell/exports.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/design/trajectory_check.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/fit.hpp"
@@ -269,6 +270,36 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   }
   print("  ftidd and the sensor are up (" + std::to_string(recorder.count()) + " cycle samples received)");
 
+  // ---- the exact targets are checked before any motion, whatever --yes says: here the
+  // excitation at the configured controller rate (before asking), in the runner again with the
+  // controller's real period and the approach from the robot's current pose.
+  const trajectory::TrajectoryConstraints& limits = traj_file.constraints;
+  auto joinViolations = [](const std::vector<std::string>& v) {
+    std::string s;
+    for (const auto& line : v) s += (s.empty() ? "" : "; ") + line;
+    return s;
+  };
+  {
+    const motion::EvaluatedTrajectory<trajectory::FourierTrajectory> source(traj);
+    std::vector<double> t_traj;
+    std::vector<JointVector> q_traj;
+    const double period = 1.0 / rate;
+    for (long k = 0;; ++k) {
+      const double t = std::min(static_cast<double>(k) * period, traj.duration());
+      JointVector q = JointVector::Zero();
+      source.sample(t, &q);
+      t_traj.push_back(t);
+      q_traj.push_back(q);
+      if (t >= traj.duration()) break;
+    }
+    const auto v = design::checkMotionSamples(period, {}, t_traj, q_traj, kin, limits);
+    if (!v.empty()) {
+      result.message = "trajectory " + traj_path + " refused before any motion (`ftid check-trajectory " +
+                       traj_path + "` shows all margins): " + joinViolations(v) + "; nothing moved";
+      return result;
+    }
+  }
+
   if (!o.assume_yes) {
     const bool yes = o.confirm && o.confirm("The robot will move: slowly to the start pose, then the " +
                                             fmt(1, traj.duration()) +
@@ -286,6 +317,9 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   session.arm.script_port = static_cast<std::uint16_t>(o.script_port);
   session.arm.register_offset = o.register_offset;
   session.motion.realtime.require = o.require_realtime;
+  session.motion.preflight = [&](const motion::PlannedMotion& p) {
+    return joinViolations(design::checkMotionSamples(p.period, p.approach, p.t_traj, p.q_traj, kin, limits));
+  };
 
   HookContext hook;
   hook.recorder = &recorder;
@@ -351,6 +385,10 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   const std::string data_note =
       result.data_csv.empty() ? "no data recorded" : "recorded data saved in " + result.data_csv;
 
+  if (run.status == motion::RunStatus::kRefused) {
+    result.message = "motion refused before it started: " + run.message + "; nothing moved, parameters unchanged";
+    return result;
+  }
   if (!run.ok()) {
     std::string why = std::string(motion::runStatusName(run.status)) + ": " + run.message;
     switch (hook.reason.load()) {

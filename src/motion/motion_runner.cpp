@@ -31,6 +31,7 @@ const char* runStatusName(RunStatus s) noexcept {
     case RunStatus::kTrackingError: return "tracking error";
     case RunStatus::kTargetRejected: return "servo target rejected";
     case RunStatus::kSpeedScaled: return "speed scaling active";
+    case RunStatus::kRefused: return "motion refused by the pre-motion check";
   }
   return "unknown";
 }
@@ -284,6 +285,16 @@ struct RunCycle {
   }
 };
 
+/// Duration of the quintic approach move (peak speed and acceleration within the configured ones).
+double approachDuration(const JointVector& from, const JointVector& to, double period, const MotionConfig& cfg) {
+  double T = 2.0 * period;
+  for (int i = 0; i < kNumJoints; ++i) {
+    const double d = std::abs(to[i] - from[i]);
+    T = std::max({T, 1.875 * d / cfg.approach_velocity, std::sqrt(5.7735 * d / cfg.approach_acceleration)});
+  }
+  return T;
+}
+
 std::string describe(const Failure& f, const MotionConfig& cfg, double t0) {
   char buf[512];
   const double t_rel = t0 >= 0 ? f.timestamp - t0 : 0.0;
@@ -353,6 +364,41 @@ std::size_t MotionRunner::capacityFor(double duration, double period, double mar
   return static_cast<std::size_t>((duration + margin_s) / period) + 16;
 }
 
+PlannedMotion MotionRunner::plan(const JointTrajectorySource& trajectory, const JointVector& current,
+                                 double period) const {
+  // Mirrors RunCycle::onTick: approach target at tau = (k + 1) * period after the first tick,
+  // then the excitation at tn = k * period (k = 0, 1, ...) and finally the end pose.
+  PlannedMotion p;
+  p.period = period;
+  p.current = current;
+  JointVector start = JointVector::Zero();
+  trajectory.sample(0.0, &start);
+  const double T = approachDuration(current, start, period, config_);
+  for (long k = 1;; ++k) {
+    const double tau = static_cast<double>(k) * period;
+    if (tau >= T) {
+      p.approach.push_back(start);
+      break;
+    }
+    p.approach.push_back(current + (start - current) * quintic(tau / T));
+  }
+  const double d = trajectory.duration();
+  for (long k = 0;; ++k) {
+    const double tn = static_cast<double>(k) * period;
+    JointVector q = JointVector::Zero();
+    if (tn >= d) {
+      trajectory.sample(d, &q);
+      p.t_traj.push_back(d);
+      p.q_traj.push_back(q);
+      break;
+    }
+    trajectory.sample(tn, &q);
+    p.t_traj.push_back(tn);
+    p.q_traj.push_back(q);
+  }
+  return p;
+}
+
 std::string MotionRunner::readinessProblem(const ArmState& s) {
   if (s.robot_mode != rtde::kRobotModeRunning) {
     return std::string("robot_mode is ") + rtde::robotModeName(s.robot_mode) +
@@ -408,15 +454,19 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
     return result;
   }
 
+  if (config_.preflight) {
+    const std::string refusal = config_.preflight(plan(trajectory, first.q, period));
+    if (!refusal.empty()) {
+      result.status = RunStatus::kRefused;
+      result.message = refusal;
+      return result;
+    }
+  }
+
   RunCycle cycle{arm_, trajectory, config_, recording_, capacity_, hook, hook_context, abort, progress_, period};
   cycle.q_a0 = first.q;
   cycle.q_a1 = start;
-  double T = 2.0 * period;
-  for (int i = 0; i < kNumJoints; ++i) {
-    const double d = std::abs(start[i] - first.q[i]);
-    T = std::max({T, 1.875 * d / config_.approach_velocity, std::sqrt(5.7735 * d / config_.approach_acceleration)});
-  }
-  cycle.approach_T = T;
+  cycle.approach_T = approachDuration(first.q, start, period, config_);
   cycle.max_missed = static_cast<std::uint32_t>(std::max(1.0, std::round(config_.lost_time_limit / period)));
   arm_.resetServoReference(first.q, first.qd);
 

@@ -37,17 +37,31 @@ void attachSourceFilter(int fd, const std::vector<Ipv4Net>& allowed) {
   if (allowed.empty() || allowed.size() > 80) {
     throw DriverError("source filter: need 1 to 80 allowed networks, got " + std::to_string(allowed.size()));
   }
-  // A: IPv4 source address (network header + 12). For each allowed net: A &= mask is destructive,
-  // so reload A before every comparison.
-  std::vector<sock_filter> prog;
+  // Classic BPF. A = IPv4 source address (network header + 12), destination at + 16.
+  // Multicast that this host sends through a route on lo leaves with source 0.0.0.0 (no address
+  // of a suitable scope on lo); Linux drops 0.0.0.0-sourced datagrams from the network except to
+  // 224.0.0.0/24 (link-local multicast) and the limited broadcast, so 0.0.0.0 is accepted only for
+  // a multicast destination outside 224.0.0.0/24.
   const auto n = allowed.size();
+  const std::uint32_t kDrop = static_cast<std::uint32_t>(8 + 3 * n);  // index of "ret 0"
+  const auto src = static_cast<std::uint32_t>(SKF_NET_OFF + 12);
+  const auto dst = static_cast<std::uint32_t>(SKF_NET_OFF + 16);
+  auto off = [](std::uint32_t to, std::uint32_t from) { return static_cast<std::uint8_t>(to - from - 1); };
+  std::vector<sock_filter> prog;
+  prog.push_back(BPF_STMT(BPF_LD | BPF_W | BPF_ABS, src));                      // 0
+  prog.push_back(BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, 0, 0, 6));                  // 1: src != 0 -> 8
+  prog.push_back(BPF_STMT(BPF_LD | BPF_W | BPF_ABS, dst));                      // 2
+  prog.push_back(BPF_STMT(BPF_ALU | BPF_AND | BPF_K, 0xF0000000u));              // 3
+  prog.push_back(BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, 0xE0000000u, 0, off(kDrop, 4)));  // 4: not multicast
+  prog.push_back(BPF_STMT(BPF_LD | BPF_W | BPF_ABS, dst));                      // 5
+  prog.push_back(BPF_STMT(BPF_ALU | BPF_AND | BPF_K, 0xFFFFFF00u));              // 6
+  prog.push_back(BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, 0xE0000000u, off(kDrop, 7), off(kDrop + 1, 7)));  // 7
   for (std::size_t i = 0; i < n; ++i) {
-    prog.push_back(BPF_STMT(BPF_LD | BPF_W | BPF_ABS, static_cast<std::uint32_t>(SKF_NET_OFF + 12)));
+    const auto at = static_cast<std::uint32_t>(8 + 3 * i);
+    prog.push_back(BPF_STMT(BPF_LD | BPF_W | BPF_ABS, src));
     prog.push_back(BPF_STMT(BPF_ALU | BPF_AND | BPF_K, allowed[i].mask));
-    // Jump offsets count from the next instruction. Remaining instructions after this jeq:
-    // 3 per remaining net, then "ret 0", then "ret accept".
-    const auto to_accept = static_cast<std::uint8_t>(3 * (n - 1 - i) + 1);  // n <= 80: fits
-    prog.push_back(BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, allowed[i].addr & allowed[i].mask, to_accept, 0));
+    prog.push_back(BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, allowed[i].addr & allowed[i].mask,
+                            off(kDrop + 1, at + 2), 0));
   }
   prog.push_back(BPF_STMT(BPF_RET | BPF_K, 0));            // drop
   prog.push_back(BPF_STMT(BPF_RET | BPF_K, 0xFFFFFFFFu));  // accept the whole datagram

@@ -7,7 +7,10 @@
 // source address is not in an allow list before it is queued, so LCM never sees it. The default
 // allow list is "this host": 127.0.0.0/8 and every IPv4 address configured on a local interface
 // at start-up (Linux drops packets arriving from the network with a local source address unless
-// accept_local is set, so these sources cannot be spoofed from another host).
+// accept_local is set, so these sources cannot be spoofed from another host). Multicast this host
+// sends through a route on lo carries source 0.0.0.0; the filter accepts 0.0.0.0 only with a
+// multicast destination outside 224.0.0.0/24, which Linux never accepts from the network (it
+// drops such datagrams in ip_mc_validate_source), so the limited-broadcast case stays closed.
 #include <cstdint>
 #include <string>
 #include <vector>
