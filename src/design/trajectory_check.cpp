@@ -174,10 +174,11 @@ std::vector<std::string> checkMotionSamples(double period, const std::vector<Joi
   std::vector<std::string> seen;  // one line per constraint (its first violation)
   char buf[384];
   auto report = [&](const std::string& constraint, const std::string& where, const std::string& detail) {
+    const std::string key = where.substr(0, where.find(' ')) + " " + constraint;  // per phase
     for (const auto& s : seen) {
-      if (s == constraint) return;
+      if (s == key) return;
     }
-    seen.push_back(constraint);
+    seen.push_back(key);
     out.push_back(where + ": " + constraint + ": " + detail);
   };
   auto where = [&](bool is_approach, std::size_t k) {
