@@ -17,6 +17,7 @@
 
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/cell/exports.hpp"
+#include "ftid/cell/run_stream.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/design/trajectory_check.hpp"
@@ -253,6 +254,8 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   CycleRecorder recorder(cfg.lcm.url, cfg.lcm.channels.cycle,
                          static_cast<std::size_t>((traj.duration() + 180.0) * rate * 1.2));
   if (!cfg.lcm.accept_remote) recorder.restrictSources(transport::localSources());
+  const std::string stream_path = (run_dir / "cycles.csv").string();
+  recorder.streamTo(std::make_unique<RunStreamWriter>(stream_path));
   recorder.start();
   if (!recorder.waitForRecords(10, std::chrono::milliseconds(static_cast<int>(o.startup_wait_s * 1000)))) {
     result.message = "ftidd is not publishing cycle samples on " + cfg.lcm.channels.cycle + " (" + cfg.lcm.url +
@@ -374,16 +377,32 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   RecordsToLogReport conv;
   logio::LogData log = recordsToLog(clean, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300,
                                     (run_dir / "run.csv").string(), &conv);
+  std::string save_error;
   if (!log.samples.empty()) {
     try {
       logio::writeLog((run_dir / "run.csv").string(), log);
       result.data_csv = (run_dir / "run.csv").string();
     } catch (const std::exception& e) {
-      print("  WARNING: could not save the recorded data: " + std::string(e.what()));
+      save_error = e.what();
+      struct statvfs fs_info {};
+      if (::statvfs(run_dir.c_str(), &fs_info) == 0 && fs_info.f_bavail * fs_info.f_frsize < 1024 * 1024) {
+        save_error += " (no space left on the file system of " + run_dir.string() + ")";
+      }
+      print("  WARNING: could not save " + (run_dir / "run.csv").string() + ": " + save_error);
     }
   }
-  const std::string data_note =
-      result.data_csv.empty() ? "no data recorded" : "recorded data saved in " + result.data_csv;
+  // The streamed capture holds everything received, whatever happened to run.csv.
+  const RunStreamWriter* streamed = recorder.stream();
+  std::string data_note;
+  if (!result.data_csv.empty()) {
+    data_note = "recorded data saved in " + result.data_csv;
+  } else if (streamed != nullptr && streamed->rows() > 0) {
+    data_note = "run.csv not written" + (save_error.empty() ? std::string() : " (" + save_error + ")") +
+                "; the " + std::to_string(streamed->rows()) + " samples received are in " + streamed->path();
+  } else {
+    data_note = "no data recorded";
+  }
+  if (streamed != nullptr && streamed->failed()) data_note += "; streaming stopped: " + streamed->error();
 
   if (run.status == motion::RunStatus::kRefused) {
     result.message = "motion refused before it started: " + run.message + "; nothing moved, parameters unchanged";

@@ -62,6 +62,7 @@ void CycleRecorder::stop() noexcept {
     impl_->subscription = nullptr;
   }
   impl_.reset();
+  if (stream_) stream_->finish();
 }
 
 void CycleRecorder::onMessage(const void* data, std::size_t size) {
@@ -70,6 +71,7 @@ void CycleRecorder::onMessage(const void* data, std::size_t size) {
   transport::CycleRecord rec;
   transport::fromLcm(msg, &rec);
   last_receive_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
+  if (stream_) stream_->append(rec);
   const bool sensor_ok = rec.sensor.valid && rec.sensor.health_flags == transport::kHealthOk;
   if (sensor_ok) {
     invalid_streak_.store(0, std::memory_order_relaxed);

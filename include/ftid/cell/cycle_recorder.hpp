@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "ftid/cell/run_stream.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/transport/records.hpp"
 #include "ftid/transport/source_filter.hpp"
@@ -31,6 +32,11 @@ class CycleRecorder {
   /// Before start(): receive only datagrams from these sources (kernel socket filter on the udpm
   /// receive socket; ftid/transport/source_filter.hpp). Empty (default) = any source.
   void restrictSources(std::vector<transport::Ipv4Net> allowed) { allowed_ = std::move(allowed); }
+  /// Before start(): also append every record to this stream as it arrives (on the receive
+  /// thread); stop() finishes it (fsync). The recorder keeps it; see stream().
+  void streamTo(std::unique_ptr<RunStreamWriter> writer) { stream_ = std::move(writer); }
+  /// The stream (nullptr if none); read its counters after stop().
+  const RunStreamWriter* stream() const noexcept { return stream_.get(); }
 
   /// Creates the LCM instance and the receive thread. Throws DriverError naming the URL if LCM
   /// cannot be created (e.g. no multicast route) or the source filter cannot be installed.
@@ -58,6 +64,7 @@ class CycleRecorder {
   std::string channel_;
   std::size_t capacity_;
   std::vector<transport::Ipv4Net> allowed_;
+  std::unique_ptr<RunStreamWriter> stream_;
   std::unique_ptr<Impl> impl_;
   mutable std::mutex mutex_;
   std::vector<transport::CycleRecord> records_;
