@@ -42,11 +42,14 @@ double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Retries a set-up step that fails with DriverError (peer not up yet) until the deadline.
+// Retries a set-up step that fails with DriverError (peer not up yet) until the deadline, with
+// exponential backoff (0.2 s doubling to 3.2 s) so that a restart loop does not hammer a
+// controller that is still booting.
 template <class F>
 auto retryUntil(double timeout_s, const std::string& what, F&& make) -> decltype(make()) {
   const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
   bool announced = false;
+  auto backoff = std::chrono::milliseconds(200);
   for (;;) {
     try {
       return make();
@@ -56,7 +59,9 @@ auto retryUntil(double timeout_s, const std::string& what, F&& make) -> decltype
         logLine("waiting for " + what + " (" + e.what() + ")");
         announced = true;
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+      std::this_thread::sleep_for(std::min(backoff, std::max(left, std::chrono::milliseconds(1))));
+      backoff = std::min(backoff * 2, std::chrono::milliseconds(3200));
     }
   }
 }
@@ -83,6 +88,23 @@ std::uint64_t countAbove(const rt::LatencyHistogram& h, double threshold_us) {
     if (i >= 0) n += h.bins[static_cast<std::size_t>(i)];
   }
   return n;
+}
+
+// The wrench message published while no robot state package arrives: valid = false, cycle = -1,
+// fault bit robot timeout, no sensor sample.
+void publishSilence(transport::LcmOutbox* outbox, std::int32_t param_version) {
+  transport::CycleRecord rec;
+  rec.utime = realtimeNowUs();
+  rec.cycle = -1;
+  rec.sensor_age_us = -1;
+  rec.fault_bits = kFaultRobotTimeout;
+  rec.wrench_valid = false;
+  rec.param_version = param_version;
+  ftid_lcm::compensated_wrench_t msg{};
+  transport::toLcm(rec, &msg);
+  std::uint8_t buf[512];
+  const int n = transport::encodeInto(msg, buf, sizeof buf);
+  if (n > 0) outbox->publishRaw(outbox->options().channels.wrench, buf, static_cast<unsigned>(n));
 }
 
 struct CommandQueue {
@@ -292,6 +314,9 @@ int Daemon::run() {
   rt::LoopStats snap;
   std::uint32_t faults_since_report = 0;
   std::int32_t reloads_applied = 0;
+  std::uint64_t last_cycles = 0;
+  auto last_cycle_time = Clock::now();
+  bool robot_silent = false;
   bool ready_sent = false;
   int exit_code = 0;
 
@@ -361,6 +386,29 @@ int Daemon::run() {
 
     const CycleCounters& c = cycle.counters();
     const std::uint64_t heartbeat = c.cycles.load() + c.missed.load();
+    // Robot link: a cycle runs per state package. While none arrives the loop only counts missed
+    // cycles, so the supervisor publishes valid = false for it and, after watchdog_silence_s,
+    // stops feeding the systemd watchdog (see below).
+    const std::uint64_t cycles_now = c.cycles.load();
+    if (cycles_now != last_cycles) {
+      if (robot_silent) {
+        logLine("robot state packages arrive again after " + std::to_string(secondsSince(last_cycle_time)) +
+                " s");
+      }
+      last_cycles = cycles_now;
+      last_cycle_time = Clock::now();
+      robot_silent = false;
+    }
+    const double silent_s = secondsSince(last_cycle_time);
+    if (ready_sent && silent_s * 1000.0 >= cfg.robot.silent_publish_after_ms) {
+      if (!robot_silent) {
+        robot_silent = true;
+        logLine("no robot state package for " + std::to_string(static_cast<int>(silent_s * 1000.0)) +
+                " ms (controller stalled, link down or controller off: " + arm->client().lastError() +
+                "); publishing valid = false");
+      }
+      publishSilence(&outbox, static_cast<std::int32_t>(params.version()));
+    }
     if (!ready_sent && c.cycles.load() > 0) {
       ready_sent = true;
       notifySystemd("READY=1");
@@ -373,7 +421,9 @@ int Daemon::run() {
               (locked ? "" : ", memory not locked"));
     }
     if (watchdog_usec > 0 && Clock::now() >= next_watchdog) {
-      if (heartbeat != last_heartbeat) notifySystemd("WATCHDOG=1");  // only while the loop lives
+      // Only while the loop lives and the robot link carries packages (or went silent less than
+      // watchdog_silence_s ago): a dead link ends in a restart by systemd.
+      if (heartbeat != last_heartbeat && silent_s < cfg.robot.watchdog_silence_s) notifySystemd("WATCHDOG=1");
       last_heartbeat = heartbeat;
       next_watchdog = Clock::now() + watchdog_period;
     }

@@ -20,6 +20,10 @@ struct RobotConfig {
   std::string tip_link = "tool0";      ///< URDF flange link (frame F)
   /// A cycle is missed if no state packet arrives within this time; 0 = 1.5 RTDE periods.
   double receive_timeout_ms = 0.0;
+  /// Without a state package for this long ftidd publishes valid = false (about 20 Hz) [ms].
+  double silent_publish_after_ms = 50.0;
+  /// Without a state package for this long ftidd stops feeding the systemd watchdog [s].
+  double watchdog_silence_s = 2.0;
 
   /// The effective receive timeout.
   std::chrono::microseconds receiveTimeout() const {
