@@ -104,6 +104,13 @@ struct RunCycle {
   RunProgress& progress;
   double period;
   std::uint32_t max_missed = 3;  // lost_time_limit in ticks
+  std::uint32_t max_missed_startup = 3;  // startup_lost_time_limit in ticks
+  std::uint32_t startup_ticks = 0;       // startup_grace in ticks
+  std::uint32_t ticks_seen = 0;          // states and misses since the loop started
+
+  /// Lost ticks tolerated now: more during the loop's first startup_ticks (a start-up burst on a
+  /// loaded host), never more than the program's own watchdog allows.
+  std::uint32_t lostLimit() const noexcept { return ticks_seen < startup_ticks ? max_missed_startup : max_missed; }
 
   std::size_t n = 0;
   std::size_t not_recorded = 0;
@@ -131,8 +138,10 @@ struct RunCycle {
   }
 
   rt::CycleAction onMissed(std::uint32_t consecutive) noexcept {
-    if (consecutive >= max_missed) {
-      return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive), static_cast<double>(max_missed));
+    ++ticks_seen;
+    const std::uint32_t limit = lostLimit();
+    if (consecutive >= limit) {
+      return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive), static_cast<double>(limit));
     }
     arm.sendHold();
     return rt::CycleAction::kContinue;
@@ -148,6 +157,7 @@ struct RunCycle {
 
   rt::CycleAction onTick() noexcept {
     const ArmState& s = state;
+    ticks_seen += 1 + s.packages_skipped;
     RecordedTick tick;
     tick.state = s;
     tick.phase = phase;
@@ -168,8 +178,8 @@ struct RunCycle {
       action = fail(RunStatus::kModeChanged, -1, 0.0, 0.0, s.robot_mode);
     } else if (s.runtime_state != rtde::kRuntimePlaying) {
       action = fail(RunStatus::kProgramStopped, -1, 0.0, 0.0, s.runtime_state);
-    } else if (s.packages_skipped >= max_missed) {
-      action = fail(RunStatus::kLostPackets, -1, s.packages_skipped, max_missed);
+    } else if (s.packages_skipped >= lostLimit()) {
+      action = fail(RunStatus::kLostPackets, -1, s.packages_skipped, lostLimit());
     } else if (cfg.abort_on_speed_scaling && s.speed_scaling < 0.99) {
       action = fail(RunStatus::kSpeedScaled, -1, s.speed_scaling, 1.0);
     }
@@ -473,7 +483,12 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
   rt::ExecutorConfig ec;
   ec.period = std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(period * 1e9)));
   ec.timeout_periods = config_.timeout_periods;
-  ec.max_consecutive_missed = cycle.max_missed + 1;  // the cycle decides first
+  // Start-up burst: at most startup_lost_time_limit, and never beyond 80 % of the servo program's
+  // own watchdog (1 / watchdog_min_hz; the program stops the arm itself after that).
+  cycle.max_missed_startup = std::max(
+      cycle.max_missed, static_cast<std::uint32_t>(std::floor(config_.startup_lost_time_limit / period + 1e-9)));
+  cycle.startup_ticks = static_cast<std::uint32_t>(std::ceil(config_.startup_grace / period));
+  ec.max_consecutive_missed = std::max(cycle.max_missed, cycle.max_missed_startup) + 1;  // the cycle decides first
   rt::LoopExit exit = rt::LoopExit::kCycleStopped;
   progress_.running.store(true);
   result.realtime = rt::runInRealtimeThread(config_.realtime, [&] {

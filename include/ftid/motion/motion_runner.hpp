@@ -95,6 +95,13 @@ struct MotionConfig {
   /// (wait timeouts) or one timestamp gap longer than this. 0.024 s = 3 ticks at 125 Hz, 12 at
   /// 500 Hz; well inside the program's RTDE watchdog (1 / watchdog_min_hz = 0.1 s).
   double lost_time_limit = 0.024;
+  /// During the loop's first startup_grace seconds a longer burst is tolerated: a host under load
+  /// often loses a few packages while the real-time thread starts (page faults, migration). 0.064 s
+  /// = 8 ticks at 125 Hz, 32 at 500 Hz; below the servo program's RTDE watchdog (0.1 s at the
+  /// default watchdog_min_hz = 10), which still stops the arm by itself if the host stalls longer.
+  /// The arm is at rest then (first approach targets), so a held target is harmless.
+  double startup_lost_time_limit = 0.064;
+  double startup_grace = 0.5;  ///< [s] of controller time after the loop starts
   double timeout_periods = 1.5;         ///< device wait timeout in controller periods
   bool abort_on_speed_scaling = true;   ///< speed_scaling < 0.99 means the robot time-scales: abort
   double stop_timeout = 2.0;            ///< [s] wait for rest after a stop

@@ -27,6 +27,11 @@ class FakeArm final : public ur::Arm {
   FakeArm(double period, const JointVector& q) : period_(period), q_(q), target_(q) {}
   Status waitForState(std::chrono::nanoseconds, ur::ArmState* out) noexcept override {
     if (stopping_ && ++stop_calls_ > 5) return Status::kFault;
+    ++calls_;
+    if (calls_ >= timeout_from && calls_ < timeout_from + timeout_count) {
+      ts_ += period_;  // the controller ran on; its package was lost
+      return Status::kTimeout;
+    }
     ts_ += period_;
     out->timestamp = ts_;
     out->qd = (target_ - q_) / period_;
@@ -53,8 +58,11 @@ class FakeArm final : public ur::Arm {
   void resetServoReference(const JointVector&, const JointVector&) noexcept override {}
   double period() const noexcept override { return period_; }
   std::size_t targets = 0;
+  int timeout_from = -1;  ///< waitForState call (1-based) from which timeout_count calls time out
+  int timeout_count = 0;
 
  private:
+  int calls_ = 0;
   double period_;
   double ts_ = 100.0;
   JointVector q_, target_;
@@ -167,4 +175,37 @@ TEST(MotionPreflight, ApproachThroughTheFloorIsRefused) {
   EXPECT_EQ(c.result.status, motion::RunStatus::kRefused) << c.result.message;
   EXPECT_EQ(c.targets, 0u);
   EXPECT_NE(c.result.message.find("approach sample 1 "), std::string::npos) << c.result.message;
+}
+
+// Issue 14, "Links": a start-up burst of lost packages on a loaded host is tolerated up to
+// startup_lost_time_limit; the same burst later in the run still aborts it.
+motion::RunResult runWithLostBurst(int from_call, int count, double startup_limit) {
+  const auto file = shipped();
+  const auto traj = file.toTrajectory();
+  FakeArm arm(0.008, file.q0);
+  arm.timeout_from = from_call;
+  arm.timeout_count = count;
+  motion::MotionConfig cfg;
+  cfg.realtime.enable = false;
+  cfg.startup_lost_time_limit = startup_limit;
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  motion::MotionRunner runner(arm, cfg, motion::MotionRunner::capacityFor(traj.duration(), 0.008));
+  return runner.run(src);
+}
+
+TEST(MotionStartup, BurstOfLostPackagesAtStartIsTolerated) {
+  // Call 1 is the readiness check; the loop starts at call 2. Six lost packages = 48 ms.
+  const auto tolerated = runWithLostBurst(2, 6, 0.064);
+  EXPECT_EQ(tolerated.status, motion::RunStatus::kCompleted) << tolerated.message;
+  const auto without = runWithLostBurst(2, 6, 0.0);  // the old behaviour: 3 ticks anywhere
+  EXPECT_EQ(without.status, motion::RunStatus::kLostPackets) << without.message;
+  const auto too_long = runWithLostBurst(2, 9, 0.064);  // 72 ms: beyond the bound
+  EXPECT_EQ(too_long.status, motion::RunStatus::kLostPackets) << too_long.message;
+  EXPECT_NE(too_long.message.find("limit 8"), std::string::npos) << too_long.message;
+}
+
+TEST(MotionStartup, TheSameBurstLaterAborts) {
+  const auto later = runWithLostBurst(400, 6, 0.064);  // ~3 s into the run
+  EXPECT_EQ(later.status, motion::RunStatus::kLostPackets) << later.message;
+  EXPECT_NE(later.message.find("limit 3"), std::string::npos) << later.message;
 }
