@@ -110,19 +110,37 @@ std::string findDefaultTrajectory(const std::string& config_source) {
 }
 
 /// Shared between the real-time hook and the UI thread (atomics only).
+/// Abort reasons: 0 none, 1 user, 2 ftidd silent, 3 sensor invalid, 4 this process was stalled
+/// (SIGSTOP, overload), 5 our receive thread was starved, 6 the controller stalled.
 struct HookContext {
   const CycleRecorder* recorder = nullptr;
   const std::atomic<bool>* user_abort = nullptr;
   std::atomic<bool> abort{false};
-  std::atomic<int> reason{0};  // 0 none, 1 user, 2 ftidd silent, 3 sensor invalid
+  std::atomic<int> reason{0};
+  std::atomic<std::int64_t> detail_ms{0};  ///< the gap behind reasons 4..6 [ms]
   std::int64_t timeout_ns = 250000000;
   std::int64_t max_invalid = 5;
+  double period = 0.008;                   ///< controller period [s] (configured)
   std::atomic<double> elapsed{0.0};
   std::atomic<int> phase{0};
+  // Loop-thread state.
+  std::int64_t last_hook_ns = 0;
+  double last_robot_time = -1.0;
+  double last_robot_gap_at = -1e300;       ///< robot time of the last state-package gap
+  std::int64_t last_robot_gap_ms = 0;
 };
 
 void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
   auto* c = static_cast<HookContext*>(context);
+  const std::int64_t now = monotonicNowNs();
+  const std::int64_t since_hook = c->last_hook_ns > 0 ? now - c->last_hook_ns : 0;
+  c->last_hook_ns = now;
+  const double rt = tick.state.timestamp;
+  if (c->last_robot_time >= 0.0 && rt - c->last_robot_time > 3.0 * c->period) {
+    c->last_robot_gap_at = rt;
+    c->last_robot_gap_ms = static_cast<std::int64_t>((rt - c->last_robot_time) * 1000.0);
+  }
+  c->last_robot_time = rt;
   c->phase.store(static_cast<int>(tick.phase), std::memory_order_relaxed);
   if (tick.t_traj >= 0.0) c->elapsed.store(tick.t_traj, std::memory_order_relaxed);
   if (c->abort.load(std::memory_order_relaxed)) return;
@@ -131,14 +149,32 @@ void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
     c->abort.store(true);
     return;
   }
-  const std::int64_t age = monotonicNowNs() - c->recorder->lastReceiveNs();
+  const std::int64_t age = now - c->recorder->lastReceiveNs();
   if (age > c->timeout_ns) {
-    c->reason.store(2);
+    // Who went quiet? This loop itself (stopped or starved: the gap is between our own calls),
+    // our LCM receive thread (it polls every 50 ms), or ftidd (our side is alive).
+    const std::int64_t poll_age = now - c->recorder->lastPollNs();
+    if (since_hook > c->timeout_ns) {
+      c->detail_ms.store(since_hook / 1000000);
+      c->reason.store(4);
+    } else if (poll_age > c->timeout_ns) {
+      c->detail_ms.store(poll_age / 1000000);
+      c->reason.store(5);
+    } else {
+      c->reason.store(2);
+    }
     c->abort.store(true);
     return;
   }
   if (c->recorder->invalidSensorStreak() > c->max_invalid) {
-    c->reason.store(3);
+    // Right after a gap in the robot's own packages ftidd cannot pair samples with robot states:
+    // that is a controller stall, not a silent sensor.
+    if (rt - c->last_robot_gap_at < 1.0) {
+      c->detail_ms.store(c->last_robot_gap_ms);
+      c->reason.store(6);
+    } else {
+      c->reason.store(3);
+    }
     c->abort.store(true);
   }
 }
@@ -329,6 +365,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   hook.user_abort = o.abort;
   hook.timeout_ns = static_cast<std::int64_t>(o.ftidd_timeout_s * 1e9);
   hook.max_invalid = o.max_invalid_sensor_cycles;
+  hook.period = 1.0 / rate;
   recorder.clear();
 
   std::atomic<bool> ui_running{true};
@@ -414,7 +451,23 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
       case 1: why = "stopped by the operator (Ctrl-C)"; break;
       case 2: why = "ftidd stopped publishing (killed or stalled) during the motion"; break;
       case 3: why = "the F/T sensor went silent or invalid during the motion"; break;
+      case 4:
+        why = "ftid --identify itself was stopped or stalled for " + std::to_string(hook.detail_ms.load()) +
+              " ms (SIGSTOP, or an overloaded host); ftidd was not at fault";
+        break;
+      case 5:
+        why = "ftid --identify's receive thread was starved for " + std::to_string(hook.detail_ms.load()) +
+              " ms (overloaded host), so ftidd's data could not be watched";
+        break;
+      case 6:
+        why = "the robot controller stalled (no state package for " + std::to_string(hook.detail_ms.load()) +
+              " ms), so ftidd could not pair sensor samples with robot states";
+        break;
       default: break;
+    }
+    if (!stream.ok()) {  // say so too: a second publisher may be behind the abort
+      why += "; also, the recorded " + cfg.lcm.channels.cycle + " stream does not match the controller (" +
+             stream.describe() + ")";
     }
     result.message = "identification run aborted: " + why + "; the arm is stopped, parameters unchanged, " + data_note;
     return result;

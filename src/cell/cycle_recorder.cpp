@@ -1,5 +1,7 @@
 #include "ftid/cell/cycle_recorder.hpp"
 
+#include <pthread.h>
+#include <sched.h>
 #include <time.h>
 
 #include <algorithm>
@@ -49,8 +51,17 @@ void CycleRecorder::start() {
   impl_->subscription->setQueueCapacity(2000);
   if (!allowed_.empty()) transport::restrictLcmSources(*impl_->lcm, url_, allowed_);
   running_ = true;
+  last_poll_ns_.store(monotonicNowNs());
   thread_ = std::thread([this] {
-    while (running_.load()) impl_->lcm->handleTimeout(50);
+    // A low real-time priority where permitted: on an overloaded host a starved receive thread
+    // would look like a silent ftidd (the motion loop runs at a higher one).
+    sched_param sp{};
+    sp.sched_priority = 5;
+    (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
+    while (running_.load()) {
+      last_poll_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
+      impl_->lcm->handleTimeout(50);
+    }
   });
 }
 
@@ -70,13 +81,20 @@ void CycleRecorder::onMessage(const void* data, std::size_t size) {
   if (!transport::decodeFrom(data, size, &msg)) return;
   transport::CycleRecord rec;
   transport::fromLcm(msg, &rec);
-  last_receive_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
   if (stream_) stream_->append(rec);
-  const bool sensor_ok = rec.sensor.valid && rec.sensor.health_flags == transport::kHealthOk;
-  if (sensor_ok) {
-    invalid_streak_.store(0, std::memory_order_relaxed);
-  } else {
-    invalid_streak_.fetch_add(1, std::memory_order_relaxed);
+  // Liveness and the sensor streak follow ftidd's cycles, not datagrams: a repeated or forged
+  // copy of an old cycle neither keeps the watch alive nor counts twice (the stream check after
+  // the run judges the copies).
+  if (!have_cycle_ || rec.cycle > newest_cycle_) {
+    have_cycle_ = true;
+    newest_cycle_ = rec.cycle;
+    last_receive_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
+    const bool sensor_ok = rec.sensor.valid && rec.sensor.health_flags == transport::kHealthOk;
+    if (sensor_ok) {
+      invalid_streak_.store(0, std::memory_order_relaxed);
+    } else {
+      invalid_streak_.fetch_add(1, std::memory_order_relaxed);
+    }
   }
   std::lock_guard<std::mutex> lock(mutex_);
   if (records_.size() < capacity_) {

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -15,12 +16,6 @@
 
 namespace ftid::cell {
 namespace {
-
-std::int64_t nowNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 void number(std::string& out, double v) {
   char buf[32];
@@ -34,8 +29,17 @@ RunStreamWriter::RunStreamWriter(std::string path, double fsync_period_s)
     : path_(std::move(path)), fsync_period_s_(fsync_period_s) {
   fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_APPEND | O_CLOEXEC | O_NOFOLLOW, 0644);
   if (fd_ < 0) throw Error(path_ + ": cannot create the run file (" + std::strerror(errno) + ")");
-  last_fsync_ns_ = nowNs();
   pending_.reserve(1 << 16);
+  syncer_ = std::thread([this] {
+    std::unique_lock<std::mutex> lock(sync_mutex_);
+    while (!sync_stop_) {
+      sync_cv_.wait_for(lock, std::chrono::duration<double>(fsync_period_s_));
+      if (sync_stop_) break;
+      lock.unlock();
+      if (::fdatasync(fd_) != 0 && errno != EINVAL && sync_errno_.load() == 0) sync_errno_.store(errno);
+      lock.lock();
+    }
+  });
 }
 
 RunStreamWriter::~RunStreamWriter() {
@@ -126,11 +130,7 @@ void RunStreamWriter::append(const transport::CycleRecord& r) noexcept {
     last_t_ = r.robot.robot_time;
     ++rows_;
     writePending();  // one write per record: a SIGKILL loses nothing already received
-    const std::int64_t now = nowNs();
-    if (error_.empty() && static_cast<double>(now - last_fsync_ns_) >= fsync_period_s_ * 1e9) {
-      if (::fsync(fd_) != 0 && errno != EINVAL) fail(errno);
-      last_fsync_ns_ = now;
-    }
+    if (error_.empty() && sync_errno_.load(std::memory_order_relaxed) != 0) fail(sync_errno_.load());
   } catch (...) {
     fail(ENOMEM);
   }
@@ -138,6 +138,14 @@ void RunStreamWriter::append(const transport::CycleRecord& r) noexcept {
 
 void RunStreamWriter::finish() noexcept {
   if (fd_ < 0) return;
+  if (syncer_.joinable()) {
+    {
+      std::lock_guard<std::mutex> lock(sync_mutex_);
+      sync_stop_ = true;
+    }
+    sync_cv_.notify_all();
+    syncer_.join();
+  }
   if (error_.empty()) writePending();
   if (error_.empty() && ::fsync(fd_) != 0 && errno != EINVAL) fail(errno);
 }

@@ -4,6 +4,7 @@
 #   cell_identify_test.sh FTID FTIDD SRC_DIR CASE
 #
 # CASE = normal | protective_stop | sensor_silent | ftidd_killed | disk_full | below_floor | poisoned
+#        | sigstop
 #
 # Each case runs `ftid sim-robot` (UR10, 125 Hz), `ftid sim-sensor` (the paper payload) and ftidd
 # in a private network namespace (unshare -rn: loopback only, LCM multicast routed on lo), then
@@ -25,6 +26,8 @@
 #   poisoned         (issue 14) a second publisher on this host republishes every FTID_CYCLE
 #                    message 1 ms later (robot time + 1 ms) with fz + 5 N: the run is refused
 #                    ("does not match the controller"), the parameters stay byte-identical.
+#   sigstop          (issue 14) `ftid --identify` itself is stopped (SIGSTOP) for 0.5 s during
+#                    the motion: the message must blame ftid, not ftidd.
 # Every fault case must end with exit status 1, a one-line message naming the cause, the arm
 # stopped (dashboard programState STOPPED and RTDE actual_qd ~ 0), the previous parameter file
 # byte-identical, and the recorded data saved (run.csv with samples).
@@ -36,7 +39,7 @@ SRC=${3:?}
 CASE=${4:?}
 SKIP=77
 
-case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|below_floor|poisoned) ;;
+case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|below_floor|poisoned|sigstop) ;;
   *) echo "unknown case '$CASE'"; exit 2 ;; esac
 
 # ---- re-enter in the private namespaces
@@ -249,6 +252,7 @@ if [ "$CASE" != normal ] && [ "$CASE" != disk_full ] && [ "$CASE" != below_floor
     sensor_silent) echo "inject: sensor silent"
       for _ in $(seq 1 40); do kill -USR2 $SENSOR 2>/dev/null; sleep 0.05; done & ;;
     ftidd_killed) echo "inject: kill -KILL ftidd"; kill -KILL $DAEMON ;;
+    sigstop) echo "inject: SIGSTOP ftid --identify for 0.5 s"; kill -STOP $ID; sleep 0.5; kill -CONT $ID ;;
   esac
 fi
 
@@ -308,7 +312,9 @@ else
     ftidd_killed) want="ftidd" ;;
     disk_full) want="parameter file.*(space|write)" ;;
     below_floor) want="refused before any motion.*trajectory sample [0-9]+ \(t = [0-9.]+ s\): tool\[0\] above floor.*below the floor" ;;
-    poisoned) want="identification refused: the recorded FTID_CYCLE stream does not match the controller" ;;
+    # (identification refused; or, if the loaded host aborted the motion first, named as well)
+    poisoned) want="FTID_CYCLE stream does not match the controller.*(conflicting|off the controller)" ;;
+    sigstop) want="ftid --identify itself was stopped or stalled for [0-9]+ ms.*ftidd was not at fault" ;;
   esac
   echo "$MSG" | grep -Eqi "$want" || fail "message does not name the cause (/$want/): $MSG"
   cmp -s "$WORK/previous.yaml" "$PARAMS" || fail "the previous parameter file was changed"

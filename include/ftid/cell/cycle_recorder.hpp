@@ -52,6 +52,9 @@ class CycleRecorder {
 
   // Real-time readable (atomics only).
   std::int64_t lastReceiveNs() const noexcept { return last_receive_ns_.load(std::memory_order_relaxed); }
+  /// When the receive thread last woke up (it polls at least every 50 ms): stale means the
+  /// thread itself was starved, not that ftidd stopped publishing.
+  std::int64_t lastPollNs() const noexcept { return last_poll_ns_.load(std::memory_order_relaxed); }
   /// Consecutive records whose sensor sample was invalid or stale (0 after a valid one).
   std::int64_t invalidSensorStreak() const noexcept { return invalid_streak_.load(std::memory_order_relaxed); }
   std::size_t count() const noexcept { return count_.load(std::memory_order_relaxed); }
@@ -71,6 +74,9 @@ class CycleRecorder {
   std::atomic<bool> running_{false};
   std::thread thread_;
   std::atomic<std::int64_t> last_receive_ns_{0};
+  std::atomic<std::int64_t> last_poll_ns_{0};
+  bool have_cycle_ = false;         ///< receive thread only
+  std::int64_t newest_cycle_ = 0;   ///< receive thread only
   std::atomic<std::int64_t> invalid_streak_{0};
   std::atomic<std::size_t> count_{0};
   std::atomic<std::size_t> dropped_{0};

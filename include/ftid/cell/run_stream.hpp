@@ -3,15 +3,20 @@
 // cycle record becomes one CSV row (docs/log-format.md; readable by `ftid identify --log` and
 // `ftid analyze`) appended to the file at once, so a crash or SIGKILL of `ftid --identify` loses
 // nothing that reached the kernel, and the file is fsync'ed about once per second so a power loss
-// loses at most the last second. A write error (a full disk) stops the stream with a message
+// loses at most the last second (on a thread of its own: an fsync can take long on a busy disk and
+// must not hold up the receive thread, whose liveness `ftid --identify` watches). A write error (a full disk) stops the stream with a message
 // naming the directory; what was written stays.
 //
 // Rows: records with a valid robot state and a healthy, valid sensor sample, finite values and a
 // robot time above the previous row's. Columns: t, q, qd, qdd, the raw wrench, the IMU group if the
 // first row had it (later rows without it are skipped and counted), then the extra columns cycle and
 // sensor_age_ms. The stream is the raw capture; the checked, windowed run.csv is written at the end.
+#include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "ftid/transport/records.hpp"
 
@@ -43,7 +48,6 @@ class RunStreamWriter {
   std::string path_;
   int fd_ = -1;
   double fsync_period_s_;
-  std::int64_t last_fsync_ns_ = 0;
   std::string pending_;
   bool header_written_ = false;
   bool imu_ = false;
@@ -52,6 +56,11 @@ class RunStreamWriter {
   std::size_t size_ = 0;  ///< bytes of complete rows in the file
   std::size_t skipped_ = 0;
   std::string error_;
+  std::atomic<int> sync_errno_{0};  ///< set by the fsync thread
+  std::mutex sync_mutex_;
+  std::condition_variable sync_cv_;
+  bool sync_stop_ = false;
+  std::thread syncer_;
 };
 
 }  // namespace ftid::cell
