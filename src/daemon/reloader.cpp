@@ -38,12 +38,6 @@ ReloadResult ParameterReloader::reload(const std::string& path,
                                        std::chrono::milliseconds apply_timeout) {
   ReloadResult result;
   std::unique_ptr<Compensation> fresh;
-  if (const std::string problem = regularFileProblem(path); !problem.empty()) {
-    ++failed_;
-    result.version = slot_->version();
-    result.message = problem;
-    return result;
-  }
   try {
     fresh = factory_(path);
   } catch (const std::exception& e) {

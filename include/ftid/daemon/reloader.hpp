@@ -35,8 +35,8 @@ class ParameterReloader {
 
   /// Builds from `path` and offers the result to the loop, then waits up to `apply_timeout` for
   /// the loop to take it (0: do not wait). On a build error nothing changes and ok is false.
-  /// Anything but a regular file (FIFO, device, directory, /proc/self/fd/N of a pipe) is refused
-  /// before the factory reads it, so a reload never blocks.
+  /// The production factory (parameterFileFactory) refuses anything but a regular file (FIFO,
+  /// device, directory, /proc/self/fd/N of a pipe) before reading it, so a reload never blocks.
   ReloadResult reload(const std::string& path, std::chrono::milliseconds apply_timeout);
 
   /// Frees a replaced object if the loop has retired one (call periodically).

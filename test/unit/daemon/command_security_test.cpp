@@ -10,6 +10,7 @@
 #include <chrono>
 #include <string>
 
+#include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/transport/command_auth.hpp"
@@ -29,12 +30,9 @@ TEST(ReloadSafety, FifoAndPipeAreRefusedWithoutBlocking) {
   ASSERT_EQ(::pipe(pipe_fds), 0);
   const std::string proc_pipe = "/proc/self/fd/" + std::to_string(pipe_fds[0]);
 
+  // The production factory, as ftidd uses it: reading a FIFO with no writer would block forever.
   OwnedSwapSlot<Compensation> slot;
-  int factory_calls = 0;
-  ParameterReloader reloader(&slot, [&](const std::string&) -> std::unique_ptr<Compensation> {
-    ++factory_calls;  // a real factory would block reading a FIFO with no writer
-    return nullptr;
-  });
+  ParameterReloader reloader(&slot, parameterFileFactory());
   for (const std::string& path : {fifo, proc_pipe, ::testing::TempDir()}) {
     const auto t0 = std::chrono::steady_clock::now();
     const ReloadResult r = reloader.reload(path, std::chrono::milliseconds(0));
@@ -44,7 +42,7 @@ TEST(ReloadSafety, FifoAndPipeAreRefusedWithoutBlocking) {
     EXPECT_NE(r.message.find("not a regular file"), std::string::npos) << r.message;
     EXPECT_NE(r.message.find(path), std::string::npos) << r.message;
   }
-  EXPECT_EQ(factory_calls, 0);
+  EXPECT_EQ(reloader.failed(), 3u);
   EXPECT_NE(regularFileProblem(fifo).find("a FIFO"), std::string::npos);
   EXPECT_NE(regularFileProblem(::testing::TempDir()).find("a directory"), std::string::npos);
   EXPECT_NE(regularFileProblem(scratch("missing")).find("cannot open"), std::string::npos);
