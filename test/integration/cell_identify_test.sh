@@ -234,6 +234,12 @@ fi
 # reports); the fault cases skip the analysis to stay short.
 extra="--model paper+rigid_body"
 [ "$CASE" != normal ] && extra="--no-analyze"
+# RTDE clients of the robot so far: ftidd and the sensor simulator (it reads the robot's motion;
+# it retries every second, so wait until both are there).
+i=0
+until [ "$(grep -c "RTDE client [0-9]* connected" "$WORK/robot.log")" -ge 2 ] || [ $i -gt 50 ]; do
+  sleep 0.2; i=$((i + 1))
+done
 clients_before=$(grep -c "RTDE client [0-9]* connected" "$WORK/robot.log")
 "$FTID" --identify --config "$WORK/ftidd.yaml" --trajectory "$WORK/traj.yaml" --params "$PARAMS" \
   --runs-dir "$WORK/runs" --yes $extra > "$WORK/identify.out" 2> "$WORK/identify.err" < /dev/null &
