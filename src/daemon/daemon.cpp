@@ -314,6 +314,8 @@ int Daemon::run() {
   rt::LoopStats snap;
   std::uint32_t faults_since_report = 0;
   std::int32_t reloads_applied = 0;
+  auto next_refusal_log = Clock::now();
+  std::uint64_t refusals_unlogged = 0;
   std::uint64_t last_cycles = 0;
   auto last_cycle_time = Clock::now();
   bool robot_silent = false;
@@ -354,7 +356,16 @@ int Daemon::run() {
       if (!refusal.empty()) {
         ack.ok = false;
         ack.message = refusal;
-        logLine(refusal);
+        // At most one line per second: a flood of bad commands must not flood the journal.
+        if (Clock::now() >= next_refusal_log) {
+          logLine(refusal + (refusals_unlogged > 0 ? " (" + std::to_string(refusals_unlogged) +
+                                                         " more refused since the last line)"
+                                                   : std::string()));
+          refusals_unlogged = 0;
+          next_refusal_log = Clock::now() + std::chrono::seconds(1);
+        } else {
+          ++refusals_unlogged;
+        }
       } else if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
         const ReloadResult r = doReload(cfg.parameters.path);  // never a path from the network
         ack.ok = r.ok && r.applied;
@@ -404,8 +415,7 @@ int Daemon::run() {
       if (!robot_silent) {
         robot_silent = true;
         logLine("no robot state package for " + std::to_string(static_cast<int>(silent_s * 1000.0)) +
-                " ms (controller stalled, link down or controller off: " + arm->client().lastError() +
-                "); publishing valid = false");
+                " ms (controller stalled, link down or controller off); publishing valid = false");
       }
       publishSilence(&outbox, static_cast<std::int32_t>(params.version()));
     }
