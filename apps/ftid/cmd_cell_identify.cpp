@@ -3,8 +3,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <iostream>
 #include <string>
 
@@ -24,7 +26,11 @@ const char* kUsage =
     "(the robot is the clock), records ftidd's synchronised samples, identifies the model, shows the\n"
     "held-out residual per axis and which physical effect is missing (if any), writes the parameter\n"
     "file atomically (previous version kept as .bak) with UR and ros2_control exports, and tells\n"
-    "ftidd to reload it. Ctrl-C stops the arm and keeps the recorded data.\n"
+    "ftidd to reload it (a command signed with the key in lcm.command_key_path: run as root or as a\n"
+    "member of the ftid group). Before any motion every target is checked like `ftid check-trajectory`\n"
+    "(floor, keep-out, designed ranges): a violation refuses the run, whatever --yes says. The\n"
+    "recorded stream must follow the controller's clock (duplicates dropped, a second publisher\n"
+    "refuses the run). Ctrl-C stops the arm and keeps the recorded data.\n"
     "\n"
     "options:\n"
     "  --config FILE        ftidd configuration (default /etc/ftid/ftidd.yaml): robot address, LCM,\n"
@@ -32,7 +38,9 @@ const char* kUsage =
     "  --trajectory FILE    excitation trajectory (traj.yaml from `ftid design`; default: the shipped\n"
     "                       excitation_ur10.yaml)\n"
     "  --model M            model to identify (default paper; e.g. paper+rigid_body)\n"
-    "  --params FILE        parameter file to write (default: the config's parameters.path)\n"
+    "  --params FILE        parameter file to write (default: the config's parameters.path). Another\n"
+    "                       file is refused unless --no-reload is given: ftidd loads only its\n"
+    "                       configured file (change parameters.path to switch files)\n"
     "  --runs-dir DIR       where recorded runs are kept (default: <params dir>/runs)\n"
     "  --script-port N      URScript port (default 30003)\n"
     "  --register-offset N  RTDE input register offset, 0 or 24 (default 0)\n"
@@ -44,6 +52,18 @@ const char* kUsage =
     "exit status: 0 identified and written, 1 aborted or failed (the message says why; the arm is\n"
     "stopped and recorded data kept), 2 usage error.";
 
+/// A whole number in [lo, hi], or a UsageError (exit 2) naming the option.
+int integer(const std::string& option, const std::string& text, long lo, long hi) {
+  char* end = nullptr;
+  errno = 0;
+  const long v = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || errno != 0 || v < lo || v > hi) {
+    throw ftid::cli::UsageError(option + ": '" + text + "' is not a whole number in " + std::to_string(lo) + ".." +
+                                std::to_string(hi));
+  }
+  return static_cast<int>(v);
+}
+
 int run(const std::vector<std::string>& argv) {
   ftid::cli::Args args(argv, kUsage);
   ftid::cell::CellIdentifyOptions o;
@@ -52,8 +72,8 @@ int run(const std::vector<std::string>& argv) {
   o.model = args.value("--model", o.model);
   o.params_path = args.value("--params");
   o.runs_dir = args.value("--runs-dir");
-  o.script_port = std::stoi(args.value("--script-port", "30003"));
-  o.register_offset = std::stoi(args.value("--register-offset", "0"));
+  o.script_port = integer("--script-port", args.value("--script-port", "30003"), 1, 65535);
+  o.register_offset = integer("--register-offset", args.value("--register-offset", "0"), 0, 24);
   o.reload_daemon = !args.flag("--no-reload");
   o.analyze = !args.flag("--no-analyze");
   o.require_realtime = args.flag("--require-rt");

@@ -11,6 +11,8 @@
 #include "command.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/design/trajectory_check.hpp"
+#include "ftid/model/kinematics.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/motion/recording_log.hpp"
 #include "ftid/motion/robot_session.hpp"
@@ -22,7 +24,7 @@ const char* kUsage =
     "usage: ftid run-trajectory TRAJ --out robot_log.csv [--robot-host 127.0.0.1] [--rtde-port 30004]\n"
     "                           [--script-port 30003] [--register-offset 0|24] [--lookahead 0.1]\n"
     "                           [--gain 300] [--approach-speed 0.25] [--tracking-limit 0.05]\n"
-    "                           [--require-rt] [--yes]\n"
+    "                           [--robot URDF] [--constraints TRAJ.yaml] [--require-rt] [--yes]\n"
     "\n"
     "Moves the robot slowly to the trajectory's start pose, streams the trajectory with servoj at\n"
     "the controller rate (125 Hz CB3, 500 Hz e-Series) from a real-time loop clocked by the robot,\n"
@@ -35,9 +37,17 @@ const char* kUsage =
     "  --lookahead, --gain  servoj parameters (0.03..0.2 s, 100..2000)\n"
     "  --approach-speed   peak joint speed of the move to the start pose [rad/s] (default 0.25)\n"
     "  --tracking-limit   abort when |actual_q - q(t)| exceeds this [rad] (default 0.05)\n"
+    "  --robot URDF       robot model for the pre-motion check (default: the one in TRAJ.yaml)\n"
+    "  --constraints F    check against the constraints of this traj.yaml (default: TRAJ's own;\n"
+    "                     required for a sampled CSV, which carries none)\n"
     "  --require-rt       refuse to run without SCHED_FIFO/mlockall instead of warning\n"
     "  --yes              do not ask for confirmation before the robot moves\n"
     "\n"
+    "Before any motion, every target that will be streamed (the approach from the current pose and\n"
+    "the trajectory at the controller's period) is checked like `ftid check-trajectory`: tool above\n"
+    "the floor and clear of the keep-out spheres, joints inside the designed ranges, velocity and\n"
+    "acceleration within the designed limits. A violation refuses the run (whatever --yes says) and\n"
+    "names the sample and the constraint; nothing moves.\n"
     "The robot MOVES. Keep the emergency stop at hand. Ctrl-C stops the arm and keeps the data.\n"
     "Exit status: 0 completed, 1 aborted or failed (the message says why), 2 usage error.";
 
@@ -80,6 +90,8 @@ int runRunTrajectory(const std::vector<std::string>& argv) {
   cfg.motion.tracking_error_limit = number("--tracking-limit", args.value("--tracking-limit", "0.05"));
   cfg.motion.realtime.require = args.flag("--require-rt");
   const bool yes = args.flag("--yes");
+  std::string robot_urdf = args.value("--robot");
+  const std::string constraints_path = args.value("--constraints");
   const std::string out = args.value("--out");
   const auto pos = args.positionals();
   args.finish();
@@ -108,6 +120,25 @@ int runRunTrajectory(const std::vector<std::string>& argv) {
     }
     source = std::make_unique<ftid::motion::SampledTrajectory>(std::move(t), std::move(q));
   }
+  // Constraints and robot for the pre-motion check (MotionConfig::preflight).
+  ftid::trajectory::TrajectoryConstraints limits;
+  if (!constraints_path.empty() || yaml) {
+    const auto cfile = ftid::trajectory::readTrajectoryFile(constraints_path.empty() ? path : constraints_path);
+    limits = cfile.constraints;
+    if (robot_urdf.empty()) robot_urdf = cfile.robot;
+  } else {
+    throw ftid::cli::UsageError(path + " is a sampled trajectory and carries no constraints: give --constraints "
+                                "TRAJ.yaml (the design it was sampled from) so the motion can be checked");
+  }
+  if (robot_urdf.empty()) throw ftid::cli::UsageError("no robot model recorded in the trajectory: give --robot URDF");
+  const auto kin = ftid::model::RobotKinematics::fromUrdfFile(robot_urdf);
+  cfg.motion.preflight = [&kin, &limits](const ftid::motion::PlannedMotion& p) {
+    std::string s;
+    for (const auto& line : ftid::design::checkMotionSamples(p.period, p.approach, p.t_traj, p.q_traj, kin, limits)) {
+      s += (s.empty() ? "" : "; ") + line;
+    }
+    return s;
+  };
   const ftid::JointVector start = source->startPose();
   std::printf("trajectory %s: %.2f s, start pose [%.4f %.4f %.4f %.4f %.4f %.4f] rad\n", path.c_str(),
               source->duration(), start[0], start[1], start[2], start[3], start[4], start[5]);

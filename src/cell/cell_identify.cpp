@@ -17,9 +17,11 @@
 
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/cell/exports.hpp"
+#include "ftid/cell/run_stream.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/design/trajectory_check.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/fit.hpp"
@@ -31,6 +33,7 @@
 #include "ftid/motion/robot_session.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
+#include "ftid/transport/command_auth.hpp"
 
 namespace fs = std::filesystem;
 
@@ -62,6 +65,13 @@ std::string fmt(int decimals, double v) {
 /// Writes text through the one atomic writer (ftid/fileio/atomic_file.hpp).
 void writeTextAtomic(const std::string& path, const std::string& text) { writeFileAtomically(path, text); }
 
+/// True if both paths name the same file (or, if it does not exist yet, the same normalised path).
+bool sameFile(const std::string& a, const std::string& b) {
+  std::error_code ec;
+  if (fs::exists(a, ec) && fs::exists(b, ec)) return fs::equivalent(a, b, ec);
+  return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
+}
+
 /// Default excitation trajectory: next to the config, the installed defaults, the source tree.
 std::string findDefaultTrajectory(const std::string& config_source) {
   std::vector<fs::path> candidates;
@@ -84,19 +94,37 @@ std::string findDefaultTrajectory(const std::string& config_source) {
 }
 
 /// Shared between the real-time hook and the UI thread (atomics only).
+/// Abort reasons: 0 none, 1 user, 2 ftidd silent, 3 sensor invalid, 4 this process was stalled
+/// (SIGSTOP, overload), 5 our receive thread was starved, 6 the controller stalled.
 struct HookContext {
   const CycleRecorder* recorder = nullptr;
   const std::atomic<bool>* user_abort = nullptr;
   std::atomic<bool> abort{false};
-  std::atomic<int> reason{0};  // 0 none, 1 user, 2 ftidd silent, 3 sensor invalid
+  std::atomic<int> reason{0};
+  std::atomic<std::int64_t> detail_ms{0};  ///< the gap behind reasons 4..6 [ms]
   std::int64_t timeout_ns = 250000000;
   std::int64_t max_invalid = 5;
+  double period = 0.008;                   ///< controller period [s] (configured)
   std::atomic<double> elapsed{0.0};
   std::atomic<int> phase{0};
+  // Loop-thread state.
+  std::int64_t last_hook_ns = 0;
+  double last_robot_time = -1.0;
+  double last_robot_gap_at = -1e300;       ///< robot time of the last state-package gap
+  std::int64_t last_robot_gap_ms = 0;
 };
 
 void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
   auto* c = static_cast<HookContext*>(context);
+  const std::int64_t now = monotonicNowNs();
+  const std::int64_t since_hook = c->last_hook_ns > 0 ? now - c->last_hook_ns : 0;
+  c->last_hook_ns = now;
+  const double rt = tick.state.timestamp;
+  if (c->last_robot_time >= 0.0 && rt - c->last_robot_time > 3.0 * c->period) {
+    c->last_robot_gap_at = rt;
+    c->last_robot_gap_ms = static_cast<std::int64_t>((rt - c->last_robot_time) * 1000.0);
+  }
+  c->last_robot_time = rt;
   c->phase.store(static_cast<int>(tick.phase), std::memory_order_relaxed);
   if (tick.t_traj >= 0.0) c->elapsed.store(tick.t_traj, std::memory_order_relaxed);
   if (c->abort.load(std::memory_order_relaxed)) return;
@@ -105,14 +133,32 @@ void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
     c->abort.store(true);
     return;
   }
-  const std::int64_t age = monotonicNowNs() - c->recorder->lastReceiveNs();
+  const std::int64_t age = now - c->recorder->lastReceiveNs();
   if (age > c->timeout_ns) {
-    c->reason.store(2);
+    // Who went quiet? This loop itself (stopped or starved: the gap is between our own calls),
+    // our LCM receive thread (it polls every 50 ms), or ftidd (our side is alive).
+    const std::int64_t poll_age = now - c->recorder->lastPollNs();
+    if (since_hook > c->timeout_ns) {
+      c->detail_ms.store(since_hook / 1000000);
+      c->reason.store(4);
+    } else if (poll_age > c->timeout_ns) {
+      c->detail_ms.store(poll_age / 1000000);
+      c->reason.store(5);
+    } else {
+      c->reason.store(2);
+    }
     c->abort.store(true);
     return;
   }
   if (c->recorder->invalidSensorStreak() > c->max_invalid) {
-    c->reason.store(3);
+    // Right after a gap in the robot's own packages ftidd cannot pair samples with robot states:
+    // that is a controller stall, not a silent sensor.
+    if (rt - c->last_robot_gap_at < 1.0) {
+      c->detail_ms.store(c->last_robot_gap_ms);
+      c->reason.store(6);
+    } else {
+      c->reason.store(3);
+    }
     c->abort.store(true);
   }
 }
@@ -143,8 +189,15 @@ std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
 }  // namespace
 
 std::string requestDaemonReload(const std::string& lcm_url, const std::string& command_channel,
-                                const std::string& ack_channel, const std::string& params_path,
+                                const std::string& ack_channel, const std::string& key_path,
                                 double timeout_s) {
+  transport::CommandKey key;
+  try {
+    key = transport::loadCommandKey(key_path);
+  } catch (const std::exception& e) {
+    return std::string("cannot sign the reload command: ") + e.what() +
+           " (run as root or as a member of the ftid group)";
+  }
   lcm::LCM lc(lcm_url);
   if (!lc.good()) return "LCM: cannot open '" + lcm_url + "'";
   struct AckWaiter {
@@ -167,11 +220,11 @@ std::string requestDaemonReload(const std::string& lcm_url, const std::string& c
                                             .count());
   cmd.request_id = waiter.request_id;
   cmd.command = ftid_lcm::command_t::RELOAD_PARAMETERS;
-  cmd.argument = params_path;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   auto next_send = std::chrono::steady_clock::now();
   while (!waiter.got && std::chrono::steady_clock::now() < deadline) {
     if (std::chrono::steady_clock::now() >= next_send) {  // resend: the first may race the subscription
+      transport::signCommand(&cmd, key);  // a fresh sequence each time: a resend is no replay
       lc.publish(command_channel, &cmd);
       next_send += std::chrono::milliseconds(500);
     }
@@ -199,6 +252,14 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
                                                                      cfg.robot.tip_link);
   kin.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   const std::string params_path = o.params_path.empty() ? cfg.parameters.path : o.params_path;
+  if (o.reload_daemon && !sameFile(params_path, cfg.parameters.path)) {
+    // ftidd reloads only its configured file (a RELOAD command carries no path), and a restart
+    // would go back to it anyway: writing elsewhere and "reloading" would be a silent lie.
+    throw ConfigError("--params " + params_path + " is not ftidd's parameter file (parameters.path in " +
+                      cfg.source + " is " + cfg.parameters.path +
+                      "); ftidd loads only that file. Change parameters.path in the config, or add "
+                      "--no-reload to write " + params_path + " without touching ftidd; nothing moved");
+  }
   const fs::path runs_dir = o.runs_dir.empty() ? fs::path(params_path).parent_path() / "runs" : fs::path(o.runs_dir);
   const fs::path run_dir = runs_dir / utcStamp(false);
   fs::create_directories(run_dir);
@@ -212,6 +273,9 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   const double rate = cfg.robot.rtde_frequency_hz > 0 ? cfg.robot.rtde_frequency_hz : 125.0;
   CycleRecorder recorder(cfg.lcm.url, cfg.lcm.channels.cycle,
                          static_cast<std::size_t>((traj.duration() + 180.0) * rate * 1.2));
+  if (!cfg.lcm.accept_remote) recorder.restrictSources(transport::localSources());
+  const std::string stream_path = (run_dir / "cycles.csv").string();
+  recorder.streamTo(std::make_unique<RunStreamWriter>(stream_path));
   recorder.start();
   if (!recorder.waitForRecords(10, std::chrono::milliseconds(static_cast<int>(o.startup_wait_s * 1000)))) {
     result.message = "ftidd is not publishing cycle samples on " + cfg.lcm.channels.cycle + " (" + cfg.lcm.url +
@@ -228,6 +292,36 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     return result;
   }
   print("  ftidd and the sensor are up (" + std::to_string(recorder.count()) + " cycle samples received)");
+
+  // ---- the exact targets are checked before any motion, whatever --yes says: here the
+  // excitation at the configured controller rate (before asking), in the runner again with the
+  // controller's real period and the approach from the robot's current pose.
+  const trajectory::TrajectoryConstraints& limits = traj_file.constraints;
+  auto joinViolations = [](const std::vector<std::string>& v) {
+    std::string s;
+    for (const auto& line : v) s += (s.empty() ? "" : "; ") + line;
+    return s;
+  };
+  {
+    const motion::EvaluatedTrajectory<trajectory::FourierTrajectory> source(traj);
+    std::vector<double> t_traj;
+    std::vector<JointVector> q_traj;
+    const double period = 1.0 / rate;
+    for (long k = 0;; ++k) {
+      const double t = std::min(static_cast<double>(k) * period, traj.duration());
+      JointVector q = JointVector::Zero();
+      source.sample(t, &q);
+      t_traj.push_back(t);
+      q_traj.push_back(q);
+      if (t >= traj.duration()) break;
+    }
+    const auto v = design::checkMotionSamples(period, {}, t_traj, q_traj, kin, limits);
+    if (!v.empty()) {
+      result.message = "trajectory " + traj_path + " refused before any motion (`ftid check-trajectory " +
+                       traj_path + "` shows all margins): " + joinViolations(v) + "; nothing moved";
+      return result;
+    }
+  }
 
   if (!o.assume_yes) {
     const bool yes = o.confirm && o.confirm("The robot will move: slowly to the start pose, then the " +
@@ -246,12 +340,16 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   session.arm.script_port = static_cast<std::uint16_t>(o.script_port);
   session.arm.register_offset = o.register_offset;
   session.motion.realtime.require = o.require_realtime;
+  session.motion.preflight = [&](const motion::PlannedMotion& p) {
+    return joinViolations(design::checkMotionSamples(p.period, p.approach, p.t_traj, p.q_traj, kin, limits));
+  };
 
   HookContext hook;
   hook.recorder = &recorder;
   hook.user_abort = o.abort;
   hook.timeout_ns = static_cast<std::int64_t>(o.ftidd_timeout_s * 1e9);
   hook.max_invalid = o.max_invalid_sensor_cycles;
+  hook.period = 1.0 / rate;
   recorder.clear();
 
   std::atomic<bool> ui_running{true};
@@ -292,29 +390,77 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     t0 = run.excitation_start_timestamp;
     t1 = t0 + traj.duration();
   }
+  // The stream must follow the controller's clock: duplicates are dropped, a second publisher
+  // (conflicting samples, off-grid times) makes the run unusable.
+  std::vector<transport::CycleRecord> clean;
+  const CycleStreamReport stream =
+      checkCycleStream(records, rate, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, &clean);
   RecordsToLogReport conv;
-  logio::LogData log = recordsToLog(records, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300,
+  logio::LogData log = recordsToLog(clean, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300,
                                     (run_dir / "run.csv").string(), &conv);
+  std::string save_error;
   if (!log.samples.empty()) {
     try {
       logio::writeLog((run_dir / "run.csv").string(), log);
       result.data_csv = (run_dir / "run.csv").string();
     } catch (const std::exception& e) {
-      print("  WARNING: could not save the recorded data: " + std::string(e.what()));
+      save_error = e.what();
+      struct statvfs fs_info {};
+      if (::statvfs(run_dir.c_str(), &fs_info) == 0 && fs_info.f_bavail * fs_info.f_frsize < 1024 * 1024) {
+        save_error += " (no space left on the file system of " + run_dir.string() + ")";
+      }
+      print("  WARNING: could not save " + (run_dir / "run.csv").string() + ": " + save_error);
     }
   }
-  const std::string data_note =
-      result.data_csv.empty() ? "no data recorded" : "recorded data saved in " + result.data_csv;
+  // The streamed capture holds everything received, whatever happened to run.csv.
+  const RunStreamWriter* streamed = recorder.stream();
+  std::string data_note;
+  if (!result.data_csv.empty()) {
+    data_note = "recorded data saved in " + result.data_csv;
+  } else if (streamed != nullptr && streamed->rows() > 0) {
+    data_note = "run.csv not written" + (save_error.empty() ? std::string() : " (" + save_error + ")") +
+                "; the " + std::to_string(streamed->rows()) + " samples received are in " + streamed->path();
+  } else {
+    data_note = "no data recorded";
+  }
+  if (streamed != nullptr && streamed->failed()) data_note += "; streaming stopped: " + streamed->error();
 
+  if (run.status == motion::RunStatus::kRefused) {
+    result.message = "motion refused before it started: " + run.message + "; nothing moved, parameters unchanged";
+    return result;
+  }
   if (!run.ok()) {
     std::string why = std::string(motion::runStatusName(run.status)) + ": " + run.message;
     switch (hook.reason.load()) {
       case 1: why = "stopped by the operator (Ctrl-C)"; break;
       case 2: why = "ftidd stopped publishing (killed or stalled) during the motion"; break;
       case 3: why = "the F/T sensor went silent or invalid during the motion"; break;
+      case 4:
+        why = "ftid --identify itself was stopped or stalled for " + std::to_string(hook.detail_ms.load()) +
+              " ms (SIGSTOP, or an overloaded host); ftidd was not at fault";
+        break;
+      case 5:
+        why = "ftid --identify's receive thread was starved for " + std::to_string(hook.detail_ms.load()) +
+              " ms (overloaded host), so ftidd's data could not be watched";
+        break;
+      case 6:
+        why = "the robot controller stalled (no state package for " + std::to_string(hook.detail_ms.load()) +
+              " ms), so ftidd could not pair sensor samples with robot states";
+        break;
       default: break;
     }
+    if (!stream.ok()) {  // say so too: a second publisher may be behind the abort
+      why += "; also, the recorded " + cfg.lcm.channels.cycle + " stream does not match the controller (" +
+             stream.describe() + ")";
+    }
     result.message = "identification run aborted: " + why + "; the arm is stopped, parameters unchanged, " + data_note;
+    return result;
+  }
+  print("  cycle stream: " + stream.describe());
+  if (!stream.ok()) {
+    result.message = "identification refused: the recorded " + cfg.lcm.channels.cycle +
+                     " stream does not match the controller (" + stream.describe() +
+                     "); parameters unchanged, " + data_note;
     return result;
   }
   print("  motion complete: " + std::to_string(conv.converted) + " synchronised samples (" +
@@ -418,7 +564,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
 
   if (o.reload_daemon) {
     const std::string err = requestDaemonReload(cfg.lcm.url, cfg.lcm.channels.command, cfg.lcm.channels.ack,
-                                                params_path, 3.0);
+                                                cfg.lcm.command_key_path, 3.0);
     if (err.empty()) {
       result.reloaded = true;
       print("ftidd reloaded the new parameters.");

@@ -179,6 +179,12 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.robot.receive_timeout_ms >= 0.0 && c.robot.receive_timeout_ms <= 1000.0)) {
     fail("robot.receive_timeout_ms", "must be in 0..1000 ms (0 = 1.5 periods)");
   }
+  if (!(c.robot.silent_publish_after_ms >= 10.0 && c.robot.silent_publish_after_ms <= 10000.0)) {
+    fail("robot.silent_publish_after_ms", "must be in 10..10000 ms");
+  }
+  if (!(c.robot.watchdog_silence_s >= 0.1 && c.robot.watchdog_silence_s <= 3600.0)) {
+    fail("robot.watchdog_silence_s", "must be in 0.1..3600 s");
+  }
   if (!fileReadable(c.robot.urdf_path)) {
     fail("robot.urdf_path", "cannot read '" + c.robot.urdf_path + "'");
   }
@@ -368,6 +374,8 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
           {"base_link", S([&](const YAML::Node& v, const std::string& key) { c.robot.base_link = r.string(v, key); })},
           {"tip_link", S([&](const YAML::Node& v, const std::string& key) { c.robot.tip_link = r.string(v, key); })},
           {"receive_timeout_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.receive_timeout_ms = r.number(v, key); })},
+          {"silent_publish_after_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.silent_publish_after_ms = r.number(v, key); })},
+          {"watchdog_silence_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.watchdog_silence_s = r.number(v, key); })},
         });
       }},
       {"sensor", [&](const YAML::Node& n, const std::string& k) {
@@ -392,6 +400,8 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
           {"url", S([&](const YAML::Node& v, const std::string& key) { c.lcm.url = r.string(v, key); })},
           {"publish_cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.publish_cycle = r.boolean(v, key); })},
           {"stats_period_s", S([&](const YAML::Node& v, const std::string& key) { c.lcm.stats_period_s = r.number(v, key); })},
+          {"command_key_path", S([&](const YAML::Node& v, const std::string& key) { c.lcm.command_key_path = r.path(v, key); })},
+          {"accept_remote", S([&](const YAML::Node& v, const std::string& key) { c.lcm.accept_remote = r.boolean(v, key); })},
           {"channels", [&](const YAML::Node& cn, const std::string& ck) {
             readSection(r, cn, ck, {
               {"cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.cycle = r.string(v, key); })},
@@ -457,6 +467,8 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "robot.tip_link: " << c.robot.tip_link << "\n"
      << "robot.receive_timeout_ms: " << c.robot.receive_timeout_ms << " (effective "
      << static_cast<double>(c.robot.receiveTimeout().count()) / 1000.0 << " ms)\n"
+     << "robot.silent_publish_after_ms: " << c.robot.silent_publish_after_ms << "\n"
+     << "robot.watchdog_silence_s: " << c.robot.watchdog_silence_s << "\n"
      << "sensor.transport: " << c.sensor.transport << "\n"
      << "sensor.socket_path: " << c.sensor.socket_path << "\n"
      << "sensor.can_interface: " << c.sensor.can_interface << "\n"
@@ -472,6 +484,8 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << " ack=" << c.lcm.channels.ack << "\n"
      << "lcm.publish_cycle: " << b(c.lcm.publish_cycle) << "\n"
      << "lcm.stats_period_s: " << c.lcm.stats_period_s << "\n"
+     << "lcm.command_key_path: " << c.lcm.command_key_path << "\n"
+     << "lcm.accept_remote: " << b(c.lcm.accept_remote) << "\n"
      << "rt.require_rt: " << b(c.rt.require_rt) << "\n"
      << "rt.lock_memory: " << b(c.rt.lock_memory) << "\n"
      << "rt.priority: " << c.rt.priority << "\n"

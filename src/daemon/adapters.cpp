@@ -1,4 +1,5 @@
 #include "ftid/daemon/adapters.hpp"
+#include "ftid/daemon/reloader.hpp"
 
 #include <poll.h>
 
@@ -192,6 +193,8 @@ bool ParameterFileCompensation::compute(const effects::SampleContext& ctx, Wrenc
 
 CompensationFactory parameterFileFactory() {
   return [](const std::string& path) -> std::unique_ptr<Compensation> {
+    // Never block on a FIFO, a device or a pipe named as the parameter file (issue 14).
+    if (const std::string problem = regularFileProblem(path); !problem.empty()) throw ConfigError(problem);
     return std::make_unique<ParameterFileCompensation>(path);
   };
 }

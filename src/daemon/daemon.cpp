@@ -23,7 +23,9 @@
 #include "ftid/rt/rt_setup.hpp"
 #include "ftid/rt/rt_thread.hpp"
 #include "ftid/transport/codec.hpp"
+#include "ftid/transport/command_auth.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
+#include "ftid/transport/source_filter.hpp"
 #include "systemd_notify.hpp"
 
 namespace ftid::daemon {
@@ -40,11 +42,14 @@ double secondsSince(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Retries a set-up step that fails with DriverError (peer not up yet) until the deadline.
+// Retries a set-up step that fails with DriverError (peer not up yet) until the deadline, with
+// exponential backoff (0.2 s doubling to 3.2 s) so that a restart loop does not hammer a
+// controller that is still booting.
 template <class F>
 auto retryUntil(double timeout_s, const std::string& what, F&& make) -> decltype(make()) {
   const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
   bool announced = false;
+  auto backoff = std::chrono::milliseconds(200);
   for (;;) {
     try {
       return make();
@@ -54,7 +59,9 @@ auto retryUntil(double timeout_s, const std::string& what, F&& make) -> decltype
         logLine("waiting for " + what + " (" + e.what() + ")");
         announced = true;
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+      std::this_thread::sleep_for(std::min(backoff, std::max(left, std::chrono::milliseconds(1))));
+      backoff = std::min(backoff * 2, std::chrono::milliseconds(3200));
     }
   }
 }
@@ -83,6 +90,23 @@ std::uint64_t countAbove(const rt::LatencyHistogram& h, double threshold_us) {
   return n;
 }
 
+// The wrench message published while no robot state package arrives: valid = false, cycle = -1,
+// fault bit robot timeout, no sensor sample.
+void publishSilence(transport::LcmOutbox* outbox, std::int32_t param_version) {
+  transport::CycleRecord rec;
+  rec.utime = realtimeNowUs();
+  rec.cycle = -1;
+  rec.sensor_age_us = -1;
+  rec.fault_bits = kFaultRobotTimeout;
+  rec.wrench_valid = false;
+  rec.param_version = param_version;
+  ftid_lcm::compensated_wrench_t msg{};
+  transport::toLcm(rec, &msg);
+  std::uint8_t buf[512];
+  const int n = transport::encodeInto(msg, buf, sizeof buf);
+  if (n > 0) outbox->publishRaw(outbox->options().channels.wrench, buf, static_cast<unsigned>(n));
+}
+
 struct CommandQueue {
   std::mutex mutex;
   std::deque<ftid_lcm::command_t> queue;
@@ -101,6 +125,35 @@ struct CommandQueue {
 };
 
 }  // namespace
+
+std::string checkCommand(const ftid_lcm::command_t& cmd, transport::CommandVerifier* verifier,
+                         CommandCounters* counters) {
+  const transport::CommandVerdict v = verifier->verify(cmd, transport::realtimeUs());
+  std::string why;
+  switch (v) {
+    case transport::CommandVerdict::kAccepted: break;
+    case transport::CommandVerdict::kBadMac:
+      ++counters->auth;
+      why = verifier->hasKey() ? "bad authenticator (wrong key or altered message)"
+                               : "no command key configured (lcm.command_key_path)";
+      break;
+    case transport::CommandVerdict::kStale:
+      ++counters->stale;
+      why = "stale: signed outside +-30 s of ftidd's clock or before ftidd started";
+      break;
+    case transport::CommandVerdict::kReplayed:
+      ++counters->replay;
+      why = "replayed: sequence not above the last accepted command";
+      break;
+  }
+  if (why.empty() && cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS && !cmd.argument.empty()) {
+    ++counters->malformed;
+    why = "RELOAD_PARAMETERS takes no path: ftidd reloads only its configured parameter file";
+  }
+  if (why.empty()) return {};
+  return "command " + std::to_string(static_cast<int>(cmd.command)) + " (request " +
+         std::to_string(cmd.request_id) + ") refused: " + why;
+}
 
 std::string expandTimePattern(const std::string& pattern) {
   const std::time_t t = std::time(nullptr);
@@ -170,12 +223,23 @@ int Daemon::run() {
   out_opt.channels.command = cfg.lcm.channels.command;
   out_opt.channels.ack = cfg.lcm.channels.ack;
   out_opt.publish_cycle = cfg.lcm.publish_cycle;
+  if (!cfg.lcm.accept_remote) out_opt.allowed_sources = transport::localSources();
   if (!options_.record_path.empty()) {
     out_opt.record_path = expandTimePattern(options_.record_path);
   } else if (cfg.record.enabled) {
     out_opt.record_path = expandTimePattern(cfg.record.path);
   }
   transport::LcmOutbox outbox(out_opt);
+  // Commands: authenticated with the shared key (docs/operations.md, "Network and commands").
+  transport::CommandKey command_key;
+  try {
+    command_key = transport::loadCommandKey(cfg.lcm.command_key_path);
+  } catch (const ConfigError& e) {
+    logLine(std::string("commands disabled, every command will be refused: ") + e.what() +
+            " (SIGHUP still reloads the parameters)");
+  }
+  transport::CommandVerifier verifier(std::move(command_key), transport::realtimeUs());
+  CommandCounters refused;
   CommandQueue commands;
   outbox.setCommandHandler(&CommandQueue::push, &commands);
   if (!out_opt.record_path.empty()) logLine("recording to " + out_opt.record_path);
@@ -250,6 +314,11 @@ int Daemon::run() {
   rt::LoopStats snap;
   std::uint32_t faults_since_report = 0;
   std::int32_t reloads_applied = 0;
+  auto next_refusal_log = Clock::now();
+  std::uint64_t refusals_unlogged = 0;
+  std::uint64_t last_cycles = 0;
+  auto last_cycle_time = Clock::now();
+  bool robot_silent = false;
   bool ready_sent = false;
   int exit_code = 0;
 
@@ -283,8 +352,22 @@ int Daemon::run() {
       ftid_lcm::ack_t ack{};
       ack.request_id = cmd.request_id;
       ack.command = cmd.command;
-      if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
-        const ReloadResult r = doReload(cmd.argument.empty() ? cfg.parameters.path : cmd.argument);
+      const std::string refusal = checkCommand(cmd, &verifier, &refused);
+      if (!refusal.empty()) {
+        ack.ok = false;
+        ack.message = refusal;
+        // At most one line per second: a flood of bad commands must not flood the journal.
+        if (Clock::now() >= next_refusal_log) {
+          logLine(refusal + (refusals_unlogged > 0 ? " (" + std::to_string(refusals_unlogged) +
+                                                         " more refused since the last line)"
+                                                   : std::string()));
+          refusals_unlogged = 0;
+          next_refusal_log = Clock::now() + std::chrono::seconds(1);
+        } else {
+          ++refusals_unlogged;
+        }
+      } else if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
+        const ReloadResult r = doReload(cfg.parameters.path);  // never a path from the network
         ack.ok = r.ok && r.applied;
         ack.message = r.message;
       } else if (cmd.command == ftid_lcm::command_t::PING) {
@@ -314,6 +397,28 @@ int Daemon::run() {
 
     const CycleCounters& c = cycle.counters();
     const std::uint64_t heartbeat = c.cycles.load() + c.missed.load();
+    // Robot link: a cycle runs per state package. While none arrives the loop only counts missed
+    // cycles, so the supervisor publishes valid = false for it and, after watchdog_silence_s,
+    // stops feeding the systemd watchdog (see below).
+    const std::uint64_t cycles_now = c.cycles.load();
+    if (cycles_now != last_cycles) {
+      if (robot_silent) {
+        logLine("robot state packages arrive again after " + std::to_string(secondsSince(last_cycle_time)) +
+                " s");
+      }
+      last_cycles = cycles_now;
+      last_cycle_time = Clock::now();
+      robot_silent = false;
+    }
+    const double silent_s = secondsSince(last_cycle_time);
+    if (ready_sent && silent_s * 1000.0 >= cfg.robot.silent_publish_after_ms) {
+      if (!robot_silent) {
+        robot_silent = true;
+        logLine("no robot state package for " + std::to_string(static_cast<int>(silent_s * 1000.0)) +
+                " ms (controller stalled, link down or controller off); publishing valid = false");
+      }
+      publishSilence(&outbox, static_cast<std::int32_t>(params.version()));
+    }
     if (!ready_sent && c.cycles.load() > 0) {
       ready_sent = true;
       notifySystemd("READY=1");
@@ -326,7 +431,9 @@ int Daemon::run() {
               (locked ? "" : ", memory not locked"));
     }
     if (watchdog_usec > 0 && Clock::now() >= next_watchdog) {
-      if (heartbeat != last_heartbeat) notifySystemd("WATCHDOG=1");  // only while the loop lives
+      // Only while the loop lives and the robot link carries packages (or went silent less than
+      // watchdog_silence_s ago): a dead link ends in a restart by systemd.
+      if (heartbeat != last_heartbeat && silent_s < cfg.robot.watchdog_silence_s) notifySystemd("WATCHDOG=1");
       last_heartbeat = heartbeat;
       next_watchdog = Clock::now() + watchdog_period;
     }
@@ -354,6 +461,10 @@ int Daemon::run() {
       s.reloads_applied = reloads_applied;
       s.reloads_failed = reloads_failed;
       s.param_version = static_cast<std::int32_t>(params.version());
+      s.commands_refused_auth = refused.auth;
+      s.commands_refused_stale = refused.stale;
+      s.commands_refused_replay = refused.replay;
+      s.commands_refused_malformed = refused.malformed;
       s.fault_bits = faults_since_report;
       s.realtime = loop_fifo.load() && (rt_report.memory_locked || !cfg.rt.lock_memory);
       outbox.publishStats(s);

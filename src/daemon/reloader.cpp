@@ -1,9 +1,35 @@
 #include "ftid/daemon/reloader.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <exception>
 #include <thread>
 
 namespace ftid::daemon {
+
+std::string regularFileProblem(const std::string& path) {
+  // O_NONBLOCK: opening a FIFO (or a pipe through /proc/self/fd/N) returns at once instead of
+  // waiting for a writer; fstat then tells what it is.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0) return path + ": cannot open (" + std::strerror(errno) + ")";
+  struct stat st {};
+  const int rc = ::fstat(fd, &st);
+  const int err = errno;
+  ::close(fd);
+  if (rc != 0) return path + ": cannot stat (" + std::strerror(err) + ")";
+  if (S_ISREG(st.st_mode)) return {};
+  const char* what = S_ISFIFO(st.st_mode)   ? "a FIFO"
+                     : S_ISDIR(st.st_mode)  ? "a directory"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                     : S_ISSOCK(st.st_mode) ? "a socket"
+                                            : "not a regular file";
+  return path + ": is " + std::string(what) + ", not a regular file";
+}
 
 ParameterReloader::ParameterReloader(OwnedSwapSlot<Compensation>* slot, CompensationFactory factory)
     : slot_(slot), factory_(std::move(factory)) {}

@@ -159,4 +159,98 @@ CheckReport checkTrajectory(const trajectory::FourierTrajectory& traj,
   return report;
 }
 
+std::vector<std::string> checkMotionSamples(double period, const std::vector<JointVector>& approach,
+                                            const std::vector<double>& t_traj,
+                                            const std::vector<JointVector>& q_traj,
+                                            const model::RobotKinematics& kinematics,
+                                            const trajectory::TrajectoryConstraints& c) {
+  if (!(period > 0.0) || t_traj.size() != q_traj.size()) {
+    throw ConfigError("motion check: need a positive period and one time per trajectory sample");
+  }
+  model::RobotKinematics kin = kinematics;
+  kin.setSensorMount(Mat3::Identity(), Vec3::Zero());
+  const Eigen::Isometry3d X_FS = Eigen::Translation3d(c.p_FS_F) * Eigen::Isometry3d(c.R_FS);
+  std::vector<std::string> out;
+  std::vector<std::string> seen;  // one line per constraint (its first violation)
+  char buf[384];
+  auto report = [&](const std::string& constraint, const std::string& where, const std::string& detail) {
+    const std::string key = where.substr(0, where.find(' ')) + " " + constraint;  // per phase
+    for (const auto& s : seen) {
+      if (s == key) return;
+    }
+    seen.push_back(key);
+    out.push_back(where + ": " + constraint + ": " + detail);
+  };
+  auto where = [&](bool is_approach, std::size_t k) {
+    if (is_approach) {
+      std::snprintf(buf, sizeof buf, "approach sample %zu (t = %.3f s after start)", k + 1,
+                    static_cast<double>(k + 1) * period);
+    } else {
+      std::snprintf(buf, sizeof buf, "trajectory sample %zu (t = %.3f s)", k, t_traj[k]);
+    }
+    return std::string(buf);
+  };
+  auto workspace = [&](const JointVector& q, bool is_approach, std::size_t k) {
+    if (!q.allFinite()) {
+      report("finite joint targets", where(is_approach, k), "non-finite target");
+      return;
+    }
+    const Eigen::Isometry3d X_BS = kin.computeFlangePose(q) * X_FS;
+    for (std::size_t s = 0; s < c.tool.size(); ++s) {
+      const Vec3 center_B = X_BS * c.tool[s].center_S;
+      const double bottom = center_B.z() - c.tool[s].radius;
+      if (bottom < c.floor_z_B) {
+        std::snprintf(buf, sizeof buf, "bottom at z = %.4f m, %.4f m below the floor z = %.4f m", bottom,
+                      c.floor_z_B - bottom, c.floor_z_B);
+        report("tool[" + std::to_string(s) + "] above floor", where(is_approach, k), buf);
+      }
+      for (const auto& ko : c.keep_out) {
+        const double clearance = (center_B - ko.center_B).norm() - ko.radius - c.tool[s].radius;
+        if (clearance < 0.0) {
+          std::snprintf(buf, sizeof buf, "penetrates it by %.4f m", -clearance);
+          report("tool[" + std::to_string(s) + "] clear of keep-out " + (ko.name.empty() ? "sphere" : ko.name),
+                 where(is_approach, k), buf);
+        }
+      }
+    }
+  };
+  for (std::size_t k = 0; k < approach.size(); ++k) workspace(approach[k], true, k);
+  for (std::size_t k = 0; k < q_traj.size(); ++k) {
+    const JointVector& q = q_traj[k];
+    workspace(q, false, k);
+    for (int i = 0; i < kNumJoints; ++i) {
+      const std::string joint = "joint " + std::to_string(i + 1);
+      if (q[i] < c.position_lower[i] || q[i] > c.position_upper[i]) {
+        std::snprintf(buf, sizeof buf, "%.4f rad outside the designed range [%.4f, %.4f] rad", q[i],
+                      c.position_lower[i], c.position_upper[i]);
+        report(joint + " designed range", where(false, k), buf);
+      }
+      if (k >= 1) {
+        const double dt = t_traj[k] - t_traj[k - 1];
+        if (dt > 0.0) {
+          const double v = std::abs(q[i] - q_traj[k - 1][i]) / dt;
+          if (v > c.velocity[i] * (1.0 + 1e-9)) {
+            std::snprintf(buf, sizeof buf, "%.4f rad/s exceeds the designed limit %.4f rad/s", v, c.velocity[i]);
+            report(joint + " velocity", where(false, k), buf);
+          }
+        }
+      }
+      if (k >= 2) {
+        const double h1 = t_traj[k - 1] - t_traj[k - 2];
+        const double h2 = t_traj[k] - t_traj[k - 1];
+        if (h1 > 0.0 && h2 > 0.0) {
+          const double a = std::abs(2.0 * ((q[i] - q_traj[k - 1][i]) / h2 - (q_traj[k - 1][i] - q_traj[k - 2][i]) / h1) /
+                                    (h1 + h2));
+          if (a > c.acceleration[i] * (1.0 + 1e-9)) {
+            std::snprintf(buf, sizeof buf, "%.4f rad/s^2 exceeds the designed limit %.4f rad/s^2", a,
+                          c.acceleration[i]);
+            report(joint + " acceleration", where(false, k), buf);
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
 }  // namespace ftid::design

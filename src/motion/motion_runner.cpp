@@ -31,6 +31,7 @@ const char* runStatusName(RunStatus s) noexcept {
     case RunStatus::kTrackingError: return "tracking error";
     case RunStatus::kTargetRejected: return "servo target rejected";
     case RunStatus::kSpeedScaled: return "speed scaling active";
+    case RunStatus::kRefused: return "motion refused by the pre-motion check";
   }
   return "unknown";
 }
@@ -103,6 +104,13 @@ struct RunCycle {
   RunProgress& progress;
   double period;
   std::uint32_t max_missed = 3;  // lost_time_limit in ticks
+  std::uint32_t max_missed_startup = 3;  // startup_lost_time_limit in ticks
+  std::uint32_t startup_ticks = 0;       // startup_grace in ticks
+  std::uint32_t ticks_seen = 0;          // states and misses since the loop started
+
+  /// Lost ticks tolerated now: more during the loop's first startup_ticks (a start-up burst on a
+  /// loaded host), never more than the program's own watchdog allows.
+  std::uint32_t lostLimit() const noexcept { return ticks_seen < startup_ticks ? max_missed_startup : max_missed; }
 
   std::size_t n = 0;
   std::size_t not_recorded = 0;
@@ -130,8 +138,10 @@ struct RunCycle {
   }
 
   rt::CycleAction onMissed(std::uint32_t consecutive) noexcept {
-    if (consecutive >= max_missed) {
-      return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive), static_cast<double>(max_missed));
+    ++ticks_seen;
+    const std::uint32_t limit = lostLimit();
+    if (consecutive >= limit) {
+      return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive), static_cast<double>(limit));
     }
     arm.sendHold();
     return rt::CycleAction::kContinue;
@@ -147,6 +157,7 @@ struct RunCycle {
 
   rt::CycleAction onTick() noexcept {
     const ArmState& s = state;
+    ticks_seen += 1 + s.packages_skipped;
     RecordedTick tick;
     tick.state = s;
     tick.phase = phase;
@@ -167,8 +178,8 @@ struct RunCycle {
       action = fail(RunStatus::kModeChanged, -1, 0.0, 0.0, s.robot_mode);
     } else if (s.runtime_state != rtde::kRuntimePlaying) {
       action = fail(RunStatus::kProgramStopped, -1, 0.0, 0.0, s.runtime_state);
-    } else if (s.packages_skipped >= max_missed) {
-      action = fail(RunStatus::kLostPackets, -1, s.packages_skipped, max_missed);
+    } else if (s.packages_skipped >= lostLimit()) {
+      action = fail(RunStatus::kLostPackets, -1, s.packages_skipped, lostLimit());
     } else if (cfg.abort_on_speed_scaling && s.speed_scaling < 0.99) {
       action = fail(RunStatus::kSpeedScaled, -1, s.speed_scaling, 1.0);
     }
@@ -284,6 +295,16 @@ struct RunCycle {
   }
 };
 
+/// Duration of the quintic approach move (peak speed and acceleration within the configured ones).
+double approachDuration(const JointVector& from, const JointVector& to, double period, const MotionConfig& cfg) {
+  double T = 2.0 * period;
+  for (int i = 0; i < kNumJoints; ++i) {
+    const double d = std::abs(to[i] - from[i]);
+    T = std::max({T, 1.875 * d / cfg.approach_velocity, std::sqrt(5.7735 * d / cfg.approach_acceleration)});
+  }
+  return T;
+}
+
 std::string describe(const Failure& f, const MotionConfig& cfg, double t0) {
   char buf[512];
   const double t_rel = t0 >= 0 ? f.timestamp - t0 : 0.0;
@@ -353,6 +374,41 @@ std::size_t MotionRunner::capacityFor(double duration, double period, double mar
   return static_cast<std::size_t>((duration + margin_s) / period) + 16;
 }
 
+PlannedMotion MotionRunner::plan(const JointTrajectorySource& trajectory, const JointVector& current,
+                                 double period) const {
+  // Mirrors RunCycle::onTick: approach target at tau = (k + 1) * period after the first tick,
+  // then the excitation at tn = k * period (k = 0, 1, ...) and finally the end pose.
+  PlannedMotion p;
+  p.period = period;
+  p.current = current;
+  JointVector start = JointVector::Zero();
+  trajectory.sample(0.0, &start);
+  const double T = approachDuration(current, start, period, config_);
+  for (long k = 1;; ++k) {
+    const double tau = static_cast<double>(k) * period;
+    if (tau >= T) {
+      p.approach.push_back(start);
+      break;
+    }
+    p.approach.push_back(current + (start - current) * quintic(tau / T));
+  }
+  const double d = trajectory.duration();
+  for (long k = 0;; ++k) {
+    const double tn = static_cast<double>(k) * period;
+    JointVector q = JointVector::Zero();
+    if (tn >= d) {
+      trajectory.sample(d, &q);
+      p.t_traj.push_back(d);
+      p.q_traj.push_back(q);
+      break;
+    }
+    trajectory.sample(tn, &q);
+    p.t_traj.push_back(tn);
+    p.q_traj.push_back(q);
+  }
+  return p;
+}
+
 std::string MotionRunner::readinessProblem(const ArmState& s) {
   if (s.robot_mode != rtde::kRobotModeRunning) {
     return std::string("robot_mode is ") + rtde::robotModeName(s.robot_mode) +
@@ -408,22 +464,31 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
     return result;
   }
 
+  if (config_.preflight) {
+    const std::string refusal = config_.preflight(plan(trajectory, first.q, period));
+    if (!refusal.empty()) {
+      result.status = RunStatus::kRefused;
+      result.message = refusal;
+      return result;
+    }
+  }
+
   RunCycle cycle{arm_, trajectory, config_, recording_, capacity_, hook, hook_context, abort, progress_, period};
   cycle.q_a0 = first.q;
   cycle.q_a1 = start;
-  double T = 2.0 * period;
-  for (int i = 0; i < kNumJoints; ++i) {
-    const double d = std::abs(start[i] - first.q[i]);
-    T = std::max({T, 1.875 * d / config_.approach_velocity, std::sqrt(5.7735 * d / config_.approach_acceleration)});
-  }
-  cycle.approach_T = T;
+  cycle.approach_T = approachDuration(first.q, start, period, config_);
   cycle.max_missed = static_cast<std::uint32_t>(std::max(1.0, std::round(config_.lost_time_limit / period)));
   arm_.resetServoReference(first.q, first.qd);
 
   rt::ExecutorConfig ec;
   ec.period = std::chrono::nanoseconds(static_cast<std::int64_t>(std::llround(period * 1e9)));
   ec.timeout_periods = config_.timeout_periods;
-  ec.max_consecutive_missed = cycle.max_missed + 1;  // the cycle decides first
+  // Start-up burst: at most startup_lost_time_limit, and never beyond 80 % of the servo program's
+  // own watchdog (1 / watchdog_min_hz; the program stops the arm itself after that).
+  cycle.max_missed_startup = std::max(
+      cycle.max_missed, static_cast<std::uint32_t>(std::floor(config_.startup_lost_time_limit / period + 1e-9)));
+  cycle.startup_ticks = static_cast<std::uint32_t>(std::ceil(config_.startup_grace / period));
+  ec.max_consecutive_missed = std::max(cycle.max_missed, cycle.max_missed_startup) + 1;  // the cycle decides first
   rt::LoopExit exit = rt::LoopExit::kCycleStopped;
   progress_.running.store(true);
   result.realtime = rt::runInRealtimeThread(config_.realtime, [&] {

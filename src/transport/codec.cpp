@@ -79,6 +79,10 @@ void toLcm(const LoopStatsRecord& in, ftid_lcm::loop_stats_t* out) noexcept {
   out->reloads_applied = in.reloads_applied;
   out->reloads_failed = in.reloads_failed;
   out->param_version = in.param_version;
+  out->commands_refused_auth = in.commands_refused_auth;
+  out->commands_refused_stale = in.commands_refused_stale;
+  out->commands_refused_replay = in.commands_refused_replay;
+  out->commands_refused_malformed = in.commands_refused_malformed;
   out->fault_bits = static_cast<std::int32_t>(in.fault_bits);
   out->realtime = in.realtime ? 1 : 0;
 }
@@ -148,6 +152,10 @@ void fromLcm(const ftid_lcm::loop_stats_t& in, LoopStatsRecord* out) noexcept {
   out->reloads_applied = in.reloads_applied;
   out->reloads_failed = in.reloads_failed;
   out->param_version = in.param_version;
+  out->commands_refused_auth = in.commands_refused_auth;
+  out->commands_refused_stale = in.commands_refused_stale;
+  out->commands_refused_replay = in.commands_refused_replay;
+  out->commands_refused_malformed = in.commands_refused_malformed;
   out->fault_bits = static_cast<std::uint32_t>(in.fault_bits);
   out->realtime = in.realtime != 0;
 }

@@ -196,6 +196,16 @@ void LcmOutbox::start() {
     // Subscribed here (a normal thread) so that commands sent right after start() are seen.
     impl_->command_subscription = impl_->lcm->subscribeFunction(
         impl_->options.channels.command, &Impl::onCommand, impl_.get());
+    if (impl_->owned_lcm && !impl_->options.allowed_sources.empty()) {
+      try {
+        restrictLcmSources(*impl_->lcm, impl_->options.url, impl_->options.allowed_sources);
+      } catch (...) {
+        impl_->lcm->unsubscribe(impl_->command_subscription);
+        impl_->command_subscription = nullptr;
+        impl_->started = false;
+        throw;
+      }
+    }
     lcm_fd = impl_->lcm->getFileno();
   }
   impl_->running.store(true, std::memory_order_release);

@@ -3,7 +3,8 @@
 #
 #   cell_identify_test.sh FTID FTIDD SRC_DIR CASE
 #
-# CASE = normal | protective_stop | sensor_silent | ftidd_killed | disk_full
+# CASE = normal | protective_stop | sensor_silent | ftidd_killed | disk_full | below_floor | poisoned
+#        | sigstop
 #
 # Each case runs `ftid sim-robot` (UR10, 125 Hz), `ftid sim-sensor` (the paper payload) and ftidd
 # in a private network namespace (unshare -rn: loopback only, LCM multicast routed on lo), then
@@ -19,6 +20,14 @@
 #   ftidd_killed     ftidd is killed with SIGKILL during the motion;
 #   disk_full        the parameter file lives on a tiny tmpfs (private mount namespace) that is
 #                    full when the parameters are written; the runs directory is elsewhere.
+#   below_floor      (issue 14) the trajectory's q0 is edited so that the tool passes ~0.26 m
+#                    below the floor: refused before any motion, whatever --yes says, naming the
+#                    sample and the constraint; the robot program never runs.
+#   poisoned         (issue 14) a second publisher on this host republishes every FTID_CYCLE
+#                    message 1 ms later (robot time + 1 ms) with fz + 5 N: the run is refused
+#                    ("does not match the controller"), the parameters stay byte-identical.
+#   sigstop          (issue 14) `ftid --identify` itself is stopped (SIGSTOP) for 0.5 s during
+#                    the motion: the message must blame ftid, not ftidd.
 # Every fault case must end with exit status 1, a one-line message naming the cause, the arm
 # stopped (dashboard programState STOPPED and RTDE actual_qd ~ 0), the previous parameter file
 # byte-identical, and the recorded data saved (run.csv with samples).
@@ -30,7 +39,7 @@ SRC=${3:?}
 CASE=${4:?}
 SKIP=77
 
-case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full) ;;
+case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|below_floor|poisoned|sigstop) ;;
   *) echo "unknown case '$CASE'"; exit 2 ;; esac
 
 # ---- re-enter in the private namespaces
@@ -90,6 +99,10 @@ tilt:
 YAML
 cp "$PARAMS" "$WORK/previous.yaml"
 
+# The shared command key (the Debian package creates /etc/ftid/command.key the same way).
+head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/command.key"
+chmod 0600 "$WORK/command.key"
+
 cat > "$WORK/ftidd.yaml" <<YAML
 robot:
   rtde_frequency_hz: 125
@@ -101,10 +114,15 @@ parameters:
   path: $PARAMS
 lcm:
   url: "udpm://239.255.76.67:7667?ttl=0"
+  command_key_path: $WORK/command.key
 rt:
   lock_memory: false
 YAML
 cp "$SRC/config/excitation_ur10.yaml" "$WORK/traj.yaml"
+if [ "$CASE" = below_floor ]; then  # shoulder edited: `ftid check-trajectory` flags the floor
+  sed -i 's/^q0: \[0.0, -1.5707963267948966,/q0: [0.0, -0.6,/' "$WORK/traj.yaml"
+  grep -q '^q0: \[0.0, -0.6,' "$WORK/traj.yaml" || { echo "FAIL: could not edit q0"; exit 1; }
+fi
 [ -f "$SRC/config/excitation_ur10.csv" ] && cp "$SRC/config/excitation_ur10.csv" "$WORK/traj.csv"
 
 if [ "$CASE" = disk_full ]; then  # fill the tmpfs: the previous file stays, nothing new fits
@@ -174,17 +192,60 @@ print("%.6f" % m)
 PY
 }
 
+if [ "$CASE" = poisoned ]; then
+  # The attacker: republishes each FTID_CYCLE 1 ms later, robot time + 1 ms, fz + 5 N (its own
+  # datagrams are marked in LCM's sequence number and not republished again).
+  python3 - > "$WORK/poison.log" 2>&1 <<'PY' &
+import socket, struct, time
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+s.bind(("", 7667))
+s.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
+             struct.pack("4s4s", socket.inet_aton("239.255.76.67"), socket.inet_aton("0.0.0.0")))
+s.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+n = 0
+while True:
+    pkt = s.recv(65536)
+    if pkt[:4] != b"LC02" or struct.unpack(">I", pkt[4:8])[0] >= 0xFFF00000:
+        continue
+    e = pkt.index(b"\0", 8)
+    if pkt[8:e] != b"FTID_CYCLE":
+        continue
+    m = bytearray(pkt[e + 1:])
+    # cycle_sample_t after the 8-byte hash: utime, cycle, robot_state_t (recv_utime, robot_time at
+    # 32, q, qd, qdd, valid), sensor_sample_t (recv_utime, counter, wrench at 197: fz at 213).
+    rt = struct.unpack(">d", m[32:40])[0]
+    fz = struct.unpack(">d", m[213:221])[0]
+    m[32:40] = struct.pack(">d", rt + 0.001)
+    m[213:221] = struct.pack(">d", fz + 5.0)
+    time.sleep(0.001)
+    n += 1
+    s.sendto(b"LC02" + struct.pack(">I", 0xFFF00000 + (n & 0xFFFFF)) + pkt[8:e + 1] + bytes(m),
+             ("239.255.76.67", 7667))
+    if n % 500 == 0:
+        print("republished", n, flush=True)
+PY
+  PIDS="$PIDS $!"
+fi
+
 # ---- run ftid --identify, injecting the fault during the motion
 # The sensor simulator's physics is the full rigid body: the normal case identifies the matching
 # model (the paper model alone is biased by the unmodelled rotational terms, which the analysis
 # reports); the fault cases skip the analysis to stay short.
 extra="--model paper+rigid_body"
 [ "$CASE" != normal ] && extra="--no-analyze"
+# RTDE clients of the robot so far: ftidd and the sensor simulator (it reads the robot's motion;
+# it retries every second, so wait until both are there).
+i=0
+until [ "$(grep -c "RTDE client [0-9]* connected" "$WORK/robot.log")" -ge 2 ] || [ $i -gt 50 ]; do
+  sleep 0.2; i=$((i + 1))
+done
+clients_before=$(grep -c "RTDE client [0-9]* connected" "$WORK/robot.log")
 "$FTID" --identify --config "$WORK/ftidd.yaml" --trajectory "$WORK/traj.yaml" --params "$PARAMS" \
   --runs-dir "$WORK/runs" --yes $extra > "$WORK/identify.out" 2> "$WORK/identify.err" < /dev/null &
 ID=$!
 
-if [ "$CASE" != normal ] && [ "$CASE" != disk_full ]; then
+if [ "$CASE" != normal ] && [ "$CASE" != disk_full ] && [ "$CASE" != below_floor ] && [ "$CASE" != poisoned ]; then
   # Wait until the robot runs ftid's program (motion started), then 2 s more.
   i=0
   until dashboard programState | grep -q PLAYING; do
@@ -197,6 +258,7 @@ if [ "$CASE" != normal ] && [ "$CASE" != disk_full ]; then
     sensor_silent) echo "inject: sensor silent"
       for _ in $(seq 1 40); do kill -USR2 $SENSOR 2>/dev/null; sleep 0.05; done & ;;
     ftidd_killed) echo "inject: kill -KILL ftidd"; kill -KILL $DAEMON ;;
+    sigstop) echo "inject: SIGSTOP ftid --identify for 0.5 s"; kill -STOP $ID; sleep 0.5; kill -CONT $ID ;;
   esac
 fi
 
@@ -206,6 +268,7 @@ while kill -0 $ID 2>/dev/null; do
   if [ $i -gt 600 ]; then fail "ftid --identify did not finish within 120 s"; kill -INT $ID; sleep 2; kill -KILL $ID; break; fi
 done
 wait $ID; RC=$?
+clients_after=$(grep -c "RTDE client [0-9]* connected" "$WORK/robot.log")
 echo "--- ftid --identify exit $RC; stdout:"; cat "$WORK/identify.out"
 echo "--- stderr (progress lines dropped):"; grep -v '^\[' "$WORK/identify.err"
 MSG=$(grep '^ftid --identify:' "$WORK/identify.err" | tail -1)
@@ -254,11 +317,23 @@ else
     sensor_silent) want="sensor" ;;
     ftidd_killed) want="ftidd" ;;
     disk_full) want="parameter file.*(space|write)" ;;
+    below_floor) want="refused before any motion.*trajectory sample [0-9]+ \(t = [0-9.]+ s\): tool\[0\] above floor.*below the floor" ;;
+    # (identification refused; or, if the loaded host aborted the motion first, named as well)
+    poisoned) want="FTID_CYCLE stream does not match the controller.*(conflicting|off the controller)" ;;
+    sigstop) want="ftid --identify itself was stopped or stalled for [0-9]+ ms.*ftidd was not at fault" ;;
   esac
   echo "$MSG" | grep -Eqi "$want" || fail "message does not name the cause (/$want/): $MSG"
   cmp -s "$WORK/previous.yaml" "$PARAMS" || fail "the previous parameter file was changed"
-  [ -n "$run_csv" ] && [ "$rows" -gt 50 ] || fail "recorded data not saved (run.csv: '${run_csv}', $rows lines)"
-  echo "$MSG" | grep -q "run.csv" || fail "the message does not say where the data is"
+  if [ "$CASE" = below_floor ]; then
+    # sim-robot --verbose logs every RTDE client: ftid --identify must not have opened a robot
+    # session at all (it refused before).
+    [ "$clients_after" -eq "$clients_before" ] ||
+      fail "ftid --identify connected to the robot ($clients_before RTDE clients before, $clients_after after)"
+    echo "$MSG" | grep -q "nothing moved" || fail "the message does not say that nothing moved"
+  else
+    [ -n "$run_csv" ] && [ "$rows" -gt 50 ] || fail "recorded data not saved (run.csv: '${run_csv}', $rows lines)"
+    echo "$MSG" | grep -q "run.csv" || fail "the message does not say where the data is"
+  fi
   ls "$PDIR"/parameters.yaml.tmp.* >/dev/null 2>&1 && fail "a temporary parameter file was left behind"
   if [ "$CASE" = ftidd_killed ]; then
     grep -q "parameters reloaded" "$WORK/ftidd.log" && fail "ftidd reloaded"

@@ -29,7 +29,9 @@ struct CellIdentifyOptions {
   std::string trajectory_path;  ///< traj.yaml; empty = the shipped default for the robot
   std::string model = "paper";  ///< model to identify (e.g. "paper+rigid_body")
   std::string runs_dir;         ///< where recorded runs go; empty = <params dir>/runs
-  std::string params_path;      ///< empty = the config's parameters.path
+  /// empty = the config's parameters.path. Another file is refused (ConfigError) unless
+  /// reload_daemon is false: ftidd loads only its configured file.
+  std::string params_path;
   int script_port = 30003;      ///< URScript upload port
   int register_offset = 0;      ///< RTDE input register offset (0 or 24)
   bool assume_yes = false;      ///< skip the confirmation prompt
@@ -63,10 +65,11 @@ struct CellIdentifyResult {
 /// config/trajectory before anything moves.
 CellIdentifyResult runCellIdentify(const CellIdentifyOptions& options);
 
-/// Sends RELOAD_PARAMETERS to ftidd over LCM and waits for the ack. Returns "" on success, else
-/// a one-line reason.
+/// Sends RELOAD_PARAMETERS (ftidd reloads its configured parameter file), signed with the command
+/// key read from key_path, over LCM and waits for the ack. Returns "" on success, else a one-line
+/// reason.
 std::string requestDaemonReload(const std::string& lcm_url, const std::string& command_channel,
-                                const std::string& ack_channel, const std::string& params_path,
+                                const std::string& ack_channel, const std::string& key_path,
                                 double timeout_s);
 
 }  // namespace ftid::cell

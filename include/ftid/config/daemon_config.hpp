@@ -21,6 +21,10 @@ struct RobotConfig {
   std::string tip_link = "tool0";      ///< URDF flange link (frame F)
   /// A cycle is missed if no state packet arrives within this time; 0 = 1.5 RTDE periods.
   double receive_timeout_ms = 0.0;
+  /// Without a state package for this long ftidd publishes valid = false (about 20 Hz) [ms].
+  double silent_publish_after_ms = 50.0;
+  /// Without a state package for this long ftidd stops feeding the systemd watchdog [s].
+  double watchdog_silence_s = 2.0;
 
   /// The effective receive timeout.
   std::chrono::microseconds receiveTimeout() const {
@@ -69,6 +73,10 @@ struct LcmConfig {
   LcmChannels channels;
   bool publish_cycle = true;  ///< publish cycle_sample_t (raw synchronised data)
   double stats_period_s = 1.0;  ///< loop_stats_t period
+  /// Shared HMAC key for command_t (ftid/transport/command_auth.hpp); hex, mode 0640.
+  std::string command_key_path = "/etc/ftid/command.key";
+  /// false: receive LCM datagrams only from this host (kernel socket filter on the source address).
+  bool accept_remote = false;
 };
 
 struct RtConfig {

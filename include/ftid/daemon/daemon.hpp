@@ -13,9 +13,18 @@
 // it starts any thread, so every thread inherits the mask and the supervisor takes them with
 // sigtimedwait().
 #include <atomic>
+#include <cstdint>
 #include <string>
 
 #include "ftid/config/daemon_config.hpp"
+
+namespace ftid_lcm {
+class command_t;
+}  // namespace ftid_lcm
+
+namespace ftid::transport {
+class CommandVerifier;
+}  // namespace ftid::transport
 
 namespace ftid::daemon {
 
@@ -39,6 +48,20 @@ class Daemon {
   config::DaemonConfig config_;
   DaemonRunOptions options_;
 };
+
+/// Commands refused since start, by reason (published in loop_stats_t).
+struct CommandCounters {
+  std::int32_t auth = 0;
+  std::int32_t stale = 0;
+  std::int32_t replay = 0;
+  std::int32_t malformed = 0;
+};
+
+/// Checks a received command: authenticator, freshness and replay (verifier), and that
+/// RELOAD_PARAMETERS carries no path. Returns "" if it may be executed, else the one-line reason
+/// (and counts it).
+std::string checkCommand(const ftid_lcm::command_t& command, transport::CommandVerifier* verifier,
+                         CommandCounters* counters);
 
 /// Expands strftime patterns in a path with the current local time.
 std::string expandTimePattern(const std::string& pattern);

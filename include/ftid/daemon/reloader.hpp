@@ -25,12 +25,18 @@ struct ReloadResult {
   std::string message;       ///< empty, or why it failed / that it is still pending
 };
 
+/// Empty if `path` is a regular file; otherwise why not ("...: is a FIFO, not a regular file").
+/// Never blocks: opens with O_NONBLOCK and checks with fstat.
+std::string regularFileProblem(const std::string& path);
+
 class ParameterReloader {
  public:
   ParameterReloader(OwnedSwapSlot<Compensation>* slot, CompensationFactory factory);
 
   /// Builds from `path` and offers the result to the loop, then waits up to `apply_timeout` for
   /// the loop to take it (0: do not wait). On a build error nothing changes and ok is false.
+  /// The production factory (parameterFileFactory) refuses anything but a regular file (FIFO,
+  /// device, directory, /proc/self/fd/N of a pipe) before reading it, so a reload never blocks.
   ReloadResult reload(const std::string& path, std::chrono::milliseconds apply_timeout);
 
   /// Frees a replaced object if the loop has retired one (call periodically).

@@ -46,4 +46,21 @@ CheckReport checkTrajectory(const trajectory::FourierTrajectory& trajectory,
                             const model::RobotKinematics& kinematics,
                             const trajectory::TrajectoryConstraints& constraints, double dt = 1e-3);
 
+/// Checks the exact joint targets a motion will stream (issue 14: run before any motion by
+/// `ftid --identify` and `ftid run-trajectory`, whatever --yes says):
+///   - every sample (approach and trajectory): finite, every tool sphere above the floor and
+///     clear of every keep-out sphere;
+///   - trajectory samples (t_traj[k], q_traj[k]): inside the designed joint ranges, and the
+///     finite-difference velocity and acceleration between consecutive samples within the designed
+///     limits (a difference quotient equals the derivative somewhere in between, so a trajectory
+///     that passes checkTrajectory passes this too).
+/// The approach (from the robot's current pose, which may lie outside the designed ranges) is held
+/// to the floor and keep-out only. Returns one line per violated constraint, naming the first
+/// offending sample, its time and the values; empty if all hold.
+std::vector<std::string> checkMotionSamples(double period, const std::vector<JointVector>& approach,
+                                            const std::vector<double>& t_traj,
+                                            const std::vector<JointVector>& q_traj,
+                                            const model::RobotKinematics& kinematics,
+                                            const trajectory::TrajectoryConstraints& constraints);
+
 }  // namespace ftid::design

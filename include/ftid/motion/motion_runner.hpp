@@ -14,6 +14,7 @@
 // abort is kept. Nothing in the loop allocates, throws or does I/O (test/rt_safety).
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,21 @@ class SampledTrajectory final : public JointTrajectorySource {
   mutable std::size_t cursor_ = 0;  // monotone search hint (single-threaded use)
 };
 
+/// The exact joint targets a run will stream, computed before any motion from the robot's current
+/// pose and the controller period (assuming no lost packages; a lost package only skips a target
+/// of the same path).
+struct PlannedMotion {
+  double period = 0.0;                  ///< controller period [s]
+  JointVector current = JointVector::Zero();  ///< robot pose before the run
+  std::vector<JointVector> approach;    ///< approach targets, one per tick, ending at the start pose
+  std::vector<double> t_traj;           ///< trajectory time of each excitation target [s]
+  std::vector<JointVector> q_traj;      ///< excitation targets (k * period, then the end pose)
+};
+
+/// Checks a planned motion; returns "" to allow it, else why it must not run (one line per
+/// violation). Called by MotionRunner::run before any target is sent (non-real-time).
+using PreflightCheck = std::function<std::string(const PlannedMotion& plan)>;
+
 struct MotionConfig {
   double approach_velocity = 0.25;      ///< [rad/s] peak joint speed of the move to the start pose
   double approach_acceleration = 0.5;   ///< [rad/s^2] peak joint acceleration of that move
@@ -79,10 +95,19 @@ struct MotionConfig {
   /// (wait timeouts) or one timestamp gap longer than this. 0.024 s = 3 ticks at 125 Hz, 12 at
   /// 500 Hz; well inside the program's RTDE watchdog (1 / watchdog_min_hz = 0.1 s).
   double lost_time_limit = 0.024;
+  /// During the loop's first startup_grace seconds a longer burst is tolerated: a host under load
+  /// often loses a few packages while the real-time thread starts (page faults, migration). 0.064 s
+  /// = 8 ticks at 125 Hz, 32 at 500 Hz; below the servo program's RTDE watchdog (0.1 s at the
+  /// default watchdog_min_hz = 10), which still stops the arm by itself if the host stalls longer.
+  /// The arm is at rest then (first approach targets), so a held target is harmless.
+  double startup_lost_time_limit = 0.064;
+  double startup_grace = 0.5;  ///< [s] of controller time after the loop starts
   double timeout_periods = 1.5;         ///< device wait timeout in controller periods
   bool abort_on_speed_scaling = true;   ///< speed_scaling < 0.99 means the robot time-scales: abort
   double stop_timeout = 2.0;            ///< [s] wait for rest after a stop
   rt::RealtimeConfig realtime{};        ///< loop thread set-up
+  /// If set: run() refuses (RunStatus::kRefused, nothing moves) when it returns a reason.
+  PreflightCheck preflight;
 };
 
 enum class RunStatus : std::uint8_t {
@@ -99,6 +124,7 @@ enum class RunStatus : std::uint8_t {
   kTrackingError,
   kTargetRejected,   ///< last-hop safety check refused a target
   kSpeedScaled,      ///< speed_scaling < 1
+  kRefused,          ///< the preflight check refused the planned motion; nothing moved
 };
 const char* runStatusName(RunStatus s) noexcept;
 
@@ -153,6 +179,9 @@ class MotionRunner {
   const RunProgress& progress() const noexcept { return progress_; }
   /// Capacity needed for a trajectory of `duration` s at `period` plus approach and margins.
   static std::size_t capacityFor(double duration, double period, double approach_and_margin_s = 60.0);
+
+  /// The targets run() would stream from `current` at `period` (what the preflight check sees).
+  PlannedMotion plan(const JointTrajectorySource& trajectory, const JointVector& current, double period) const;
 
  private:
   drivers::ur::Arm& arm_;

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "ftid/transport/records.hpp"
+#include "ftid/transport/source_filter.hpp"
 
 namespace lcm {
 class LCM;
@@ -43,6 +44,10 @@ struct OutboxOptions {
   bool publish_wrench = true;  ///< publish compensated_wrench_t
   /// If not empty: write every published event to this LCM log file (lcm-logger format).
   std::string record_path;
+  /// Receive (commands) only from these sources (ftid/transport/source_filter.hpp): start()
+  /// attaches the filter to the udpm receive socket and throws DriverError if it cannot. Empty
+  /// = no filter. Ignored for a shared LCM instance (its owner filters).
+  std::vector<Ipv4Net> allowed_sources;
 };
 
 /// Called on the publisher thread for each command_t received on channels.command.

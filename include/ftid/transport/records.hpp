@@ -79,6 +79,10 @@ struct LoopStatsRecord {
   std::int32_t reloads_applied = 0;
   std::int32_t reloads_failed = 0;
   std::int32_t param_version = 0;
+  std::int32_t commands_refused_auth = 0;
+  std::int32_t commands_refused_stale = 0;
+  std::int32_t commands_refused_replay = 0;
+  std::int32_t commands_refused_malformed = 0;
   std::uint32_t fault_bits = 0;
   bool realtime = false;
 };

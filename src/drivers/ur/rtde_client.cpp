@@ -437,7 +437,10 @@ Status RtdeClient::tryReceiveState(std::chrono::nanoseconds timeout, RobotState*
       }
       if (errno == EINTR) continue;
       if (errno != EAGAIN && errno != EWOULDBLOCK) {
-        last_error_ = "recv failed";
+        last_error_ = errno == ETIMEDOUT
+                          ? "no answer from the controller: TCP keepalive / user timeout (link down or "
+                            "controller powered off)"
+                          : (errno == ECONNRESET ? "connection reset by the controller" : "recv failed");
         return Status::kFault;
       }
       break;

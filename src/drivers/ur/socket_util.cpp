@@ -58,6 +58,17 @@ int connectTcp(const std::string& host, std::uint16_t port, std::chrono::millise
   }
   int one = 1;
   setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  // A half-open link (controller powered off, cable pulled: no FIN, no RST) must end in an error,
+  // not in silence: keepalive probes after 1 s without traffic, every 1 s, dead after 3 unanswered;
+  // and unacknowledged data is given up after 3 s (TCP_USER_TIMEOUT). recv() then fails with
+  // ETIMEDOUT.
+  int idle = 1, interval = 1, count = 3;
+  unsigned user_timeout_ms = 3000;
+  setsockopt(fd, SOL_SOCKET, SO_KEEPALIVE, &one, sizeof one);
+  setsockopt(fd, IPPROTO_TCP, TCP_KEEPIDLE, &idle, sizeof idle);
+  setsockopt(fd, IPPROTO_TCP, TCP_KEEPINTVL, &interval, sizeof interval);
+  setsockopt(fd, IPPROTO_TCP, TCP_KEEPCNT, &count, sizeof count);
+  setsockopt(fd, IPPROTO_TCP, TCP_USER_TIMEOUT, &user_timeout_ms, sizeof user_timeout_ms);
   return fd;
 }
 

@@ -1,0 +1,250 @@
+#!/bin/bash
+# ftidd's command channel under attack (issue 14, "The command and data channels").
+#
+#   ftidd_commands_test.sh FTID FTIDD SRC_DIR
+#
+# Namespace A (unshare -rn; LCM multicast on lo): `ftid sim-robot`, `ftid sim-sensor`, ftidd with a
+# command key. Namespace B, joined to A by a veth pair (10.77.0.2 -> 10.77.0.1), is "another host
+# on the cell network". Commands are built with lcm-gen's Python classes and signed with Python's
+# own hmac/hashlib (an implementation independent of ftid's), sent as raw LCM datagrams.
+# Checks:
+#   - a correctly signed PING and RELOAD are accepted (Python's HMAC = ftid's);
+#   - unsigned, wrong-key, replayed, stale commands and a signed RELOAD naming a file
+#     (parameters.yaml.bak) are refused with the reason, not executed, and counted in loop_stats_t;
+#   - a correctly signed RELOAD sent by unicast from namespace B gets no answer and reloads nothing
+#     (the source filter drops it in the kernel);
+#   - with the parameter file replaced by a FIFO, SIGHUP is refused at once ("not a regular
+#     file") and SIGTERM still stops ftidd with status 0.
+# Exit status: 0 pass, 1 fail, 77 skip.
+set -u
+FTID=${1:?usage: ftidd_commands_test.sh FTID FTIDD SRC_DIR}
+FTIDD=${2:?}
+SRC=${3:?}
+SKIP=77
+
+if [ -z "${FTID_CMD_TEST_IN_NS:-}" ]; then
+  if [ "$(id -u)" -eq 0 ]; then flags=-n; else flags=-rn; fi
+  unshare $flags true 2>/dev/null || { echo "SKIP: cannot create a network namespace"; exit $SKIP; }
+  FTID_CMD_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
+fi
+for tool in python3 nsenter lcm-gen; do
+  command -v $tool >/dev/null || { echo "SKIP: $tool not found"; exit $SKIP; }
+done
+
+FAILED=0
+fail() { echo "FAIL: $*"; FAILED=1; }
+WORK=$(mktemp -d /tmp/ftid-cmd-test.XXXXXX)
+PIDS=""
+cleanup() {
+  for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
+  for p in $PIDS; do wait "$p" 2>/dev/null; done
+  if [ $FAILED -eq 0 ]; then rm -rf "$WORK"; else echo "logs kept in $WORK"; fi
+}
+trap cleanup EXIT
+
+ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit $SKIP; }
+unshare -n sh -c "echo \$\$ > '$WORK/remote.pid'; exec sleep 600" &
+HOLDER=$!; PIDS="$PIDS $HOLDER"
+for _ in $(seq 1 50); do [ -s "$WORK/remote.pid" ] && break; sleep 0.1; done
+RPID=$(cat "$WORK/remote.pid")
+ip link add vA type veth peer name vB netns "$RPID" 2>/dev/null || { echo "SKIP: cannot create a veth pair"; exit $SKIP; }
+ip addr add 10.77.0.1/24 dev vA && ip link set vA up
+nsenter -t "$RPID" -n sh -c 'ip link set lo up; ip addr add 10.77.0.2/24 dev vB; ip link set vB up' ||
+  { echo "SKIP: nsenter failed"; exit $SKIP; }
+
+lcm-gen -p --ppath "$WORK/gen" "$SRC"/lcmtypes/*.lcm || { fail "lcm-gen failed"; exit 1; }
+head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/command.key"
+chmod 0600 "$WORK/command.key"
+
+PARAMS=$WORK/parameters.yaml
+cat > "$PARAMS" <<'YAML'
+model: "paper"
+parameters:
+  f0_x: {value: 0.1, std: 0, unit: ""}
+  f0_y: {value: 0.2, std: 0, unit: ""}
+  f0_z: {value: 0.3, std: 0, unit: ""}
+  t0_x: {value: 0.01, std: 0, unit: ""}
+  t0_y: {value: 0.02, std: 0, unit: ""}
+  t0_z: {value: 0.03, std: 0, unit: ""}
+  mass: {value: 1.5, std: 0, unit: ""}
+  mass_com_x: {value: 0.0, std: 0, unit: ""}
+  mass_com_y: {value: 0.0, std: 0, unit: ""}
+  mass_com_z: {value: 0.15, std: 0, unit: ""}
+tilt:
+  estimated: false
+  u: {value: 0, std: 0, unit: "rad"}
+  v: {value: 0, std: 0, unit: "rad"}
+YAML
+sed 's/mass: {value: 1.5/mass: {value: 9.5/' "$PARAMS" > "$PARAMS.bak"   # "the previous tool"
+
+cat > "$WORK/ftidd.yaml" <<YAML
+robot:
+  urdf_path: $SRC/config/ur10.urdf
+sensor:
+  socket_path: $WORK/ft.sock
+  dbc_path: $SRC/config/ftsensor.dbc
+parameters:
+  path: $PARAMS
+lcm:
+  url: "udpm://239.255.76.67:7667?ttl=0"
+  stats_period_s: 0.2
+  command_key_path: $WORK/command.key
+rt:
+  lock_memory: false
+YAML
+
+"$FTID" sim-robot --model ur10 > "$WORK/robot.log" 2>&1 &
+PIDS="$PIDS $!"
+"$FTID" sim-sensor --socket "$WORK/ft.sock" --urdf "$SRC/config/ur10.urdf" \
+  --dbc "$SRC/config/ftsensor.dbc" > "$WORK/sensor.log" 2>&1 &
+PIDS="$PIDS $!"
+"$FTIDD" --config "$WORK/ftidd.yaml" --connect-timeout 30 > "$WORK/ftidd.log" 2>&1 &
+DAEMON=$!; PIDS="$PIDS $DAEMON"
+i=0
+until grep -q "running at" "$WORK/ftidd.log" 2>/dev/null; do
+  sleep 0.2; i=$((i + 1))
+  if [ $i -gt 150 ] || ! kill -0 $DAEMON 2>/dev/null; then fail "ftidd did not start"; cat "$WORK/ftidd.log"; exit 1; fi
+done
+
+cat > "$WORK/cmd.py" <<'PY'
+# Usage: cmd.py WORK MODE [DEST]  -> prints one line per answer: "ack ok|refused MESSAGE" or "noack"
+import hashlib, hmac, json, os, select, socket, struct, sys, time
+work, mode = sys.argv[1], sys.argv[2]
+dest = sys.argv[3] if len(sys.argv) > 3 else "239.255.76.67"
+sys.path.insert(0, work + "/gen")
+from ftid_lcm.command_t import command_t
+from ftid_lcm.ack_t import ack_t
+from ftid_lcm.loop_stats_t import loop_stats_t
+
+key = bytes.fromhex(open(work + "/command.key").read().split()[0])
+
+def now_us():
+    return int(time.time() * 1e6)
+
+def sign(c, k):
+    arg = c.argument.encode()
+    msg = b"ftid-command-v1" + struct.pack(">qqBqI", c.utime, c.request_id, c.command & 0xFF, c.sequence, len(arg)) + arg
+    c.mac = hmac.new(k, msg, hashlib.sha256).digest()
+
+def packet(channel, payload, seq=1):
+    return b"LC02" + struct.pack(">I", seq) + channel + b"\0" + payload
+
+rx = None
+if dest.startswith("239."):
+    rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    rx.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    rx.bind(("", 7667))
+    rx.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
+                  struct.pack("4s4s", socket.inet_aton("239.255.76.67"), socket.inet_aton("0.0.0.0")))
+tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+tx.setsockopt(socket.IPPROTO_IP, socket.IP_MULTICAST_TTL, 0)
+
+def receive(channel, timeout):
+    if rx is None:
+        time.sleep(timeout)
+        return None
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        r, _, _ = select.select([rx], [], [], 0.05)
+        if not r:
+            continue
+        data = rx.recv(65536)
+        if data[:4] != b"LC02":
+            continue
+        e = data.index(b"\0", 8)
+        if data[8:e] == channel:
+            return data[e + 1:]
+    return None
+
+if mode == "stats":
+    data = receive(b"FTID_STATS", 2.0)
+    s = loop_stats_t.decode(data)
+    print("stats auth %d stale %d replay %d malformed %d applied %d" % (
+        s.commands_refused_auth, s.commands_refused_stale, s.commands_refused_replay,
+        s.commands_refused_malformed, s.reloads_applied))
+    sys.exit(0)
+
+c = command_t()
+c.utime = now_us()
+c.request_id = int.from_bytes(os.urandom(6), "big")
+c.command = command_t.PING if mode == "ping" else command_t.RELOAD_PARAMETERS
+c.argument = "parameters.yaml.bak" if mode == "path" else ""
+c.sequence = now_us() - (60_000_000 if mode == "stale" else 0)
+c.mac = bytes(32)
+if mode in ("ping", "reload", "path", "stale", "replay", "remote"):
+    sign(c, key)
+elif mode == "wrongkey":
+    sign(c, os.urandom(32))
+# mode "unsigned": MAC left zero
+data = c.encode()
+if mode == "replay":
+    # Send the same signed datagram twice: the first is accepted, the second must be refused.
+    tx.sendto(packet(b"FTID_COMMAND", data), (dest, 7667))
+    a = receive(b"FTID_ACK", 2.0)
+    first = ack_t.decode(a) if a else None
+    print("first ack %s" % ("ok" if first and first.ok else "missing/refused"))
+for attempt in range(1):
+    tx.sendto(packet(b"FTID_COMMAND", data, 2), (dest, 7667))
+deadline = time.monotonic() + 2.0
+while time.monotonic() < deadline:
+    a = receive(b"FTID_ACK", deadline - time.monotonic())
+    if a is None:
+        break
+    ack = ack_t.decode(a)
+    if ack.request_id != c.request_id:
+        continue
+    print("ack %s %s" % ("ok" if ack.ok else "refused", ack.message))
+    sys.exit(0)
+print("noack")
+PY
+
+send() { python3 "$WORK/cmd.py" "$WORK" "$@" 2>&1; }
+expect() {  # expect MODE REGEX [DEST]
+  local mode=$1 want=$2 dest=${3:-}
+  local out
+  out=$(send "$mode" $dest)
+  echo "$mode: $out"
+  echo "$out" | grep -Eq "$want" || fail "$mode: expected /$want/, got: $out"
+}
+
+expect ping "^ack ok"
+expect unsigned "^ack refused .*bad authenticator"
+expect wrongkey "^ack refused .*bad authenticator"
+expect path "^ack refused .*takes no path"
+expect stale "^ack refused .*stale"
+out=$(send replay)
+echo "replay: $out"
+echo "$out" | grep -q "first ack ok" || fail "replay: the first (genuine) datagram was not accepted: $out"
+echo "$out" | grep -Eq "^ack refused .*replayed" || fail "replay: the repeated datagram was not refused: $out"
+reloads_before=$(grep -c "parameters reloaded" "$WORK/ftidd.log")
+# From "another host": a correctly signed RELOAD by unicast. The kernel filter drops it.
+out=$(nsenter -t "$RPID" -n python3 "$WORK/cmd.py" "$WORK" remote 10.77.0.1 2>&1)
+echo "remote: $out"
+sleep 0.5
+[ "$(grep -c "parameters reloaded" "$WORK/ftidd.log")" = "$reloads_before" ] || fail "a datagram from another host was executed"
+[ "$out" = "noack" ] || fail "a datagram from another host was answered: $out"
+expect reload "^ack ok"
+grep -q "reloaded from .*\.bak" "$WORK/ftidd.log" && fail "ftidd loaded the .bak file"
+stats=$(send stats)
+echo "$stats"
+echo "$stats" | awk '{ exit !($3 >= 2 && $5 >= 1 && $7 >= 1 && $9 >= 1 && $11 == 2) }' ||
+  fail "refused commands not counted as expected (auth>=2 stale>=1 replay>=1 malformed>=1, 2 reloads applied: the replayed one and the last): $stats"
+
+# The parameter file becomes a FIFO: SIGHUP must not wedge ftidd, SIGTERM must still work.
+mv "$PARAMS" "$WORK/saved.yaml" && mkfifo "$PARAMS"
+kill -HUP $DAEMON
+sleep 0.5
+grep -q "not a regular file" "$WORK/ftidd.log" || fail "SIGHUP with a FIFO as parameter file was not refused"
+kill -TERM $DAEMON
+i=0
+while kill -0 $DAEMON 2>/dev/null && [ $i -lt 25 ]; do sleep 0.2; i=$((i + 1)); done
+if kill -0 $DAEMON 2>/dev/null; then
+  fail "ftidd ignored SIGTERM after a reload of a FIFO"
+  kill -KILL $DAEMON
+fi
+wait $DAEMON; RC=$?
+[ $RC -eq 0 ] || fail "ftidd exit status $RC after SIGTERM, expected 0"
+echo "--- ftidd log:"; cat "$WORK/ftidd.log"
+
+[ $FAILED -eq 0 ] && echo "PASS" && exit 0
+exit 1

@@ -1,0 +1,211 @@
+// Issue 14, "Motion": before any motion the exact targets the runner will stream are checked
+// against the trajectory's constraints (floor, keep-out, designed ranges, velocity and
+// acceleration), whatever --yes says. The shipped excitation trajectory with q0 edited so that
+// the tool passes below the floor must be refused before a single target is sent; the unedited
+// one must run.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "ftid/design/trajectory_check.hpp"
+#include "ftid/drivers/ur/rtde_protocol.hpp"
+#include "ftid/motion/motion_runner.hpp"
+#include "ftid/trajectory/trajectory_io.hpp"
+
+using ftid::JointVector;
+using ftid::Status;
+namespace ur = ftid::drivers::ur;
+namespace motion = ftid::motion;
+
+namespace {
+
+/// A controller that never blocks: time advances one period per state, the arm follows the
+/// target one tick late. Counts the servo targets it was sent.
+class FakeArm final : public ur::Arm {
+ public:
+  FakeArm(double period, const JointVector& q) : period_(period), q_(q), target_(q) {}
+  Status waitForState(std::chrono::nanoseconds, ur::ArmState* out) noexcept override {
+    if (stopping_ && ++stop_calls_ > 5) return Status::kFault;
+    ++calls_;
+    if (calls_ >= timeout_from && calls_ < timeout_from + timeout_count) {
+      ts_ += period_;  // the controller ran on; its package was lost
+      return Status::kTimeout;
+    }
+    ts_ += period_;
+    out->timestamp = ts_;
+    out->qd = (target_ - q_) / period_;
+    q_ = target_;
+    out->q = q_;
+    out->target_q = q_;
+    out->robot_mode = ur::rtde::kRobotModeRunning;
+    out->safety_mode = ur::rtde::kSafetyModeNormal;
+    out->runtime_state = ur::rtde::kRuntimePlaying;
+    out->script_state = 1;
+    out->speed_scaling = 1.0;
+    return Status::kOk;
+  }
+  Status sendServoTarget(const JointVector& q) noexcept override {
+    target_ = q;
+    ++targets;
+    return Status::kOk;
+  }
+  Status sendHold() noexcept override { return Status::kOk; }
+  Status sendServoStop() noexcept override {
+    stopping_ = true;
+    return Status::kOk;
+  }
+  void resetServoReference(const JointVector&, const JointVector&) noexcept override {}
+  double period() const noexcept override { return period_; }
+  std::size_t targets = 0;
+  int timeout_from = -1;  ///< waitForState call (1-based) from which timeout_count calls time out
+  int timeout_count = 0;
+
+ private:
+  int calls_ = 0;
+  double period_;
+  double ts_ = 100.0;
+  JointVector q_, target_;
+  bool stopping_ = false;
+  int stop_calls_ = 0;
+};
+
+ftid::trajectory::TrajectoryFile shipped() {
+  return ftid::trajectory::readTrajectoryFile(FTID_SOURCE_DIR "/config/excitation_ur10.yaml");
+}
+
+ftid::model::RobotKinematics ur10() {
+  return ftid::model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+}
+
+std::string joined(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& l : v) s += l + "\n";
+  return s;
+}
+
+struct Checked {
+  motion::RunResult result;
+  std::size_t targets = 0;
+  int preflight_calls = 0;
+};
+
+Checked runWithPreflight(const ftid::trajectory::TrajectoryFile& file, const JointVector& current) {
+  const auto traj = file.toTrajectory();
+  const auto kin = ur10();
+  FakeArm arm(0.008, current);
+  motion::MotionConfig cfg;
+  cfg.realtime.enable = false;
+  Checked out;
+  cfg.preflight = [&](const motion::PlannedMotion& p) {
+    ++out.preflight_calls;
+    std::string s;
+    for (const auto& l : ftid::design::checkMotionSamples(p.period, p.approach, p.t_traj, p.q_traj, kin,
+                                                          file.constraints)) {
+      s += (s.empty() ? "" : "; ") + l;
+    }
+    return s;
+  };
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  motion::MotionRunner runner(arm, cfg, motion::MotionRunner::capacityFor(traj.duration(), 0.008));
+  out.result = runner.run(src);
+  out.targets = arm.targets;
+  return out;
+}
+
+}  // namespace
+
+TEST(MotionPreflight, ShippedTrajectoryRuns) {
+  const auto file = shipped();
+  const Checked c = runWithPreflight(file, file.q0);
+  EXPECT_EQ(c.preflight_calls, 1);
+  EXPECT_EQ(c.result.status, motion::RunStatus::kCompleted) << c.result.message;
+  EXPECT_GT(c.targets, 1000u);
+}
+
+TEST(MotionPreflight, StartPoseBelowTheFloorIsRefusedBeforeAnyTarget) {
+  auto file = shipped();
+  file.q0[1] = -0.6;  // shoulder edited: the excitation swings the tool ~0.26 m below the floor
+  // The independent dense check (`ftid check-trajectory`) flags exactly that...
+  const auto dense = ftid::design::checkTrajectory(file.toTrajectory(), ur10(), file.constraints);
+  ASSERT_FALSE(dense.ok());
+  // ...and so does the check of the streamed samples, naming the sample and the constraint.
+  const Checked c = runWithPreflight(file, shipped().q0);
+  EXPECT_EQ(c.result.status, motion::RunStatus::kRefused) << c.result.message;
+  EXPECT_EQ(c.targets, 0u) << "a target was sent before the refusal";
+  EXPECT_NE(c.result.message.find("tool[0] above floor"), std::string::npos) << c.result.message;
+  EXPECT_NE(c.result.message.find("trajectory sample"), std::string::npos) << c.result.message;
+  EXPECT_NE(c.result.message.find("approach sample"), std::string::npos) << c.result.message;
+  EXPECT_NE(c.result.message.find("below the floor"), std::string::npos) << c.result.message;
+}
+
+TEST(MotionPreflight, NamesTheFirstOffendingSampleOfEachConstraint) {
+  const auto file = shipped();
+  const auto traj = file.toTrajectory();
+  std::vector<double> t;
+  std::vector<JointVector> q;
+  for (int k = 0; k <= 10; ++k) {
+    t.push_back(0.008 * k);
+    q.push_back(traj.evaluate(t.back()).q);
+  }
+  q[7][2] = file.constraints.position_upper[2] + 0.1;  // designed range (and a velocity jump)
+  const auto v = ftid::design::checkMotionSamples(0.008, {}, t, q, ur10(), file.constraints);
+  const std::string s = joined(v);
+  EXPECT_NE(s.find("trajectory sample 7 (t = 0.056 s): joint 3 designed range"), std::string::npos) << s;
+  EXPECT_NE(s.find("joint 3 velocity"), std::string::npos) << s;
+  EXPECT_NE(s.find("joint 3 acceleration"), std::string::npos) << s;
+  // A jump of joint 3 to its designed limit + 0.1 rad also dips the tool: one line per constraint.
+  EXPECT_NE(s.find("trajectory sample 7 (t = 0.056 s): tool[0] above floor"), std::string::npos) << s;
+  EXPECT_EQ(v.size(), 5u) << s;
+  // Finite differences of the unedited samples stay within the designed limits.
+  q[7] = traj.evaluate(t[7]).q;
+  EXPECT_TRUE(ftid::design::checkMotionSamples(0.008, {}, t, q, ur10(), file.constraints).empty());
+}
+
+TEST(MotionPreflight, ApproachThroughTheFloorIsRefused) {
+  // The robot starts with the tool under the floor plane (e.g. a wrong floor in the design):
+  // the approach's first samples are refused, whatever the trajectory.
+  const auto file = shipped();
+  JointVector current = file.q0;
+  current[1] = -0.3;
+  current[3] = 0.0;
+  const auto kin = ur10();
+  ASSERT_LT((kin.computeFlangePose(current).translation().z()), 0.1);
+  const Checked c = runWithPreflight(file, current);
+  EXPECT_EQ(c.result.status, motion::RunStatus::kRefused) << c.result.message;
+  EXPECT_EQ(c.targets, 0u);
+  EXPECT_NE(c.result.message.find("approach sample 1 "), std::string::npos) << c.result.message;
+}
+
+// Issue 14, "Links": a start-up burst of lost packages on a loaded host is tolerated up to
+// startup_lost_time_limit; the same burst later in the run still aborts it.
+motion::RunResult runWithLostBurst(int from_call, int count, double startup_limit) {
+  const auto file = shipped();
+  const auto traj = file.toTrajectory();
+  FakeArm arm(0.008, file.q0);
+  arm.timeout_from = from_call;
+  arm.timeout_count = count;
+  motion::MotionConfig cfg;
+  cfg.realtime.enable = false;
+  cfg.startup_lost_time_limit = startup_limit;
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  motion::MotionRunner runner(arm, cfg, motion::MotionRunner::capacityFor(traj.duration(), 0.008));
+  return runner.run(src);
+}
+
+TEST(MotionStartup, BurstOfLostPackagesAtStartIsTolerated) {
+  // Call 1 is the readiness check; the loop starts at call 2. Six lost packages = 48 ms.
+  const auto tolerated = runWithLostBurst(2, 6, 0.064);
+  EXPECT_EQ(tolerated.status, motion::RunStatus::kCompleted) << tolerated.message;
+  const auto without = runWithLostBurst(2, 6, 0.0);  // the old behaviour: 3 ticks anywhere
+  EXPECT_EQ(without.status, motion::RunStatus::kLostPackets) << without.message;
+  const auto too_long = runWithLostBurst(2, 9, 0.064);  // 72 ms: beyond the bound
+  EXPECT_EQ(too_long.status, motion::RunStatus::kLostPackets) << too_long.message;
+  EXPECT_NE(too_long.message.find("limit 8"), std::string::npos) << too_long.message;
+}
+
+TEST(MotionStartup, TheSameBurstLaterAborts) {
+  const auto later = runWithLostBurst(400, 6, 0.064);  // ~3 s into the run
+  EXPECT_EQ(later.status, motion::RunStatus::kLostPackets) << later.message;
+  EXPECT_NE(later.message.find("limit 3"), std::string::npos) << later.message;
+}
