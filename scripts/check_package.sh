@@ -60,4 +60,6 @@ if [ -n "$out" ]; then
   echo "package: systemd-analyze verify printed the above for ftidd.service" >&2
   exit 1
 fi
+echo "== package: default files from an empty directory (packaged ftid, data in its share/ftid)"
+"$root/test/integration/default_files_test.sh" "$work/pkgroot/usr/bin/ftid" "$work/pkgroot/usr/sbin/ftidd"
 echo "== package: OK"

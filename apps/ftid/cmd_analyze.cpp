@@ -25,7 +25,7 @@ const char* const kUsage =
     "  --alpha A         false-alarm probability of one ranking (default 0.001, Bonferroni-split)\n"
     "  --report FILE     write a self-contained HTML report (inline SVG; opens offline)\n"
     "  --json            print one JSON object (model, residual_rms, noise_floor, candidates, steps)\n"
-    "  --robot URDF      robot description (default config/ur10.urdf)\n"
+    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "\n"
     "Every residual printed is held out. Progress goes to stderr. Exit code 1 with a one-line\n"
     "reason on a bad log or a model the data cannot determine, 2 on a usage error.";

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/design/excitation_metric.hpp"
 #include "ftid/effects/model.hpp"
@@ -27,10 +28,10 @@ const char* kUsage =
     "reproduce it) and OUT with .csv (t, q1..q6, qd1..qd6, qdd1..qdd6 at the servo rate).\n"
     "\n"
     "  --model M            model whose regressor is excited (default paper)\n"
-    "  --robot URDF         robot (default config/ur10.urdf)\n"
-    "  --config FILE        limits, floor, keep-out spheres, tool spheres (default "
-    "config/design.yaml\n"
-    "                       if it exists; built-in defaults otherwise)\n"
+    "  --robot URDF         robot (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "  --config FILE        limits, floor, keep-out spheres, tool spheres (default: the "
+    "shipped\n"
+    "                       design.yaml, docs/operations.md)\n"
     "  --joints 4,5,6|all   excited joints, 1-based (default 4,5,6)\n"
     "  --duration S         trajectory duration [s] (default 10)\n"
     "  --periods N          base periods in the duration (default 1; base frequency = N / S)\n"
@@ -107,12 +108,6 @@ std::map<std::string, double> parseNominal(const std::string& text) {
   return out;
 }
 
-bool fileExists(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "r");
-  if (f == nullptr) return false;
-  std::fclose(f);
-  return true;
-}
 
 void printStd(const std::map<std::string, double>& s,
               const std::map<std::string, double>& targets) {
@@ -130,7 +125,7 @@ int runDesign(const std::vector<std::string>& argv) {
   cli::Args args(argv, kUsage);
   design::DesignOptions o;
   o.model = args.value("--model", "paper");
-  o.robot_path = args.value("--robot", "config/ur10.urdf");
+  o.robot_path = args.value("--robot", "");
   std::string config = args.value("--config", "");
   const std::string joints = args.value("--joints", "4,5,6");
   o.duration_s = parsePositive(args.value("--duration", "10"), "--duration");
@@ -185,8 +180,9 @@ int runDesign(const std::vector<std::string>& argv) {
   }
   (void)effects::Model::fromName(o.model);  // unknown model: clear error before any work
 
+  if (o.robot_path.empty()) o.robot_path = findDefaultFile("ur10.urdf");
   const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
-  if (config.empty() && fileExists("config/design.yaml")) config = "config/design.yaml";
+  if (config.empty()) config = findDefaultFile("design.yaml");
   o.constraints = design::loadDesignConstraints(config, kin, o.q0);
   if (!quiet) o.progress = &std::cerr;
 

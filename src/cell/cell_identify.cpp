@@ -1,3 +1,4 @@
+#include "ftid/common/default_files.hpp"
 #include "ftid/cell/cell_identify.hpp"
 
 #include <sys/statvfs.h>
@@ -78,26 +79,8 @@ void writeTextAtomic(const std::string& path, const std::string& text) {
   }
 }
 
-/// Default excitation trajectory: next to the config, the installed defaults, the source tree.
-std::string findDefaultTrajectory(const std::string& config_source) {
-  std::vector<fs::path> candidates;
-  if (!config_source.empty()) candidates.push_back(fs::path(config_source).parent_path() / "excitation_ur10.yaml");
-  candidates.emplace_back("/etc/ftid/excitation_ur10.yaml");
-  candidates.emplace_back("/usr/share/ftid/config/excitation_ur10.yaml");
-  candidates.emplace_back("config/excitation_ur10.yaml");
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    for (fs::path p = exe.parent_path(); !p.empty() && p != p.root_path(); p = p.parent_path()) {
-      candidates.push_back(p / "config" / "excitation_ur10.yaml");
-      candidates.push_back(p / "share" / "ftid" / "config" / "excitation_ur10.yaml");
-    }
-  }
-  for (const auto& c : candidates) {
-    if (fs::exists(c, ec)) return c.string();
-  }
-  throw ConfigError("no excitation trajectory given (--trajectory) and no default excitation_ur10.yaml found");
-}
+/// Default excitation trajectory from the one default-file lookup (ftid/common/default_files.hpp).
+std::string findDefaultTrajectory() { return findDefaultFile(kDefaultTrajectoryName); }
 
 /// Shared between the real-time hook and the UI thread (atomics only).
 struct HookContext {
@@ -207,7 +190,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
 
   // ---- set-up: everything here may throw ConfigError before anything moves
   const config::DaemonConfig cfg = config::loadDaemonConfig(o.config_path);
-  const std::string traj_path = o.trajectory_path.empty() ? findDefaultTrajectory(cfg.source) : o.trajectory_path;
+  const std::string traj_path = o.trajectory_path.empty() ? findDefaultTrajectory() : o.trajectory_path;
   const trajectory::TrajectoryFile traj_file = trajectory::readTrajectoryFile(traj_path);
   const trajectory::FourierTrajectory traj = traj_file.toTrajectory();
   const effects::Model model = effects::Model::fromName(o.model);
@@ -422,11 +405,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     return result;
   }
   try {
-    const PayloadExport ex = makePayloadExport(set, cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
-    writeTextAtomic(params_path + ".urscript", "# UR payload for the identified tool (ftid)\n" + urScriptPayload(ex) + "\n");
-    writeTextAtomic(params_path + ".ros2.yaml", ros2GravityCompensationYaml(ex));
-    print("Exports: " + params_path + ".urscript (UR set_target_payload), " + params_path +
-          ".ros2.yaml (ros2_control GravityCompensation)");
+    print("Exports: " + writeExports(set, cfg, params_path + ".ros2.yaml", params_path + ".urscript"));
   } catch (const std::exception& e) {
     print("  WARNING: exports not written: " + std::string(e.what()));
   }

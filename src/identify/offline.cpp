@@ -6,8 +6,7 @@
 #include <fstream>
 #include <sstream>
 
-#include <unistd.h>
-
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/identify/fit.hpp"
@@ -18,17 +17,6 @@
 namespace ftid::identify {
 
 namespace {
-
-bool fileExists(const std::string& p) { return std::ifstream(p).good(); }
-
-std::string exeDir() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return ".";
-  std::string path(buf, static_cast<std::size_t>(n));
-  const auto slash = path.rfind('/');
-  return slash == std::string::npos ? "." : path.substr(0, slash);
-}
 
 void say(const ProgressFn& progress, const std::string& line) {
   if (progress) progress(line);
@@ -46,16 +34,7 @@ ContextSet loadContexts(const std::string& log_path, const std::string& robot_ur
 
 }  // namespace
 
-std::string defaultRobotUrdf() {
-  const std::string rel = "config/ur10.urdf";
-  if (fileExists(rel)) return rel;
-  const std::string dir = exeDir();
-  for (const std::string& c : {dir + "/../share/ftid/config/ur10.urdf", dir + "/../../config/ur10.urdf",
-                               dir + "/../../../config/ur10.urdf"}) {
-    if (fileExists(c)) return c;
-  }
-  return rel;  // the error then names the relative path
-}
+std::string defaultRobotUrdf() { return findDefaultFile("ur10.urdf"); }
 
 ParameterSet identifyLogFile(const IdentifyRequest& request) {
   const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);

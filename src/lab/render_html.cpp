@@ -298,7 +298,7 @@ std::string renderHtml(const AnalysisResult& r) {
   for (const auto& c : r.candidates) {
     if (c.skipped) continue;
     o << "<tr" << (c.significant ? " class=\"sig\"" : "") << "><td>" << esc(c.effect) << "</td><td>"
-      << f(100.0 * c.relative_reduction, 3) << " %</td><td>" << f(c.p_value, 2) << "</td><td>"
+      << f(100.0 * c.relative_reduction, 3) << " %</td><td>" << (c.p_value < 1e-300 ? std::string("&lt; 1e-300") : f(c.p_value, 2)) << "</td><td>"
       << (c.significant ? "yes" : "no") << "</td><td>" << esc(c.description) << "</td><td><code>"
       << esc(c.next_command) << "</code></td></tr>";
   }

@@ -1,5 +1,6 @@
 // Excitation trajectory files: traj.yaml (coefficients + provenance) and traj.csv (sampled).
 // Format documented in docs/design.md; conventions in docs/conventions.md.
+#include "ftid/common/default_files.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 
 #include <unistd.h>
@@ -179,7 +180,7 @@ void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file) {
        "# whole number of base periods. Units SI (docs/conventions.md). Re-check with\n"
        "#   ftid check-trajectory THIS_FILE\n";
   o << "format: " << kFormatTag << "\n";
-  o << "robot: " << quoted(file.robot) << "\n";
+  o << "robot: " << quoted(relativeTo(path, file.robot)) << "   # a relative path is relative to this file\n";
   o << "joints: [";
   for (std::size_t i = 0; i < file.joints.size(); ++i) o << (i ? ", " : "") << file.joints[i];
   o << "]            # excited joints, 1-based UR order; the others stay at q0\n";
@@ -250,7 +251,7 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
     r.fail("format", std::string("expected '") + kFormatTag + "'");
   }
   TrajectoryFile f;
-  if (root["robot"]) f.robot = root["robot"].as<std::string>();
+  if (root["robot"]) f.robot = resolveRelativeTo(path, root["robot"].as<std::string>());
 
   const YAML::Node joints = r.require(root, "joints", "joints");
   if (!joints.IsSequence() || joints.size() == 0)

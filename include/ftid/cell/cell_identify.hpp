@@ -24,6 +24,10 @@
 
 namespace ftid::cell {
 
+/// The shipped excitation trajectory `ftid --identify` uses without --trajectory (found by the
+/// one default-file lookup, ftid/common/default_files.hpp).
+inline constexpr const char* kDefaultTrajectoryName = "excitation_ur10.yaml";
+
 struct CellIdentifyOptions {
   std::string config_path = "/etc/ftid/ftidd.yaml";  ///< ftidd config (robot, LCM, parameters)
   std::string trajectory_path;  ///< traj.yaml; empty = the shipped default for the robot

@@ -87,6 +87,25 @@ struct RecordConfig {
   std::string path = "/var/lib/ftid/ftidd-%Y%m%d-%H%M%S.lcm";
 };
 
+/// A rigid part between the flange and the sensor's measuring side (the sensor cannot weigh it),
+/// for the UR payload export (docs/operations.md "Exports").
+struct RigidPartConfig {
+  double mass = 0.0;          ///< [kg]
+  Vec3 com_F = Vec3::Zero();  ///< centre of mass in the flange frame F [m]
+  /// Inertia about its own centre of mass, axes of F, UR order [ixx, iyy, izz, ixy, ixz, iyz]
+  /// [kg m^2].
+  Vec6 inertia_C_F = Vec6::Zero();
+};
+
+/// Names and parts used by the exports (`ftid export`, `identify --out`, `ftid --identify`).
+struct ExportConfig {
+  std::string world_frame = "base";       ///< ROS TF frame = robot base B (gravity_field is in it)
+  std::string sensor_frame = "ft_sensor"; ///< ROS TF frame = sensor frame S
+  std::string sensor_name = "ft_sensor";  ///< force_torque_sensor_broadcaster sensor_name
+  RigidPartConfig adapter;                ///< adapter plate between flange and sensor
+  RigidPartConfig sensor_body;            ///< the sensor's own body up to its measuring side
+};
+
 struct DaemonConfig {
   RobotConfig robot;
   SensorConfig sensor;
@@ -94,6 +113,7 @@ struct DaemonConfig {
   LcmConfig lcm;
   RtConfig rt;
   RecordConfig record;
+  ExportConfig exports;  ///< YAML section `export`
   std::string source;  ///< the file this was loaded from ("" for defaults)
 };
 

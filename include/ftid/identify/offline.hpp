@@ -45,8 +45,8 @@ struct CompensateSummary {
 /// model_fx..model_tz (modelled wrench), one row per log sample.
 CompensateSummary compensateLogFile(const CompensateRequest& request);
 
-/// Default robot description: `config/ur10.urdf` relative to the working directory, else next to
-/// the installed/built binary (share/ftid/config, or the source tree's config/).
+/// Default robot description: ur10.urdf from ftid's one default-file lookup
+/// (ftid/common/default_files.hpp: build tree, /usr/share/ftid/config, /etc/ftid).
 std::string defaultRobotUrdf();
 
 }  // namespace ftid::identify
