@@ -104,8 +104,9 @@ lcm:
 rt:
   lock_memory: false
 YAML
-cp "$SRC/config/excitation_ur10.yaml" "$WORK/traj.yaml"
-[ -f "$SRC/config/excitation_ur10.csv" ] && cp "$SRC/config/excitation_ur10.csv" "$WORK/traj.csv"
+# The paper's 10 s trajectory: long enough to inject each fault during the motion.
+cp "$SRC/config/excitation_ur10_paper.yaml" "$WORK/traj.yaml"
+[ -f "$SRC/config/excitation_ur10_paper.csv" ] && cp "$SRC/config/excitation_ur10_paper.csv" "$WORK/traj.csv"
 
 if [ "$CASE" = disk_full ]; then  # fill the tmpfs: the previous file stays, nothing new fits
   dd if=/dev/zero of="$PDIR/filler" bs=1k count=1024 2>/dev/null
