@@ -10,16 +10,19 @@ namespace {
 
 const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
+    "                     [--wrench-frame sensor|base]\n"
     "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
     "\n"
-    "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...)\n"
+    "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...; or the sensor pose instead of the joint\n"
+    "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md)\n"
     "  --method M        the paper's method: 'dynamic' (default; with the inertial term -m a, for\n"
     "                    excitation runs) or 'static' (gravity only: rest poses or slow motion)\n"
     "  --model M         instead of the paper's method, fit a composed model by weighted least\n"
     "                    squares, e.g. 'paper' or 'paper+rigid_body' (docs/effects.md)\n"
-    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
     "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
     "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
@@ -38,6 +41,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   req.method = args.value("--method", "dynamic");
   req.model = args.value("--model");
   req.robot_urdf = args.value("--robot");
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
   const std::string out = args.value("--out");
   std::string config = args.value("--config");
   const bool json = args.flag("--json");

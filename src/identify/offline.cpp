@@ -9,6 +9,7 @@
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
+#include "ftid/effects/signal_source.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/logio/log.hpp"
@@ -41,6 +42,24 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
   ParameterSet set;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
+    // Pose logs have no joint angles: a model that reads them cannot be fitted (say which effect).
+    for (const auto& e : model.effectList()) {
+      const std::string n = e->name();
+      const auto open = n.find('(');
+      if (open == std::string::npos || contexts.samples.empty()) continue;
+      const auto end = n.find_first_of(",)", open);
+      try {
+        const auto src = effects::SignalSource::parse(n.substr(open + 1, end - open - 1));
+        if (!src.available(contexts.samples.front())) {
+          throw IdentificationError(request.log_path + ": effect " + n + " needs the signal '" + src.name() +
+                                    "', which the log does not have" +
+                                    (contexts.samples.front().has_joints ? std::string()
+                                                                         : " (a pose log has no joint angles)"));
+        }
+      } catch (const ConfigError&) {
+        // not a signal argument (e.g. temperature_drift(20))
+      }
+    }
     say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
                               " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
     const FitResult fit = fitModel(model, contexts.samples);

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "ftid/identify/context.hpp"
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
@@ -157,6 +158,7 @@ struct AnalyzeFilesRequest {
   std::string validate_path;   ///< "" = k-fold
   std::string robot_urdf;      ///< "" = default
   AnalyzeOptions options;
+  identify::ContextOptions context;  ///< e.g. wrench_in_base for `--wrench-frame base`
 };
 AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request);
 
