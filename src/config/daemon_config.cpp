@@ -231,6 +231,17 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.rt.overrun_budget_ms >= 0.0 && c.rt.overrun_budget_ms <= 1000.0)) {
     fail("rt.overrun_budget_ms", "must be in 0..1000 ms (0 = half a period)");
   }
+  if (c.output.frame != "sensor" && c.output.frame != "tool" && c.output.frame != "base") {
+    fail("output.frame", "must be 'sensor', 'tool' or 'base', got '" + c.output.frame + "'");
+  }
+  if (!(c.output.tool_xyz.norm() <= 2.0)) fail("output.tool_xyz", "must be within 2 m of the sensor");
+  if (!(c.output.tool_rpy.cwiseAbs().maxCoeff() <= 2.0 * M_PI)) {
+    fail("output.tool_rpy", "must be angles in radians (|angle| <= 2 pi)");
+  }
+  if (!(c.output.lowpass_hz == 0.0 ||
+        (c.output.lowpass_hz > 0.0 && c.output.lowpass_hz < 0.45 * c.robot.rtde_frequency_hz))) {
+    fail("output.lowpass_hz", "must be 0 (off) or in (0, 0.45 x robot.rtde_frequency_hz) Hz");
+  }
   for (const auto& [name, part] : {std::pair<std::string, const RigidPartConfig*>{"export.adapter", &c.exports.adapter},
                                    {"export.sensor_body", &c.exports.sensor_body}}) {
     if (!(part->mass >= 0.0 && part->mass <= 100.0)) fail(name + ".mass", "must be in 0..100 kg");
@@ -252,6 +263,13 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
 }
 
 }  // namespace
+
+Mat3 OutputConfig::R_ST() const {
+  const Eigen::AngleAxisd rx(tool_rpy.x(), Vec3::UnitX());
+  const Eigen::AngleAxisd ry(tool_rpy.y(), Vec3::UnitY());
+  const Eigen::AngleAxisd rz(tool_rpy.z(), Vec3::UnitZ());
+  return (rz * ry * rx).toRotationMatrix();
+}
 
 Mat3 SensorConfig::R_FS() const {
   const Eigen::AngleAxisd rx(mount_rpy.x(), Vec3::UnitX());
@@ -339,6 +357,14 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
           {"overrun_budget_ms", S([&](const YAML::Node& v, const std::string& key) { c.rt.overrun_budget_ms = r.number(v, key); })},
         });
       }},
+      {"output", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"frame", S([&](const YAML::Node& v, const std::string& key) { c.output.frame = r.string(v, key); })},
+          {"tool_xyz", S([&](const YAML::Node& v, const std::string& key) { c.output.tool_xyz = r.vec3(v, key); })},
+          {"tool_rpy", S([&](const YAML::Node& v, const std::string& key) { c.output.tool_rpy = r.vec3(v, key); })},
+          {"lowpass_hz", S([&](const YAML::Node& v, const std::string& key) { c.output.lowpass_hz = r.number(v, key); })},
+        });
+      }},
       {"export", [&](const YAML::Node& n, const std::string& k) {
         auto part = [&](RigidPartConfig& p) {
           return [&](const YAML::Node& pn, const std::string& pk) {
@@ -421,6 +447,8 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "rt.overrun_budget_ms: " << c.rt.overrun_budget_ms << "\n"
      << "record.enabled: " << b(c.record.enabled) << "\n"
      << "record.path: " << c.record.path << "\n"
+     << "output: frame=" << c.output.frame << " tool_xyz=[" << c.output.tool_xyz.transpose() << "] tool_rpy=["
+     << c.output.tool_rpy.transpose() << "] lowpass_hz=" << c.output.lowpass_hz << "\n"
      << "export: world_frame=" << c.exports.world_frame << " sensor_frame=" << c.exports.sensor_frame
      << " sensor_name=" << c.exports.sensor_name << "\n"
      << "export.adapter: mass " << c.exports.adapter.mass << " kg, com [" << c.exports.adapter.com_F.transpose()

@@ -97,6 +97,15 @@ struct RigidPartConfig {
   Vec6 inertia_C_F = Vec6::Zero();
 };
 
+/// The published output (compensated_wrench_t.output): frame and low-pass (docs/daemon.md).
+struct OutputConfig {
+  std::string frame = "sensor";        ///< sensor | tool | base
+  Vec3 tool_xyz = Vec3::Zero();        ///< tool frame T origin in S [m] (p_ST_S)
+  Vec3 tool_rpy = Vec3::Zero();        ///< R_ST = Rz(yaw) Ry(pitch) Rx(roll) [rad]
+  double lowpass_hz = 0.0;             ///< 2nd-order Butterworth cut-off; 0 = off
+  Mat3 R_ST() const;
+};
+
 /// Names and parts used by the exports (`ftid export`, `identify --out`, `ftid --identify`).
 struct ExportConfig {
   std::string world_frame = "base";       ///< ROS TF frame = robot base B (gravity_field is in it)
@@ -114,6 +123,7 @@ struct DaemonConfig {
   RtConfig rt;
   RecordConfig record;
   ExportConfig exports;  ///< YAML section `export`
+  OutputConfig output;
   std::string source;  ///< the file this was loaded from ("" for defaults)
 };
 
