@@ -35,8 +35,10 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
     }
     for (auto& c : val.samples) c.extra_names = &val.extra_names;
   }
-  return analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples, request.options,
-                 request.log_path, request.validate_path);
+  AnalysisResult result = analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples,
+                                  request.options, request.log_path, request.validate_path);
+  result.robot_urdf = urdf;
+  return result;
 }
 
 void writeTextFileAtomically(const std::string& path, const std::string& text) {

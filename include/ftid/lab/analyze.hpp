@@ -128,6 +128,7 @@ struct AnalysisResult {
   Eigen::Matrix<double, 6, Eigen::Dynamic> predicted;   ///< held-out prediction
   std::vector<double> top_signal;                       ///< values of correlations[0].signal
   double seconds = 0.0;                                 ///< wall time of the analysis
+  std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance
 };
 
 /// Runs the analysis on contexts built from the log (identify::buildContexts). `validate`, if
