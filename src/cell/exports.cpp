@@ -53,6 +53,15 @@ PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R
     const double ixy = need(set, "i_c_xy"), ixz = need(set, "i_c_xz"), iyz = need(set, "i_c_yz");
     I_C << ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz;
     e.inertia_C_F = R_FS * I_C * R_FS.transpose();
+  } else if (set.find("i_s_xx")) {
+    // The fit's linear parameters are the inertia about the S origin (docs/conventions.md):
+    // I_C = I_S - m (|c|^2 1 - c c^T).
+    Mat3 I_S;
+    const double ixx = need(set, "i_s_xx"), iyy = need(set, "i_s_yy"), izz = need(set, "i_s_zz");
+    const double ixy = need(set, "i_s_xy"), ixz = need(set, "i_s_xz"), iyz = need(set, "i_s_yz");
+    I_S << ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz;
+    const Mat3 I_C = I_S - parallelAxis(e.mass, e.com_S);
+    e.inertia_C_F = R_FS * I_C * R_FS.transpose();
   }
   e.gravity_B = model::gravityInBase(set.tilt_u_rad, set.tilt_v_rad);
   for (int i = 0; i < 3; ++i) {

@@ -85,6 +85,25 @@ TEST(PayloadExport, InertiaIsRotatedIntoTheFlangeFrameInUrOrder) {
   EXPECT_EQ(line, "set_target_payload(0.9, [0, 0.01, 0.02], [0.002, 0.001, 0.003, -0.0005, 0, 0])");
 }
 
+TEST(PayloadExport, InertiaAboutTheSensorOriginIsMovedToTheCentreOfMass) {
+  // A fit gives I_S (about the S origin). Payload 0.9 kg at c = (0.01, 0, 0.02) with
+  // I_C = diag(1, 2, 3) e-3: I_S = I_C + m (|c|^2 1 - c c^T), by hand
+  //   |c|^2 = 5e-4: xx = 1e-3 + 0.9 (5e-4 - 1e-4) = 1.36e-3, yy = 2e-3 + 0.9 * 5e-4 = 2.45e-3,
+  //   zz = 3e-3 + 0.9 (5e-4 - 4e-4) = 3.09e-3, xz = -0.9 * 0.01 * 0.02 = -1.8e-4.
+  auto set = makeSet();
+  set.params.push_back({"i_s_xx", 1.36e-3, 0, ""});
+  set.params.push_back({"i_s_yy", 2.45e-3, 0, ""});
+  set.params.push_back({"i_s_zz", 3.09e-3, 0, ""});
+  set.params.push_back({"i_s_xy", 0.0, 0, ""});
+  set.params.push_back({"i_s_xz", -1.8e-4, 0, ""});
+  set.params.push_back({"i_s_yz", 0.0, 0, ""});
+  const auto e = ftid::cell::makePayloadExport(set, ftid::Mat3::Identity(), ftid::Vec3::Zero());
+  ASSERT_TRUE(e.inertia_C_F.has_value());
+  ftid::Mat3 expected = ftid::Mat3::Zero();
+  expected.diagonal() << 1e-3, 2e-3, 3e-3;
+  EXPECT_LT((*e.inertia_C_F - expected).cwiseAbs().maxCoeff(), 1e-15) << *e.inertia_C_F;
+}
+
 TEST(PayloadExport, MissingMassIsAClearError) {
   ftid::identify::ParameterSet set;
   set.model = "offsets";
