@@ -74,4 +74,6 @@ if ! awk -v e="$exposure" 'BEGIN { exit !(e <= 1.5) }'; then
   echo "package: ftidd.service exposure $exposure is above 1.5" >&2
   exit 1
 fi
+echo "== package: default files from an empty directory (packaged ftid, data in its share/ftid)"
+"$root/test/integration/default_files_test.sh" "$work/pkgroot/usr/bin/ftid" "$work/pkgroot/usr/sbin/ftidd"
 echo "== package: OK"

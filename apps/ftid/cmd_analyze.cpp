@@ -10,6 +10,7 @@ namespace {
 const char* const kUsage =
     "usage: ftid analyze LOG [--model M] [--validate LOG2] [--folds K] [--explain]\n"
     "                        [--candidates E1,E2,...] [--report report.html] [--json] [--robot URDF]\n"
+    "                        [--wrench-frame sensor|base]\n"
     "\n"
     "Compares a model of the sensor reading with the measurements, shows where it fails and which\n"
     "physical effect is missing (docs/analyze.md; the effects: docs/effects.md).\n"
@@ -26,7 +27,8 @@ const char* const kUsage =
     "  --alpha A         false-alarm probability of one ranking (default 0.001, Bonferroni-split)\n"
     "  --report FILE     write a self-contained HTML report (inline SVG; opens offline)\n"
     "  --json            print one JSON object (model, residual_rms, noise_floor, candidates, steps)\n"
-    "  --robot URDF      robot description (default config/ur10.urdf)\n"
+    "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "\n"
     "Every residual printed is held out. Progress goes to stderr. Exit code 1 with a one-line\n"
     "reason on a bad log or a model the data cannot determine, 2 on a usage error.";
@@ -61,6 +63,7 @@ int runAnalyze(const std::vector<std::string>& argv) {
   const std::string report = args.value("--report");
   const bool json = args.flag("--json");
   req.robot_urdf = args.value("--robot");
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
   const auto pos = args.positionals();
   args.finish();
   if (pos.size() != 1) throw ftid::cli::UsageError("exactly one LOG is required");

@@ -5,6 +5,7 @@
 
 #include "command.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/candump.hpp"
 #include "ftid/drivers/can/sensor_layout.hpp"
@@ -23,7 +24,7 @@ const char* kUsage =
     "rules of docs/sensor.md (flags: SampleFlag bits in hex). A health summary goes to stderr.\n"
     "\n"
     "options:\n"
-    "  --dbc FILE        CAN layout (default config/ftsensor.dbc)\n"
+    "  --dbc FILE        CAN layout (default: the shipped ftsensor.dbc)\n"
     "  --interface IF    only frames of this interface (default: all)\n"
     "  --stale-ms MS     stale timeout for the health rules (default 20)\n"
     "  --output FILE     write the CSV to FILE instead of stdout";
@@ -31,7 +32,8 @@ const char* kUsage =
 int runDecodeCandump(const std::vector<std::string>& argv) {
   using namespace ftid::can;
   ftid::cli::Args args(argv, kUsage);
-  const std::string dbc = args.value("--dbc", "config/ftsensor.dbc");
+  std::string dbc = args.value("--dbc", "");
+  if (dbc.empty()) dbc = ftid::findDefaultFile("ftsensor.dbc");
   const std::string iface = args.value("--interface");
   const std::string stale = args.value("--stale-ms", "20");
   const std::string output = args.value("--output");

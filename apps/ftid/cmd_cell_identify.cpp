@@ -36,8 +36,11 @@ const char* kUsage =
     "  --config FILE        ftidd configuration (default /etc/ftid/ftidd.yaml): robot address, LCM,\n"
     "                       parameter file, sensor mount\n"
     "  --trajectory FILE    excitation trajectory (traj.yaml from `ftid design`; default: the shipped\n"
-    "                       excitation_ur10.yaml)\n"
-    "  --model M            model to identify (default paper; e.g. paper+rigid_body)\n"
+    "                       excitation_<robot>.yaml for the config's URDF (ur10, ur10e): 3 s,\n"
+    "                       designed for paper+rigid_body)\n"
+    "  --model M            model to identify (default paper+rigid_body; e.g. paper)\n"
+    "  --paper              the paper's method as published: its 10 s trajectory\n"
+    "                       (excitation_<robot>_paper.yaml) and the paper model\n"
     "  --params FILE        parameter file to write (default: the config's parameters.path). Another\n"
     "                       file is refused unless --no-reload is given: ftidd loads only its\n"
     "                       configured file (change parameters.path to switch files)\n"
@@ -69,6 +72,8 @@ int run(const std::vector<std::string>& argv) {
   ftid::cell::CellIdentifyOptions o;
   o.config_path = args.value("--config", o.config_path);
   o.trajectory_path = args.value("--trajectory");
+  o.paper = args.flag("--paper");
+  if (o.paper) o.model = "paper";
   o.model = args.value("--model", o.model);
   o.params_path = args.value("--params");
   o.runs_dir = args.value("--runs-dir");

@@ -9,6 +9,7 @@ namespace {
 
 const char* const kUsage =
     "usage: ftid compensate --log FILE --params PARAMS.yaml --out OUT.csv [--robot URDF]\n"
+    "                       [--wrench-frame sensor|base]\n"
     "\n"
     "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
@@ -17,7 +18,11 @@ const char* const kUsage =
     "  --log FILE        the log (docs/log-format.md)\n"
     "  --params FILE     parameters written by `ftid identify --out`\n"
     "  --out FILE        the output CSV (written atomically)\n"
-    "  --robot URDF      robot description (default config/ur10.urdf)";
+    "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "\n"
+    "Prints the RMS of the reading and of the contact wrench per axis. Exit: 0 written, 1 bad log\n"
+    "or parameter file (the message names the file, line or key), 2 usage error.";
 
 int runCompensate(const std::vector<std::string>& argv) {
   ftid::cli::Args args(argv, kUsage);
@@ -26,6 +31,7 @@ int runCompensate(const std::vector<std::string>& argv) {
   req.params_path = args.value("--params");
   req.out_csv = args.value("--out");
   req.robot_urdf = args.value("--robot");
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
   args.finish();
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");

@@ -40,7 +40,7 @@ const char* const kUsage =
     "(error in units of the reported standard error), and compensates a second, independent run.\n"
     "\n"
     "  --seed N          noise seed (default 1)\n"
-    "  --robot URDF      robot description (default config/ur10.urdf)\n"
+    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --full-physics    simulate full rigid-body dynamics (rotational inertia), which the paper's\n"
     "                    model omits; default is the paper's physics";
 

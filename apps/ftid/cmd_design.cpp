@@ -11,6 +11,7 @@
 
 #include "command.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/design/excitation_metric.hpp"
 #include "ftid/effects/model.hpp"
@@ -30,10 +31,10 @@ const char* kUsage =
     "reproduce it) and OUT with .csv (t, q1..q6, qd1..qd6, qdd1..qdd6 at the servo rate).\n"
     "\n"
     "  --model M            model whose regressor is excited (default paper)\n"
-    "  --robot URDF         robot (default config/ur10.urdf)\n"
-    "  --config FILE        limits, floor, keep-out spheres, tool spheres (default "
-    "config/design.yaml\n"
-    "                       if it exists; built-in defaults otherwise)\n"
+    "  --robot URDF         robot (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "  --config FILE        limits, floor, keep-out spheres, tool spheres (default: the "
+    "shipped\n"
+    "                       design.yaml, docs/operations.md)\n"
     "  --joints 4,5,6|all   excited joints, 1-based (default 4,5,6)\n"
     "  --duration S         trajectory duration [s] (default 10)\n"
     "  --periods N          base periods in the duration (default 1; base frequency = N / S)\n"
@@ -110,12 +111,6 @@ std::map<std::string, double> parseNominal(const std::string& text) {
   return out;
 }
 
-/// Whether something exists at `path` (never opened: a FIFO would block; the reader then refuses it).
-bool fileExists(const std::string& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0;
-}
-
 void printStd(const std::map<std::string, double>& s,
               const std::map<std::string, double>& targets) {
   for (const auto& [k, v] : s) {
@@ -132,7 +127,7 @@ int runDesign(const std::vector<std::string>& argv) {
   cli::Args args(argv, kUsage);
   design::DesignOptions o;
   o.model = args.value("--model", "paper");
-  o.robot_path = args.value("--robot", "config/ur10.urdf");
+  o.robot_path = args.value("--robot", "");
   std::string config = args.value("--config", "");
   const std::string joints = args.value("--joints", "4,5,6");
   o.duration_s = parsePositive(args.value("--duration", "10"), "--duration");
@@ -189,8 +184,9 @@ int runDesign(const std::vector<std::string>& argv) {
   checkOutputPath(out);                        // and a bad --out too
   checkOutputPath(trajectory::csvPathFor(out));
 
+  if (o.robot_path.empty()) o.robot_path = findDefaultFile("ur10.urdf");
   const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
-  if (config.empty() && fileExists("config/design.yaml")) config = "config/design.yaml";
+  if (config.empty()) config = findDefaultFile("design.yaml");
   o.constraints = design::loadDesignConstraints(config, kin, o.q0);
   if (!quiet) o.progress = &std::cerr;
 

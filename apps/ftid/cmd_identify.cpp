@@ -3,23 +3,32 @@
 
 #include "command.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/cell/exports.hpp"
+#include "ftid/config/daemon_config.hpp"
 #include "ftid/identify/offline.hpp"
 
 namespace {
 
 const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
-    "                     [--out PARAMS.yaml] [--json]\n"
+    "                     [--wrench-frame sensor|base]\n"
+    "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
     "\n"
-    "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...)\n"
+    "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...; or the sensor pose instead of the joint\n"
+    "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md)\n"
     "  --method M        the paper's method: 'dynamic' (default; with the inertial term -m a, for\n"
     "                    excitation runs) or 'static' (gravity only: rest poses or slow motion)\n"
     "  --model M         instead of the paper's method, fit a composed model by weighted least\n"
     "                    squares, e.g. 'paper' or 'paper+rigid_body' (docs/effects.md)\n"
-    "  --robot URDF      robot description (default config/ur10.urdf)\n"
+    "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
+    "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
+    "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
+    "  --config FILE     ftidd configuration for the exports (sensor mount, `export:` section;\n"
+    "                    default /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml)\n"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "\n"
     "Prints each parameter with its standard error, the residual RMS per axis and the condition\n"
@@ -33,7 +42,9 @@ int runIdentify(const std::vector<std::string>& argv) {
   req.method = args.value("--method", "dynamic");
   req.model = args.value("--model");
   req.robot_urdf = args.value("--robot");
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
   const std::string out = args.value("--out");
+  std::string config = args.value("--config");
   const bool json = args.flag("--json");
   args.finish();
   if (req.log_path.empty()) throw ftid::cli::UsageError("--log FILE is required");
@@ -43,12 +54,24 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::ParameterSet set = ftid::identify::identifyLogFile(req);
-  if (!out.empty()) ftid::identify::writeParameterFile(out, set);
+  std::string exports;
+  if (!out.empty()) {
+    ftid::identify::writeParameterFile(out, set);
+    // The parameters are written; a bad config only costs the exports (named in the warning).
+    try {
+      if (config.empty()) config = ftid::cell::defaultExportConfigPath();
+      exports = ftid::cell::writeExports(set, ftid::config::loadDaemonConfig(config), out + ".ros2.yaml",
+                                         out + ".urscript");
+    } catch (const std::exception& e) {
+      std::cerr << "ftid identify: WARNING: exports not written: " << e.what() << "\n";
+    }
+  }
   if (json) {
     std::cout << ftid::identify::toJson(set) << "\n";
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
     if (!out.empty()) std::cout << "parameters written to " << out << "\n";
+    if (!exports.empty()) std::cout << "exports: " << exports << "\n";
   }
   return 0;
 }

@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "command.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
 
@@ -31,7 +32,7 @@ const char* kUsage =
     "  --robot-host H      RTDE host (default 127.0.0.1)\n"
     "  --rtde-port P       RTDE port (default 30004)\n"
     "  --rtde-frequency F  RTDE output rate [Hz] (default: 125 on CB3, 500 on e-Series)\n"
-    "  --urdf FILE         robot model for the physics (default config/ur10.urdf)\n"
+    "  --urdf FILE         robot model for the physics (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --socket PATH       stand-in socket to serve (default /run/ftid/ftsensor.sock)\n"
     "  --config FILE       YAML configuration (see config/sim_sensor.yaml for every key)\n"
     "  --rate HZ           sample rate (default 1000; 6 frames per sample)\n"
@@ -45,7 +46,7 @@ const char* kUsage =
     "                      stuck_counter | status_fault; N = samples/frames (default 1)\n"
     "  --can-interface IF  also send on SocketCAN interface IF (needs AF_CAN)\n"
     "  --candump-log FILE  also write every frame to a candump -l style log\n"
-    "  --dbc FILE          CAN layout (default config/ftsensor.dbc)\n"
+    "  --dbc FILE          CAN layout (default: the shipped ftsensor.dbc)\n"
     "  --verbose           a status line every second instead of every 5 s\n"
     "\n"
     "At run time: SIGUSR1 injects one error frame, SIGUSR2 silences the sensor for 100 samples,\n"
@@ -68,7 +69,8 @@ int runSimSensor(const std::vector<std::string>& argv) {
   using namespace ftid::simsensor;
   ftid::cli::Args args(argv, kUsage);
   SimSensorConfig cfg = defaultSimSensorConfig();
-  cfg.urdf_path = "config/ur10.urdf";
+  cfg.urdf_path.clear();  // defaults from the one lookup below, unless --config/--urdf set them
+  cfg.dbc_path.clear();
   const std::string config_path = args.value("--config");
   if (!config_path.empty()) loadSimSensorYaml(config_path, cfg);
   if (args.has("--robot-host")) cfg.robot_host = args.value("--robot-host");
@@ -91,6 +93,8 @@ int runSimSensor(const std::vector<std::string>& argv) {
   if (args.has("--can-interface")) cfg.can_interface = args.value("--can-interface");
   if (args.has("--candump-log")) cfg.candump_log = args.value("--candump-log");
   if (args.has("--dbc")) cfg.dbc_path = args.value("--dbc");
+  if (cfg.urdf_path.empty()) cfg.urdf_path = ftid::findDefaultFile("ur10.urdf");
+  if (cfg.dbc_path.empty()) cfg.dbc_path = ftid::findDefaultFile("ftsensor.dbc");
   // Repeatable options: Args::value() consumes one occurrence per call.
   for (std::string e = args.value("--effect"); !e.empty(); e = args.value("--effect"))
     enableEffect(e, cfg);

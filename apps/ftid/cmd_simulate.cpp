@@ -11,6 +11,7 @@
 
 #include "command.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -31,7 +32,7 @@ the paper's Table 2 payload, offsets and base tilt on a UR10, the paper-style 10
 options:
   --out FILE             log to write (required; written atomically)
   --truth FILE           also write the true parameters and switches as YAML
-  --robot URDF           robot description (default config/ur10.urdf)
+  --robot URDF           robot description (default: the shipped ur10.urdf, docs/operations.md)
   --trajectory YAML      excitation trajectory file (ftid design output) instead of the
                          built-in paper-style trajectory
   --duration S           simulated time [s] (default: the trajectory's duration)
@@ -63,7 +64,9 @@ options:
 
 examples:
   ftid simulate --out run.csv --truth truth.yaml --seed 7
-  ftid simulate --out hidden.csv --effect temperature_drift --effect sensor_delay:tau=0.008)";
+  ftid simulate --out hidden.csv --effect temperature_drift --effect sensor_delay:tau=0.008
+
+exit codes: 0 log written, 1 bad robot description or trajectory file (named), 2 usage error.)";
 
 double parseDouble(const std::string& text, const std::string& what) {
   std::size_t used = 0;
@@ -171,10 +174,6 @@ void applyEffect(const std::string& spec, ftid::sim::CellSimConfig& c) {
   }
 }
 
-bool fileExists(const std::string& path) {
-  struct stat st {};
-  return ::stat(path.c_str(), &st) == 0;
-}
 
 int runSimulate(const std::vector<std::string>& argv) {
   using namespace ftid;
@@ -209,10 +208,7 @@ int runSimulate(const std::vector<std::string>& argv) {
   if (!truth.empty()) checkOutputPath(truth);
 
   if (robot_path.empty()) {
-    robot_path = "config/ur10.urdf";
-    if (!fileExists(robot_path) && fileExists("/usr/share/ftid/config/ur10.urdf")) {
-      robot_path = "/usr/share/ftid/config/ur10.urdf";
-    }
+    robot_path = ftid::findDefaultFile("ur10.urdf");
   }
   sim::CellSimConfig c = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(robot_path));
   if (!traj_path.empty()) c.trajectory = trajectory::readTrajectoryFile(traj_path).toTrajectory();

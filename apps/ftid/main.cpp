@@ -112,7 +112,7 @@ int main(int argc, char** argv) {
     return args.empty() ? 2 : 0;
   }
   if (args[0] == "--version") {
-    std::cout << "ftid 0.1.0\n";
+    std::cout << "ftid " FTID_VERSION "\n";
     return 0;
   }
   std::string name = args[0];

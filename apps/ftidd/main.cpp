@@ -17,10 +17,13 @@ constexpr const char* kDefaultConfig = "/etc/ftid/ftidd.yaml";
 void printHelp() {
   std::printf(
       "usage: ftidd [--config FILE] [--check-config] [--record FILE] [--connect-timeout S]\n"
+      "       ftidd --version | --help\n"
       "\n"
       "Real-time payload compensation daemon. Every robot state packet (UR RTDE, the loop's\n"
-      "clock) it takes the newest F/T+IMU sensor sample (CAN), removes the identified payload's\n"
-      "gravity and inertia with the parameters from parameters.path, and publishes over LCM:\n"
+      "clock) it pairs with the F/T+IMU sensor (CAN) at the robot's sample time: the sensor\n"
+      "samples are put on the robot clock and interpolated to it (docs/daemon.md \"Time base\").\n"
+      "It removes the identified payload's gravity and inertia with the parameters from\n"
+      "parameters.path, and publishes over LCM:\n"
       "  FTID_WRENCH  compensated_wrench_t  raw, modelled and contact wrench, validity, faults\n"
       "  FTID_CYCLE   cycle_sample_t        robot state + raw sensor sample (for identification)\n"
       "  FTID_STATS   loop_stats_t          loop statistics, once per lcm.stats_period_s\n"
@@ -33,6 +36,7 @@ void printHelp() {
       "  --record FILE        record every published message to an LCM log (strftime patterns\n"
       "                       allowed); convert it with `ftid lcm-to-csv FILE --out run.csv`\n"
       "  --connect-timeout S  keep retrying the robot and sensor connections for S seconds (10)\n"
+      "  --version            print the version and exit\n"
       "  --help               this text\n"
       "\n"
       "signals: SIGHUP reloads the parameter file without missing a cycle (a bad file is\n"
@@ -60,6 +64,9 @@ int main(int argc, char** argv) {
     };
     if (arg == "--help" || arg == "-h") {
       printHelp();
+      return 0;
+    } else if (arg == "--version") {
+      std::printf("ftidd %s\n", FTID_VERSION);
       return 0;
     } else if (arg == "--config") {
       config_path = value("--config");

@@ -1,3 +1,4 @@
+#include "ftid/common/default_files.hpp"
 #include "ftid/cell/cell_identify.hpp"
 
 #include <sys/statvfs.h>
@@ -72,25 +73,35 @@ bool sameFile(const std::string& a, const std::string& b) {
   return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
 }
 
-/// Default excitation trajectory: next to the config, the installed defaults, the source tree.
-std::string findDefaultTrajectory(const std::string& config_source) {
-  std::vector<fs::path> candidates;
-  if (!config_source.empty()) candidates.push_back(fs::path(config_source).parent_path() / "excitation_ur10.yaml");
-  candidates.emplace_back("/etc/ftid/excitation_ur10.yaml");
-  candidates.emplace_back("/usr/share/ftid/config/excitation_ur10.yaml");
-  candidates.emplace_back("config/excitation_ur10.yaml");
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) {
-    for (fs::path p = exe.parent_path(); !p.empty() && p != p.root_path(); p = p.parent_path()) {
-      candidates.push_back(p / "config" / "excitation_ur10.yaml");
-      candidates.push_back(p / "share" / "ftid" / "config" / "excitation_ur10.yaml");
-    }
+
+/// What the trajectory's design predicts for the accuracy (its predicted standard errors at the
+/// design's noise), printed before the robot moves.
+std::string expectedAccuracy(const trajectory::TrajectoryFile& f, const std::string& model_name) {
+  const auto get = [&](const std::string& k) {
+    const auto it = f.predicted_std.find(k);
+    return it == f.predicted_std.end() ? -1.0 : it->second;
+  };
+  const auto d = f.design.find("model");
+  const std::string designed_for = d == f.design.end() ? std::string("?") : d->second;
+  if (f.predicted_std.empty()) {
+    return "  expected accuracy: unknown (the trajectory file records no predicted standard errors)";
   }
-  for (const auto& c : candidates) {
-    if (fs::exists(c, ec)) return c.string();
-  }
-  throw ConfigError("no excitation trajectory given (--trajectory) and no default excitation_ur10.yaml found");
+  std::string s = "  expected accuracy (1 sigma, predicted by the design for model " + designed_for + "):";
+  const double m = get("mass");
+  if (m >= 0) s += " mass " + fmt(4, m) + " kg";
+  double c = 0.0;
+  for (const char* k : {"com_x", "com_y", "com_z"}) c = std::max(c, get(k));
+  if (c > 0) s += ", centre of mass " + fmt(2, 1000.0 * c) + " mm";
+  const double t = std::max(get("tilt_u"), get("tilt_v"));
+  if (t > 0) s += ", tilt " + fmt(3, t * 180.0 / M_PI) + " deg";
+  double f0 = 0.0;
+  for (const char* k : {"f0_x", "f0_y", "f0_z"}) f0 = std::max(f0, get(k));
+  if (f0 > 0) s += ", F0 " + fmt(3, f0) + " N";
+  double t0 = 0.0;
+  for (const char* k : {"t0_x", "t0_y", "t0_z"}) t0 = std::max(t0, get(k));
+  if (t0 > 0) s += ", T0 " + fmt(4, t0) + " Nm";
+  if (designed_for != model_name) s += "\n  (you fit " + model_name + ": the figures are indicative only)";
+  return s;
 }
 
 /// Shared between the real-time hook and the UI thread (atomics only).
@@ -236,6 +247,11 @@ std::string requestDaemonReload(const std::string& lcm_url, const std::string& c
   return "";
 }
 
+std::string defaultTrajectoryName(const std::string& urdf_path, bool paper) {
+  const std::string robot = fs::path(urdf_path).stem().string();
+  return "excitation_" + robot + (paper ? "_paper" : "") + ".yaml";
+}
+
 CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   CellIdentifyResult result;
   auto print = [&](const std::string& s) {
@@ -244,7 +260,9 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
 
   // ---- set-up: everything here may throw ConfigError before anything moves
   const config::DaemonConfig cfg = config::loadDaemonConfig(o.config_path);
-  const std::string traj_path = o.trajectory_path.empty() ? findDefaultTrajectory(cfg.source) : o.trajectory_path;
+  const std::string traj_path = o.trajectory_path.empty()
+                                    ? findDefaultFile(defaultTrajectoryName(cfg.robot.urdf_path, o.paper))
+                                    : o.trajectory_path;
   const trajectory::TrajectoryFile traj_file = trajectory::readTrajectoryFile(traj_path);
   const trajectory::FourierTrajectory traj = traj_file.toTrajectory();
   const effects::Model model = effects::Model::fromName(o.model);
@@ -268,6 +286,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
         fmt(1, traj.duration()) + " s)");
   print("  robot " + cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port) + ", ftidd data on " +
         cfg.lcm.channels.cycle + " (" + cfg.lcm.url + ")");
+  print(expectedAccuracy(traj_file, model.name()));
 
   // ---- ftidd and sensor ready?
   const double rate = cfg.robot.rtde_frequency_hz > 0 ? cfg.robot.rtde_frequency_hz : 125.0;
@@ -552,11 +571,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     return result;
   }
   try {
-    const PayloadExport ex = makePayloadExport(set, cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
-    writeTextAtomic(params_path + ".urscript", "# UR payload for the identified tool (ftid)\n" + urScriptPayload(ex) + "\n");
-    writeTextAtomic(params_path + ".ros2.yaml", ros2GravityCompensationYaml(ex));
-    print("Exports: " + params_path + ".urscript (UR set_target_payload), " + params_path +
-          ".ros2.yaml (ros2_control GravityCompensation)");
+    print("Exports: " + writeExports(set, cfg, params_path + ".ros2.yaml", params_path + ".urscript"));
   } catch (const std::exception& e) {
     print("  WARNING: exports not written: " + std::string(e.what()));
   }

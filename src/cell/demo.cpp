@@ -1,3 +1,4 @@
+#include "ftid/common/default_files.hpp"
 #include "ftid/cell/demo.hpp"
 
 #include <arpa/inet.h>
@@ -157,15 +158,8 @@ fs::path findFtidd() {
   throw Error("cannot find the ftidd executable next to " + selfDir().string());
 }
 
-/// The shipped configuration (source tree config/ or the installed share/ftid/config).
-fs::path findConfigDir() {
-  for (fs::path p = selfDir(); !p.empty() && p != p.root_path(); p = p.parent_path()) {
-    if (fs::exists(p / "config" / "ur10.urdf") && fs::exists(p / "config" / "ftsensor.dbc")) return p / "config";
-    if (fs::exists(p / "share" / "ftid" / "config" / "ur10.urdf")) return p / "share" / "ftid" / "config";
-  }
-  if (fs::exists("/usr/share/ftid/config/ur10.urdf")) return "/usr/share/ftid/config";
-  throw Error("cannot find ftid's config directory (ur10.urdf, ftsensor.dbc)");
-}
+/// The directory of the shipped default files (the one lookup, ftid/common/default_files.hpp).
+fs::path findConfigDir() { return fs::path(findDefaultFile("sim_sensor.yaml")).parent_path(); }
 
 void writeFile(const fs::path& p, const std::string& text) { writeFileAtomically(p.string(), text); }
 
@@ -326,6 +320,7 @@ int runDemo(const DemoOptions& opt) {
   collect(3.0);
   LiveStats st;
   double fmin = 1e9, fmax = -1e9;
+  double raw_quiet = 0.0;  // mean |raw force| before the push: the tool's weight plus the offsets
   int quiet_n = 0;
   for (std::size_t i = 0; i < collector.recs.size(); ++i) {
     const auto& r = collector.recs[i];
@@ -339,6 +334,7 @@ int runDemo(const DemoOptions& opt) {
     if (i < quiet_end) {
       st.rms_quiet_force += fc * fc;
       st.rms_quiet_torque += r.contact_S.tail<3>().squaredNorm();
+      raw_quiet += fr;
       ++quiet_n;
     } else {
       st.peak_push_force = std::max(st.peak_push_force, fc);
@@ -347,11 +343,13 @@ int runDemo(const DemoOptions& opt) {
   if (quiet_n > 0) {
     st.rms_quiet_force = std::sqrt(st.rms_quiet_force / quiet_n);
     st.rms_quiet_torque = std::sqrt(st.rms_quiet_torque / quiet_n);
+    raw_quiet /= quiet_n;
   }
   st.raw_force_range = fmax - fmin;
   say("   " + std::to_string(st.samples) + " compensated samples (" + std::to_string(st.valid) + " valid)");
   say("   before the push: |contact force| RMS " + f3(st.rms_quiet_force) + " N, |contact torque| RMS " +
-      f3(st.rms_quiet_torque) + " Nm (the raw reading carries the tool's " + f3(fmax) + " N)");
+      f3(st.rms_quiet_torque) + " Nm (uncompensated, |force| reads " + f3(raw_quiet) +
+      " N there: the tool's weight and the sensor offsets)");
   say("   during the push: peak |contact force| " + f3(st.peak_push_force) +
       " N (the simulated push peaks at 8 N): only the contact remains");
 

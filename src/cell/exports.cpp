@@ -1,9 +1,17 @@
 #include "ftid/cell/exports.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <sstream>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/config/daemon_config.hpp"
 #include "ftid/model/frames.hpp"
 
 namespace ftid::cell {
@@ -19,10 +27,23 @@ std::string num(double x) {
   std::snprintf(buf, sizeof(buf), "%.9g", x);
   return buf;
 }
+std::string vec(const Vec3& v) { return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]"; }
+std::string urOrder(const Mat3& I) {
+  return "[" + num(I(0, 0)) + ", " + num(I(1, 1)) + ", " + num(I(2, 2)) + ", " + num(I(0, 1)) + ", " +
+         num(I(0, 2)) + ", " + num(I(1, 2)) + "]";
+}
+Mat3 fromUrOrder(const Vec6& v) {
+  Mat3 I;
+  I << v(0), v(3), v(4), v(3), v(1), v(5), v(4), v(5), v(2);
+  return I;
+}
+/// Inertia of a point mass m at offset d about the reference point: m (|d|^2 1 - d d^T).
+Mat3 parallelAxis(double m, const Vec3& d) { return m * (d.squaredNorm() * Mat3::Identity() - d * d.transpose()); }
 }  // namespace
 
 PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F) {
   PayloadExport e;
+  e.model = set.model;
   e.mass = need(set, "mass");
   e.com_S = Vec3(need(set, "com_x"), need(set, "com_y"), need(set, "com_z"));
   e.cog_F = p_FS_F + R_FS * e.com_S;
@@ -31,6 +52,15 @@ PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R
     const double ixx = need(set, "i_c_xx"), iyy = need(set, "i_c_yy"), izz = need(set, "i_c_zz");
     const double ixy = need(set, "i_c_xy"), ixz = need(set, "i_c_xz"), iyz = need(set, "i_c_yz");
     I_C << ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz;
+    e.inertia_C_F = R_FS * I_C * R_FS.transpose();
+  } else if (set.find("i_s_xx")) {
+    // The fit's linear parameters are the inertia about the S origin (docs/conventions.md):
+    // I_C = I_S - m (|c|^2 1 - c c^T).
+    Mat3 I_S;
+    const double ixx = need(set, "i_s_xx"), iyy = need(set, "i_s_yy"), izz = need(set, "i_s_zz");
+    const double ixy = need(set, "i_s_xy"), ixz = need(set, "i_s_xz"), iyz = need(set, "i_s_yz");
+    I_S << ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz;
+    const Mat3 I_C = I_S - parallelAxis(e.mass, e.com_S);
     e.inertia_C_F = R_FS * I_C * R_FS.transpose();
   }
   e.gravity_B = model::gravityInBase(set.tilt_u_rad, set.tilt_v_rad);
@@ -42,39 +72,168 @@ PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R
   return e;
 }
 
-std::string urScriptPayload(const PayloadExport& e) {
-  std::ostringstream o;
-  o << "set_target_payload(" << num(e.mass) << ", [" << num(e.cog_F.x()) << ", " << num(e.cog_F.y()) << ", "
-    << num(e.cog_F.z()) << "]";
-  if (e.inertia_C_F) {
-    const Mat3& I = *e.inertia_C_F;
-    o << ", [" << num(I(0, 0)) << ", " << num(I(1, 1)) << ", " << num(I(2, 2)) << ", " << num(I(0, 1)) << ", "
-      << num(I(0, 2)) << ", " << num(I(1, 2)) << "]";
+UrPayload combineBeyondFlange(const PayloadExport& payload, const std::vector<RigidPart>& parts) {
+  struct Body {
+    double m;
+    Vec3 c;
+    Mat3 I;
+  };
+  std::vector<Body> bodies{{payload.mass, payload.cog_F, payload.inertia_C_F.value_or(Mat3::Zero())}};
+  for (const auto& p : parts) {
+    if (p.mass > 0.0) bodies.push_back({p.mass, p.com_F, p.inertia_C_F});
   }
+  UrPayload u;
+  Vec3 first_moment = Vec3::Zero();
+  for (const auto& b : bodies) {
+    u.mass += b.m;
+    first_moment += b.m * b.c;
+  }
+  if (!(u.mass > 0.0)) throw ConfigError("UR payload export: the total mass beyond the flange is not positive");
+  u.cog_F = first_moment / u.mass;
+  u.payload_point_mass = !payload.inertia_C_F.has_value();
+  if (payload.inertia_C_F || bodies.size() > 1) {
+    Mat3 I = Mat3::Zero();
+    for (const auto& b : bodies) I += b.I + parallelAxis(b.m, b.c - u.cog_F);
+    u.inertia_F = I;
+  }
+  return u;
+}
+
+std::string urScriptPayload(const UrPayload& p) {
+  std::ostringstream o;
+  o << "set_target_payload(" << num(p.mass) << ", " << vec(p.cog_F);
+  if (p.inertia_F) o << ", " << urOrder(*p.inertia_F);
   o << ")";
   return o.str();
 }
 
-std::string ros2GravityCompensationYaml(const PayloadExport& e, const std::string& node_name,
-                                        const std::string& world_frame, const std::string& sensor_frame) {
+std::string urScriptFile(const PayloadExport& e, const std::vector<RigidPart>& parts) {
+  const UrPayload u = combineBeyondFlange(e, parts);
   std::ostringstream o;
-  o << "# Exported by ftid --identify for the ros2_control control_toolbox GravityCompensation filter.\n"
-    << "# tool.pos is the centre of mass in the sensor frame [m]; tool.gravity_field is gravity in the\n"
-    << "# robot base frame [m/s^2], including the identified base tilt. The filter has no slot for the\n"
-    << "# sensor offsets; subtract them in force_torque_sensor_broadcaster (offsets) if needed:\n"
-    << "#   force offsets [N]: [" << num(e.f0_S.x()) << ", " << num(e.f0_S.y()) << ", " << num(e.f0_S.z()) << "]\n"
-    << "#   torque offsets [Nm]: [" << num(e.t0_S.x()) << ", " << num(e.t0_S.y()) << ", " << num(e.t0_S.z())
-    << "]\n"
-    << node_name << ":\n"
-    << "  ros__parameters:\n"
-    << "    world_frame: " << world_frame << "\n"
-    << "    sensor_frame: " << sensor_frame << "\n"
-    << "    tool:\n"
-    << "      mass: " << num(e.mass) << "\n"
-    << "      pos: [" << num(e.com_S.x()) << ", " << num(e.com_S.y()) << ", " << num(e.com_S.z()) << "]\n"
-    << "      gravity_field: [" << num(e.gravity_B.x()) << ", " << num(e.gravity_B.y()) << ", "
-    << num(e.gravity_B.z()) << "]\n";
+  o << "# UR payload for everything beyond the tool flange, exported by ftid (docs/operations.md \"Exports\").\n"
+    << "# set_target_payload(mass [kg], centre of gravity in the flange frame tool0 [m],\n"
+    << "#                    inertia about it, axes of tool0, [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] [kg m^2])\n"
+    << "# Set the TCP payload to this (teach pendant Installation > Payload, or run the line).\n"
+    << "#   identified payload (model " << e.model << "): " << num(e.mass) << " kg at " << vec(e.cog_F) << " m"
+    << (e.inertia_C_F ? ", inertia " + urOrder(*e.inertia_C_F) : std::string(", inertia not identified"))
+    << "\n";
+  for (const auto& p : parts) {
+    if (p.mass > 0.0) {
+      o << "#   " << p.name << " (ftidd.yaml export." << p.name << "): " << num(p.mass) << " kg at " << vec(p.com_F)
+        << " m, inertia " << urOrder(p.inertia_C_F) << "\n";
+    }
+  }
+  if (!u.inertia_F) {
+    o << "# No inertia is known (model without rigid_body, no parts configured): the controller estimates it.\n";
+  } else if (u.payload_point_mass) {
+    o << "# The payload's own inertia was not identified (fit paper+rigid_body for it): taken as a point mass.\n";
+  }
+  o << urScriptPayload(u) << "\n";
   return o.str();
+}
+
+std::string ros2BroadcasterYaml(const PayloadExport& e, const Ros2Names& n) {
+  std::ostringstream o;
+  o << "# ros2_control parameters exported by ftid (docs/operations.md \"Exports\"), model " << e.model << ".\n"
+    << "# force_torque_sensor_broadcaster publishes reading + offset, then runs the sensor_filter_chain.\n"
+    << "#  - offset.force / offset.torque are ADDED to the reading, so they are the negated identified\n"
+    << "#    sensor offsets: offset = -F0 [N], -T0 [Nm] (F0 = " << vec(e.f0_S) << ", T0 = " << vec(e.t0_S)
+    << ").\n"
+    << "#  - control_filters/GravityCompensationWrench (control_toolbox) subtracts the tool's weight:\n"
+    << "#    tool.mass [kg]; tool.CoG = centre of mass in sensor_frame (frame S) [m];\n"
+    << "#    tool.gravity_field = gravity in world_frame [m/s^2], here the robot base B with the\n"
+    << "#    identified base tilt (g_B = R_WB^T g_W). world_frame must be the TF frame of B (UR: 'base'),\n"
+    << "#    sensor_frame the TF frame of S (the sensor mount in your URDF must match ftidd.yaml's).\n"
+    << "#  The filter compensates gravity only; ftidd also removes the inertial wrench in motion.\n"
+    << n.controller << ":\n"
+    << "  ros__parameters:\n"
+    << "    sensor_name: " << n.sensor_name << "\n"
+    << "    frame_id: " << n.sensor_frame << "\n"
+    << "    offset:\n"
+    << "      force:\n"
+    << "        x: " << num(-e.f0_S.x()) << "\n"
+    << "        y: " << num(-e.f0_S.y()) << "\n"
+    << "        z: " << num(-e.f0_S.z()) << "\n"
+    << "      torque:\n"
+    << "        x: " << num(-e.t0_S.x()) << "\n"
+    << "        y: " << num(-e.t0_S.y()) << "\n"
+    << "        z: " << num(-e.t0_S.z()) << "\n"
+    << "    sensor_filter_chain:\n"
+    << "      filter1:\n"
+    << "        type: control_filters/GravityCompensationWrench\n"
+    << "        name: gravity_compensation\n"
+    << "        params:\n"
+    << "          world_frame: " << n.world_frame << "\n"
+    << "          sensor_frame: " << n.sensor_frame << "\n"
+    << "          tool:\n"
+    << "            CoG: " << vec(e.com_S) << "\n"
+    << "            mass: " << num(e.mass) << "\n"
+    << "            gravity_field: " << vec(e.gravity_B) << "\n";
+  return o.str();
+}
+
+std::vector<RigidPart> partsFromConfig(const config::DaemonConfig& cfg) {
+  auto part = [](const std::string& name, const config::RigidPartConfig& p) {
+    return RigidPart{name, p.mass, p.com_F, fromUrOrder(p.inertia_C_F)};
+  };
+  return {part("adapter", cfg.exports.adapter), part("sensor_body", cfg.exports.sensor_body)};
+}
+
+Ros2Names ros2NamesFromConfig(const config::DaemonConfig& cfg) {
+  Ros2Names n;
+  n.world_frame = cfg.exports.world_frame;
+  n.sensor_frame = cfg.exports.sensor_frame;
+  n.sensor_name = cfg.exports.sensor_name;
+  return n;
+}
+
+void writeTextFileAtomic(const std::string& path, const std::string& text) {
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(path + ": cannot write (" + std::string(std::strerror(errno)) + ")");
+  std::size_t done = 0;
+  bool ok = true;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      ok = false;
+      break;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  const int err = errno;
+  if (ok && ::fsync(fd) != 0) ok = false;
+  ::close(fd);
+  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int e = ok ? errno : err;
+    ::unlink(tmp.c_str());
+    throw Error(path + ": cannot write (" + std::string(std::strerror(e)) + ")");
+  }
+}
+
+std::string writeExports(const identify::ParameterSet& set, const config::DaemonConfig& cfg,
+                         const std::string& ros2_path, const std::string& urscript_path) {
+  const PayloadExport e = makePayloadExport(set, cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
+  // Build both texts first so that a bad parameter set writes nothing.
+  const std::string ros2 = ros2BroadcasterYaml(e, ros2NamesFromConfig(cfg));
+  const std::string ur = urScriptFile(e, partsFromConfig(cfg));
+  std::string written;
+  if (!ros2_path.empty()) {
+    writeTextFileAtomic(ros2_path, ros2);
+    written += ros2_path + " (ros2_control force_torque_sensor_broadcaster + GravityCompensationWrench)";
+  }
+  if (!urscript_path.empty()) {
+    writeTextFileAtomic(urscript_path, ur);
+    written += (written.empty() ? "" : ", ") + urscript_path + " (UR set_target_payload)";
+  }
+  return written;
+}
+
+std::string defaultExportConfigPath() {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file("/etc/ftid/ftidd.yaml", ec)) return "/etc/ftid/ftidd.yaml";
+  return findDefaultFile("ftidd.yaml");
 }
 
 }  // namespace ftid::cell

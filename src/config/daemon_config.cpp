@@ -99,6 +99,13 @@ class Reader {
     return v;
   }
 
+  Vec6 vec6(const YAML::Node& node, const std::string& key) const {
+    if (!node.IsSequence() || node.size() != 6) fail(node, key, "expected a list of 6 numbers");
+    Vec6 v;
+    for (std::size_t i = 0; i < 6; ++i) v(static_cast<int>(i)) = number(node[i], key);
+    return v;
+  }
+
   const std::string& source() const { return source_; }
 
  private:
@@ -244,6 +251,29 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.rt.overrun_budget_ms >= 0.0 && c.rt.overrun_budget_ms <= 1000.0)) {
     fail("rt.overrun_budget_ms", "must be in 0..1000 ms (0 = half a period)");
   }
+  if (c.output.frame != "sensor" && c.output.frame != "tool" && c.output.frame != "base") {
+    fail("output.frame", "must be 'sensor', 'tool' or 'base', got '" + c.output.frame + "'");
+  }
+  if (!(c.output.tool_xyz.norm() <= 2.0)) fail("output.tool_xyz", "must be within 2 m of the sensor");
+  if (!(c.output.tool_rpy.cwiseAbs().maxCoeff() <= 2.0 * M_PI)) {
+    fail("output.tool_rpy", "must be angles in radians (|angle| <= 2 pi)");
+  }
+  if (!(c.output.lowpass_hz == 0.0 ||
+        (c.output.lowpass_hz > 0.0 && c.output.lowpass_hz < 0.45 * c.robot.rtde_frequency_hz))) {
+    fail("output.lowpass_hz", "must be 0 (off) or in (0, 0.45 x robot.rtde_frequency_hz) Hz");
+  }
+  for (const auto& [name, part] : {std::pair<std::string, const RigidPartConfig*>{"export.adapter", &c.exports.adapter},
+                                   {"export.sensor_body", &c.exports.sensor_body}}) {
+    if (!(part->mass >= 0.0 && part->mass <= 100.0)) fail(name + ".mass", "must be in 0..100 kg");
+    if (!(part->com_F.norm() <= 1.0)) fail(name + ".com", "must be within 1 m of the flange");
+    const Vec6& I = part->inertia_C_F;
+    const double a = I(0), b = I(1), d = I(2);
+    if (!(a >= 0.0 && b >= 0.0 && d >= 0.0) || a + b < d || a + d < b || b + d < a || I.cwiseAbs().maxCoeff() > 10.0) {
+      fail(name + ".inertia", "must be a physical inertia [ixx, iyy, izz, ixy, ixz, iyz] (moments >= 0, each "
+                              "at most the sum of the other two, |entries| <= 10 kg m^2)");
+    }
+    if (part->mass == 0.0 && I.cwiseAbs().maxCoeff() > 0.0) fail(name + ".inertia", "is non-zero for a part of mass 0");
+  }
   if (c.record.enabled) {
     if (c.record.path.empty()) fail("record.path", "must not be empty when record.enabled");
     if (!isDirectory(dirOf(c.record.path))) {
@@ -321,6 +351,13 @@ void checkLcmUrl(const std::string& url, const std::string& where, std::vector<s
       fail("unknown udpm option '" + name + "' (known: ttl, recv_buf_size)");
     }
   }
+}
+
+Mat3 OutputConfig::R_ST() const {
+  const Eigen::AngleAxisd rx(tool_rpy.x(), Vec3::UnitX());
+  const Eigen::AngleAxisd ry(tool_rpy.y(), Vec3::UnitY());
+  const Eigen::AngleAxisd rz(tool_rpy.z(), Vec3::UnitZ());
+  return (rz * ry * rx).toRotationMatrix();
 }
 
 Mat3 SensorConfig::R_FS() const {
@@ -422,6 +459,32 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
           {"overrun_budget_ms", S([&](const YAML::Node& v, const std::string& key) { c.rt.overrun_budget_ms = r.number(v, key); })},
         });
       }},
+      {"output", [&](const YAML::Node& n, const std::string& k) {
+        readSection(r, n, k, {
+          {"frame", S([&](const YAML::Node& v, const std::string& key) { c.output.frame = r.string(v, key); })},
+          {"tool_xyz", S([&](const YAML::Node& v, const std::string& key) { c.output.tool_xyz = r.vec3(v, key); })},
+          {"tool_rpy", S([&](const YAML::Node& v, const std::string& key) { c.output.tool_rpy = r.vec3(v, key); })},
+          {"lowpass_hz", S([&](const YAML::Node& v, const std::string& key) { c.output.lowpass_hz = r.number(v, key); })},
+        });
+      }},
+      {"export", [&](const YAML::Node& n, const std::string& k) {
+        auto part = [&](RigidPartConfig& p) {
+          return [&](const YAML::Node& pn, const std::string& pk) {
+            readSection(r, pn, pk, {
+              {"mass", S([&](const YAML::Node& v, const std::string& key) { p.mass = r.number(v, key); })},
+              {"com", S([&](const YAML::Node& v, const std::string& key) { p.com_F = r.vec3(v, key); })},
+              {"inertia", S([&](const YAML::Node& v, const std::string& key) { p.inertia_C_F = r.vec6(v, key); })},
+            });
+          };
+        };
+        readSection(r, n, k, {
+          {"world_frame", S([&](const YAML::Node& v, const std::string& key) { c.exports.world_frame = r.string(v, key); })},
+          {"sensor_frame", S([&](const YAML::Node& v, const std::string& key) { c.exports.sensor_frame = r.string(v, key); })},
+          {"sensor_name", S([&](const YAML::Node& v, const std::string& key) { c.exports.sensor_name = r.string(v, key); })},
+          {"adapter", part(c.exports.adapter)},
+          {"sensor_body", part(c.exports.sensor_body)},
+        });
+      }},
       {"record", [&](const YAML::Node& n, const std::string& k) {
         readSection(r, n, k, {
           {"enabled", S([&](const YAML::Node& v, const std::string& key) { c.record.enabled = r.boolean(v, key); })},
@@ -492,7 +555,16 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "rt.cpu: " << c.rt.cpu << "\n"
      << "rt.overrun_budget_ms: " << c.rt.overrun_budget_ms << "\n"
      << "record.enabled: " << b(c.record.enabled) << "\n"
-     << "record.path: " << c.record.path << "\n";
+     << "record.path: " << c.record.path << "\n"
+     << "output: frame=" << c.output.frame << " tool_xyz=[" << c.output.tool_xyz.transpose() << "] tool_rpy=["
+     << c.output.tool_rpy.transpose() << "] lowpass_hz=" << c.output.lowpass_hz << "\n"
+     << "export: world_frame=" << c.exports.world_frame << " sensor_frame=" << c.exports.sensor_frame
+     << " sensor_name=" << c.exports.sensor_name << "\n"
+     << "export.adapter: mass " << c.exports.adapter.mass << " kg, com [" << c.exports.adapter.com_F.transpose()
+     << "] m, inertia [" << c.exports.adapter.inertia_C_F.transpose() << "]\n"
+     << "export.sensor_body: mass " << c.exports.sensor_body.mass << " kg, com ["
+     << c.exports.sensor_body.com_F.transpose() << "] m, inertia [" << c.exports.sensor_body.inertia_C_F.transpose()
+     << "]\n";
   return os.str();
 }
 

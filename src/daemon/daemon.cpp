@@ -267,6 +267,14 @@ int Daemon::run() {
   CycleOptions cycle_opt;
   cycle_opt.stale_timeout_us = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1000.0);
   DaemonCycle cycle(arm.get(), &sensor, &motion, &params, &sink, cycle_opt);
+  OutputStageConfig out_cfg;
+  out_cfg.frame = parseOutputFrame(cfg.output.frame);
+  out_cfg.R_ST = cfg.output.R_ST();
+  out_cfg.p_ST_S = cfg.output.tool_xyz;
+  out_cfg.lowpass_hz = cfg.output.lowpass_hz;
+  out_cfg.sample_rate_hz = cfg.robot.rtde_frequency_hz;
+  OutputStage output_stage(out_cfg);
+  cycle.attachOutputStage(&output_stage);
   auto loop_stats = std::make_unique<rt::LoopStats>();
   auto stats_box = std::make_unique<rt::Mailbox<rt::LoopStats>>();
   const double period_s = 1.0 / cfg.robot.rtde_frequency_hz;

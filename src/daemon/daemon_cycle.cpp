@@ -205,6 +205,15 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
     }
   }
 
+  // Output stage: the contact wrench in the configured frame, filtered (docs/daemon.md).
+  if (output_stage_ != nullptr) {
+    rec.output = output_stage_->process(rec.contact_S, ctx_.R_BS, rec.wrench_valid);
+    rec.output_frame = static_cast<std::int8_t>(output_stage_->frame());
+  } else {
+    rec.output = rec.contact_S;
+    rec.output_frame = 0;
+  }
+
   if (rec.wrench_valid) {
     counters_.valid.fetch_add(1, std::memory_order_relaxed);
   } else {

@@ -64,6 +64,7 @@ double SignalSource::read(const SampleContext& ctx) const noexcept {
 
 bool SignalSource::available(const SampleContext& ctx) const noexcept {
   if (kind_ == Kind::kTemp) return ctx.has_temp;
+  if (kind_ == Kind::kJointAngle || kind_ == Kind::kJointVelocity) return ctx.has_joints;
   if (kind_ != Kind::kExtra) return true;
   if (ctx.extra == nullptr || ctx.extra_names == nullptr) return false;
   for (const auto& n : *ctx.extra_names) {

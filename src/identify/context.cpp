@@ -2,6 +2,7 @@
 #include "ftid/identify/context.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "ftid/common/error.hpp"
@@ -71,6 +72,129 @@ int ContextSet::extraIndex(const std::string& name) const {
   return it == extra_names.end() ? -1 : static_cast<int>(it - extra_names.begin());
 }
 
+bool parseWrenchFrame(const std::string& text) {
+  if (text.empty() || text == "sensor") return false;
+  if (text == "base") return true;
+  throw ConfigError("--wrench-frame must be 'sensor' or 'base', not '" + text + "'");
+}
+
+namespace {
+
+/// A column of the pose log (an extra column of the reader), or nullptr.
+const std::vector<double>* column(const logio::LogData& log, const char* name) {
+  const int k = log.extraIndex(name);
+  return k < 0 ? nullptr : &log.extra_columns[static_cast<std::size_t>(k)];
+}
+
+/// Three columns a, b, c as vectors, or an empty vector if any is missing; all-or-nothing.
+std::vector<Vec3> triple(const logio::LogData& log, const char* a, const char* b, const char* c) {
+  const auto* x = column(log, a);
+  const auto* y = column(log, b);
+  const auto* z = column(log, c);
+  const int present = (x != nullptr) + (y != nullptr) + (z != nullptr);
+  if (present == 0) return {};
+  if (present != 3) {
+    throw DataError(log.source + ": incomplete pose columns: " + a + "," + b + "," + c +
+                    " must be all present or all absent");
+  }
+  std::vector<Vec3> v(x->size());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = Vec3((*x)[i], (*y)[i], (*z)[i]);
+  return v;
+}
+
+Vec3 rotationVector(const Mat3& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+/// Local least-squares slope through sample i of y(t) over +-h samples (smoothed derivative).
+template <typename F>
+Vec3 slopeAt(const std::vector<double>& t, std::size_t i, int h, F delta) {
+  const std::size_t lo = i >= static_cast<std::size_t>(h) ? i - static_cast<std::size_t>(h) : 0;
+  const std::size_t hi = std::min(t.size() - 1, i + static_cast<std::size_t>(h));
+  double sx = 0, sxx = 0, n = 0;
+  Vec3 sy = Vec3::Zero(), sxy = Vec3::Zero();
+  for (std::size_t j = lo; j <= hi; ++j) {
+    const double x = t[j] - t[i];
+    const Vec3 y = delta(j);
+    sx += x;
+    sxx += x * x;
+    sy += y;
+    sxy += x * y;
+    n += 1;
+  }
+  const double den = n * sxx - sx * sx;
+  return den > 0 ? Vec3((n * sxy - sx * sy) / den) : Vec3(Vec3::Zero());
+}
+
+/// Fills R_BS, p_BS_B, w_S, alpha_S, a_S of a pose log's contexts.
+void posesToContexts(const logio::LogData& log, const ContextOptions& options, std::vector<SampleContext>& ctx) {
+  const std::size_t n = log.samples.size();
+  std::vector<Mat3> R(n);
+  const std::vector<Vec3> rv = triple(log, "rx", "ry", "rz");
+  const auto* qw = column(log, "qw");
+  if (qw != nullptr) {
+    const std::vector<Vec3> qv = triple(log, "qx", "qy", "qz");
+    if (qv.empty()) throw DataError(log.source + ": column qw without qx, qy, qz");
+    if (!rv.empty()) throw DataError(log.source + ": both a quaternion (qx..qw) and a rotation vector (rx..rz)");
+    for (std::size_t i = 0; i < n; ++i) {
+      Eigen::Quaterniond q((*qw)[i], qv[i].x(), qv[i].y(), qv[i].z());
+      const double norm = q.norm();
+      if (!(std::abs(norm - 1.0) < 1e-3)) {
+        throw DataError(log.source + ": sample " + std::to_string(i + 1) + " (t = " + std::to_string(log.samples[i].t) +
+                        "): quaternion qx,qy,qz,qw has norm " + std::to_string(norm) + ", not 1");
+      }
+      R[i] = q.normalized().toRotationMatrix();
+    }
+  } else if (!rv.empty()) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double angle = rv[i].norm();
+      R[i] = angle > 0 ? Mat3(Eigen::AngleAxisd(angle, rv[i] / angle).toRotationMatrix()) : Mat3(Mat3::Identity());
+    }
+  } else {
+    throw DataError(log.source + ": no joint angles and no sensor pose (qx,qy,qz,qw or rx,ry,rz)");
+  }
+  const std::vector<Vec3> p = triple(log, "px", "py", "pz");
+  const std::vector<Vec3> w = triple(log, "kin_wx", "kin_wy", "kin_wz");
+  const std::vector<Vec3> al = triple(log, "kin_alx", "kin_aly", "kin_alz");
+  const std::vector<Vec3> a = triple(log, "kin_ax", "kin_ay", "kin_az");
+  std::vector<double> t(n);
+  for (std::size_t i = 0; i < n; ++i) t[i] = log.samples[i].t;
+  const int h = std::max(1, options.derivative_half_window);
+  // Smoothed derivatives where no column gives them: w_S from the local rotation vectors
+  // log(R_i^T R_j) (expressed in S at i), alpha_S = d/dt w_S (w_S x w_S = 0), a_S = R^T d2p/dt2.
+  std::vector<Vec3> w_fd, v_fd;
+  if (w.empty() || (al.empty())) {
+    w_fd.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      w_fd[i] = slopeAt(t, i, h, [&](std::size_t j) { return rotationVector(R[i].transpose() * R[j]); });
+    }
+  }
+  if (a.empty() && !p.empty()) {
+    v_fd.resize(n);
+    for (std::size_t i = 0; i < n; ++i) v_fd[i] = slopeAt(t, i, h, [&](std::size_t j) { return p[j]; });
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    SampleContext& c = ctx[i];
+    c.R_BS = R[i];
+    c.p_BS_B = p.empty() ? Vec3(Vec3::Zero()) : p[i];
+    c.w_S = w.empty() ? w_fd[i] : w[i];
+    c.alpha_S = al.empty() ? slopeAt(t, i, h, [&](std::size_t j) { return w.empty() ? w_fd[j] : w[j]; }) : al[i];
+    if (!a.empty()) {
+      c.a_S = a[i];
+    } else if (!p.empty()) {
+      c.a_S = R[i].transpose() * slopeAt(t, i, h, [&](std::size_t j) { return v_fd[j]; });
+    } else {
+      c.a_S = Vec3::Zero();
+    }
+    c.q.setZero();
+    c.qd.setZero();
+    c.has_joints = false;
+  }
+}
+
+}  // namespace
+
 ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics& kinematics,
                          const ContextOptions& options) {
   if (log.samples.empty()) throw DataError(log.source + ": the log has no samples");
@@ -95,20 +219,27 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
   set.samples.resize(n);
   const double t0 = log.samples.front().t;
   set.t_origin = t0;
+  if (!log.has_joints) posesToContexts(log, options, set.samples);
   for (std::size_t i = 0; i < n; ++i) {
     const logio::LogSample& s = log.samples[i];
     SampleContext& c = set.samples[i];
-    const model::SensorMotion motion = kin.computeSensorMotion(s.q, s.qd, s.qdd);
+    if (log.has_joints) {
+      const model::SensorMotion motion = kin.computeSensorMotion(s.q, s.qd, s.qdd);
+      c.q = s.q;
+      c.qd = s.qd;
+      c.R_BS = motion.R_BS;
+      c.p_BS_B = motion.p_BS_B;
+      c.w_S = motion.w_S;
+      c.alpha_S = motion.alpha_S;
+      c.a_S = motion.a_S;
+    }
     c.t = s.t - t0;
-    c.q = s.q;
-    c.qd = s.qd;
-    c.R_BS = motion.R_BS;
-    c.p_BS_B = motion.p_BS_B;
-    c.w_S = motion.w_S;
-    c.alpha_S = motion.alpha_S;
-    c.a_S = motion.a_S;
-    c.g_S = motion.R_BS.transpose() * g_B;
+    c.g_S = c.R_BS.transpose() * g_B;
     c.wrench_S = s.wrench_S;
+    if (options.wrench_in_base) {
+      c.wrench_S.head<3>() = c.R_BS.transpose() * s.wrench_S.head<3>();
+      c.wrench_S.tail<3>() = c.R_BS.transpose() * s.wrench_S.tail<3>();
+    }
     c.has_imu = log.has_imu;
     c.has_temp = log.has_temp;
     if (log.has_imu) {

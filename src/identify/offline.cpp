@@ -10,8 +10,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
+#include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
@@ -21,21 +23,6 @@
 namespace ftid::identify {
 
 namespace {
-
-/// Whether something exists at `p` (never opened: a FIFO would block; the reader then refuses it).
-bool fileExists(const std::string& p) {
-  struct stat st {};
-  return ::stat(p.c_str(), &st) == 0;
-}
-
-std::string exeDir() {
-  char buf[4096];
-  const ssize_t n = ::readlink("/proc/self/exe", buf, sizeof(buf) - 1);
-  if (n <= 0) return ".";
-  std::string path(buf, static_cast<std::size_t>(n));
-  const auto slash = path.rfind('/');
-  return slash == std::string::npos ? "." : path.substr(0, slash);
-}
 
 void say(const ProgressFn& progress, const std::string& line) {
   if (progress) progress(line);
@@ -53,22 +40,31 @@ ContextSet loadContexts(const std::string& log_path, const std::string& robot_ur
 
 }  // namespace
 
-std::string defaultRobotUrdf() {
-  const std::string rel = "config/ur10.urdf";
-  if (fileExists(rel)) return rel;
-  const std::string dir = exeDir();
-  for (const std::string& c : {dir + "/../share/ftid/config/ur10.urdf", dir + "/../../config/ur10.urdf",
-                               dir + "/../../../config/ur10.urdf"}) {
-    if (fileExists(c)) return c;
-  }
-  return rel;  // the error then names the relative path
-}
+std::string defaultRobotUrdf() { return findDefaultFile("ur10.urdf"); }
 
 ParameterSet identifyLogFile(const IdentifyRequest& request) {
   const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
   ParameterSet set;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
+    // Pose logs have no joint angles: a model that reads them cannot be fitted (say which effect).
+    for (const auto& e : model.effectList()) {
+      const std::string n = e->name();
+      const auto open = n.find('(');
+      if (open == std::string::npos || contexts.samples.empty()) continue;
+      const auto end = n.find_first_of(",)", open);
+      try {
+        const auto src = effects::SignalSource::parse(n.substr(open + 1, end - open - 1));
+        if (!src.available(contexts.samples.front())) {
+          throw IdentificationError(request.log_path + ": effect " + n + " needs the signal '" + src.name() +
+                                    "', which the log does not have" +
+                                    (contexts.samples.front().has_joints ? std::string()
+                                                                         : " (a pose log has no joint angles)"));
+        }
+      } catch (const ConfigError&) {
+        // not a signal argument (e.g. temperature_drift(20))
+      }
+    }
     say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
                               " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
     const FitResult fit = fitModel(model, contexts.samples);

@@ -51,7 +51,12 @@ std::string missingSignal(const Model& model, const std::vector<SampleContext>& 
     if (sig.empty()) continue;
     try {
       const auto src = effects::SignalSource::parse(sig);
-      if (!src.available(ctx.front())) return "the log has no signal '" + sig + "'";
+      if (!src.available(ctx.front())) {
+        if (!ctx.front().has_joints && (sig.rfind("q", 0) == 0)) {
+          return "needs the joint angle signal '" + sig + "'; the log gives the sensor pose, not joint angles";
+        }
+        return "the log has no signal '" + sig + "'";
+      }
     } catch (const ConfigError&) {
       // Effect arguments that are not signals (temperature_drift(20)) are the effect's business.
     }

@@ -24,20 +24,22 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
   say("reading " + request.log_path);
   const logio::LogData log = logio::readLog(request.log_path);
   say(std::to_string(log.samples.size()) + " samples, robot " + urdf);
-  identify::ContextSet fit = identify::buildContexts(log, kin);
+  identify::ContextSet fit = identify::buildContexts(log, kin, request.context);
   for (auto& c : fit.samples) c.extra_names = &fit.extra_names;
   identify::ContextSet val;
   if (!request.validate_path.empty()) {
     say("reading " + request.validate_path);
     const logio::LogData vlog = logio::readLog(request.validate_path);
-    val = identify::buildContexts(vlog, kin);
+    val = identify::buildContexts(vlog, kin, request.context);
     if (val.extra_names != fit.extra_names) {
       throw DataError(request.validate_path + ": its extra columns differ from those of " + request.log_path);
     }
     for (auto& c : val.samples) c.extra_names = &val.extra_names;
   }
-  return analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples, request.options,
-                 request.log_path, request.validate_path);
+  AnalysisResult result = analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples,
+                                  request.options, request.log_path, request.validate_path);
+  result.robot_urdf = urdf;
+  return result;
 }
 
 void writeTextFileAtomically(const std::string& path, const std::string& text) {

@@ -69,7 +69,14 @@ std::string formatText(const AnalysisResult& r) {
   int shown = 0;
   for (const auto& c : r.candidates) {
     if (c.skipped) continue;
-    s += line("  %-20s %6.1f %%  p = %-9.2g %-15s %s", c.effect.c_str(), 100.0 * c.relative_reduction, c.p_value,
+    // A p-value below the smallest double's range underflows to 0: say how small it is instead.
+    char p[32];
+    if (c.p_value < 1e-300) {
+      std::snprintf(p, sizeof(p), "p < 1e-300");
+    } else {
+      std::snprintf(p, sizeof(p), "p = %.2g", c.p_value);
+    }
+    s += line("  %-20s %6.1f %%  %-13s %-15s %s", c.effect.c_str(), 100.0 * c.relative_reduction, p,
               c.significant ? "SIGNIFICANT" : "not significant", c.description.c_str());
     ++shown;
   }
@@ -98,6 +105,12 @@ std::string formatText(const AnalysisResult& r) {
                              : "  nothing significant is left after step " + std::to_string(r.steps.size() - 1) + ".\n";
   }
   s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
+  if (!r.steps.empty()) {
+    // --explain closes with the commands that turn the final model into parameters and exports.
+    s += "\nidentify the final model, write its parameters and the UR / ros2_control exports:\n";
+    s += "  ftid identify --log " + r.log + " --model " + r.steps.back().model + " --out params.yaml\n";
+    s += "  (writes params.yaml.ros2.yaml and params.yaml.urscript; or: ftid export --params params.yaml)\n";
+  }
   return s;
 }
 

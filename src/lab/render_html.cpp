@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ctime>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -65,7 +66,8 @@ struct Shade {
 /// One line/scatter plot as an inline SVG element.
 std::string plot(const std::string& title, const std::string& xlabel, const std::string& ylabel,
                  const std::vector<Series>& series, const std::vector<Shade>& shades = {},
-                 double width = 540, double height = 200, const std::vector<double>& hlines = {}) {
+                 double width = 540, double height = 200, const std::vector<double>& hlines = {},
+                 const std::vector<double>& vlines = {}) {
   const double ml = 62, mr = 12, mt = 24, mb = 36;
   double x0 = 1e300, x1 = -1e300, y0 = 1e300, y1 = -1e300;
   for (const auto& s : series) {
@@ -104,6 +106,11 @@ std::string plot(const std::string& title, const std::string& xlabel, const std:
   for (double h : hlines) {
     o << "<line x1=\"" << px(ml) << "\" x2=\"" << px(ml + W) << "\" y1=\"" << px(Y(h)) << "\" y2=\"" << px(Y(h))
       << "\" stroke=\"#333\" stroke-dasharray=\"4 3\"/>";
+  }
+  for (double v : vlines) {  // fold boundaries
+    if (v <= x0 || v >= x1) continue;
+    o << "<line x1=\"" << px(X(v)) << "\" x2=\"" << px(X(v)) << "\" y1=\"" << px(mt) << "\" y2=\"" << px(mt + H)
+      << "\" stroke=\"#7a7a7a\" stroke-dasharray=\"2 3\" class=\"fold\"/>";
   }
   for (const auto& s : series) {
     if (s.dots) {
@@ -236,9 +243,30 @@ std::string renderHtml(const AnalysisResult& r) {
     << (r.validate_log.empty() ? std::to_string(r.folds) + "-fold held-out validation over contiguous time blocks"
                                : "validated on <code>" + esc(r.validate_log) + "</code>")
     << ". Every residual shown is held out (predicted by a fit that did not see it).</p>\n";
+  {
+    // Provenance: what produced this report, from which data.
+    char when[40] = "?";
+    const std::time_t now = std::time(nullptr);
+    std::tm tm_utc{};
+    if (gmtime_r(&now, &tm_utc) != nullptr) std::strftime(when, sizeof(when), "%Y-%m-%d %H:%M:%S UTC", &tm_utc);
+    o << "<p class=\"provenance\">Provenance: ftid " << FTID_VERSION << ", report generated " << when << "; log <code>"
+      << esc(r.log) << "</code>";
+    if (!r.validate_log.empty()) o << ", validation log <code>" << esc(r.validate_log) << "</code>";
+    o << "; robot <code>" << esc(r.robot_urdf.empty() ? std::string("(not recorded)") : r.robot_urdf)
+      << "</code>; starting model <code>" << esc(r.report.model) << "</code>"
+      << (r.final_report ? "; final model <code>" + esc(r.final_report->model) + "</code>" : std::string())
+      << ".</p>\n";
+  }
   o << "<h2>Residual per axis</h2>" << axisTable(r);
 
   const std::size_t n = r.t.size();
+  // k-fold: the boundaries between the contiguous held-out blocks (dotted lines in the plots).
+  std::vector<double> folds;
+  if (r.validate_log.empty() && r.folds > 1 && n > 0) {
+    for (int f = 1; f < r.folds; ++f) {
+      folds.push_back(r.t[static_cast<std::size_t>(static_cast<long long>(n) * f / r.folds)]);
+    }
+  }
   std::vector<Shade> shades;
   for (const auto& w : r.windows) shades.push_back({w.t_start, w.t_end});
   o << "<h2>Measured vs model (held-out prediction)</h2><div class=\"grid\">";
@@ -252,9 +280,9 @@ std::string renderHtml(const AnalysisResult& r) {
     Series sm{{}, {}, "#999999", "measured", false}, sp{{}, {}, "#1f77b4", "model", false};
     decimate(r.t, m, 1200, &sm.x, &sm.y);
     decimate(r.t, p, 1200, &sp.x, &sp.y);
-    o << plot(kWrenchAxisNames[a], "t [s]", a < 3 ? "N" : "Nm", {sm, sp});
+    o << plot(kWrenchAxisNames[a], "t [s]", a < 3 ? "N" : "Nm", {sm, sp}, {}, 540, 200, {}, folds);
   }
-  o << "</div>\n<h2>Held-out residual over time (worst windows shaded)</h2><div class=\"grid\">";
+  o << "</div>\n<h2>Held-out residual over time (worst windows shaded; k-fold block boundaries dotted)</h2><div class=\"grid\">";
   for (int a = 0; a < 6; ++a) {
     std::vector<double> res(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -263,7 +291,7 @@ std::string renderHtml(const AnalysisResult& r) {
     Series s{{}, {}, "#d62728", "", false};
     decimate(r.t, res, 1200, &s.x, &s.y);
     o << plot(std::string("residual ") + kWrenchAxisNames[a] + " (noise floor +-" + f(r.noise_floor(a), 3) + ")",
-              "t [s]", a < 3 ? "N" : "Nm", {s}, shades, 540, 200, {r.noise_floor(a), -r.noise_floor(a)});
+              "t [s]", a < 3 ? "N" : "Nm", {s}, shades, 540, 200, {r.noise_floor(a), -r.noise_floor(a)}, folds);
   }
   o << "</div>\n";
   if (!r.windows.empty()) {
@@ -298,7 +326,7 @@ std::string renderHtml(const AnalysisResult& r) {
   for (const auto& c : r.candidates) {
     if (c.skipped) continue;
     o << "<tr" << (c.significant ? " class=\"sig\"" : "") << "><td>" << esc(c.effect) << "</td><td>"
-      << f(100.0 * c.relative_reduction, 3) << " %</td><td>" << f(c.p_value, 2) << "</td><td>"
+      << f(100.0 * c.relative_reduction, 3) << " %</td><td>" << (c.p_value < 1e-300 ? std::string("&lt; 1e-300") : f(c.p_value, 2)) << "</td><td>"
       << (c.significant ? "yes" : "no") << "</td><td>" << esc(c.description) << "</td><td><code>"
       << esc(c.next_command) << "</code></td></tr>";
   }

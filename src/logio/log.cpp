@@ -260,8 +260,23 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     return std::make_tuple(missing, present, total);
   };
   {
+    // t always; the joint columns q, qd, qdd unless the log gives the sensor pose instead
+    // (qx,qy,qz,qw or rx,ry,rz: kept as extra columns, read by identify::buildContexts).
     auto [missing, present, total] = missingOf(kCore);
-    if (present != total) dataError(path, header_line, 1, "missing required column(s): " + missing);
+    if (known_field[0] < 0) dataError(path, header_line, 1, "missing required column(s): " + missing);
+    const auto hasExtra = [&](std::initializer_list<const char*> names) {
+      for (const char* n : names) {
+        if (log.extraIndex(n) < 0) return false;
+      }
+      return true;
+    };
+    const bool pose = hasExtra({"qx", "qy", "qz", "qw"}) || hasExtra({"rx", "ry", "rz"});
+    log.has_joints = present == total;
+    if (!log.has_joints && (present > 1 || !pose)) {
+      dataError(path, header_line, 1,
+                "missing required column(s): " + missing +
+                    (present > 1 ? "" : " (or, instead of joint angles, the sensor pose: qx,qy,qz,qw or rx,ry,rz)"));
+    }
   }
   {
     auto [missing, present, total] = missingOf(kWrench);
@@ -366,7 +381,7 @@ void writeLog(const std::string& path, const LogData& log) {
   std::vector<int> cols;
   for (int i = 0; i < kNumKnown; ++i) {
     const Group g = known[static_cast<std::size_t>(i)].group;
-    if (g == kCore || (g == kWrench && log.has_wrench) || (g == kImu && log.has_imu) ||
+    if ((g == kCore && (i == 0 || log.has_joints)) || (g == kWrench && log.has_wrench) || (g == kImu && log.has_imu) ||
         (g == kTemp && log.has_temp)) {
       cols.push_back(i);
     }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "ftid/fileio/yaml_strict.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
 
@@ -131,13 +132,13 @@ void loadSimSensorYaml(const std::string& path, SimSensorConfig& config) {
       config.rtde_port = static_cast<std::uint16_t>(p);
     }
     if (n["rtde_frequency_hz"]) config.rtde_frequency_hz = r.number(n["rtde_frequency_hz"], "robot.rtde_frequency_hz");
-    if (n["urdf"]) config.urdf_path = r.text(n["urdf"], "robot.urdf");
+    if (n["urdf"]) config.urdf_path = resolveRelativeTo(path, r.text(n["urdf"], "robot.urdf"));
   }
   if (const auto n = root["output"]) {
     r.onlyKeys(n, "output", {"socket", "can_interface", "dbc", "rate_hz", "candump_log"});
     if (n["socket"]) config.socket_path = r.text(n["socket"], "output.socket");
     if (n["can_interface"]) config.can_interface = r.text(n["can_interface"], "output.can_interface");
-    if (n["dbc"]) config.dbc_path = r.text(n["dbc"], "output.dbc");
+    if (n["dbc"]) config.dbc_path = resolveRelativeTo(path, r.text(n["dbc"], "output.dbc"));
     if (n["candump_log"]) config.candump_log = r.text(n["candump_log"], "output.candump_log");
     if (n["rate_hz"]) {
       config.rate_hz = r.number(n["rate_hz"], "output.rate_hz");

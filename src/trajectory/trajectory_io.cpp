@@ -1,5 +1,6 @@
 // Excitation trajectory files: traj.yaml (coefficients + provenance) and traj.csv (sampled).
 // Format documented in docs/design.md; conventions in docs/conventions.md.
+#include "ftid/common/default_files.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 
 #include <unistd.h>
@@ -170,7 +171,7 @@ void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file) {
        "# whole number of base periods. Units SI (docs/conventions.md). Re-check with\n"
        "#   ftid check-trajectory THIS_FILE\n";
   o << "format: " << kFormatTag << "\n";
-  o << "robot: " << quoted(file.robot) << "\n";
+  o << "robot: " << quoted(relativeTo(path, file.robot)) << "   # a relative path is relative to this file\n";
   o << "joints: [";
   for (std::size_t i = 0; i < file.joints.size(); ++i) o << (i ? ", " : "") << file.joints[i];
   o << "]            # excited joints, 1-based UR order; the others stay at q0\n";
@@ -257,7 +258,7 @@ TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& pa
     r.fail("format", std::string("expected '") + kFormatTag + "'");
   }
   TrajectoryFile f;
-  if (root["robot"]) f.robot = root["robot"].as<std::string>();
+  if (root["robot"]) f.robot = resolveRelativeTo(path, root["robot"].as<std::string>());
 
   const YAML::Node joints = r.require(root, "joints", "joints");
   if (!joints.IsSequence() || joints.size() == 0)

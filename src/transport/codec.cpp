@@ -56,6 +56,8 @@ void toLcm(const CycleRecord& in, ftid_lcm::compensated_wrench_t* out) noexcept 
   copyOut<6>(in.sensor.wrench_S, out->raw);
   copyOut<6>(in.modelled_S, out->modelled);
   copyOut<6>(in.contact_S, out->contact);
+  copyOut<6>(in.output, out->output);
+  out->output_frame = in.output_frame;
   out->valid = in.wrench_valid ? 1 : 0;
   out->fault_bits = static_cast<std::int32_t>(in.fault_bits);
   out->sensor_health_flags = static_cast<std::int32_t>(in.sensor.health_flags);
@@ -129,6 +131,8 @@ void fromLcm(const ftid_lcm::compensated_wrench_t& in, CycleRecord* out) noexcep
   copyIn<6>(in.raw, &out->sensor.wrench_S);
   copyIn<6>(in.modelled, &out->modelled_S);
   copyIn<6>(in.contact, &out->contact_S);
+  copyIn<6>(in.output, &out->output);
+  out->output_frame = in.output_frame;
   out->wrench_valid = in.valid != 0;
   out->fault_bits = static_cast<std::uint32_t>(in.fault_bits);
   out->sensor.health_flags = static_cast<std::uint32_t>(in.sensor_health_flags);

@@ -118,12 +118,13 @@ lcm:
 rt:
   lock_memory: false
 YAML
-cp "$SRC/config/excitation_ur10.yaml" "$WORK/traj.yaml"
+# The paper's 10 s trajectory: long enough to inject each fault during the motion.
+cp "$SRC/config/excitation_ur10_paper.yaml" "$WORK/traj.yaml"
 if [ "$CASE" = below_floor ]; then  # shoulder edited: `ftid check-trajectory` flags the floor
   sed -i 's/^q0: \[0.0, -1.5707963267948966,/q0: [0.0, -0.6,/' "$WORK/traj.yaml"
   grep -q '^q0: \[0.0, -0.6,' "$WORK/traj.yaml" || { echo "FAIL: could not edit q0"; exit 1; }
 fi
-[ -f "$SRC/config/excitation_ur10.csv" ] && cp "$SRC/config/excitation_ur10.csv" "$WORK/traj.csv"
+[ -f "$SRC/config/excitation_ur10_paper.csv" ] && cp "$SRC/config/excitation_ur10_paper.csv" "$WORK/traj.csv"
 
 if [ "$CASE" = disk_full ]; then  # fill the tmpfs: the previous file stays, nothing new fits
   dd if=/dev/zero of="$PDIR/filler" bs=1k count=1024 2>/dev/null

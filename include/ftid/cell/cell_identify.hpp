@@ -24,10 +24,20 @@
 
 namespace ftid::cell {
 
+/// The shipped excitation trajectory `ftid --identify` uses without --trajectory, for the robot
+/// of the config (the URDF's file name without .urdf, e.g. "ur10", "ur10e"):
+/// `excitation_<robot>.yaml`, a 3 s trajectory designed for paper+rigid_body, or with `paper`
+/// `excitation_<robot>_paper.yaml`, the paper's 10 s excitation. Found by the one default-file
+/// lookup (ftid/common/default_files.hpp).
+std::string defaultTrajectoryName(const std::string& urdf_path, bool paper);
+/// The model `ftid --identify` fits by default (the one the default trajectory is designed for).
+inline constexpr const char* kDefaultModel = "paper+rigid_body";
+
 struct CellIdentifyOptions {
   std::string config_path = "/etc/ftid/ftidd.yaml";  ///< ftidd config (robot, LCM, parameters)
   std::string trajectory_path;  ///< traj.yaml; empty = the shipped default for the robot
-  std::string model = "paper";  ///< model to identify (e.g. "paper+rigid_body")
+  std::string model = kDefaultModel;  ///< model to identify (e.g. "paper")
+  bool paper = false;           ///< without trajectory_path: the paper's 10 s trajectory
   std::string runs_dir;         ///< where recorded runs go; empty = <params dir>/runs
   /// empty = the config's parameters.path. Another file is refused (ConfigError) unless
   /// reload_daemon is false: ftidd loads only its configured file.

@@ -96,6 +96,34 @@ struct RecordConfig {
   std::string path = "/var/lib/ftid/ftidd-%Y%m%d-%H%M%S.lcm";
 };
 
+/// A rigid part between the flange and the sensor's measuring side (the sensor cannot weigh it),
+/// for the UR payload export (docs/operations.md "Exports").
+struct RigidPartConfig {
+  double mass = 0.0;          ///< [kg]
+  Vec3 com_F = Vec3::Zero();  ///< centre of mass in the flange frame F [m]
+  /// Inertia about its own centre of mass, axes of F, UR order [ixx, iyy, izz, ixy, ixz, iyz]
+  /// [kg m^2].
+  Vec6 inertia_C_F = Vec6::Zero();
+};
+
+/// The published output (compensated_wrench_t.output): frame and low-pass (docs/daemon.md).
+struct OutputConfig {
+  std::string frame = "sensor";        ///< sensor | tool | base
+  Vec3 tool_xyz = Vec3::Zero();        ///< tool frame T origin in S [m] (p_ST_S)
+  Vec3 tool_rpy = Vec3::Zero();        ///< R_ST = Rz(yaw) Ry(pitch) Rx(roll) [rad]
+  double lowpass_hz = 0.0;             ///< 2nd-order Butterworth cut-off; 0 = off
+  Mat3 R_ST() const;
+};
+
+/// Names and parts used by the exports (`ftid export`, `identify --out`, `ftid --identify`).
+struct ExportConfig {
+  std::string world_frame = "base";       ///< ROS TF frame = robot base B (gravity_field is in it)
+  std::string sensor_frame = "ft_sensor"; ///< ROS TF frame = sensor frame S
+  std::string sensor_name = "ft_sensor";  ///< force_torque_sensor_broadcaster sensor_name
+  RigidPartConfig adapter;                ///< adapter plate between flange and sensor
+  RigidPartConfig sensor_body;            ///< the sensor's own body up to its measuring side
+};
+
 struct DaemonConfig {
   RobotConfig robot;
   SensorConfig sensor;
@@ -103,6 +131,8 @@ struct DaemonConfig {
   LcmConfig lcm;
   RtConfig rt;
   RecordConfig record;
+  ExportConfig exports;  ///< YAML section `export`
+  OutputConfig output;
   std::string source;  ///< the file this was loaded from ("" for defaults)
   /// Legal but risky settings found by validation (e.g. lcm.url ttl > 1); ftidd and
   /// --check-config print them.

@@ -24,6 +24,7 @@
 #include <cstdint>
 
 #include "ftid/common/status.hpp"
+#include "ftid/daemon/output_stage.hpp"
 #include "ftid/daemon/seams.hpp"
 #include "ftid/daemon/swap_slot.hpp"
 #include "ftid/daemon/time_pairing.hpp"
@@ -102,6 +103,10 @@ class DaemonCycle {
     stats_every_ = every_n_cycles > 0 ? every_n_cycles : 1;
   }
 
+  /// The output stage (frame, low-pass) applied to the contact wrench of every cycle; nullptr =
+  /// output = contact in S. Call before the loop starts.
+  void attachOutputStage(OutputStage* stage) noexcept { output_stage_ = stage; }
+
   const CycleCounters& counters() const noexcept { return counters_; }
   /// Fault bits raised since the supervisor last cleared them.
   FaultWord& faults() noexcept { return faults_; }
@@ -138,6 +143,7 @@ class DaemonCycle {
   SensorPairing last_pairing_ = SensorPairing::kNone;
   std::int64_t last_pair_time_us_ = 0;
   double prev_wait_robot_time_ = 0.0;  // robot_time of the previous waitForTick() state
+  OutputStage* output_stage_ = nullptr;
   const rt::LoopStats* loop_stats_ = nullptr;
   rt::Mailbox<rt::LoopStats>* stats_box_ = nullptr;
   std::uint32_t stats_every_ = 1;

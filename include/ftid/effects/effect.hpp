@@ -56,6 +56,9 @@ struct SampleContext {
   Wrench wrench_model_S = Wrench::Zero();
   bool has_imu = false;
   bool has_temp = false;
+  /// false for pose logs (docs/log-format.md): q and qd are unknown (zero); effects that read
+  /// joint signals are unavailable (SignalSource::available).
+  bool has_joints = true;
 };
 
 /// One parameter of an effect.

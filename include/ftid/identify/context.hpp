@@ -30,7 +30,17 @@ struct ContextOptions {
   Vec3 p_FS_F = Vec3::Zero();     ///< sensor mount (position of the S origin in F) [m]
   double tilt_u_rad = 0.0;        ///< tilt used to fill g_S (the fitter recomputes g_S itself)
   double tilt_v_rad = 0.0;
+  /// The frame of the log's wrench columns: false = S (the sensor's own frame), true = B (the
+  /// reading rotated into the robot base, moments still about the S origin):
+  /// wrench_S = [R_BS^T f_B; R_BS^T t_B] (`--wrench-frame base`).
+  bool wrench_in_base = false;
+  /// Pose logs without motion columns: half-width [samples] of the local least-squares windows
+  /// that differentiate the pose (smoothed finite differences).
+  int derivative_half_window = 3;
 };
+
+/// Parses `--wrench-frame sensor|base` (throws ConfigError naming the option otherwise).
+bool parseWrenchFrame(const std::string& text);
 
 /// The contexts of one log. Owns the row-major copy of the extra columns that
 /// SampleContext::extra points into and the names SampleContext::extra_names points to; copying
@@ -61,6 +71,14 @@ struct ContextSet {
 
 /// Builds contexts for every sample of the log. Throws DataError (naming the log) if the log has
 /// no wrench columns or no samples.
+///
+/// Pose logs (docs/log-format.md; log.has_joints false) give the pose of S in B instead of joint
+/// angles: R_BS from qx,qy,qz,qw (|q| within 1e-3 of 1, then normalised) or from
+/// rx,ry,rz (rotation vector, UR actual_TCP_pose), p_BS_B from px,py,pz (optional, else 0).
+/// w_S, alpha_S, a_S come from the columns kin_wx..kin_wz, kin_alx..kin_alz, kin_ax..kin_az if
+/// present, else from smoothed finite differences of the pose (local least squares over
+/// +-derivative_half_window samples; a_S = 0 without a position). q and qd are zero and
+/// has_joints is false in every context.
 ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics& kinematics,
                          const ContextOptions& options = {});
 

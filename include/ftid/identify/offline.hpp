@@ -48,8 +48,8 @@ struct CompensateSummary {
 /// the log (the first |delay| seconds, or the last ones for a negative delay) are left out.
 CompensateSummary compensateLogFile(const CompensateRequest& request);
 
-/// Default robot description: `config/ur10.urdf` relative to the working directory, else next to
-/// the installed/built binary (share/ftid/config, or the source tree's config/).
+/// Default robot description: ur10.urdf from ftid's one default-file lookup
+/// (ftid/common/default_files.hpp: build tree, /usr/share/ftid/config, /etc/ftid).
 std::string defaultRobotUrdf();
 
 }  // namespace ftid::identify

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "ftid/identify/context.hpp"
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
@@ -131,6 +132,7 @@ struct AnalysisResult {
   Eigen::Matrix<double, 6, Eigen::Dynamic> predicted;   ///< held-out prediction
   std::vector<double> top_signal;                       ///< values of correlations[0].signal
   double seconds = 0.0;                                 ///< wall time of the analysis
+  std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance
 };
 
 /// Runs the analysis on contexts built from the log (identify::buildContexts). `validate`, if
@@ -161,6 +163,7 @@ struct AnalyzeFilesRequest {
   std::string validate_path;   ///< "" = k-fold
   std::string robot_urdf;      ///< "" = default
   AnalyzeOptions options;
+  identify::ContextOptions context;  ///< e.g. wrench_in_base for `--wrench-frame base`
 };
 AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request);
 

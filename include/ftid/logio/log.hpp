@@ -31,6 +31,9 @@ struct LogData {
   std::string source;  ///< file path (for messages)
   std::vector<LogSample> samples;
   bool has_wrench = true;
+  /// false: a pose log (docs/log-format.md "Pose logs"): no q/qd/qdd columns (zero in the
+  /// samples); the pose columns qx..qw or rx..rz are among the extra columns.
+  bool has_joints = true;
   bool has_imu = false;
   bool has_temp = false;
   std::vector<std::string> extra_names;             ///< extra columns, in file order

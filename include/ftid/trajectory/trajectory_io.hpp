@@ -57,7 +57,9 @@ struct TrajectoryFile {
   double servo_rate_hz = 125.0;  ///< rate of the sampled CSV (125 CB3, 500 e-Series)
 
   // --- what it was designed for / under
-  std::string robot;  ///< URDF path as given
+  /// URDF of the robot. In the file it is relative to the trajectory file's directory (or
+  /// absolute); readTrajectoryFile resolves it, writeTrajectoryFile writes it relative again.
+  std::string robot;
   TrajectoryConstraints constraints;
   std::map<std::string, std::string> design;    ///< model, objective, seed, algorithms, budgets...
   std::map<std::string, double> metrics;        ///< achieved figures (condition_number, ...)

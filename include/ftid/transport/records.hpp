@@ -57,6 +57,10 @@ struct CycleRecord {
   std::uint32_t fault_bits = 0;   ///< ftid::FaultBit
   Wrench modelled_S = Wrench::Zero();  ///< model prediction [N, Nm]
   Wrench contact_S = Wrench::Zero();   ///< raw - modelled, zero when !wrench_valid
+  /// The contact wrench in the output frame, low-pass filtered (daemon::OutputStage); zero
+  /// when !wrench_valid.
+  Wrench output = Wrench::Zero();
+  std::int8_t output_frame = 0;        ///< 0 sensor, 1 tool, 2 base (compensated_wrench_t)
   bool wrench_valid = false;
   std::int32_t param_version = 0;
 };

@@ -97,6 +97,13 @@ TEST_F(Report, IsSelfContained) {
   EXPECT_NE(h.find("most related signal"), std::string::npos);
   EXPECT_NE(h.find("error falling step by step"), std::string::npos);
   EXPECT_NE(h.find("rigid_body"), std::string::npos);
+  // Provenance (version, date, log, models) and the k-fold block boundaries: folds - 1 lines in
+  // each of the 12 time plots.
+  EXPECT_NE(h.find("Provenance: ftid "), std::string::npos);
+  EXPECT_NE(h.find(" UTC; log <code>"), std::string::npos);
+  std::size_t fold_lines = 0;
+  for (std::size_t at = h.find("class=\"fold\""); at != std::string::npos; at = h.find("class=\"fold\"", at + 1)) ++fold_lines;
+  EXPECT_EQ(fold_lines, 12u * static_cast<std::size_t>(result_->folds - 1));
 }
 
 TEST_F(Report, RendersInHeadlessChromium) {

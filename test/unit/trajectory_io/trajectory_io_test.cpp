@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+
+#include <filesystem>
 #include <unistd.h>
 
 #include <cmath>
@@ -91,6 +93,19 @@ TrajectoryFile sampleFile() {
   return f;
 }
 
+TEST(TrajectoryIo, RobotBesideTheFileIsStoredRelativeToTheFile) {
+  TrajectoryFile f = sampleFile();
+  const std::string path = tempPath("rel.yaml");
+  f.robot = (std::filesystem::path(path).parent_path() / "robots" / "arm.urdf").string();
+  writeTrajectoryFile(path, f);
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("robot: \"robots/arm.urdf\""), std::string::npos) << text.str();
+  EXPECT_EQ(readTrajectoryFile(path).robot, std::filesystem::path(f.robot).lexically_normal().string());
+  std::remove(path.c_str());
+}
+
 TEST(TrajectoryIo, YamlRoundTripIsExact) {
   const TrajectoryFile f = sampleFile();
   const std::string path = tempPath("rt.yaml");
@@ -104,7 +119,9 @@ TEST(TrajectoryIo, YamlRoundTripIsExact) {
   EXPECT_EQ(g.a, f.a);
   EXPECT_EQ(g.b, f.b);
   EXPECT_EQ(g.servo_rate_hz, f.servo_rate_hz);
-  EXPECT_EQ(g.robot, f.robot);
+  // The robot is a path relative to the working directory in memory; the file stores it
+  // relative to itself or absolute (here: absolute), and reading gives the resolved path.
+  EXPECT_EQ(g.robot, std::filesystem::absolute(f.robot).lexically_normal().string());
   EXPECT_EQ(g.constraints.position_lower, f.constraints.position_lower);
   EXPECT_EQ(g.constraints.position_upper, f.constraints.position_upper);
   EXPECT_EQ(g.constraints.velocity, f.constraints.velocity);
