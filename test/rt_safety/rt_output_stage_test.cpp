@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "alloc_controls.hpp"
 #include "alloc_counter.hpp"
 #include "ftid/daemon/output_stage.hpp"
 
@@ -40,3 +41,6 @@ TEST(RtOutputStage, ProcessDoesNotAllocateInAnyFrameWithTheFilter) {
     delete v;
   }
 }
+
+// Positive controls: in this binary the counter sees a deliberate allocation of every kind.
+FTID_ALLOCATION_COUNTER_CONTROLS();
