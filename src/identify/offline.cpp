@@ -57,14 +57,11 @@ std::string defaultRobotUrdf() {
   return rel;  // the error then names the relative path
 }
 
-ParameterSet identifyLogFile(const IdentifyRequest& request) {
-  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request) {
   ParameterSet set;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
-    say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
-                              " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
-    const FitResult fit = fitModel(model, contexts.samples);
+    const FitResult fit = fitModel(model, samples);
     set = toParameterSet(fit);
   } else {
     PaperOptions o;
@@ -75,12 +72,36 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
     } else {
       throw ConfigError("--method must be 'static' or 'dynamic', not '" + request.method + "'");
     }
-    say(request.progress, std::string("paper method (") + toString(o.method) + "): force stage, torque stage");
-    const PaperResult r = identifyPaper(contexts.samples, o);
+    const PaperResult r = identifyPaper(samples, o);
     set = r.toParameterSet();
   }
-  set.provenance.data_file = request.log_path;
   return set;
+}
+
+ParameterSet identifyLogFile(const IdentifyRequest& request) {
+  return identifyLogFileChecked(request, false).set;
+}
+
+CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
+  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+  CheckedIdentification out;
+  if (!request.model.empty()) {
+    const Model model = Model::fromName(request.model);
+    say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
+                              " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
+  } else {
+    say(request.progress, "paper method (" + request.method + "): force stage, torque stage");
+  }
+  out.set = identifyContexts(contexts.samples, request);
+  out.set.provenance.data_file = request.log_path;
+  if (check) {
+    say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
+    const std::string model = request.model.empty() ? out.set.model : request.model;
+    out.check = checkFit(
+        contexts.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request); },
+        "ftid analyze " + request.log_path + " --model " + model + " --explain", request.noise_std);
+  }
+  return out;
 }
 
 std::string formatParameterTable(const ParameterSet& set) {

@@ -1,0 +1,322 @@
+// The noise floor from the data (include/ftid/identify/noise.hpp, docs/identification.md).
+#include "ftid/identify/noise.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "ftid/common/error.hpp"
+
+namespace ftid::identify {
+
+namespace {
+
+constexpr double kMadToStd = 1.482602218505602;
+constexpr double kColouredPhi = 0.2;  // below: white (the stride-1 estimate is used unchanged)
+constexpr int kMaxStride = 3;
+
+double median(std::vector<double>& v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// |4th differences| at stride s of one segment, appended to out.
+void appendDifferences(const std::vector<double>& x, int s, std::vector<double>& out) {
+  const std::size_t st = static_cast<std::size_t>(s);
+  for (std::size_t i = 0; i + 4 * st < x.size(); ++i) {
+    out.push_back(std::abs(x[i] - 4.0 * x[i + st] + 6.0 * x[i + 2 * st] - 4.0 * x[i + 3 * st] + x[i + 4 * st]));
+  }
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::string toString(NoiseMethod method) {
+  switch (method) {
+    case NoiseMethod::kWhite: return "white";
+    case NoiseMethod::kColoured: return "coloured";
+    case NoiseMethod::kStaticPoses: return "static_poses";
+    case NoiseMethod::kNotObservable: return "not_observable";
+    case NoiseMethod::kDataSheet: return "data_sheet";
+  }
+  return "?";
+}
+
+Vec6 NoiseFloor::innovationStd() const {
+  Vec6 out;
+  for (int a = 0; a < 6; ++a) out(a) = std(a) * std::sqrt(std::max(0.0, 1.0 - ar1(a) * ar1(a)));
+  return out;
+}
+
+double differenceNoiseStd(const std::vector<double>& x, int stride) {
+  if (stride < 1) throw std::invalid_argument("differenceNoiseStd: stride must be >= 1");
+  const std::size_t need = 4 * static_cast<std::size_t>(stride) + 4;
+  if (x.size() < need) {
+    throw DataError("noise floor: need at least " + std::to_string(need) + " samples, got " + std::to_string(x.size()));
+  }
+  std::vector<double> d;
+  d.reserve(x.size());
+  appendDifferences(x, stride, d);
+  return kMadToStd * median(d) / std::sqrt(70.0);
+}
+
+double differenceVarianceFactor(double phi, int stride) {
+  const double p = std::pow(phi, stride);
+  return 70.0 - 112.0 * p + 56.0 * p * p - 16.0 * p * p * p + 2.0 * p * p * p * p;
+}
+
+Ar1Noise estimateAr1Noise(const std::vector<std::vector<double>>& segments) {
+  // Robust spread of the differences at each stride, then the AR(1) phi whose variance factors
+  // fit their growth with the stride best (least squares in log variance; sigma^2 profiled out).
+  double logv[kMaxStride];
+  for (int s = 1; s <= kMaxStride; ++s) {
+    std::vector<double> d;
+    for (const auto& seg : segments) {
+      if (seg.size() >= 4 * kMaxStride + 1) appendDifferences(seg, s, d);
+    }
+    if (d.size() < 16) throw DataError("noise floor: too few consecutive samples for the difference estimate");
+    const double sd = kMadToStd * median(d);
+    logv[s - 1] = std::log(std::max(sd * sd, 1e-300));
+  }
+  double best_cost = 1e300, best_phi = 0.0, best_logs2 = 0.0;
+  for (int k = 0; k <= 995; ++k) {
+    const double phi = k * 1e-3;
+    double lf[kMaxStride];
+    double mean = 0.0;
+    for (int s = 1; s <= kMaxStride; ++s) {
+      lf[s - 1] = std::log(differenceVarianceFactor(phi, s));
+      mean += (logv[s - 1] - lf[s - 1]) / kMaxStride;
+    }
+    double cost = 0.0;
+    for (int s = 0; s < kMaxStride; ++s) cost += std::pow(logv[s] - lf[s] - mean, 2);
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_phi = phi;
+      best_logs2 = mean;
+    }
+  }
+  return {std::sqrt(std::exp(best_logs2)), best_phi};
+}
+
+std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static) {
+  std::vector<std::pair<int, int>> groups;
+  const int n = static_cast<int>(ctx.size());
+  bool stat = false;
+  int pose_col = -1;
+  if (n > 0 && ctx.front().extra_names != nullptr && ctx.front().extra != nullptr) {
+    const auto& names = *ctx.front().extra_names;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      if (names[k] == "pose") pose_col = static_cast<int>(k);
+    }
+  }
+  if (pose_col >= 0) {
+    stat = true;
+    int begin = 0;
+    for (int i = 1; i <= n; ++i) {
+      if (i == n || ctx[static_cast<std::size_t>(i)].extra[pose_col] != ctx[static_cast<std::size_t>(i - 1)].extra[pose_col]) {
+        groups.emplace_back(begin, i);
+        begin = i;
+      }
+    }
+  } else if (n > 0) {
+    std::vector<double> qd(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) qd[static_cast<std::size_t>(i)] = ctx[static_cast<std::size_t>(i)].qd.cwiseAbs().maxCoeff();
+    stat = median(qd) < 1e-3;
+    if (stat) {
+      int begin = 0;
+      for (int i = 1; i <= n; ++i) {
+        if (i == n ||
+            (ctx[static_cast<std::size_t>(i)].q - ctx[static_cast<std::size_t>(i - 1)].q).cwiseAbs().maxCoeff() > 1e-4) {
+          groups.emplace_back(begin, i);
+          begin = i;
+        }
+      }
+    }
+  }
+  if (is_static != nullptr) *is_static = stat;
+  return groups;
+}
+
+NoiseFloor dataSheetNoiseFloor(const Vec6& std) {
+  NoiseFloor f;
+  f.method = NoiseMethod::kDataSheet;
+  f.std = std;
+  f.detail = "from the sensor's data sheet (--noise), treated as white";
+  return f;
+}
+
+NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
+  NoiseFloor f;
+  const int n = static_cast<int>(ctx.size());
+  if (n < 8) throw DataError("noise floor: need at least 8 samples, got " + std::to_string(n));
+  bool is_static = false;
+  const auto groups = poseGroups(ctx, &is_static);
+  auto channel = [&](int a, int begin, int end) {
+    std::vector<double> x;
+    x.reserve(static_cast<std::size_t>(end - begin));
+    for (int i = begin; i < end; ++i) x.push_back(ctx[static_cast<std::size_t>(i)].wrench_S(a));
+    return x;
+  };
+  if (is_static) {
+    f.pose_groups = static_cast<int>(groups.size());
+    int repeated = 0, long_groups = 0;
+    for (const auto& g : groups) {
+      if (g.second - g.first >= 2) repeated += g.second - g.first;
+      if (g.second - g.first >= 4 * kMaxStride + 1) long_groups += g.second - g.first;
+    }
+    if (repeated < n / 2 || repeated - static_cast<int>(groups.size()) < 12) {
+      f.method = NoiseMethod::kNotObservable;
+      f.detail = "static pose set with one reading per pose (" + std::to_string(groups.size()) +
+                 " poses): the noise cannot be separated from the model error; the scale is the "
+                 "cross-validated residual (give the data sheet's noise with --noise)";
+      return f;
+    }
+    f.method = NoiseMethod::kStaticPoses;
+    if (long_groups >= n / 2) {
+      // Long holds: the difference estimator inside each pose (no jumps between poses).
+      for (int a = 0; a < 6; ++a) {
+        std::vector<std::vector<double>> segs;
+        for (const auto& g : groups) segs.push_back(channel(a, g.first, g.second));
+        const Ar1Noise e = estimateAr1Noise(segs);
+        f.std(a) = e.std;
+        f.ar1(a) = e.phi >= kColouredPhi ? e.phi : 0.0;
+        if (e.phi < kColouredPhi) {
+          // White within the poses: pooled within-pose spread (dof = readings - poses).
+          double ss = 0.0;
+          int dof = 0;
+          for (const auto& seg : segs) {
+            double m = 0.0;
+            for (double v : seg) m += v;
+            m /= static_cast<double>(seg.size());
+            for (double v : seg) ss += (v - m) * (v - m);
+            dof += static_cast<int>(seg.size()) - 1;
+          }
+          f.std(a) = std::sqrt(ss / std::max(1, dof));
+        }
+      }
+    } else {
+      for (int a = 0; a < 6; ++a) {
+        double ss = 0.0;
+        int dof = 0;
+        for (const auto& g : groups) {
+          if (g.second - g.first < 2) continue;
+          const auto seg = channel(a, g.first, g.second);
+          double m = 0.0;
+          for (double v : seg) m += v;
+          m /= static_cast<double>(seg.size());
+          for (double v : seg) ss += (v - m) * (v - m);
+          dof += static_cast<int>(seg.size()) - 1;
+        }
+        f.std(a) = std::sqrt(ss / std::max(1, dof));
+      }
+    }
+    f.detail = "static pose set: spread of the repeated readings within each of " + std::to_string(groups.size()) +
+               " poses" + (f.ar1.maxCoeff() > 0.0 ? ", correlated (lag-1 up to " + fmt(f.ar1.maxCoeff()) + ")" : "");
+    return f;
+  }
+  // Dense time series.
+  for (int a = 0; a < 6; ++a) {
+    const std::vector<double> x = channel(a, 0, n);
+    const double white = differenceNoiseStd(x, 1);
+    f.std(a) = white;
+    if (n >= 4 * kMaxStride + 1 + 16) {
+      const Ar1Noise e = estimateAr1Noise({x});
+      if (e.phi >= kColouredPhi) {
+        f.std(a) = e.std;
+        f.ar1(a) = e.phi;
+      }
+    }
+  }
+  if (f.ar1.maxCoeff() > 0.0) {
+    f.method = NoiseMethod::kColoured;
+    f.detail = "coloured (low-pass filtered or averaged) noise: spread of 4th differences grows with the stride; "
+               "AR(1) lag-1 correlation up to " + fmt(f.ar1.maxCoeff());
+  } else {
+    f.method = NoiseMethod::kWhite;
+    f.detail = "white noise: robust spread of the 4th-order differences of the readings";
+  }
+  return f;
+}
+
+Outliers detectOutliers(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual, bool time_series, double threshold,
+                        const std::vector<int>& segment_starts) {
+  Outliers out;
+  const int n = static_cast<int>(residual.cols());
+  if (n < 8 || !(threshold > 0.0)) return out;
+  std::vector<int> starts = segment_starts.empty() ? std::vector<int>{0} : segment_starts;
+  starts.push_back(n);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> score(6, n);
+  std::vector<double> h(static_cast<std::size_t>(n)), win;
+  for (int a = 0; a < 6; ++a) {
+    if (time_series) {
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        const int b0 = starts[s], b1 = starts[s + 1];
+        for (int i = b0; i < b1; ++i) {
+          win.clear();
+          for (int j = std::max(b0, i - 3); j <= std::min(b1 - 1, i + 3); ++j) win.push_back(residual(a, j));
+          h[static_cast<std::size_t>(i)] = residual(a, i) - median(win);
+        }
+      }
+    } else {
+      std::vector<double> all(residual.row(a).data(), residual.row(a).data() + 0);
+      all.resize(static_cast<std::size_t>(n));
+      for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = residual(a, i);
+      const double m = median(all);
+      for (int i = 0; i < n; ++i) h[static_cast<std::size_t>(i)] = residual(a, i) - m;
+    }
+    std::vector<double> dev(h.size());
+    for (std::size_t i = 0; i < h.size(); ++i) dev[i] = std::abs(h[i]);
+    const double sigma = kMadToStd * median(dev);
+    for (int i = 0; i < n; ++i) score(a, i) = sigma > 0.0 ? std::abs(h[static_cast<std::size_t>(i)]) / sigma : 0.0;
+  }
+  for (int i = 0; i < n; ++i) {
+    int axis = 0;
+    const double worst = score.col(i).maxCoeff(&axis);
+    if (worst > threshold) {
+      out.samples.push_back(i);
+      out.axes.push_back(axis);
+    }
+  }
+  return out;
+}
+
+Vec6 parseNoiseSpec(const std::string& spec, const std::string& what) {
+  Vec6 out = Vec6::Constant(-1.0);
+  std::stringstream ss(spec);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos) throw ConfigError(what + ": expected axis=std, got '" + item + "'");
+    const std::string key = item.substr(0, eq);
+    int axis = -1;
+    for (int a = 0; a < 6; ++a) {
+      if (key == kWrenchAxisNames[a]) axis = a;
+    }
+    if (axis < 0) throw ConfigError(what + ": unknown axis '" + key + "' (fx, fy, fz, tx, ty, tz)");
+    const std::string val = item.substr(eq + 1);
+    std::size_t used = 0;
+    double v = 0.0;
+    try {
+      v = std::stod(val, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != val.size() || !std::isfinite(v) || !(v > 0.0)) {
+      throw ConfigError(what + ": " + key + ": not a positive number: '" + val + "'");
+    }
+    out(axis) = v;
+  }
+  for (int a = 0; a < 6; ++a) {
+    if (out(a) < 0.0) throw ConfigError(what + ": missing " + kWrenchAxisNames[a] + " (give all six: fx=..,fy=..,fz=..,tx=..,ty=..,tz=..)");
+  }
+  return out;
+}
+
+}  // namespace ftid::identify
