@@ -44,6 +44,25 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
   const int n = static_cast<int>(ctx.size());
   out.noise = noise_std ? dataSheetNoiseFloor(*noise_std) : estimateNoiseFloor(ctx);
   out.folds = folds;
+  auto predict = [&](const ParameterSet& set, const std::vector<int>& idx) {
+    const effects::Model model = effects::Model::fromName(set.model);
+    const Eigen::VectorXd theta = thetaFor(model, set);
+    std::optional<double> u, v;
+    if (set.tilt_estimated) {
+      u = set.tilt_u_rad;
+      v = set.tilt_v_rad;
+    }
+    return predictWrench(model, theta, u, v, ctx, idx);
+  };
+  if (!noise_std && (out.noise.method == NoiseMethod::kWhite || out.noise.method == NoiseMethod::kColoured)) {
+    // The noise colour from the residual of the fit on all data (noise.hpp, refineNoiseFloor).
+    std::vector<int> all(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+    const auto pred = predict(identify(ctx), all);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> res(6, n);
+    for (int i = 0; i < n; ++i) res.col(i) = ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
+    refineNoiseFloor(out.noise, res, ctx);
+  }
   Vec6 ss = Vec6::Zero();
   int counted = 0, failed = 0;
   for (int f = 0; f < folds; ++f) {
@@ -60,15 +79,7 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
       }
     }
     try {
-      const ParameterSet set = identify(train);
-      const effects::Model model = effects::Model::fromName(set.model);
-      const Eigen::VectorXd theta = thetaFor(model, set);
-      std::optional<double> u, v;
-      if (set.tilt_estimated) {
-        u = set.tilt_u_rad;
-        v = set.tilt_v_rad;
-      }
-      const auto pred = predictWrench(model, theta, u, v, ctx, test);
+      const auto pred = predict(identify(train), test);
       for (std::size_t k = 0; k < test.size(); ++k) {
         ss += (ctx[static_cast<std::size_t>(test[k])].wrench_S - pred.col(static_cast<Eigen::Index>(k))).cwiseAbs2();
         ++counted;

@@ -29,6 +29,120 @@ void appendDifferences(const std::vector<double>& x, int s, std::vector<double>&
   }
 }
 
+/// Robust lag-1 correlation of the first differences inside each segment, mapped to the AR(1)
+/// coefficient: for AR(1) noise corr(dx_i, dx_{i+1}) = -(1 - phi) / 2 (white: -1/2). Pairs are
+/// (d_i + d_{i+1}) and (d_i - d_{i+1}): corr = (s+^2 - s-^2) / (s+^2 + s-^2), s = 1.4826 MAD.
+/// Returns -1 if fewer than 16 pairs.
+double ar1FromDifferences(const std::vector<std::vector<double>>& segments) {
+  std::vector<double> plus, minus;
+  for (const auto& seg : segments) {
+    for (std::size_t i = 0; i + 2 < seg.size(); ++i) {
+      const double d0 = seg[i + 1] - seg[i];
+      const double d1 = seg[i + 2] - seg[i + 1];
+      plus.push_back(std::abs(d0 + d1));
+      minus.push_back(std::abs(d0 - d1));
+    }
+  }
+  if (plus.size() < 16) return -1.0;
+  const double sp = median(plus), sm = median(minus);
+  if (!(sp * sp + sm * sm > 0.0)) return 0.0;
+  const double rho = (sp * sp - sm * sm) / (sp * sp + sm * sm);
+  return std::clamp(1.0 + 2.0 * rho, 0.0, 0.99);
+}
+
+/// sum_{i,j < m} phi^|i-j|
+double correlationSum(double phi, std::size_t m) {
+  double s = static_cast<double>(m);
+  double p = 1.0;
+  for (std::size_t k = 1; k < m; ++k) {
+    p *= phi;
+    s += 2.0 * static_cast<double>(m - k) * p;
+  }
+  return s;
+}
+
+/// Welch periodogram of the segments (Hann window, 50 % overlap, segment length L), normalised so
+/// that white noise of variance s^2 gives s^2 at every frequency. Frequencies k / L cycles a
+/// sample, k = 0..L/2. Returns an empty vector if no segment is long enough.
+std::vector<double> welch(const std::vector<std::vector<double>>& segments, int L) {
+  std::vector<double> P(static_cast<std::size_t>(L / 2 + 1), 0.0);
+  std::vector<double> w(static_cast<std::size_t>(L));
+  double wsum = 0.0;
+  for (int j = 0; j < L; ++j) {
+    w[static_cast<std::size_t>(j)] = 0.5 - 0.5 * std::cos(2.0 * 3.141592653589793 * (j + 0.5) / L);
+    wsum += w[static_cast<std::size_t>(j)] * w[static_cast<std::size_t>(j)];
+  }
+  std::vector<double> c(static_cast<std::size_t>(L)), sn(static_cast<std::size_t>(L));
+  for (int j = 0; j < L; ++j) {
+    c[static_cast<std::size_t>(j)] = std::cos(2.0 * 3.141592653589793 * j / L);
+    sn[static_cast<std::size_t>(j)] = std::sin(2.0 * 3.141592653589793 * j / L);
+  }
+  int count = 0;
+  std::vector<double> x(static_cast<std::size_t>(L));
+  for (const auto& seg : segments) {
+    for (std::size_t start = 0; start + static_cast<std::size_t>(L) <= seg.size(); start += static_cast<std::size_t>(L / 2)) {
+      double mean = 0.0;
+      for (int j = 0; j < L; ++j) mean += seg[start + static_cast<std::size_t>(j)] / L;
+      for (int j = 0; j < L; ++j) x[static_cast<std::size_t>(j)] = (seg[start + static_cast<std::size_t>(j)] - mean) * w[static_cast<std::size_t>(j)];
+      for (int k = 0; k <= L / 2; ++k) {
+        double re = 0.0, im = 0.0;
+        for (int j = 0; j < L; ++j) {
+          const std::size_t m = static_cast<std::size_t>((static_cast<long long>(k) * j) % L);
+          re += x[static_cast<std::size_t>(j)] * c[m];
+          im -= x[static_cast<std::size_t>(j)] * sn[m];
+        }
+        P[static_cast<std::size_t>(k)] += (re * re + im * im) / wsum;
+      }
+      ++count;
+    }
+  }
+  if (count == 0) return {};
+  for (double& v : P) v /= count;
+  return P;
+}
+
+/// Marginal std of AR(1) noise with coefficient phi from the Welch spectrum over [k_lo, L/2):
+/// s_e^2 = mean(P / shape), std = s_e / sqrt(1 - phi^2).
+double spectralLevel(const std::vector<double>& P, int L, int k_lo, double phi) {
+  const int k_hi = L / 2;
+  double s2 = 0.0;
+  for (int k = k_lo; k < k_hi; ++k) {
+    const double wk = 2.0 * 3.141592653589793 * k / L;
+    s2 += P[static_cast<std::size_t>(k)] * (1.0 - 2.0 * phi * std::cos(wk) + phi * phi) / (k_hi - k_lo);
+  }
+  return std::sqrt(s2 / (1.0 - phi * phi));
+}
+
+/// AR(1) fit to the Welch spectrum over bins [k_lo, L/2): phi by least squares on the log
+/// spectrum against log(1 / (1 - 2 phi cos w + phi^2)) (level profiled out), the innovation
+/// variance by the mean of P / shape (unbiased). Returns phi < 0 if too few bins.
+Ar1Noise ar1FromSpectrum(const std::vector<double>& P, int L, int k_lo) {
+  Ar1Noise out{0.0, -1.0};
+  const int k_hi = L / 2;  // Nyquist bin excluded (real-valued, half the averaging)
+  if (k_hi - k_lo < 12) return out;
+  // Whittle likelihood over the band, the innovation variance profiled out:
+  //   minimise  nb log(mean(P_k / g_k)) + sum log g_k,   g_k = 1 / (1 - 2 phi cos w_k + phi^2).
+  double best = 1e300;
+  const int nb = k_hi - k_lo;
+  for (int g = 0; g <= 990; g += 2) {
+    const double phi = g * 1e-3;
+    double mean = 0.0, logg = 0.0;
+    for (int k = k_lo; k < k_hi; ++k) {
+      const double wk = 2.0 * 3.141592653589793 * k / L;
+      const double inv_shape = 1.0 - 2.0 * phi * std::cos(wk) + phi * phi;
+      mean += P[static_cast<std::size_t>(k)] * inv_shape / nb;
+      logg -= std::log(inv_shape);
+    }
+    const double cost = nb * std::log(std::max(mean, 1e-300)) + logg;
+    if (cost < best) {
+      best = cost;
+      out.phi = phi;
+    }
+  }
+  out.std = spectralLevel(P, L, k_lo, out.phi);
+  return out;
+}
+
 std::string fmt(double v) {
   std::ostringstream s;
   s.precision(3);
@@ -179,44 +293,28 @@ NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
       return f;
     }
     f.method = NoiseMethod::kStaticPoses;
-    if (long_groups >= n / 2) {
-      // Long holds: the difference estimator inside each pose (no jumps between poses).
-      for (int a = 0; a < 6; ++a) {
-        std::vector<std::vector<double>> segs;
-        for (const auto& g : groups) segs.push_back(channel(a, g.first, g.second));
-        const Ar1Noise e = estimateAr1Noise(segs);
-        f.std(a) = e.std;
-        f.ar1(a) = e.phi >= kColouredPhi ? e.phi : 0.0;
-        if (e.phi < kColouredPhi) {
-          // White within the poses: pooled within-pose spread (dof = readings - poses).
-          double ss = 0.0;
-          int dof = 0;
-          for (const auto& seg : segs) {
-            double m = 0.0;
-            for (double v : seg) m += v;
-            m /= static_cast<double>(seg.size());
-            for (double v : seg) ss += (v - m) * (v - m);
-            dof += static_cast<int>(seg.size()) - 1;
-          }
-          f.std(a) = std::sqrt(ss / std::max(1, dof));
-        }
+    // Within each pose the reading is the noise around a constant: its lag-1 correlation from the
+    // first differences, its variance from the spread around the pose means (corrected for the
+    // mean removal: E sum (x - mean)^2 = sigma^2 (m - sum_{i,j} phi^|i-j| / m)).
+    for (int a = 0; a < 6; ++a) {
+      std::vector<std::vector<double>> segs;
+      for (const auto& g : groups) {
+        if (g.second - g.first >= 2) segs.push_back(channel(a, g.first, g.second));
       }
-    } else {
-      for (int a = 0; a < 6; ++a) {
-        double ss = 0.0;
-        int dof = 0;
-        for (const auto& g : groups) {
-          if (g.second - g.first < 2) continue;
-          const auto seg = channel(a, g.first, g.second);
-          double m = 0.0;
-          for (double v : seg) m += v;
-          m /= static_cast<double>(seg.size());
-          for (double v : seg) ss += (v - m) * (v - m);
-          dof += static_cast<int>(seg.size()) - 1;
-        }
-        f.std(a) = std::sqrt(ss / std::max(1, dof));
+      double phi = ar1FromDifferences(segs);
+      if (phi < kColouredPhi) phi = 0.0;
+      double ss = 0.0, expected = 0.0;
+      for (const auto& seg : segs) {
+        double m = 0.0;
+        for (double v : seg) m += v;
+        m /= static_cast<double>(seg.size());
+        for (double v : seg) ss += (v - m) * (v - m);
+        expected += static_cast<double>(seg.size()) - correlationSum(phi, seg.size()) / static_cast<double>(seg.size());
       }
+      f.std(a) = std::sqrt(ss / std::max(expected, 1e-12));
+      f.ar1(a) = phi;
     }
+    (void)long_groups;
     f.detail = "static pose set: spread of the repeated readings within each of " + std::to_string(groups.size()) +
                " poses" + (f.ar1.maxCoeff() > 0.0 ? ", correlated (lag-1 up to " + fmt(f.ar1.maxCoeff()) + ")" : "");
     return f;
@@ -226,6 +324,7 @@ NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
     const std::vector<double> x = channel(a, 0, n);
     const double white = differenceNoiseStd(x, 1);
     f.std(a) = white;
+    f.difference_std(a) = white;
     if (n >= 4 * kMaxStride + 1 + 16) {
       const Ar1Noise e = estimateAr1Noise({x});
       if (e.phi >= kColouredPhi) {
@@ -285,6 +384,87 @@ Outliers detectOutliers(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual
     }
   }
   return out;
+}
+
+void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual,
+                      const std::vector<SampleContext>& ctx, const std::vector<int>& segment_starts) {
+  if (f.method != NoiseMethod::kWhite && f.method != NoiseMethod::kColoured) return;
+  const int n = static_cast<int>(std::min<Eigen::Index>(residual.cols(), static_cast<Eigen::Index>(ctx.size())));
+  std::vector<int> starts = segment_starts.empty() ? std::vector<int>{0} : segment_starts;
+  starts.push_back(n);
+  int L = 256;
+  while (L > 32 && L > n / 4) L /= 2;
+  // The motion's band: 99.9 % of the joint-velocity power lies below bin k_motion; the model error
+  // is made of the motion (and its products: a few times its frequencies), so the noise is fitted
+  // above 3 k_motion.
+  int k_lo = 2;
+  {
+    std::vector<double> total;
+    for (int j = 0; j < kNumJoints; ++j) {
+      std::vector<std::vector<double>> segs;
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        std::vector<double> seg;
+        for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(ctx[static_cast<std::size_t>(i)].qd(j));
+        segs.push_back(std::move(seg));
+      }
+      const auto P = welch(segs, L);
+      if (total.empty()) total.assign(P.size(), 0.0);
+      for (std::size_t k = 0; k < P.size() && k < total.size(); ++k) total[k] += P[k];
+    }
+    double sum = 0.0;
+    for (std::size_t k = 1; k < total.size(); ++k) sum += total[k];
+    double acc = 0.0;
+    int k_motion = 1;
+    for (std::size_t k = 1; k < total.size(); ++k) {
+      acc += total[k];
+      if (acc >= 0.999 * sum) {
+        k_motion = static_cast<int>(k);
+        break;
+      }
+    }
+    if (sum > 0.0) k_lo = std::max(k_lo, 3 * k_motion + 2);
+  }
+  bool used_spectrum = false;
+  for (int a = 0; a < 6; ++a) {
+    std::vector<std::vector<double>> segs;
+    // Glitches would dominate a spectrum: values beyond 6 robust std of the residual are clipped.
+    std::vector<double> all(residual.row(a).data(), residual.row(a).data());
+    for (int i = 0; i < n; ++i) all.push_back(residual(a, i));
+    const double med = median(all);
+    for (double& v : all) v = std::abs(v - med);
+    const double lim = 6.0 * kMadToStd * median(all);
+    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+      std::vector<double> seg;
+      for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(std::clamp(residual(a, i), med - lim, med + lim));
+      segs.push_back(std::move(seg));
+    }
+    const auto P = welch(segs, L);
+    const Ar1Noise e = P.empty() ? Ar1Noise{0.0, -1.0} : ar1FromSpectrum(P, L, k_lo);
+    double phi = e.phi;
+    if (phi < 0.0) {
+      phi = ar1FromDifferences(segs);  // too short for a spectrum
+    } else {
+      used_spectrum = true;
+    }
+    if (phi < kColouredPhi) phi = 0.0;
+    f.ar1(a) = phi;
+    // White: today's estimator; coloured: the spectral level above the motion's band.
+    if (e.phi >= 0.0) {
+      f.std(a) = spectralLevel(P, L, k_lo, phi);  // phi = 0: the flat level of white noise
+    } else {
+      f.std(a) = f.difference_std(a) * std::sqrt(70.0 / differenceVarianceFactor(phi, 1));
+    }
+  }
+  if (f.ar1.maxCoeff() > 0.0) {
+    f.method = NoiseMethod::kColoured;
+    f.detail = "coloured (low-pass filtered) noise: lag-1 correlation up to " + fmt(f.ar1.maxCoeff()) +
+               (used_spectrum ? " (AR(1) fitted to the residual's spectrum above the motion's band)"
+                              : " (from the residual's differences)");
+  } else {
+    f.method = NoiseMethod::kWhite;
+    f.detail = used_spectrum ? "white noise: flat spectrum of the residual above the motion's band"
+                             : "white noise: robust spread of the 4th-order differences of the readings";
+  }
 }
 
 Vec6 parseNoiseSpec(const std::string& spec, const std::string& what) {

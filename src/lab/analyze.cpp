@@ -145,6 +145,9 @@ bool isMassLike(const std::string& n) {
   return n == "mass" || n.rfind("mass_com_", 0) == 0 || n == "tilt_u" || n == "tilt_v";
 }
 
+/// The payload's physical parameters (what a confound must not corrupt).
+bool isPhysical(const std::string& n) { return isMassLike(n) || n.rfind("i_s_", 0) == 0; }
+
 /// Why two parameters cannot be told apart, and what motion would separate them.
 std::pair<std::string, std::string> explainPair(const std::string& a, const std::string& b) {
   auto has = [&](const std::string& key) { return a.find(key) != std::string::npos || b.find(key) != std::string::npos; };
@@ -153,8 +156,13 @@ std::pair<std::string, std::string> explainPair(const std::string& a, const std:
     return {"a constant vertical pull is indistinguishable from the weight without translational acceleration",
             "move with translational acceleration (a dynamic excitation, e.g. from ftid design) instead of static poses"};
   }
-  if (has("cable") && (mass || has("f0_") || has("t0_"))) {
-    return {"the cable's pull over these poses looks like the weight, its lever or the offsets",
+  if (has("cable") && mass) {
+    return {"without translational acceleration the cable's pull over these poses looks like the weight or its lever",
+            "move with translational acceleration (a dynamic excitation) and through a larger range of positions, "
+            "not only orientations"};
+  }
+  if (has("cable") && (has("f0_") || has("t0_"))) {
+    return {"the cable's pull over these poses looks like the offsets",
             "move the tool through a larger range of positions, not only orientations, so the pull changes with position"};
   }
   if (has("i_s_") || has("inertia")) {
@@ -192,6 +200,7 @@ void checkConfounds(const Fitted& base, const Model& cand, const Solution& s, Ca
     if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) >= 0) continue;  // not added
     for (int i = 0; i < static_cast<int>(names.size()); ++i) {
       if (i == j || (i < pc && base.model.paramIndex().column(cn[static_cast<std::size_t>(i)]) < 0)) continue;
+      if (!isPhysical(names[static_cast<std::size_t>(i)])) continue;  // nuisance pairs do not matter
       const double den = sd(i) * sd(j);
       if (!(den > 0.0)) continue;
       const double r = std::abs(C(i, j) / den);
@@ -200,6 +209,27 @@ void checkConfounds(const Fitted& base, const Model& cand, const Solution& s, Ca
         wi = i;
         wj = j;
       }
+    }
+  }
+  // Directions the data do not determine at all: which added and which physical parameter share one.
+  for (Eigen::Index nc = 0; nc < s.null_space.cols() && worst <= 0.99; ++nc) {
+    int ja = -1, ib = -1;
+    double va = 0.1, vb = 0.1;
+    for (int k = 0; k < static_cast<int>(names.size()) && k < s.null_space.rows(); ++k) {
+      const double v = std::abs(s.null_space(k, nc));
+      const bool added = k < pc && base.model.paramIndex().column(cn[static_cast<std::size_t>(k)]) < 0;
+      if (added && v > va) {
+        va = v;
+        ja = k;
+      } else if (!added && isPhysical(names[static_cast<std::size_t>(k)]) && v > vb) {
+        vb = v;
+        ib = k;
+      }
+    }
+    if (ja >= 0 && ib >= 0) {
+      worst = 1.0;
+      wi = ib;
+      wj = ja;
     }
   }
   if (worst > 0.99) {
@@ -215,13 +245,21 @@ void checkConfounds(const Fitted& base, const Model& cand, const Solution& s, Ca
     const double m = s.theta(cm), msd = sd(cm);
     const double mb = base.sol.theta(bm);
     const double mbsd = std::sqrt(std::max(0.0, base.sol.covariance(bm, bm)));
+    // How strongly an added parameter takes over the mass's role in the candidate.
+    double mass_corr = 0.0;
+    for (int j = 0; j < pc; ++j) {
+      if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) >= 0) continue;
+      const double den = sd(cm) * sd(j);
+      if (den > 0.0) mass_corr = std::max(mass_corr, std::abs(C(cm, j)) / den);
+    }
     if (m <= 0.0) {
       reasons.push_back("it makes the mass " + fmt(m, 4) + " kg (<= 0)");
     } else if (msd > m) {
       reasons.push_back("the mass is no longer determined (" + fmt(m, 4) + " +- " + fmt(msd, 3) + " kg)");
-    } else if (mbsd > 0.0 && std::abs(m - mb) > 3.0 * mbsd) {
+    } else if (mbsd > 0.0 && std::abs(m - mb) > 3.0 * mbsd && mass_corr > 0.99) {
       reasons.push_back("it moves the mass from " + fmt(mb, 5) + " to " + fmt(m, 5) + " kg, " +
-                        fmt(std::abs(m - mb) / mbsd, 3) + " standard errors of the simpler model's");
+                        fmt(std::abs(m - mb) / mbsd, 3) + " standard errors of the simpler model's, while its "
+                        "parameters take over the mass's role (|r| " + fmt(mass_corr, 4) + ")");
     }
     if (motion.empty() && !reasons.empty()) {
       std::string partner;
@@ -452,7 +490,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     }
   }
   // The noise floor: data sheet, or detected from the fitting log's readings.
-  const identify::NoiseFloor nf =
+  identify::NoiseFloor nf =
       options.noise_std ? identify::dataSheetNoiseFloor(*options.noise_std) : identify::estimateNoiseFloor(fit);
   result.noise_method = identify::toString(nf.method);
   result.noise_detail = nf.detail;
@@ -508,28 +546,50 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.n_eval = static_cast<int>(eng->testSamples().size());
   auto [lin, sol] = fitStart(*eng);
 
-  // Glitches: isolated samples far outside the robust spread of the residual; left out, re-fit.
-  if (options.glitch_threshold > 0.0) {
+  // The residual of the first fit settles the noise colour (dense data) and shows the glitches
+  // (isolated samples far outside its robust spread); both change the weights: re-fit.
+  {
     const int n_all = eng->data().size();
     const Mat6X pred = eng->predict(model, lin, sol.theta, false);
     Mat6X res(6, n_all);
     for (int i = 0; i < n_all; ++i) res.col(i) = eng->data().ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
-    bool is_static = false;
-    (void)identify::poseGroups(fit, &is_static);
-    const auto flagged = identify::detectOutliers(res, !is_static, options.glitch_threshold, eng->data().segment_start);
-    if (!flagged.samples.empty()) {
-      d = eng->data();
-      d.excluded.assign(static_cast<std::size_t>(n_all), 0);
-      for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
-        const int i = flagged.samples[k];
-        d.excluded[static_cast<std::size_t>(i)] = 1;
-        result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
-        result.outliers.axes.push_back(flagged.axes[k]);
+    bool changed = false;
+    d = eng->data();
+    if (!options.noise_std) {
+      const Vec6 before = nf.ar1;
+      identify::refineNoiseFloor(nf, res.leftCols(n_fit), fit);
+      if (nf.observable() && (nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured)) {
+        result.noise_method = identify::toString(nf.method);
+        result.noise_detail = nf.detail;
+        result.noise_ar1 = nf.ar1;
+        result.noise_floor = nf.std;
+        d.ar1 = nf.ar1;
+        const Vec6 inn = nf.innovationStd();
+        for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(inn(a), tiny);
+        changed = changed || before != nf.ar1;
       }
-      result.outliers.count = static_cast<int>(flagged.samples.size());
-      say(options, std::to_string(result.outliers.count) + " glitch" + (result.outliers.count == 1 ? "" : "es") +
-                       " (isolated samples beyond " + fmt(options.glitch_threshold, 3) +
-                       " robust standard deviations) left out; re-fitting");
+    }
+    if (options.glitch_threshold > 0.0) {
+      bool is_static = false;
+      (void)identify::poseGroups(fit, &is_static);
+      const auto flagged = identify::detectOutliers(res, !is_static, options.glitch_threshold, d.segment_start);
+      if (!flagged.samples.empty()) {
+        d.excluded.assign(static_cast<std::size_t>(n_all), 0);
+        for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
+          const int i = flagged.samples[k];
+          d.excluded[static_cast<std::size_t>(i)] = 1;
+          result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
+          result.outliers.axes.push_back(flagged.axes[k]);
+        }
+        result.outliers.count = static_cast<int>(flagged.samples.size());
+        say(options, std::to_string(result.outliers.count) + " glitch" + (result.outliers.count == 1 ? "" : "es") +
+                         " (isolated samples beyond " + fmt(options.glitch_threshold, 3) +
+                         " robust standard deviations) left out");
+        changed = true;
+      }
+    }
+    if (changed) {
+      say(options, "re-fitting " + model.name() + " (" + nf.detail + ")");
       eng = std::make_unique<Engine>(d);
       std::tie(lin, sol) = fitStart(*eng);
     }

@@ -30,6 +30,7 @@ struct PinvSolve {
   Eigen::MatrixXd inverse;  ///< pseudo-inverse of G
   int rank = 0;
   double condition = 0.0;   ///< of the column-scaled regressor (sqrt of the Gram's)
+  Eigen::MatrixXd null_space;  ///< dropped directions (columns, in column-scaled coordinates)
 };
 
 /// Pseudo-inverse solve of G x = h on the column-equilibrated G.
@@ -55,6 +56,13 @@ PinvSolve solveNormal(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, bool w
   }
   out.condition = lmax > 0.0 ? std::sqrt(lmax / lmin_kept) : 0.0;
   const Eigen::MatrixXd& V = eig.eigenvectors();
+  if (want_inverse && out.rank < p) {
+    out.null_space.resize(p, p - out.rank);
+    int c = 0;
+    for (Eigen::Index k = 0; k < p; ++k) {
+      if (linv(k) == 0.0) out.null_space.col(c++) = V.col(k);
+    }
+  }
   const Eigen::VectorXd hs = d.asDiagonal() * h;
   out.x = d.asDiagonal() * (V * (linv.asDiagonal() * (V.transpose() * hs)));
   if (want_inverse) out.inverse = d.asDiagonal() * V * linv.asDiagonal() * V.transpose() * d.asDiagonal();
@@ -240,6 +248,7 @@ Solution Engine::solve(const Design& X, bool with_folds, const Design* raw) cons
   const PinvSolve full = solveNormal(Gf.topLeftCorner(p, p), Gf.col(p).head(p), true);
   sol.theta = full.x;
   sol.rank = full.rank;
+  sol.null_space = full.null_space;
   sol.condition_number = full.condition;
   int excluded_fit = 0;
   for (int i = 0; i < data_.n_fit; ++i) excluded_fit += excluded(i) ? 1 : 0;

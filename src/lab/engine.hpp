@@ -67,6 +67,9 @@ struct Solution {
   int rank = 0;
   Eigen::VectorXd theta;        ///< full-data (all fit blocks) solution
   Eigen::MatrixXd covariance;   ///< sigma^2 (X^T W X)^+ of the full-data solution (weighted)
+  /// Directions the data do not determine (rank < p): unit columns over the parameters in
+  /// column-scaled coordinates (entries show which parameters enter only in that combination).
+  Eigen::MatrixXd null_space;
   double sse_fit = 0.0;         ///< weighted in-sample SSE of the full-data fit
   double sigma2 = 0.0;
   int rows_fit = 0;

@@ -8,12 +8,11 @@
 //   static pose set, one reading a pose  no noise estimate is possible ("not_observable"): callers
 //                                        use the cross-validated residual as the scale and say so
 //   dense time series                    the high-frequency content of each channel: robust (MAD)
-//                                        spread of 4th-order differences at strides 1, 2, 3. White
-//                                        noise gives the same spread at every stride ("white",
-//                                        today's stride-1 estimator); low-pass filtered noise
-//                                        (AR(1), lag-1 correlation phi) grows with the stride as
-//                                        70 - 112 phi^s + 56 phi^2s - 16 phi^3s + 2 phi^4s, which
-//                                        gives phi and the marginal std ("coloured")
+//                                        spread of 4th-order differences ("white", today's
+//                                        estimator); low-pass filtered noise (AR(1), lag-1
+//                                        correlation phi): phi and the level from the spectrum of
+//                                        a model residual above the motion's band, where the
+//                                        spectrum is the noise's (refineNoiseFloor) ("coloured")
 //   --noise fx=..,..,tz=..               the sensor's data sheet ("data_sheet")
 //
 // Smooth motion (a few Hz at >= 100 Hz sampling) is suppressed in the differences by
@@ -39,6 +38,7 @@ struct NoiseFloor {
   Vec6 std = Vec6::Zero();        ///< marginal noise std per axis [N, Nm] (0: not observable)
   Vec6 ar1 = Vec6::Zero();        ///< lag-1 correlation of the noise per axis (0 = white)
   int pose_groups = 0;            ///< static data: number of poses found
+  Vec6 difference_std = Vec6::Zero();  ///< dense data: the stride-1 4th-difference estimate
   std::string detail;             ///< how it was estimated, in words (one line)
 
   bool observable() const { return method != NoiseMethod::kNotObservable; }
@@ -68,8 +68,19 @@ double differenceVarianceFactor(double phi, int stride);
 /// Empty when the data are a moving time series. *is_static tells which.
 std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static);
 
-/// Detects the method and estimates the floor of the wrench readings.
+/// Detects the method and estimates the floor of the wrench readings. For dense data this is
+/// preliminary: the colour is only weakly determined by the readings alone (smooth motion hides
+/// the noise's low frequencies); refineNoiseFloor() settles it from a model residual.
 NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx);
+
+/// Dense data (white/coloured; others unchanged): the noise's AR(1) model from a model residual
+/// (6 x n, time order, segments by start index; ctx: the same samples, for the motion's band).
+/// The residual's Welch spectrum (Hann, 256-sample segments) is fitted above the motion's band
+/// (3x the frequency below which 99.9 % of the joint-velocity power lies), where model error,
+/// made of the motion, does not reach: S(w) = s_e^2 / (1 - 2 phi cos w + phi^2). phi < 0.2
+/// counts as white (std = today's 4th-difference estimate); else std = s_e / sqrt(1 - phi^2).
+void refineNoiseFloor(NoiseFloor& floor, const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual,
+                      const std::vector<SampleContext>& ctx, const std::vector<int>& segment_starts = {});
 
 /// Glitches: isolated samples whose residual stands out. Per axis, h = r minus its running median
 /// over 7 samples (time series; inside each segment given by its start index) or minus the median
