@@ -86,10 +86,12 @@ std::vector<double> welch(const std::vector<std::vector<double>>& segments, int 
       for (int j = 0; j < L; ++j) x[static_cast<std::size_t>(j)] = (seg[start + static_cast<std::size_t>(j)] - mean) * w[static_cast<std::size_t>(j)];
       for (int k = 0; k <= L / 2; ++k) {
         double re = 0.0, im = 0.0;
+        std::size_t m = 0;  // (k j) mod L
         for (int j = 0; j < L; ++j) {
-          const std::size_t m = static_cast<std::size_t>((static_cast<long long>(k) * j) % L);
           re += x[static_cast<std::size_t>(j)] * c[m];
           im -= x[static_cast<std::size_t>(j)] * sn[m];
+          m += static_cast<std::size_t>(k);
+          if (m >= static_cast<std::size_t>(L)) m -= static_cast<std::size_t>(L);
         }
         P[static_cast<std::size_t>(k)] += (re * re + im * im) / wsum;
       }
@@ -425,18 +427,25 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
     if (sum > 0.0) k_lo = std::max(k_lo, 3 * k_motion + 2);
   }
   bool used_spectrum = false;
+  const Outliers glitches = detectOutliers(residual.leftCols(n), true, 6.0, segment_starts);
   for (int a = 0; a < 6; ++a) {
     std::vector<std::vector<double>> segs;
-    // Glitches would dominate a spectrum: values beyond 6 robust std of the residual are clipped.
-    std::vector<double> all(residual.row(a).data(), residual.row(a).data());
-    for (int i = 0; i < n; ++i) all.push_back(residual(a, i));
-    const double med = median(all);
-    for (double& v : all) v = std::abs(v - med);
-    const double lim = 6.0 * kMadToStd * median(all);
     for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
       std::vector<double> seg;
-      for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(std::clamp(residual(a, i), med - lim, med + lim));
+      for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(residual(a, i));
       segs.push_back(std::move(seg));
+    }
+    // Glitches would add a white floor to the spectrum: each is replaced by the mean of its
+    // neighbours (linear interpolation).
+    for (int i : glitches.samples) {
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        if (i < starts[s] || i >= starts[s + 1]) continue;
+        auto& seg = segs[s];
+        const std::size_t j = static_cast<std::size_t>(i - starts[s]);
+        const double left = j > 0 ? seg[j - 1] : seg[std::min(j + 1, seg.size() - 1)];
+        const double right = j + 1 < seg.size() ? seg[j + 1] : left;
+        seg[j] = 0.5 * (left + right);
+      }
     }
     const auto P = welch(segs, L);
     const Ar1Noise e = P.empty() ? Ar1Noise{0.0, -1.0} : ar1FromSpectrum(P, L, k_lo);
