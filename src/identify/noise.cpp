@@ -428,6 +428,8 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
   }
   bool used_spectrum = false;
   const Outliers glitches = detectOutliers(residual.leftCols(n), true, 6.0, segment_starts);
+  std::vector<char> bad(static_cast<std::size_t>(n), 0);
+  for (int i : glitches.samples) bad[static_cast<std::size_t>(i)] = 1;
   for (int a = 0; a < 6; ++a) {
     std::vector<std::vector<double>> segs;
     for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
@@ -435,16 +437,26 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
       for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(residual(a, i));
       segs.push_back(std::move(seg));
     }
-    // Glitches would add a white floor to the spectrum: each is replaced by the mean of its
-    // neighbours (linear interpolation).
-    for (int i : glitches.samples) {
-      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
-        if (i < starts[s] || i >= starts[s + 1]) continue;
-        auto& seg = segs[s];
-        const std::size_t j = static_cast<std::size_t>(i - starts[s]);
-        const double left = j > 0 ? seg[j - 1] : seg[std::min(j + 1, seg.size() - 1)];
-        const double right = j + 1 < seg.size() ? seg[j + 1] : left;
-        seg[j] = 0.5 * (left + right);
+    // Glitches would add a white floor to the spectrum: each run of them is replaced by the line
+    // between its nearest good neighbours.
+    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+      auto& seg = segs[s];
+      const int len = static_cast<int>(seg.size());
+      int j = 0;
+      while (j < len) {
+        if (!bad[static_cast<std::size_t>(starts[s] + j)]) {
+          ++j;
+          continue;
+        }
+        int e = j;
+        while (e < len && bad[static_cast<std::size_t>(starts[s] + e)]) ++e;
+        const double left = j > 0 ? seg[static_cast<std::size_t>(j - 1)] : (e < len ? seg[static_cast<std::size_t>(e)] : 0.0);
+        const double right = e < len ? seg[static_cast<std::size_t>(e)] : left;
+        for (int k = j; k < e; ++k) {
+          const double w = static_cast<double>(k - j + 1) / static_cast<double>(e - j + 1);
+          seg[static_cast<std::size_t>(k)] = (1.0 - w) * left + w * right;
+        }
+        j = e;
       }
     }
     const auto P = welch(segs, L);

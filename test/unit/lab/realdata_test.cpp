@@ -143,7 +143,8 @@ TEST(Analyze, GlitchesAreFoundLeftOutAndMoveNoParameter) {
     const auto* p = findParam(r.report, name);
     const auto* q = findParam(clean.report, name);
     ASSERT_TRUE(p && q) << name;
-    EXPECT_LT(std::abs(p->value - q->value), q->std) << name << ": " << p->value << " vs " << q->value << " +- " << q->std;
+    EXPECT_LT(std::abs(p->value - q->value), q->std) << name << ": " << p->value << " vs " << q->value << " +- " << q->std
+                                                     << "\n" << lab::formatText(r);
   }
   const std::string j = lab::formatJson(r);
   EXPECT_NE(j.find("\"outliers\": {\"count\": " + std::to_string(r.outliers.count)), std::string::npos);
