@@ -54,14 +54,22 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
     }
     return predictWrench(model, theta, u, v, ctx, idx);
   };
-  if (!noise_std && (out.noise.method == NoiseMethod::kWhite || out.noise.method == NoiseMethod::kColoured)) {
-    // The noise colour from the residual of the fit on all data (noise.hpp, refineNoiseFloor).
+  // The residual of the fit on all data: the noise colour (noise.hpp, refineNoiseFloor) and the
+  // glitches, which are left out of the held-out sums (a spike is not a model error).
+  std::vector<char> glitch(static_cast<std::size_t>(n), 0);
+  {
     std::vector<int> all(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
     const auto pred = predict(identify(ctx), all);
     Eigen::Matrix<double, 6, Eigen::Dynamic> res(6, n);
     for (int i = 0; i < n; ++i) res.col(i) = ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
-    refineNoiseFloor(out.noise, res, ctx);
+    if (!noise_std) refineNoiseFloor(out.noise, res, ctx);
+    bool is_static = false;
+    (void)poseGroups(ctx, &is_static);
+    for (int i : detectOutliers(res, !is_static, 6.0).samples) {
+      glitch[static_cast<std::size_t>(i)] = 1;
+      ++out.glitches;
+    }
   }
   Vec6 ss = Vec6::Zero();
   int counted = 0, failed = 0;
@@ -81,6 +89,7 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
     try {
       const auto pred = predict(identify(train), test);
       for (std::size_t k = 0; k < test.size(); ++k) {
+        if (glitch[static_cast<std::size_t>(test[k])]) continue;
         ss += (ctx[static_cast<std::size_t>(test[k])].wrench_S - pred.col(static_cast<Eigen::Index>(k))).cwiseAbs2();
         ++counted;
       }
@@ -89,6 +98,11 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
     }
   }
   out.heldout_rms = counted > 0 ? Vec6((ss / counted).cwiseSqrt()) : Vec6::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (out.glitches > 0) {
+    out.warnings.push_back(std::to_string(out.glitches) + " glitch" + (out.glitches == 1 ? "" : "es") +
+                           " (isolated spikes beyond 6 robust standard deviations) left out of the held-out "
+                           "residual; they are in the fit: `ftid analyze` leaves them out of it");
+  }
   if (failed > 0) {
     out.warnings.push_back(std::to_string(failed) + " of " + std::to_string(folds) +
                            " held-out blocks could not be identified without them (too little excitation "
@@ -142,7 +156,7 @@ std::string formatFitCheck(const FitCheck& c) {
 std::string fitCheckJsonMembers(const FitCheck& c) {
   std::string o = "\"noise_floor\": " + axesJson(c.noise.std) + ", \"noise_method\": " + jsonString(toString(c.noise.method)) +
                   ", \"heldout_rms\": " + axesJson(c.heldout_rms) + ", \"residual_to_noise\": " +
-                  axesJson(c.residual_to_noise) + ", \"warnings\": [";
+                  axesJson(c.residual_to_noise) + ", \"glitches\": " + std::to_string(c.glitches) + ", \"warnings\": [";
   for (std::size_t k = 0; k < c.warnings.size(); ++k) o += (k ? ", " : "") + jsonString(c.warnings[k]);
   return o + "]";
 }

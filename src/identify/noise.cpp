@@ -376,6 +376,25 @@ Outliers detectOutliers(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual
     for (std::size_t i = 0; i < h.size(); ++i) dev[i] = std::abs(h[i]);
     const double sigma = kMadToStd * median(dev);
     for (int i = 0; i < n; ++i) score(a, i) = sigma > 0.0 ? std::abs(h[static_cast<std::size_t>(i)]) / sigma : 0.0;
+    if (time_series) {
+      // A spike also stands out from the line through its two neighbours, which smooth model
+      // error (curvature over two samples) does not: both tests must flag it.
+      std::vector<double> g(static_cast<std::size_t>(n), 0.0);
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        for (int i = starts[s]; i < starts[s + 1]; ++i) {
+          const int l = i > starts[s] ? i - 1 : i + 1;
+          const int r = i + 1 < starts[s + 1] ? i + 1 : i - 1;
+          if (l < starts[s] || r >= starts[s + 1]) continue;
+          g[static_cast<std::size_t>(i)] = residual(a, i) - 0.5 * (residual(a, l) + residual(a, r));
+        }
+      }
+      for (std::size_t i = 0; i < g.size(); ++i) dev[i] = std::abs(g[i]);
+      const double sg = kMadToStd * median(dev);
+      for (int i = 0; i < n; ++i) {
+        const double s2 = sg > 0.0 ? std::abs(g[static_cast<std::size_t>(i)]) / sg : 0.0;
+        score(a, i) = std::min(score(a, i), s2);
+      }
+    }
   }
   for (int i = 0; i < n; ++i) {
     int axis = 0;

@@ -342,7 +342,11 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
       c.note = err.what();
       continue;
     }
-    const std::string miss = missingSignal(cand, eng.data().ctx);
+    std::string miss = missingSignal(cand, eng.data().ctx);
+    if (miss.empty() && eng.data().static_data && (cand.signals() & effects::kSignalModelDerivative) != 0 &&
+        !base.model.contains("crosstalk") && c.effect.rfind("sensor_delay", 0) == 0) {
+      miss = "static pose set: a delay shows only while the wrench changes (the time between poses is not motion)";
+    }
     if (!miss.empty()) {
       c.skipped = true;
       c.note = miss;
@@ -497,6 +501,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.noise_ar1 = nf.ar1;
   result.noise_floor = nf.std;
   d.ar1 = nf.ar1;
+  (void)identify::poseGroups(fit, &d.static_data);
   // Guard noise-free data: a floor far below the signal would make the weights meaningless.
   const double tiny = 1e-9;
   const Vec6 innovation = nf.innovationStd();

@@ -41,6 +41,7 @@ struct Dataset {
                                    ///< x_i - phi x_{i-1} along time inside each block (first row
                                    ///< of a block scaled by sqrt(1 - phi^2), Prais-Winsten)
   std::vector<char> excluded;      ///< per sample: a glitch, left out of every fit and sum
+  bool static_data = false;        ///< a static pose set (the robot at rest in every sample)
   std::vector<int> segment_start;  ///< sample index where a log starts (for time derivatives)
 
   int size() const { return static_cast<int>(ctx.size()); }

@@ -21,6 +21,7 @@ struct FitCheck {
   /// heldout_rms / noise floor per axis; NaN when the noise floor is not observable.
   Vec6 residual_to_noise = Vec6::Zero();
   int folds = 0;
+  int glitches = 0;                      ///< isolated spikes left out of the held-out sums
   std::vector<std::string> warnings;     ///< one line each
 };
 

@@ -9,6 +9,7 @@
 
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/uncertainty.hpp"
+#include "ftid/lab/analyze.hpp"
 #include "lab_sim.hpp"
 
 namespace {
@@ -101,6 +102,33 @@ TEST(StandardErrors, RobustCovarianceEqualsClassicalForWhiteResidualsAtLagZero) 
   const double expect = (6.0 * n / (6.0 * n - 1.0)) * num / (G(0, 0) * G(0, 0));
   EXPECT_NEAR(rep.covariance(0, 0), expect, 1e-12 * expect);
   EXPECT_THROW(identify::robustCovariance(J.topRows(5), r.head(5), G.inverse()), std::invalid_argument);
+}
+
+}  // namespace
+
+namespace {
+
+// The laboratory's own standard errors (prewhitened fits, docs/analyze.md) on filtered noise.
+TEST(StandardErrors, LaboratoryMatchesTheSpreadOverSeedsForLowPassFilteredNoise) {
+  std::map<std::string, std::vector<double>> value, reported;
+  for (int k = 0; k < kSeeds; ++k) {
+    sim::CellSimConfig c = labtest::baseConfig(3000 + static_cast<std::uint64_t>(k));
+    c.noise.wrench_lowpass_hz = 10.0;
+    const identify::ContextSet set = labtest::contexts(c);
+    lab::AnalyzeOptions o;
+    o.candidates = {"poly(t,2)"};
+    const lab::AnalysisResult r = lab::analyze(set.samples, nullptr, o, "sim.csv");
+    for (const char* name : {"mass", "com_x", "f0_x", "tilt_u"}) {
+      const auto* p = labtest::findParam(r.report, name);
+      ASSERT_NE(p, nullptr) << name;
+      value[name].push_back(p->value);
+      reported[name].push_back(p->std);
+    }
+  }
+  Spread s;
+  s.value = value;
+  s.reported = reported;
+  expectSpreadMatchesReported(s, "lab");
 }
 
 }  // namespace
