@@ -133,7 +133,9 @@ trajectory::TrajectoryPoint CellSim::stateAt(double t_s) const {
     // Piecewise-constant poses taken from the configured motion, held still.
     const auto& sp = config_.static_poses;
     const double span = sp.span_s > 0.0 ? sp.span_s : (config_.motion ? config_.duration_s : config_.trajectory.duration());
-    const int k = std::clamp(static_cast<int>(std::floor(t_s / sp.hold_s + 1e-9)), 0, sp.poses - 1);
+    // The hold is a whole number of samples (samplesPerHold()), so rows and poses stay aligned.
+    const double hold = static_cast<double>(samplesPerHold()) / config_.rate_hz;
+    const int k = std::clamp(static_cast<int>(std::floor(t_s / hold + 1e-9)), 0, sp.poses - 1);
     const double tk = (k + 0.5) * span / sp.poses;
     trajectory::TrajectoryPoint x = config_.motion ? config_.motion(tk) : config_.trajectory.evaluate(tk);
     x.qd.setZero();

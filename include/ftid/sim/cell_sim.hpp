@@ -111,7 +111,8 @@ struct MountingSwitch {
 /// (samples at rate_hz, qd = qdd = 0), pose k = the configured motion's q at
 /// (k + 0.5) span / poses (span = span_s, or the trajectory's duration when 0). With `average`,
 /// each hold is logged as one reading: the mean of its samples (wrench, IMU, temperature), at the
-/// hold's mid time. Replaces duration_s: the run lasts poses * hold_s.
+/// hold's mid time. Replaces duration_s: the run lasts poses * hold_s (each hold rounded to a whole
+/// number of samples, at least one).
 struct StaticPoseSetSwitch {
   bool enabled = false;
   int poses = 100;

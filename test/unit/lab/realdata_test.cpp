@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "ftid/common/error.hpp"
 #include "ftid/identify/fit.hpp"
@@ -83,6 +84,31 @@ TEST(NoiseFloor, DetectsWhiteColouredStaticAndNotObservable) {
     EXPECT_EQ(nf.method, identify::NoiseMethod::kNotObservable) << nf.detail;
     EXPECT_FALSE(nf.observable());
   }
+}
+
+TEST(NoiseFloor, PoseColumnGroupsReadingsWhenTheJointAnglesJitter) {
+  // Held poses whose logged q jitters (encoder noise, 2e-3 rad): by q alone every reading looks
+  // like its own pose (not observable); a `pose` column says which readings belong together.
+  auto c = poseSet(251, false);
+  c.noise.wrench_lowpass_hz = 0.0;
+  logio::LogData log = sim::CellSim(c).run();
+  std::mt19937_64 gen(9);
+  std::normal_distribution<double> jitter(0.0, 2e-3);
+  for (auto& smp : log.samples) {
+    for (int j = 0; j < kNumJoints; ++j) smp.q(j) += jitter(gen);
+  }
+  {
+    const auto set = identify::buildContexts(log, *c.robot);
+    EXPECT_EQ(identify::estimateNoiseFloor(set.samples).method, identify::NoiseMethod::kNotObservable);
+  }
+  log.extra_names.push_back("pose");
+  log.extra_columns.emplace_back();
+  for (std::size_t k = 0; k < log.samples.size(); ++k) log.extra_columns.back().push_back(static_cast<double>(k / 31));
+  const auto set = identify::buildContexts(log, *c.robot);
+  const auto nf = identify::estimateNoiseFloor(set.samples);
+  EXPECT_EQ(nf.method, identify::NoiseMethod::kStaticPoses) << nf.detail;
+  const Vec6 truth = c.noise.wrench_std;
+  for (int a = 0; a < 6; ++a) EXPECT_NEAR(nf.std(a), truth(a), 0.1 * truth(a));
 }
 
 TEST(NoiseFloor, DataSheetSpecIsParsedAndBadInputNamed) {
