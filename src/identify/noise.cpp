@@ -366,8 +366,7 @@ Outliers detectOutliers(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual
         }
       }
     } else {
-      std::vector<double> all(residual.row(a).data(), residual.row(a).data() + 0);
-      all.resize(static_cast<std::size_t>(n));
+      std::vector<double> all(static_cast<std::size_t>(n));
       for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = residual(a, i);
       const double m = median(all);
       for (int i = 0; i < n; ++i) h[static_cast<std::size_t>(i)] = residual(a, i) - m;
