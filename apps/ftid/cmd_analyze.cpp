@@ -2,7 +2,9 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace {
@@ -24,12 +26,20 @@ const char* const kUsage =
     "                    is left, printing the held-out residual per axis at each step\n"
     "  --candidates L    comma-separated effects to try (default: every named effect not in the\n"
     "                    model plus harmonic(q4..q6,1), poly(t,2), poly(temp,2))\n"
+    "  --noise fx=S,fy=S,fz=S,tx=S,ty=S,tz=S\n"
+    "                    the sensor's noise std per axis from its data sheet [N, Nm] instead of the\n"
+    "                    estimate from the data (needed for static pose sets with one reading a pose)\n"
+    "  --glitch-sigma K  leave out isolated samples beyond K robust standard deviations (default 6;\n"
+    "                    0 = keep every sample)\n"
     "  --alpha A         false-alarm probability of one ranking (default 0.001, Bonferroni-split)\n"
     "  --report FILE     write a self-contained HTML report (inline SVG; opens offline)\n"
     "  --json            print one JSON object (model, residual_rms, noise_floor, candidates, steps)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
     "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "\n"
+    "The noise floor is detected from the data (white, coloured, static pose set, or not observable)\n"
+    "and named in the report; standard errors and tests account for correlated noise; effects whose\n"
+    "parameters are confounded with the model's in this data are named and not recommended.\n"
     "Every residual printed is held out. Progress goes to stderr. Exit code 1 with a one-line\n"
     "reason on a bad log or a model the data cannot determine, 2 on a usage error.";
 
@@ -60,6 +70,8 @@ int runAnalyze(const std::vector<std::string>& argv) {
   req.options.explain = args.flag("--explain");
   const std::string candidates = args.value("--candidates");
   const std::string alpha = args.value("--alpha", "0.001");
+  const std::string noise = args.value("--noise");
+  const std::string glitch = args.value("--glitch-sigma", "6");
   const std::string report = args.value("--report");
   const bool json = args.flag("--json");
   req.robot_urdf = args.value("--robot");
@@ -76,8 +88,18 @@ int runAnalyze(const std::vector<std::string>& argv) {
     const double a = std::stod(alpha, &used);
     if (used != alpha.size() || !(a > 0.0 && a < 1.0)) throw std::invalid_argument("range");
     req.options.family_alpha = a;
+    const double g = std::stod(glitch, &used);
+    if (used != glitch.size() || !(g >= 0.0 && g < 1e6)) throw std::invalid_argument("range");
+    req.options.glitch_threshold = g;
   } catch (const std::exception&) {
-    throw ftid::cli::UsageError("--folds must be an integer 2..50 and --alpha a number in (0, 1)");
+    throw ftid::cli::UsageError("--folds must be an integer 2..50, --alpha a number in (0, 1) and --glitch-sigma >= 0");
+  }
+  if (!noise.empty()) {
+    try {
+      req.options.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
+    } catch (const ftid::ConfigError& e) {
+      throw ftid::cli::UsageError(e.what());
+    }
   }
   if (!report.empty()) ftid::checkOutputPath(report);  // before the work
   if (!candidates.empty()) req.options.candidates = splitList(candidates);

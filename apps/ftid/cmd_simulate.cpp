@@ -40,6 +40,10 @@ options:
   --seed N               noise seed (default 1); same seed -> identical log
   --noise-force N        white noise std of fx, fy, fz [N] (default 0.05)
   --noise-torque NM      white noise std of tx, ty, tz [Nm] (default 0.01)
+  --noise-lowpass HZ     the wrench noise is 1st-order low-pass filtered at HZ (coloured, as
+                         most sensors stream it; default 0 = white)
+  --noise-oversample K   the sensor averages K sub-samples into each logged sample (signal and
+                         noise; the logged noise std is then about the given std / sqrt(K))
   --noise-acc A          IMU accelerometer noise std [m/s^2] (default 0)
   --noise-gyro W         IMU angular velocity noise std [rad/s] (default 0)
   --noise-alpha AL       IMU angular acceleration noise std [rad/s^2] (default 0)
@@ -51,12 +55,18 @@ options:
   --tilt-u-deg U         base tilt about x [deg]  --tilt-v-deg V  base tilt about y [deg]
   --mount-xyz X,Y,Z      sensor position in the flange frame [m] (default 0,0,0)
   --mount-rpy R,P,Y      sensor orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]
+  --static-poses N       a static pose set instead of the motion: N poses taken along the
+                         trajectory, each held still for --hold S seconds (default 0.4)
+  --average              with --static-poses: log one averaged reading per pose
   --paper-model          drop the rotational and lever-arm inertia terms (the paper's model only)
   --effect NAME[:key=value,...]   switch on a hidden effect (repeatable):
       cable              k=3 [N/m], anchor=X/Y/Z in B [m], attach=X/Y/Z in S [m]
       temperature_drift  df=X/Y/Z [N/degC], dt=X/Y/Z [Nm/degC], ref=25 [degC]
       time_drift         df=X/Y/Z [N/s], dt=X/Y/Z [Nm/s]
-      sensor_delay       tau=0.012 [s]
+      sensor_delay       tau=0.012 [s] (exact shift; negative: the wrench leads)
+      glitches           p=0.004 (per sample), force=10 [N], torque=1 [Nm]: isolated spikes
+      mounting           roll=0, pitch=0, yaw=3 [deg]: the sensor is mounted rotated by
+                         Rz(yaw) Ry(pitch) Rx(roll) against --mount-rpy and reports in its true frame
       crosstalk          scale=1 (multiplies the built-in 6x6 matrix E)
       contact            start=4, end=6 [s], force=X/Y/Z in B [N], point=X/Y/Z in S [m]
       rigid_body         full Newton-Euler (already the default; listed for symmetry)
@@ -65,6 +75,8 @@ options:
 examples:
   ftid simulate --out run.csv --truth truth.yaml --seed 7
   ftid simulate --out hidden.csv --effect temperature_drift --effect sensor_delay:tau=0.008
+  ftid simulate --out real.csv --noise-lowpass 10 --effect glitches:p=0.004,force=10
+  ftid simulate --out poses.csv --static-poses 100 --hold 0.5 --average
 
 exit codes: 0 log written, 1 bad robot description or trajectory file (named), 2 usage error.)";
 
@@ -165,12 +177,32 @@ void applyEffect(const std::string& spec, ftid::sim::CellSimConfig& c) {
       else if (k == "point") c.contact.p_SP_S = parseEffectVec3(v, w + " point");
       else throw bad(k);
     }
+  } else if (name == "glitches") {
+    c.glitches.enabled = true;
+    for (const auto& [k, v] : kv) {
+      if (k == "p") c.glitches.probability = parseDouble(v, w + " p");
+      else if (k == "force") c.glitches.force_N = parseDouble(v, w + " force");
+      else if (k == "torque") c.glitches.torque_Nm = parseDouble(v, w + " torque");
+      else throw bad(k);
+    }
+  } else if (name == "mounting") {
+    c.mounting.enabled = true;
+    constexpr double kDeg = 3.141592653589793 / 180.0;
+    ftid::Vec3 rpy_deg(0.0, 0.0, 3.0);
+    for (const auto& [k, v] : kv) {
+      if (k == "roll") rpy_deg.x() = parseDouble(v, w + " roll");
+      else if (k == "pitch") rpy_deg.y() = parseDouble(v, w + " pitch");
+      else if (k == "yaw") rpy_deg.z() = parseDouble(v, w + " yaw");
+      else throw bad(k);
+    }
+    c.mounting.rpy_rad = rpy_deg * kDeg;
   } else if (name == "rigid_body") {
     if (!kv.empty()) throw bad(kv.front().first);
     c.full_rigid_body = true;
   } else {
     throw UsageError("unknown effect '" + name +
-                     "' (cable, temperature_drift, time_drift, sensor_delay, crosstalk, contact, rigid_body)");
+                     "' (cable, temperature_drift, time_drift, sensor_delay, crosstalk, contact, glitches, mounting, "
+                     "rigid_body)");
   }
 }
 
@@ -187,6 +219,11 @@ int runSimulate(const std::vector<std::string>& argv) {
   const std::string seed = args.value("--seed", "1");
   const double noise_f = parseDouble(args.value("--noise-force", "0.05"), "--noise-force");
   const double noise_t = parseDouble(args.value("--noise-torque", "0.01"), "--noise-torque");
+  const double noise_lowpass = parseDouble(args.value("--noise-lowpass", "0"), "--noise-lowpass");
+  const double noise_oversample = parseDouble(args.value("--noise-oversample", "1"), "--noise-oversample");
+  const std::string static_poses = args.value("--static-poses");
+  const double hold = parseDouble(args.value("--hold", "0.4"), "--hold");
+  const bool average = args.flag("--average");
   const double noise_acc = parseDouble(args.value("--noise-acc", "0"), "--noise-acc");
   const double noise_gyro = parseDouble(args.value("--noise-gyro", "0"), "--noise-gyro");
   const double noise_alpha = parseDouble(args.value("--noise-alpha", "0"), "--noise-alpha");
@@ -226,6 +263,23 @@ int runSimulate(const std::vector<std::string>& argv) {
     c.seed = s;
   }
   c.noise.wrench_std << noise_f, noise_f, noise_f, noise_t, noise_t, noise_t;
+  c.noise.wrench_lowpass_hz = noise_lowpass;
+  if (noise_oversample != std::floor(noise_oversample) || noise_oversample < 1 || noise_oversample > 1000) {
+    throw UsageError("--noise-oversample: an integer 1..1000, got " + std::to_string(noise_oversample));
+  }
+  c.noise.wrench_oversample = static_cast<int>(noise_oversample);
+  if (!static_poses.empty()) {
+    const double np = parseDouble(static_poses, "--static-poses");
+    if (np != std::floor(np) || np < 1 || np > 1e6) throw UsageError("--static-poses: an integer 1..1e6");
+    c.static_poses.enabled = true;
+    c.static_poses.poses = static_cast<int>(np);
+    c.static_poses.hold_s = hold;
+    c.static_poses.average = average;
+    c.static_poses.span_s = c.duration_s;
+    c.duration_s = np * hold;
+  } else if (average) {
+    throw UsageError("--average needs --static-poses");
+  }
   c.noise.acc_std = noise_acc;
   c.noise.gyro_std = noise_gyro;
   c.noise.alpha_std = noise_alpha;

@@ -26,6 +26,7 @@
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/fit.hpp"
+#include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/identify/parameter_set.hpp"
 #include "ftid/lab/analyze.hpp"
@@ -507,6 +508,13 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     set.provenance.n_samples = static_cast<int>(contexts.samples.size());
     print("");
     print(identify::formatParameterTable(set));
+    // Does the model fit? Held-out residual against the noise floor, warning above 1.2x.
+    print(identify::formatFitCheck(identify::checkFit(
+        contexts.samples,
+        [&](const std::vector<identify::SampleContext>& train) {
+          return identify::toParameterSet(identify::fitModel(model, train));
+        },
+        "ftid analyze " + result.data_csv + " --model " + model.name() + " --explain")));
     if (o.analyze) {
       lab::AnalyzeOptions aopts;
       aopts.model = model.name();

@@ -12,6 +12,7 @@
 #include "fit_internal.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/identify/paper_method.hpp"
+#include "ftid/identify/uncertainty.hpp"
 #include "ftid/model/frames.hpp"
 
 namespace ftid::identify {
@@ -677,6 +678,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   if (L.delay >= 0) all_names.push_back(effects::kDelayParamName);
   // One factorisation of J for the rank check, the condition number and the covariance.
+  const Eigen::MatrixXd J_weighted = J;  // the QR factors J in place; the covariance needs it
   const internal::ScaledQR qr_j(J, options.rank_tolerance);
   const internal::RankReport& rr = qr_j.rank();
   if (rr.rank < n_unknowns) {
@@ -690,7 +692,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   res.condition_number = rr.condition_number;
   const int dof = 6 * pb.n_active - n_unknowns;
   res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
-  res.covariance = res.sigma2 * qr_j.inverseGram();
+  // Autocorrelation-robust (Newey-West) covariance: holds for filtered noise (uncertainty.hpp).
+  res.covariance = robustCovariance(J_weighted, sol.residual, qr_j.inverseGram()).covariance;
   res.theta_std = res.covariance.diagonal().head(pb.p).cwiseMax(0.0).cwiseSqrt();
   auto sd = [&](int j) { return std::sqrt(std::max(res.covariance(pb.p + j, pb.p + j), 0.0)); };
   if (L.tilt >= 0) {

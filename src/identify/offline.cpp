@@ -42,8 +42,7 @@ ContextSet loadContexts(const std::string& log_path, const std::string& robot_ur
 
 std::string defaultRobotUrdf() { return findDefaultFile("ur10.urdf"); }
 
-ParameterSet identifyLogFile(const IdentifyRequest& request) {
-  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request) {
   ParameterSet set;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
@@ -51,23 +50,21 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
     for (const auto& e : model.effectList()) {
       const std::string n = e->name();
       const auto open = n.find('(');
-      if (open == std::string::npos || contexts.samples.empty()) continue;
+      if (open == std::string::npos || samples.empty()) continue;
       const auto end = n.find_first_of(",)", open);
       try {
         const auto src = effects::SignalSource::parse(n.substr(open + 1, end - open - 1));
-        if (!src.available(contexts.samples.front())) {
-          throw IdentificationError(request.log_path + ": effect " + n + " needs the signal '" + src.name() +
+        if (!src.available(samples.front())) {
+          throw IdentificationError("effect " + n + " needs the signal '" + src.name() +
                                     "', which the log does not have" +
-                                    (contexts.samples.front().has_joints ? std::string()
+                                    (samples.front().has_joints ? std::string()
                                                                          : " (a pose log has no joint angles)"));
         }
       } catch (const ConfigError&) {
         // not a signal argument (e.g. temperature_drift(20))
       }
     }
-    say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
-                              " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
-    const FitResult fit = fitModel(model, contexts.samples);
+    const FitResult fit = fitModel(model, samples);
     set = toParameterSet(fit);
   } else {
     PaperOptions o;
@@ -78,12 +75,36 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
     } else {
       throw ConfigError("--method must be 'static' or 'dynamic', not '" + request.method + "'");
     }
-    say(request.progress, std::string("paper method (") + toString(o.method) + "): force stage, torque stage");
-    const PaperResult r = identifyPaper(contexts.samples, o);
+    const PaperResult r = identifyPaper(samples, o);
     set = r.toParameterSet();
   }
-  set.provenance.data_file = request.log_path;
   return set;
+}
+
+ParameterSet identifyLogFile(const IdentifyRequest& request) {
+  return identifyLogFileChecked(request, false).set;
+}
+
+CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
+  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+  CheckedIdentification out;
+  if (!request.model.empty()) {
+    const Model model = Model::fromName(request.model);
+    say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
+                              " linear parameters" + (model.estimatesTilt() ? " + tilt" : "") + ")");
+  } else {
+    say(request.progress, "paper method (" + request.method + "): force stage, torque stage");
+  }
+  out.set = identifyContexts(contexts.samples, request);
+  out.set.provenance.data_file = request.log_path;
+  if (check) {
+    say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
+    const std::string model = request.model.empty() ? out.set.model : request.model;
+    out.check = checkFit(
+        contexts.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request); },
+        "ftid analyze " + request.log_path + " --model " + model + " --explain", request.noise_std);
+  }
+  return out;
 }
 
 std::string formatParameterTable(const ParameterSet& set) {

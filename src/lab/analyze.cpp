@@ -2,6 +2,8 @@
 // (include/ftid/lab/analyze.hpp, docs/analyze.md).
 #include <algorithm>
 #include <chrono>
+#include <memory>
+#include <tuple>
 #include <cmath>
 #include <sstream>
 
@@ -11,6 +13,7 @@
 #include "ftid/effects/cable.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/effects/signal_source.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace ftid::lab {
@@ -154,6 +157,175 @@ struct Fitted {
   Solution sol;
 };
 
+bool isMassLike(const std::string& n) {
+  return n == "mass" || n.rfind("mass_com_", 0) == 0 || n == "tilt_u" || n == "tilt_v";
+}
+
+/// The payload's physical parameters (what a confound must not corrupt).
+bool isPhysical(const std::string& n) { return isMassLike(n) || n.rfind("i_s_", 0) == 0; }
+
+/// Why two parameters cannot be told apart, and what motion would separate them.
+std::pair<std::string, std::string> explainPair(const std::string& a, const std::string& b) {
+  auto has = [&](const std::string& key) { return a.find(key) != std::string::npos || b.find(key) != std::string::npos; };
+  const bool mass = isMassLike(a) || isMassLike(b);
+  if (has("cable_kp_z") && mass) {
+    return {"a constant vertical pull is indistinguishable from the weight without translational acceleration",
+            "move with translational acceleration (a dynamic excitation, e.g. from ftid design) instead of static poses"};
+  }
+  if (has("cable") && mass) {
+    return {"without translational acceleration the cable's pull over these poses looks like the weight or its lever",
+            "move with translational acceleration (a dynamic excitation) and through a larger range of positions, "
+            "not only orientations"};
+  }
+  if (has("cable") && (has("f0_") || has("t0_"))) {
+    return {"the cable's pull over these poses looks like the offsets",
+            "move the tool through a larger range of positions, not only orientations, so the pull changes with position"};
+  }
+  if (has("i_s_") || has("inertia")) {
+    return {"rotational inertia shows only under angular acceleration", "excite wrist rotations with larger angular acceleration"};
+  }
+  if (has("delay")) return {"a delay shows only where the wrench changes", "move faster (a wider excitation bandwidth)"};
+  if ((has("temp") || has("dt_")) && (has("poly(t") || has("time") || has("d_dt"))) {
+    return {"temperature and time change together in this log",
+            "record longer, or at several temperatures, so temperature does not follow time"};
+  }
+  if (mass) {
+    return {"it changes together with the weight in this data", "more distinct orientations and translational acceleration"};
+  }
+  return {"they change together in this data", "a motion that changes one without the other (more distinct orientations, "
+                                               "positions and accelerations)"};
+}
+
+/// Confounds and plausibility of candidate `cand` (solution s) against the base fit; "" if fine.
+void checkConfounds(const Fitted& base, const Model& cand, const Linearization& lin, const Solution& s,
+                    CandidateResult& c) {
+  const auto& cn = cand.paramIndex().names();
+  const int pc = cand.numParams();
+  std::vector<std::string> names = cn;
+  // The nonlinear columns after the linear ones, in the engine's order (tilt, mounting, delay).
+  if (lin.tilt_columns) {
+    names.push_back("tilt_u");
+    names.push_back("tilt_v");
+  }
+  if (lin.mount_columns) {
+    for (const char* m : effects::kMountParamNames) names.push_back(m);
+  }
+  if (lin.delay_column) names.push_back(effects::kDelayParamName);
+  const Eigen::MatrixXd& C = s.covariance;
+  auto sd = [&](int k) { return std::sqrt(std::max(0.0, C(k, k))); };
+  std::vector<std::string> reasons;
+  std::string motion;
+  // Correlations between an added parameter and one of the base model's.
+  double worst = 0.0;
+  int wi = -1, wj = -1;
+  for (int j = 0; j < pc; ++j) {
+    if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) >= 0) continue;  // not added
+    for (int i = 0; i < static_cast<int>(names.size()); ++i) {
+      if (i == j || (i < pc && base.model.paramIndex().column(cn[static_cast<std::size_t>(i)]) < 0)) continue;
+      if (!isPhysical(names[static_cast<std::size_t>(i)])) continue;  // nuisance pairs do not matter
+      const double den = sd(i) * sd(j);
+      if (!(den > 0.0)) continue;
+      const double r = std::abs(C(i, j) / den);
+      if (r > worst) {
+        worst = r;
+        wi = i;
+        wj = j;
+      }
+    }
+  }
+  // Directions the data do not determine at all: which added and which physical parameter share one.
+  for (Eigen::Index nc = 0; nc < s.null_space.cols() && worst <= 0.99; ++nc) {
+    int ja = -1, ib = -1;
+    double va = 0.1, vb = 0.1;
+    for (int k = 0; k < static_cast<int>(names.size()) && k < s.null_space.rows(); ++k) {
+      const double v = std::abs(s.null_space(k, nc));
+      const bool added = k < pc && base.model.paramIndex().column(cn[static_cast<std::size_t>(k)]) < 0;
+      if (added && v > va) {
+        va = v;
+        ja = k;
+      } else if (!added && isPhysical(names[static_cast<std::size_t>(k)]) && v > vb) {
+        vb = v;
+        ib = k;
+      }
+    }
+    if (ja >= 0 && ib >= 0) {
+      worst = 1.0;
+      wi = ib;
+      wj = ja;
+    }
+  }
+  if (worst > 0.99) {
+    const auto [why, how] = explainPair(names[static_cast<std::size_t>(wj)], names[static_cast<std::size_t>(wi)]);
+    reasons.push_back(names[static_cast<std::size_t>(wj)] + " and " + names[static_cast<std::size_t>(wi)] +
+                      " are confounded (|correlation| " + fmt(worst, 4) + "): " + why);
+    motion = how;
+  }
+  // Plausibility of the mass.
+  const int cm = cand.paramIndex().column("mass");
+  const int bm = base.model.paramIndex().column("mass");
+  if (cm >= 0 && bm >= 0) {
+    const double m = s.theta(cm), msd = sd(cm);
+    const double mb = base.sol.theta(bm);
+    const double mbsd = std::sqrt(std::max(0.0, base.sol.covariance(bm, bm)));
+    // How strongly an added parameter takes over the mass's role in the candidate.
+    double mass_corr = 0.0;
+    for (int j = 0; j < pc; ++j) {
+      if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) >= 0) continue;
+      const double den = sd(cm) * sd(j);
+      if (den > 0.0) mass_corr = std::max(mass_corr, std::abs(C(cm, j)) / den);
+    }
+    if (m <= 0.0) {
+      reasons.push_back("it makes the mass " + fmt(m, 4) + " kg (<= 0)");
+    } else if (msd > m) {
+      reasons.push_back("the mass is no longer determined (" + fmt(m, 4) + " +- " + fmt(msd, 3) + " kg)");
+    } else if (mbsd > 0.0 && std::abs(m - mb) > 3.0 * mbsd && mass_corr > 0.99) {
+      reasons.push_back("it moves the mass from " + fmt(mb, 5) + " to " + fmt(m, 5) + " kg, " +
+                        fmt(std::abs(m - mb) / mbsd, 3) + " standard errors of the simpler model's, while its "
+                        "parameters take over the mass's role (|r| " + fmt(mass_corr, 4) + ")");
+    }
+    if (motion.empty() && !reasons.empty()) {
+      std::string partner;
+      for (int j = 0; j < pc; ++j) {
+        if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) < 0) {
+          const double den = sd(cm) * sd(j);
+          if (den > 0.0 && (partner.empty() || std::abs(C(cm, j)) / den > 0.5)) partner = cn[static_cast<std::size_t>(j)];
+        }
+      }
+      const auto [why, how] = explainPair(partner, "mass");
+      reasons.back() += " (" + partner + " and the mass: " + why + ")";
+      motion = how;
+    }
+  }
+  // Plausibility of a newly added rigid body.
+  if (cand.contains("rigid_body") && !base.model.contains("rigid_body") && cm >= 0) {
+    const auto& idx = cand.paramIndex();
+    std::vector<int> cols = {cm, idx.column("mass_com_x"), idx.column("mass_com_y"), idx.column("mass_com_z")};
+    for (const char* n : effects::kInertiaParamNames) cols.push_back(idx.column(n));
+    bool ok = true;
+    for (int k : cols) ok = ok && k >= 0;
+    if (ok) {
+      Eigen::Matrix<double, 10, 1> pv;
+      Eigen::Matrix<double, 10, 10> cv;
+      for (int i = 0; i < 10; ++i) {
+        pv(i) = s.theta(cols[static_cast<std::size_t>(i)]);
+        for (int j = 0; j < 10; ++j) cv(i, j) = C(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
+      }
+      const auto in = effects::inertiaAboutCom(pv, cv);
+      if (!in.valid_within_uncertainty) {
+        reasons.push_back("the inertia it gives is not physical: " + in.explanation);
+        if (motion.empty()) motion = "excite wrist rotations with larger angular acceleration";
+      }
+    }
+  }
+  if (reasons.empty()) return;
+  c.confounded = true;
+  c.significant = false;
+  std::string all;
+  for (const auto& r : reasons) all += (all.empty() ? "" : "; ") + r;
+  c.confound = all;
+  c.separating_motion = motion;
+}
+
 /// Ranks the candidates against the fitted model `base`.
 std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& base, const std::vector<std::string>& menu,
                                             const AnalyzeOptions& options, const std::string& log_cmd) {
@@ -192,7 +364,11 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
       c.note = err.what();
       continue;
     }
-    const std::string miss = missingSignal(cand, eng.data().ctx);
+    std::string miss = missingSignal(cand, eng.data().ctx);
+    if (miss.empty() && eng.data().static_data && (cand.signals() & effects::kSignalModelDerivative) != 0 &&
+        !base.model.contains("crosstalk") && c.effect.rfind("sensor_delay", 0) == 0) {
+      miss = "static pose set: a delay shows only while the wrench changes (the time between poses is not motion)";
+    }
     if (!miss.empty()) {
       c.skipped = true;
       c.note = miss;
@@ -234,6 +410,7 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
     c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
     c.p_value = chiSquareSurvival(c.f_statistic * c.added_params, c.added_params);
     c.significant = c.p_value < alpha_each && rr >= options.min_relative_reduction;
+    if (c.significant) checkConfounds(base, cand, lin, s, c);
   }
   std::stable_sort(out.begin(), out.end(), [](const CandidateResult& a, const CandidateResult& b) {
     if (a.skipped != b.skipped) return !a.skipped;
@@ -350,52 +527,134 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                           static_cast<int>(static_cast<long long>(n_fit) * (f + 1) / options.folds), true});
     }
   }
-  // Noise floor per axis from the fitting log's readings.
-  for (int a = 0; a < 6; ++a) {
-    std::vector<double> x(static_cast<std::size_t>(n_fit));
-    for (int i = 0; i < n_fit; ++i) x[static_cast<std::size_t>(i)] = fit[static_cast<std::size_t>(i)].wrench_S(a);
-    result.noise_floor(a) = estimateNoiseStd(x);
-  }
-  {
-    // Guard noise-free data: a floor far below the signal would make the weights meaningless.
-    const double tiny = 1e-9;
-    for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(result.noise_floor(a), tiny);
-  }
+  // The noise floor: data sheet, or detected from the fitting log's readings.
+  identify::NoiseFloor nf =
+      options.noise_std ? identify::dataSheetNoiseFloor(*options.noise_std) : identify::estimateNoiseFloor(fit);
+  result.noise_method = identify::toString(nf.method);
+  result.noise_detail = nf.detail;
+  result.noise_ar1 = nf.ar1;
+  result.noise_floor = nf.std;
+  d.ar1 = nf.ar1;
+  (void)identify::poseGroups(fit, &d.static_data);
+  // Guard noise-free data: a floor far below the signal would make the weights meaningless.
+  const double tiny = 1e-9;
+  const Vec6 innovation = nf.innovationStd();
+  for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(innovation(a), tiny);
   result.n_samples = n_fit;
   result.folds = validate != nullptr ? 1 : options.folds;
-  Engine eng(std::move(d));
-  result.n_eval = static_cast<int>(eng.testSamples().size());
 
   Model model = Model::fromName(options.model);
-  const std::string miss = missingSignal(model, eng.data().ctx);
+  const std::string miss = missingSignal(model, d.ctx);
   if (!miss.empty()) throw DataError("model '" + model.name() + "' cannot be fitted: " + miss);
   const std::string log_cmd = log_name + (validate != nullptr ? " --validate " + validate_name : "");
 
+  say(options, "noise floor: " + nf.detail);
   say(options, "fitting " + model.name() + " (" + std::to_string(model.numParams()) + " parameters) on " +
                    std::to_string(n_fit) + " samples, " +
                    (validate != nullptr ? "validating on " + validate_name
                                         : std::to_string(options.folds) + "-fold held-out blocks"));
-  auto [lin, sol] = eng.fitFully(model, eng.initial(model));
-  if (sol.rank < sol.p) {
-    throw IdentificationError("model '" + model.name() + "': the data determine only " + std::to_string(sol.rank) +
-                              " of its " + std::to_string(sol.p) +
-                              " parameters (too little excitation for this model; see docs/analyze.md)");
+  auto fitStart = [&](const Engine& e) {
+    auto fitted = e.fitFully(model, e.initial(model));
+    if (fitted.second.rank < fitted.second.p) {
+      throw IdentificationError("model '" + model.name() + "': the data determine only " +
+                                std::to_string(fitted.second.rank) + " of its " + std::to_string(fitted.second.p) +
+                                " parameters (too little excitation for this model; see docs/analyze.md)");
+    }
+    return fitted;
+  };
+  if (!nf.observable()) {
+    // One reading per pose: the cross-validated residual of the starting model is the scale
+    // (provisional weights: the spread of each axis' readings).
+    for (int a = 0; a < 6; ++a) {
+      double m = 0.0, ss = 0.0;
+      for (int i = 0; i < n_fit; ++i) m += fit[static_cast<std::size_t>(i)].wrench_S(a) / n_fit;
+      for (int i = 0; i < n_fit; ++i) ss += std::pow(fit[static_cast<std::size_t>(i)].wrench_S(a) - m, 2);
+      d.weights(a) = 1.0 / std::max(std::sqrt(ss / n_fit), tiny);
+    }
+    const Engine provisional(d);
+    const auto fitted = fitStart(provisional);
+    const Vec6 cv = (fitted.second.sse_heldout_axis / std::max(1, fitted.second.n_heldout)).cwiseSqrt();
+    result.noise_floor = cv;
+    for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(cv(a), tiny);
+    result.warnings.push_back("the noise floor is not observable (one reading per pose): the scale is the "
+                              "cross-validated residual of " + model.name() +
+                              ", so residual/noise ratios near 1 say nothing about the model; give the "
+                              "sensor's noise with --noise fx=..,..,tz=..");
   }
+  auto eng = std::make_unique<Engine>(d);
+  result.n_eval = static_cast<int>(eng->testSamples().size());
+  auto [lin, sol] = fitStart(*eng);
+
+  // The residual of the first fit settles the noise colour (dense data) and shows the glitches
+  // (isolated samples far outside its robust spread); both change the weights: re-fit.
+  {
+    const int n_all = eng->data().size();
+    const Mat6X pred = eng->predict(model, lin, sol.theta, false);
+    Mat6X res(6, n_all);
+    for (int i = 0; i < n_all; ++i) res.col(i) = eng->data().ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
+    bool changed = false;
+    d = eng->data();
+    if (!options.noise_std) {
+      const Vec6 before = nf.ar1;
+      identify::refineNoiseFloor(nf, res.leftCols(n_fit), fit);
+      if (nf.observable() && (nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured)) {
+        result.noise_method = identify::toString(nf.method);
+        result.noise_detail = nf.detail;
+        result.noise_ar1 = nf.ar1;
+        result.noise_floor = nf.std;
+        d.ar1 = nf.ar1;
+        const Vec6 inn = nf.innovationStd();
+        for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(inn(a), tiny);
+        changed = changed || before != nf.ar1;
+      }
+    }
+    if (options.glitch_threshold > 0.0) {
+      bool is_static = false;
+      (void)identify::poseGroups(fit, &is_static);
+      const auto flagged = identify::detectOutliers(res, !is_static, options.glitch_threshold, d.segment_start);
+      if (!flagged.samples.empty()) {
+        d.excluded.assign(static_cast<std::size_t>(n_all), 0);
+        for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
+          const int i = flagged.samples[k];
+          d.excluded[static_cast<std::size_t>(i)] = 1;
+          result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
+          result.outliers.axes.push_back(flagged.axes[k]);
+        }
+        result.outliers.count = static_cast<int>(flagged.samples.size());
+        say(options, std::to_string(result.outliers.count) + " glitch" + (result.outliers.count == 1 ? "" : "es") +
+                         " (isolated samples beyond " + fmt(options.glitch_threshold, 3) +
+                         " robust standard deviations) left out");
+        changed = true;
+      }
+    }
+    if (changed) {
+      say(options, "re-fitting " + model.name() + " (" + nf.detail + ")");
+      eng = std::make_unique<Engine>(d);
+      std::tie(lin, sol) = fitStart(*eng);
+    }
+  }
+  const Engine& engine = *eng;
   Fitted base{model, lin, sol};
-  result.report = makeReport(eng, model, lin, sol);
+  result.report = makeReport(engine, model, lin, sol);
 
   // Time series of the evaluated data.
-  const auto& tests = eng.testSamples();
+  const auto& tests = engine.testSamples();
   result.measured.resize(6, static_cast<Eigen::Index>(tests.size()));
   for (std::size_t k = 0; k < tests.size(); ++k) {
-    const auto& c = eng.data().ctx[static_cast<std::size_t>(tests[k])];
+    const auto& c = engine.data().ctx[static_cast<std::size_t>(tests[k])];
     result.t.push_back(c.t);
     result.measured.col(static_cast<Eigen::Index>(k)) = c.wrench_S;
   }
   result.predicted = result.measured - sol.heldout_residual;
+  // Statistics of the residual without the glitches (the plots keep them).
+  Mat6X stat_res = sol.heldout_residual;
+  for (std::size_t k = 0; k < tests.size(); ++k) {
+    if (engine.excluded(tests[k])) stat_res.col(static_cast<Eigen::Index>(k)).setZero();
+  }
 
   // Where it fails: windows.
-  const Vec6 w = eng.data().weights;
+  Vec6 w;
+  for (int a = 0; a < 6; ++a) w(a) = 1.0 / std::max(result.noise_floor(a), 1e-9);
   const int n_eval = result.n_eval;
   const int nw = std::max(1, std::min(options.window_count, n_eval / 4));
   std::vector<FailWindow> windows;
@@ -403,7 +662,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     const int a = static_cast<int>(static_cast<long long>(n_eval) * k / nw);
     const int b = static_cast<int>(static_cast<long long>(n_eval) * (k + 1) / nw);
     Vec6 ss = Vec6::Zero();
-    for (int i = a; i < b; ++i) ss += sol.heldout_residual.col(i).cwiseProduct(w).cwiseAbs2();
+    for (int i = a; i < b; ++i) ss += stat_res.col(i).cwiseProduct(w).cwiseAbs2();
     ss /= std::max(1, b - a);
     FailWindow fw;
     fw.t_start = result.t[static_cast<std::size_t>(a)];
@@ -419,12 +678,12 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.windows = windows;
 
   // ... and with what: correlations of the held-out residual with measured signals.
-  const auto signals = diagnosticSignals(eng, lin);
+  const auto signals = diagnosticSignals(engine, lin);
   std::vector<SignalCorrelation> corr;
   const double thresh = 5.0 / std::sqrt(std::max(1.0, static_cast<double>(n_eval)));
   for (const auto& s : signals) {
     for (int a = 0; a < 6; ++a) {
-      const double r = pearson(s.values, sol.heldout_residual.row(a));
+      const double r = pearson(s.values, stat_res.row(a));
       corr.push_back({s.name, a, r, std::abs(r) > thresh});
     }
   }
@@ -439,7 +698,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // Which effect is missing.
   const auto menu = candidateMenu(options);
-  result.candidates = rankCandidates(eng, base, menu, options, log_cmd);
+  result.candidates = rankCandidates(engine, base, menu, options, log_cmd);
 
   if (options.explain) {
     ExplainStep s0;
@@ -455,7 +714,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       Model next = cur.model.withEffect(best.effect);
       say(options, "explain step " + std::to_string(step + 1) + ": adding " + best.effect + " (held-out residual -" +
                        fmt(100.0 * best.relative_reduction, 3) + "%)");
-      auto [nlin, nsol] = eng.fitFully(next, cur.lin);
+      auto [nlin, nsol] = engine.fitFully(next, cur.lin);
       cur = Fitted{next, nlin, nsol};
       ExplainStep st;
       st.model = next.name();
@@ -464,9 +723,36 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       st.total_ratio = totalRatio(st.residual_rms, result.noise_floor);
       st.p_value = best.p_value;
       result.steps.push_back(st);
-      ranking = rankCandidates(eng, cur, menu, options, log_cmd);
+      ranking = rankCandidates(engine, cur, menu, options, log_cmd);
     }
-    result.final_report = makeReport(eng, cur.model, cur.lin, cur.sol);
+    result.final_report = makeReport(engine, cur.model, cur.lin, cur.sol);
+  }
+  // What is left: the last model's held-out residual against the noise floor.
+  if (nf.observable()) {
+    const ModelReport& last = result.final_report ? *result.final_report : result.report;
+    std::string above;
+    double worst = 0.0;
+    for (int a = 0; a < 6; ++a) {
+      const double ratio = last.residual_rms(a) / std::max(result.noise_floor(a), 1e-12);
+      worst = std::max(worst, ratio);
+      if (ratio > 1.2) above += std::string(above.empty() ? "" : ", ") + kWrenchAxisNames[a] + " " + fmt(ratio, 3) + "x";
+    }
+    if (!above.empty()) {
+      result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +
+                                "): the model misses something" +
+                                (options.explain ? " that no candidate explains" : "; try --explain"));
+    }
+  }
+  for (const auto& c : result.candidates) {
+    if (c.confounded) {
+      result.warnings.push_back(c.effect + " is not recommended: " + c.confound + "; to separate them: " +
+                                c.separating_motion);
+    }
+  }
+  if (result.outliers.count > 0) {
+    result.warnings.push_back(std::to_string(result.outliers.count) + " glitch" +
+                              (result.outliers.count == 1 ? " was" : "es were") +
+                              " left out of every fit (isolated spikes; see outliers)");
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return result;

@@ -32,6 +32,7 @@ struct PinvSolve {
   Eigen::MatrixXd inverse;  ///< pseudo-inverse of G
   int rank = 0;
   double condition = 0.0;   ///< of the column-scaled regressor (sqrt of the Gram's)
+  Eigen::MatrixXd null_space;  ///< dropped directions (columns, in column-scaled coordinates)
 };
 
 /// Pseudo-inverse solve of G x = h on the column-equilibrated G.
@@ -57,6 +58,13 @@ PinvSolve solveNormal(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, bool w
   }
   out.condition = lmax > 0.0 ? std::sqrt(lmax / lmin_kept) : 0.0;
   const Eigen::MatrixXd& V = eig.eigenvectors();
+  if (want_inverse && out.rank < p) {
+    out.null_space.resize(p, p - out.rank);
+    int c = 0;
+    for (Eigen::Index k = 0; k < p; ++k) {
+      if (linv(k) == 0.0) out.null_space.col(c++) = V.col(k);
+    }
+  }
   const Eigen::VectorXd hs = d.asDiagonal() * h;
   out.x = d.asDiagonal() * (V * (linv.asDiagonal() * (V.transpose() * hs)));
   if (want_inverse) out.inverse = d.asDiagonal() * V * linv.asDiagonal() * V.transpose() * d.asDiagonal();
@@ -137,6 +145,37 @@ int Engine::rowOf(int i, int a) const {
 }
 
 Engine::Design Engine::design(const Model& model, const Linearization& lin) const {
+  Design X = rawDesign(model, lin);
+  whiten(X, 0, static_cast<int>(X.cols()));
+  return X;
+}
+
+void Engine::whiten(Design& X, int c0, int c1) const {
+  const int nc = c1 - c0;
+  if (nc <= 0) return;
+  const bool any_ar = data_.ar1.cwiseAbs().maxCoeff() > 0.0;
+  for (const Block& blk : data_.blocks) {
+    const int nbk = blk.end - blk.begin;
+    for (int a = 0; a < 6; ++a) {
+      const double phi = data_.ar1(a);
+      const std::ptrdiff_t r0 = 6 * static_cast<std::ptrdiff_t>(blk.begin) + static_cast<std::ptrdiff_t>(a) * nbk;
+      if (phi != 0.0 && nbk > 0) {
+        for (int i = nbk - 1; i >= 1; --i) {
+          X.row(r0 + i).segment(c0, nc) -= phi * X.row(r0 + i - 1).segment(c0, nc);
+        }
+        X.row(r0).segment(c0, nc) *= std::sqrt(1.0 - phi * phi);
+      }
+      if (data_.excluded.empty()) continue;
+      for (int i = 0; i < nbk; ++i) {
+        if (!data_.excluded[static_cast<std::size_t>(blk.begin + i)]) continue;
+        X.row(r0 + i).segment(c0, nc).setZero();
+        if (any_ar && phi != 0.0 && i + 1 < nbk) X.row(r0 + i + 1).segment(c0, nc).setZero();
+      }
+    }
+  }
+}
+
+Engine::Design Engine::rawDesign(const Model& model, const Linearization& lin) const {
   const int n = data_.size();
   const int p = model.numParams();
   const int pt = p + lin.extraColumns();
@@ -203,7 +242,8 @@ Engine::Design Engine::designExtended(const Model& base, const Design& base_desi
     if (!base.contains(e->name())) added.push_back(e.get());
   }
   const int n = data_.size();
-  Design X(6 * n, pc + tilt + 1);
+  // The added effects' contributions alone, prewhitened, then the (already whitened) base columns.
+  Design X = Design::Zero(6 * n, pc + tilt + 1);
   Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, pc);
   const Vec6& w = data_.weights;
   for (int i = 0; i < n; ++i) {
@@ -211,13 +251,16 @@ Engine::Design Engine::designExtended(const Model& base, const Design& base_desi
     Y.setZero();
     for (const auto* e : added) e->addRegressor(c, Y);
     for (int a = 0; a < 6; ++a) {
-      const std::ptrdiff_t r = rowOf(i, a);
-      const double* src = base_design.data() + r * (pb + tilt + 1);
-      double* row = X.data() + r * (pc + tilt + 1);
-      for (int k = 0; k < pb; ++k) row[k] = src[k] + w(a) * Y(a, k);
-      for (int k = pb; k < pc; ++k) row[k] = w(a) * Y(a, k);
-      for (int k = 0; k <= tilt; ++k) row[pc + k] = src[pb + k];
+      double* row = X.data() + static_cast<std::ptrdiff_t>(rowOf(i, a)) * (pc + tilt + 1);
+      for (int k = 0; k < pc; ++k) row[k] = w(a) * Y(a, k);
     }
+  }
+  whiten(X, 0, pc);
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    const double* src = base_design.data() + r * (pb + tilt + 1);
+    double* row = X.data() + r * (pc + tilt + 1);
+    for (int k = 0; k < pb; ++k) row[k] += src[k];
+    for (int k = 0; k <= tilt; ++k) row[pc + k] = src[pb + k];
   }
   return X;
 }
@@ -233,7 +276,8 @@ double sseFromGram(const Eigen::MatrixXd& G, const Eigen::VectorXd& theta) {
 
 }  // namespace
 
-Solution Engine::solve(const Design& X, bool with_folds, bool with_series) const {
+Solution Engine::solve(const Design& X, bool with_folds, const Design* raw) const {
+  const bool with_series = raw != nullptr;
   const int p = static_cast<int>(X.cols()) - 1;
   const std::size_t nb = data_.blocks.size();
   // Augmented Gram of every (block, axis).
@@ -260,20 +304,27 @@ Solution Engine::solve(const Design& X, bool with_folds, bool with_series) const
   const PinvSolve full = solveNormal(Gf.topLeftCorner(p, p), Gf.col(p).head(p), true);
   sol.theta = full.x;
   sol.rank = full.rank;
+  sol.null_space = full.null_space;
   sol.condition_number = full.condition;
-  sol.rows_fit = 6 * data_.n_fit;
+  int excluded_fit = 0;
+  for (int i = 0; i < data_.n_fit; ++i) excluded_fit += excluded(i) ? 1 : 0;
+  sol.rows_fit = 6 * (data_.n_fit - excluded_fit);
   sol.sse_fit = sseFromGram(Gf, sol.theta);
+  // Per-axis sums in N^2 / Nm^2: whitened sums / w^2 / (1 - phi^2) (the marginal scale).
+  Vec6 to_raw;
+  for (int a = 0; a < 6; ++a) {
+    to_raw(a) = 1.0 / (data_.weights(a) * data_.weights(a) * std::max(1e-6, 1.0 - data_.ar1(a) * data_.ar1(a)));
+  }
   for (std::size_t b = 0; b < nb; ++b) {
     if (!data_.blocks[b].fit) continue;
-    for (int a = 0; a < 6; ++a) {
-      sol.sse_fit_axis(a) += sseFromGram(G[b][static_cast<std::size_t>(a)], sol.theta) / (data_.weights(a) * data_.weights(a));
-    }
+    for (int a = 0; a < 6; ++a) sol.sse_fit_axis(a) += sseFromGram(G[b][static_cast<std::size_t>(a)], sol.theta) * to_raw(a);
   }
   sol.sigma2 = sol.sse_fit / std::max(1, sol.rows_fit - sol.rank);
   sol.covariance = sol.sigma2 * full.inverse;
   if (!with_folds) return sol;
-  sol.n_heldout = static_cast<int>(test_samples_.size());
-  if (with_series) sol.heldout_residual.resize(6, sol.n_heldout);
+  sol.n_heldout = 0;
+  for (int i : test_samples_) sol.n_heldout += excluded(i) ? 0 : 1;
+  if (with_series) sol.heldout_residual.resize(6, static_cast<Eigen::Index>(test_samples_.size()));
   int col = 0;
   for (int f = 0; f < data_.foldCount(); ++f) {
     Eigen::MatrixXd Gt = Eigen::MatrixXd::Zero(p + 1, p + 1);
@@ -287,9 +338,9 @@ Solution Engine::solve(const Design& X, bool with_folds, bool with_series) const
     for (int a = 0; a < 6; ++a) {
       const double sse = sseFromGram(G[static_cast<std::size_t>(tb)][static_cast<std::size_t>(a)], fold.x);
       sol.sse_heldout += sse;
-      sol.sse_heldout_axis(a) += sse / (data_.weights(a) * data_.weights(a));
+      sol.sse_heldout_axis(a) += sse * to_raw(a);
       if (with_series) {
-        const auto rows = X.middleRows(6 * blk.begin + a * nbk, nbk);
+        const auto rows = raw->middleRows(6 * blk.begin + a * nbk, nbk);
         const Eigen::VectorXd r = (rows.col(p) - rows.leftCols(p) * fold.x) / data_.weights(a);
         sol.heldout_residual.row(a).segment(col, nbk) = r.transpose();
       }
@@ -297,10 +348,16 @@ Solution Engine::solve(const Design& X, bool with_folds, bool with_series) const
     col += nbk;
   }
   if (with_series) {
-    // Exact sums from the explicit residual (the Gram formula loses digits when the fit is near
-    // perfect, e.g. noise-free data).
-    sol.sse_heldout_axis = sol.heldout_residual.rowwise().squaredNorm();
-    sol.sse_heldout = sol.sse_heldout_axis.cwiseProduct(data_.weights.cwiseAbs2()).sum();
+    // Exact per-axis sums from the explicit residual in N / Nm, without the excluded samples.
+    sol.sse_heldout_axis.setZero();
+    for (std::size_t k = 0; k < test_samples_.size(); ++k) {
+      if (!excluded(test_samples_[k])) sol.sse_heldout_axis += sol.heldout_residual.col(static_cast<Eigen::Index>(k)).cwiseAbs2();
+    }
+    if (data_.ar1.cwiseAbs().maxCoeff() == 0.0) {
+      // White: the weighted total from the same sums (the Gram formula loses digits when the fit
+      // is near perfect, e.g. noise-free data).
+      sol.sse_heldout = sol.sse_heldout_axis.cwiseProduct(data_.weights.cwiseAbs2()).sum();
+    }
   }
   return sol;
 }
@@ -493,7 +550,8 @@ std::pair<Linearization, Solution> Engine::fitFully(const Model& model, const Li
   lin.tilt_columns = tilt;
   lin.mount_columns = mount;
   lin.delay_column = delay;
-  Solution sol = solve(design(model, lin), true, true);
+  const Design raw = rawDesign(model, lin);
+  Solution sol = solve(design(model, lin), true, &raw);
   if (!derived) {
     lin.w_model = predict(model, lin, sol.theta, true);
     lin.dw_dt = timeDerivative(lin.w_model);

@@ -36,7 +36,12 @@ struct Dataset {
   int n_fit = 0;
   std::vector<Block> blocks;       ///< k-fold: the folds; external: [fit, validate]
   bool external = false;
-  Vec6 weights = Vec6::Ones();     ///< 1 / noise floor
+  Vec6 weights = Vec6::Ones();     ///< 1 / innovation std of the noise (= 1 / noise floor if white)
+  Vec6 ar1 = Vec6::Zero();         ///< lag-1 noise correlation per axis: rows are prewhitened
+                                   ///< x_i - phi x_{i-1} along time inside each block (first row
+                                   ///< of a block scaled by sqrt(1 - phi^2), Prais-Winsten)
+  std::vector<char> excluded;      ///< per sample: a glitch, left out of every fit and sum
+  bool static_data = false;        ///< a static pose set (the robot at rest in every sample)
   std::vector<int> segment_start;  ///< sample index where a log starts (for time derivatives)
   double max_delay_s = 1.0;        ///< delay search range of `sensor_delay` [s]
 
@@ -77,15 +82,18 @@ struct Solution {
   int rank = 0;
   Eigen::VectorXd theta;        ///< full-data (all fit blocks) solution
   Eigen::MatrixXd covariance;   ///< sigma^2 (X^T W X)^+ of the full-data solution (weighted)
+  /// Directions the data do not determine (rank < p): unit columns over the parameters in
+  /// column-scaled coordinates (entries show which parameters enter only in that combination).
+  Eigen::MatrixXd null_space;
   double sse_fit = 0.0;         ///< weighted in-sample SSE of the full-data fit
   double sigma2 = 0.0;
   int rows_fit = 0;
   double condition_number = 0.0;
   Vec6 sse_fit_axis = Vec6::Zero();  ///< unweighted, per axis
-  Mat6X heldout_residual;       ///< unweighted, test samples in order of the test blocks (with_series)
+  Mat6X heldout_residual;       ///< N / Nm, test samples in order of the test blocks (with raw)
   double sse_heldout = 0.0;     ///< weighted
   Vec6 sse_heldout_axis = Vec6::Zero();  ///< unweighted
-  int n_heldout = 0;
+  int n_heldout = 0;            ///< test samples not excluded
 };
 
 class Engine {
@@ -98,9 +106,13 @@ class Engine {
   /// block axis by axis (rowOf()), so every (block, axis) is a contiguous row range.
   using Design = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   Design design(const effects::Model& model, const Linearization& lin) const;
-  /// with_folds = false skips the held-out part (inner iterations); with_series fills
-  /// Solution::heldout_residual (needed only for the reported model).
-  Solution solve(const Design& X, bool with_folds = true, bool with_series = false) const;
+  /// Same without prewhitening and exclusions (for the reported residual series).
+  Design rawDesign(const effects::Model& model, const Linearization& lin) const;
+  /// with_folds = false skips the held-out part (inner iterations); with `raw` (rawDesign of the
+  /// same model) fills Solution::heldout_residual in N / Nm and takes the per-axis held-out sums
+  /// from it (needed only for the reported model). Without it the per-axis sums are the whitened
+  /// ones scaled by 1 / (1 - phi^2) (the marginal scale of AR(1) noise).
+  Solution solve(const Design& X, bool with_folds = true, const Design* raw = nullptr) const;
   /// Contexts with g_S and the derived signals of the linearisation filled in.
   std::vector<SampleContext> prepared(const Linearization& lin) const;
   /// Design of `cand` = `base` + more effects, from the base design (same linearisation, same tilt
@@ -135,8 +147,13 @@ class Engine {
 
   /// Indices of the evaluated (test) samples in order.
   const std::vector<int>& testSamples() const { return test_samples_; }
+  bool excluded(int i) const {
+    return !data_.excluded.empty() && data_.excluded[static_cast<std::size_t>(i)] != 0;
+  }
 
  private:
+  /// Prewhitens columns [c0, c1) of X in place and zeroes the rows an excluded sample touches.
+  void whiten(Design& X, int c0, int c1) const;
   SampleContext contextAt(int i, const Linearization& lin) const;
   /// Sample i prepared for lin (delay shift within its log, mounting, gravity g_B).
   SampleContext prepare(int i, const Linearization& lin, const Vec3& g_B, const Mat3& R_SM) const;

@@ -79,6 +79,13 @@ std::string formatJson(const AnalysisResult& r) {
   o << " \"samples\": " << r.n_samples << ", \"heldout_samples\": " << r.n_eval << ", \"folds\": " << r.folds << ",\n";
   o << " \"residual_rms\": " << axes(r.report.residual_rms) << ",\n";
   o << " \"noise_floor\": " << axes(r.noise_floor) << ",\n";
+  o << " \"noise_method\": " << str(r.noise_method) << ", \"noise_detail\": " << str(r.noise_detail)
+    << ", \"noise_ar1\": " << axes(r.noise_ar1) << ",\n";
+  o << " \"outliers\": {\"count\": " << r.outliers.count << ", \"times\": [";
+  for (std::size_t k = 0; k < r.outliers.times.size(); ++k) o << (k ? ", " : "") << num(r.outliers.times[k]);
+  o << "]},\n \"warnings\": [";
+  for (std::size_t k = 0; k < r.warnings.size(); ++k) o << (k ? ", " : "") << str(r.warnings[k]);
+  o << "],\n";
   o << " \"raw_rms\": " << axes(r.report.raw_rms) << ",\n";
   o << " \"fit\": " << report(r.report) << ",\n";
   o << " \"windows\": [";
@@ -103,7 +110,9 @@ std::string formatJson(const AnalysisResult& r) {
       << ", \"f_statistic\": " << num(c.f_statistic) << ", \"added_params\": " << c.added_params
       << ", \"delta_bic\": " << num(c.delta_bic) << ", \"residual_rms\": " << axes(c.residual_rms)
       << ", \"description\": " << str(c.description) << ", \"next_command\": " << str(c.next_command)
-      << ", \"skipped\": " << (c.skipped ? "true" : "false") << ", \"note\": " << str(c.note) << "}";
+      << ", \"skipped\": " << (c.skipped ? "true" : "false") << ", \"note\": " << str(c.note)
+      << ", \"confounded\": " << (c.confounded ? "true" : "false") << ", \"confound\": " << str(c.confound)
+      << ", \"separating_motion\": " << str(c.separating_motion) << "}";
   }
   o << "]";
   if (!r.steps.empty()) {

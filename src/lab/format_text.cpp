@@ -49,6 +49,17 @@ std::string formatText(const AnalysisResult& r) {
   s += line("model %s: %d fitting samples, %s", r.report.model.c_str(), r.n_samples,
             r.validate_log.empty() ? (std::to_string(r.folds) + "-fold held-out validation (contiguous time blocks)").c_str()
                                    : ("validated on " + r.validate_log).c_str());
+  s += line("noise floor (%s): %s", r.noise_method.c_str(), r.noise_detail.c_str());
+  if (r.outliers.count > 0) {
+    std::string times;
+    for (std::size_t k = 0; k < r.outliers.times.size() && k < 12; ++k) {
+      char b[48];
+      std::snprintf(b, sizeof b, "%s%.3f", k ? ", " : "", r.outliers.times[k]);
+      times += b;
+    }
+    if (r.outliers.times.size() > 12) times += ", ...";
+    s += line("glitches: %d isolated samples left out of every fit, at t = %s s", r.outliers.count, times.c_str());
+  }
   s += "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
   if (!r.windows.empty()) {
@@ -77,11 +88,16 @@ std::string formatText(const AnalysisResult& r) {
       std::snprintf(p, sizeof(p), "p = %.2g", c.p_value);
     }
     s += line("  %-20s %6.1f %%  %-13s %-15s %s", c.effect.c_str(), 100.0 * c.relative_reduction, p,
-              c.significant ? "SIGNIFICANT" : "not significant", c.description.c_str());
+              c.significant ? "SIGNIFICANT" : (c.confounded ? "CONFOUNDED" : "not significant"), c.description.c_str());
     ++shown;
   }
   for (const auto& c : r.candidates) {
     if (c.skipped) s += line("  %-20s skipped: %s", c.effect.c_str(), c.note.c_str());
+  }
+  for (const auto& c : r.candidates) {
+    if (!c.confounded) continue;
+    s += "  " + c.effect + " is NOT recommended: " + c.confound + ".\n";
+    s += "    what would separate them: " + c.separating_motion + ".\n";
   }
   if (shown > 0 && r.candidates.front().significant) {
     const auto& best = r.candidates.front();
@@ -105,6 +121,7 @@ std::string formatText(const AnalysisResult& r) {
                              : "  nothing significant is left after step " + std::to_string(r.steps.size() - 1) + ".\n";
   }
   s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
+  for (const auto& w : r.warnings) s += "warning: " + w + "\n";
   if (!r.steps.empty()) {
     // --explain closes with the commands that turn the final model into parameters and exports.
     s += "\nidentify the final model, write its parameters and the UR / ros2_control exports:\n";

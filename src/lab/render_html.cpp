@@ -237,7 +237,7 @@ std::string renderHtml(const AnalysisResult& r) {
        "td,th{border:1px solid #ccc;padding:3px 8px;font-size:13px;text-align:right}th{background:#eee}"
        "td:first-child{text-align:left}tr.bad td{background:#fde2e2}tr.sig td{background:#e3f4e1}"
        ".plot{margin:4px;border:1px solid #ddd}.tk{font-size:10px;fill:#444}.ti{font-size:12px;font-weight:bold}"
-       "code{background:#eee;padding:1px 4px}.grid{display:flex;flex-wrap:wrap}</style></head><body>\n";
+       ".warn{background:#fff4d6;border:1px solid #e0c060;padding:4px 8px}code{background:#eee;padding:1px 4px}.grid{display:flex;flex-wrap:wrap}</style></head><body>\n";
   o << "<h1>ftid analyze &mdash; model <code>" << esc(r.report.model) << "</code></h1>\n";
   o << "<p>Log <code>" << esc(r.log) << "</code>, " << r.n_samples << " fitting samples, "
     << (r.validate_log.empty() ? std::to_string(r.folds) + "-fold held-out validation over contiguous time blocks"
@@ -257,6 +257,13 @@ std::string renderHtml(const AnalysisResult& r) {
       << (r.final_report ? "; final model <code>" + esc(r.final_report->model) + "</code>" : std::string())
       << ".</p>\n";
   }
+  o << "<p>Noise floor: <b>" << esc(r.noise_method) << "</b> &mdash; " << esc(r.noise_detail) << ".</p>\n";
+  if (r.outliers.count > 0) {
+    o << "<p>Glitches: " << r.outliers.count << " isolated samples left out of every fit, at t =";
+    for (std::size_t k = 0; k < r.outliers.times.size() && k < 40; ++k) o << (k ? ", " : " ") << f(r.outliers.times[k], 4);
+    o << (r.outliers.times.size() > 40 ? ", &hellip;" : "") << " s.</p>\n";
+  }
+  for (const auto& w : r.warnings) o << "<p class=\"warn\"><b>Warning:</b> " << esc(w) << "</p>\n";
   o << "<h2>Residual per axis</h2>" << axisTable(r);
 
   const std::size_t n = r.t.size();
@@ -327,7 +334,10 @@ std::string renderHtml(const AnalysisResult& r) {
     if (c.skipped) continue;
     o << "<tr" << (c.significant ? " class=\"sig\"" : "") << "><td>" << esc(c.effect) << "</td><td>"
       << f(100.0 * c.relative_reduction, 3) << " %</td><td>" << (c.p_value < 1e-300 ? std::string("&lt; 1e-300") : f(c.p_value, 2)) << "</td><td>"
-      << (c.significant ? "yes" : "no") << "</td><td>" << esc(c.description) << "</td><td><code>"
+      << (c.significant ? "yes" : (c.confounded ? "no: confounded &mdash; " + esc(c.confound) + "; to separate: " +
+                                                     esc(c.separating_motion)
+                                               : std::string("no")))
+      << "</td><td>" << esc(c.description) << "</td><td><code>"
       << esc(c.next_command) << "</code></td></tr>";
   }
   o << "</table>";

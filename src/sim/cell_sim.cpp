@@ -2,6 +2,7 @@
 // Newton-Euler from the sensor-frame motion; nothing here uses the identification regressors.
 #include "ftid/sim/cell_sim.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -40,6 +41,12 @@ Mat6 CrosstalkSwitch::defaultMatrix() {
        -0.0003, 0.0006, 0.0, 0.008, -0.012, 0.010,
        0.0, 0.0004, -0.0005, -0.006, 0.011, 0.014;
   return E;
+}
+
+Mat3 MountingSwitch::rotation() const {
+  return (Eigen::AngleAxisd(rpy_rad.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy_rad.y(), Vec3::UnitY()) *
+          Eigen::AngleAxisd(rpy_rad.x(), Vec3::UnitX()))
+      .toRotationMatrix();
 }
 
 double ContactSwitch::profile(double t_s) const {
@@ -82,8 +89,23 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
               std::isfinite(c.temperature_drift.reference_degC),
           "temperature_drift", "not finite");
   require(finite3(c.time_drift.dF0_dt_N_per_s) && finite3(c.time_drift.dT0_dt_Nm_per_s), "time_drift", "not finite");
-  require(std::isfinite(c.sensor_delay.tau_s) && std::abs(c.sensor_delay.tau_s) < 1.0,
-          "sensor_delay.tau_s", "must be in (-1, 1) s");
+  require(std::isfinite(c.sensor_delay.tau_s) && std::abs(c.sensor_delay.tau_s) < 1.0, "sensor_delay.tau_s",
+          "must be in (-1, 1) s");
+  require(std::isfinite(c.noise.wrench_lowpass_hz) && c.noise.wrench_lowpass_hz >= 0.0, "noise.wrench_lowpass_hz",
+          "must be >= 0 (0 = white)");
+  require(c.noise.wrench_oversample >= 1 && c.noise.wrench_oversample <= 1000, "noise.wrench_oversample",
+          "must be 1..1000");
+  require(std::isfinite(c.glitches.probability) && c.glitches.probability >= 0.0 && c.glitches.probability <= 1.0,
+          "glitches.probability", "must be in [0, 1]");
+  require(std::isfinite(c.glitches.force_N) && std::isfinite(c.glitches.torque_Nm), "glitches", "magnitudes not finite");
+  require(c.mounting.rpy_rad.allFinite(), "mounting.rpy_rad", "not finite");
+  if (c.static_poses.enabled) {
+    require(c.static_poses.poses >= 1 && c.static_poses.poses <= 1000000, "static_poses.poses", "must be 1..1e6");
+    require(std::isfinite(c.static_poses.hold_s) && c.static_poses.hold_s > 0.0 &&
+                c.static_poses.hold_s * c.rate_hz * c.static_poses.poses < 1e8,
+            "static_poses.hold_s", "must be > 0 (and poses * hold * rate < 1e8)");
+    require(std::isfinite(c.static_poses.span_s) && c.static_poses.span_s >= 0.0, "static_poses.span_s", "must be >= 0");
+  }
   require(c.crosstalk.E.allFinite(), "crosstalk.E", "not finite");
   require(std::isfinite(c.contact.t_start_s) && std::isfinite(c.contact.t_end_s) &&
               c.contact.t_end_s > c.contact.t_start_s,
@@ -98,10 +120,31 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
 }
 
 std::size_t CellSim::sampleCount() const {
+  if (config_.static_poses.enabled) {
+    const auto& sp = config_.static_poses;
+    return static_cast<std::size_t>(sp.poses) * (sp.average ? 1u : samplesPerHold());
+  }
   return static_cast<std::size_t>(std::floor(config_.duration_s * config_.rate_hz + 1e-9)) + 1;
 }
 
+std::size_t CellSim::samplesPerHold() const {
+  return static_cast<std::size_t>(std::max(1.0, std::round(config_.static_poses.hold_s * config_.rate_hz)));
+}
+
 trajectory::TrajectoryPoint CellSim::stateAt(double t_s) const {
+  if (config_.static_poses.enabled) {
+    // Piecewise-constant poses taken from the configured motion, held still.
+    const auto& sp = config_.static_poses;
+    const double span = sp.span_s > 0.0 ? sp.span_s : (config_.motion ? config_.duration_s : config_.trajectory.duration());
+    // The hold is a whole number of samples (samplesPerHold()), so rows and poses stay aligned.
+    const double hold = static_cast<double>(samplesPerHold()) / config_.rate_hz;
+    const int k = std::clamp(static_cast<int>(std::floor(t_s / hold + 1e-9)), 0, sp.poses - 1);
+    const double tk = (k + 0.5) * span / sp.poses;
+    trajectory::TrajectoryPoint x = config_.motion ? config_.motion(tk) : config_.trajectory.evaluate(tk);
+    x.qd.setZero();
+    x.qdd.setZero();
+    return x;
+  }
   if (config_.motion) return config_.motion(t_s);
   return config_.trajectory.evaluate(t_s);
 }
@@ -174,7 +217,18 @@ SensorReading CellSim::readingAt(const JointVector& q, const JointVector& qd, co
     const Vec3 F_S = m.R_BS.transpose() * (config_.contact.profile(t_s) * config_.contact.force_B);
     r.contact_S << F_S, config_.contact.p_SP_S.cross(F_S);
   }
-  r.wrench_S = config_.crosstalk.enabled ? Wrench((Mat6::Identity() + config_.crosstalk.E) * load) : load;
+  Wrench sensed = load;
+  if (config_.mounting.enabled) {
+    // The sensor's true frame S' is rotated by R_SS' against the configured S: it reports in S'.
+    const Mat3 Rt = config_.mounting.rotation().transpose();
+    sensed << Rt * load.head<3>(), Rt * load.tail<3>();
+    if (config_.mounting.rotate_imu) {
+      r.acc_S = Rt * r.acc_S;
+      r.w_S = Rt * r.w_S;
+      r.alpha_S = Rt * r.alpha_S;
+    }
+  }
+  r.wrench_S = config_.crosstalk.enabled ? Wrench((Mat6::Identity() + config_.crosstalk.E) * sensed) : sensed;
   r.wrench_S += offsetsAt(t_s, temp_degC);
   return r;
 }
@@ -203,12 +257,68 @@ SensorReading CellSim::sampleAt(double t_s) const {
 void CellSim::addNoise(SensorReading& r, std::mt19937_64& rng) const {
   std::normal_distribution<double> n01(0.0, 1.0);
   const NoiseConfig& nz = config_.noise;
-  for (int i = 0; i < 6; ++i) r.wrench_S[i] += nz.wrench_std[i] * n01(rng);
+  const bool white = nz.wrench_lowpass_hz == 0.0 && nz.wrench_oversample == 1;
+  for (int i = 0; i < 6; ++i) {
+    const double e = n01(rng);  // always drawn: the draw order does not depend on the noise kind
+    if (white) r.wrench_S[i] += nz.wrench_std[i] * e;
+  }
   for (int i = 0; i < 3; ++i) r.acc_S[i] += nz.acc_std * n01(rng);
   for (int i = 0; i < 3; ++i) r.w_S[i] += nz.gyro_std * n01(rng);
   for (int i = 0; i < 3; ++i) r.alpha_S[i] += nz.alpha_std * n01(rng);
   r.temp_degC += nz.temp_std * n01(rng);
 }
+
+std::vector<Glitch> CellSim::glitches() const {
+  std::vector<Glitch> out;
+  if (!config_.glitches.enabled) return out;
+  // Own stream: switching glitches on does not change the noise.
+  std::mt19937_64 rng(config_.seed ^ 0x9E3779B97F4A7C15ULL);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const std::size_t n = sampleCount();
+  for (std::size_t k = 0; k < n; ++k) {
+    const double hit = u01(rng);
+    const double which = u01(rng);
+    const double sign = u01(rng) < 0.5 ? -1.0 : 1.0;
+    if (hit >= config_.glitches.probability) continue;
+    const int axis = std::min(5, static_cast<int>(which * 6.0));
+    out.push_back({k, axis, sign * (axis < 3 ? config_.glitches.force_N : config_.glitches.torque_Nm)});
+  }
+  return out;
+}
+
+namespace {
+
+/// Wrench noise of the logged samples: K sub-samples per sample, white or AR(1) (NoiseConfig).
+class WrenchNoise {
+ public:
+  WrenchNoise(const NoiseConfig& nz, double rate_hz, std::uint64_t seed)
+      : nz_(nz), rng_(seed ^ 0xD1B54A32D192ED03ULL) {
+    const double sub_rate = rate_hz * nz.wrench_oversample;
+    phi_ = nz.wrench_lowpass_hz > 0.0 ? std::exp(-2.0 * kPi * nz.wrench_lowpass_hz / sub_rate) : 0.0;
+    std::normal_distribution<double> n01(0.0, 1.0);
+    for (int i = 0; i < 6; ++i) state_[i] = n01(rng_);  // stationary start (unit marginal)
+  }
+  Wrench next() {
+    std::normal_distribution<double> n01(0.0, 1.0);
+    const double gain = std::sqrt(1.0 - phi_ * phi_);
+    Wrench sum = Wrench::Zero();
+    for (int j = 0; j < nz_.wrench_oversample; ++j) {
+      for (int i = 0; i < 6; ++i) {
+        state_[i] = phi_ * state_[i] + gain * n01(rng_);
+        sum[i] += state_[i];
+      }
+    }
+    return nz_.wrench_std.cwiseProduct(sum) / nz_.wrench_oversample;
+  }
+
+ private:
+  const NoiseConfig& nz_;
+  std::mt19937_64 rng_;
+  double phi_ = 0.0;
+  Wrench state_ = Wrench::Zero();
+};
+
+}  // namespace
 
 logio::LogData CellSim::run() const {
   logio::LogData log;
@@ -216,31 +326,70 @@ logio::LogData CellSim::run() const {
   log.has_wrench = true;
   log.has_imu = true;
   log.has_temp = true;
-  const std::size_t n = sampleCount();
+  const bool statics = config_.static_poses.enabled;
+  const bool average = statics && config_.static_poses.average;
+  const std::size_t per_row = average ? samplesPerHold() : 1;
+  const std::size_t n_raw = statics ? static_cast<std::size_t>(config_.static_poses.poses) * samplesPerHold()
+                                    : sampleCount();
+  const std::size_t n = n_raw / per_row;
   log.samples.resize(n);
   const bool contact = config_.contact.enabled;
   if (contact) {
     for (int i = 0; i < 6; ++i) log.extra_names.push_back(std::string("contact_") + kWrenchAxisNames[i]);
     log.extra_columns.assign(6, std::vector<double>(n, 0.0));
   }
+  const NoiseConfig& nz = config_.noise;
+  const bool coloured = nz.wrench_lowpass_hz > 0.0 || nz.wrench_oversample > 1;
+  const int K = nz.wrench_oversample;
+  WrenchNoise wrench_noise(nz, config_.rate_hz, config_.seed);
   std::mt19937_64 rng(config_.seed);
-  for (std::size_t k = 0; k < n; ++k) {
-    const double t = static_cast<double>(k) / config_.rate_hz;
-    const trajectory::TrajectoryPoint x = stateAt(t);
-    SensorReading r = sampleAt(t);
-    addNoise(r, rng);
-    logio::LogSample& s = log.samples[k];
-    s.t = t;
-    s.q = x.q;
-    s.qd = x.qd;
-    s.qdd = x.qdd;
-    s.wrench_S = r.wrench_S;
-    s.acc_S = r.acc_S;
-    s.w_S = r.w_S;
-    s.alpha_S = r.alpha_S;
-    s.temp_degC = r.temp_degC;
+  const std::vector<Glitch> spikes = glitches();
+  std::size_t next_spike = 0;
+  for (std::size_t row = 0; row < n; ++row) {
+    logio::LogSample& s = log.samples[row];
+    s = logio::LogSample{};
+    Wrench contact_sum = Wrench::Zero();
+    double t_sum = 0.0;
+    for (std::size_t j = 0; j < per_row; ++j) {
+      const std::size_t k = row * per_row + j;
+      const double t = static_cast<double>(k) / config_.rate_hz;
+      const trajectory::TrajectoryPoint x = stateAt(t);
+      SensorReading r = sampleAt(t);
+      if (K > 1) {
+        // The sensor averages K sub-samples centred on t (signal and noise).
+        Wrench sum = Wrench::Zero();
+        for (int m = 0; m < K; ++m) {
+          const double tm = t + (m - 0.5 * (K - 1)) / (K * config_.rate_hz);
+          sum += sampleAt(tm).wrench_S;
+        }
+        r.wrench_S = sum / K;
+      }
+      addNoise(r, rng);
+      if (coloured) r.wrench_S += wrench_noise.next();
+      t_sum += t;
+      s.q = x.q;
+      s.qd = x.qd;
+      s.qdd = x.qdd;
+      s.wrench_S += r.wrench_S;
+      s.acc_S += r.acc_S;
+      s.w_S += r.w_S;
+      s.alpha_S += r.alpha_S;
+      s.temp_degC += r.temp_degC;
+      contact_sum += r.contact_S;
+    }
+    const double inv = 1.0 / static_cast<double>(per_row);
+    s.t = t_sum * inv;
+    s.wrench_S *= inv;
+    s.acc_S *= inv;
+    s.w_S *= inv;
+    s.alpha_S *= inv;
+    s.temp_degC *= inv;
+    while (next_spike < spikes.size() && spikes[next_spike].sample == row) {
+      s.wrench_S[spikes[next_spike].axis] += spikes[next_spike].value;
+      ++next_spike;
+    }
     if (contact) {
-      for (int i = 0; i < 6; ++i) log.extra_columns[static_cast<std::size_t>(i)][k] = r.contact_S[i];
+      for (int i = 0; i < 6; ++i) log.extra_columns[static_cast<std::size_t>(i)][row] = contact_sum[i] * inv;
     }
   }
   return log;

@@ -101,6 +101,18 @@ std::string truthYaml(const CellSimConfig& c) {
   vec3(e, "force_B", c.contact.force_B);
   vec3(e, "point_S", c.contact.p_SP_S);
   e << YAML::EndMap;
+  e << YAML::Key << "glitches" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.glitches.enabled << YAML::Key << "probability" << YAML::Value << Num{c.glitches.probability} << YAML::Key
+    << "force" << YAML::Value << Num{c.glitches.force_N} << YAML::Key << "torque" << YAML::Value
+    << Num{c.glitches.torque_Nm} << YAML::EndMap;
+  e << YAML::Key << "mounting" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.mounting.enabled;
+  vec3(e, "roll_pitch_yaw", c.mounting.rpy_rad);
+  e << YAML::Key << "rotate_imu" << YAML::Value << c.mounting.rotate_imu << YAML::EndMap;
+  e << YAML::Key << "static_poses" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.static_poses.enabled << YAML::Key << "poses" << YAML::Value << c.static_poses.poses << YAML::Key << "hold"
+    << YAML::Value << Num{c.static_poses.hold_s} << YAML::Key << "average" << YAML::Value << c.static_poses.average
+    << YAML::EndMap;
   e << YAML::EndMap;  // effects
   e << YAML::Key << "noise" << YAML::Value << YAML::BeginMap;
   e << YAML::Key << "wrench_std" << YAML::Value << YAML::Flow << YAML::BeginSeq;
@@ -110,6 +122,8 @@ std::string truthYaml(const CellSimConfig& c) {
   e << YAML::Key << "gyro_std" << YAML::Value << Num{c.noise.gyro_std};
   e << YAML::Key << "alpha_std" << YAML::Value << Num{c.noise.alpha_std};
   e << YAML::Key << "temp_std" << YAML::Value << Num{c.noise.temp_std};
+  e << YAML::Key << "wrench_lowpass_hz" << YAML::Value << Num{c.noise.wrench_lowpass_hz};
+  e << YAML::Key << "wrench_oversample" << YAML::Value << c.noise.wrench_oversample;
   e << YAML::EndMap;
   e << YAML::Key << "temperature_profile" << YAML::Value << YAML::BeginMap;
   e << YAML::Key << "custom" << YAML::Value << static_cast<bool>(c.temperature.custom);

@@ -4,7 +4,10 @@
 #include <functional>
 #include <string>
 
+#include <optional>
+
 #include "ftid/identify/context.hpp"
+#include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/parameter_set.hpp"
 
 namespace ftid::identify {
@@ -18,11 +21,22 @@ struct IdentifyRequest {
   std::string robot_urdf;          ///< URDF of the robot (config/ur10.urdf)
   ContextOptions context;          ///< sensor mount
   ProgressFn progress;             ///< optional progress lines
+  std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
 };
 
 /// Reads the log, builds the contexts, identifies. Throws DataError (bad log), ConfigError (bad
 /// robot/model/method), IdentificationError (data do not determine the parameters).
 ParameterSet identifyLogFile(const IdentifyRequest& request);
+
+/// The identification of `request` (method or model) on contexts.
+ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request);
+
+/// identifyLogFile plus, with `check`, the held-out residual against the noise floor (fit_check.hpp).
+struct CheckedIdentification {
+  ParameterSet set;
+  FitCheck check;
+};
+CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check = true);
 
 /// Human-readable table: parameter, value, std, unit; residual RMS per axis; condition number.
 std::string formatParameterTable(const ParameterSet& set);

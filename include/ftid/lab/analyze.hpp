@@ -35,6 +35,12 @@ struct AnalyzeOptions {
   int window_count = 20;            ///< the log is cut into this many windows
   int top_correlations = 8;
   double max_delay_s = 1.0;         ///< delay search range of `sensor_delay` [s]
+  /// The sensor's noise std per axis from its data sheet (`--noise`); unset: estimated from the
+  /// data (identify::estimateNoiseFloor, docs/analyze.md "The noise floor").
+  std::optional<Vec6> noise_std;
+  /// Glitches: samples whose residual (minus its running median over 7 samples) exceeds this
+  /// many robust standard deviations on any axis are left out of every fit (0 = off).
+  double glitch_threshold = 6.0;
   /// Progress lines (stderr in the CLI); may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -42,7 +48,8 @@ struct AnalyzeOptions {
 /// Generic effects tried by default besides the named ones.
 std::vector<std::string> defaultGenericMenu();
 
-/// Sensor noise floor of one channel from its high-frequency content: the robust (MAD) standard
+/// Dense white noise (today's estimator, identify::differenceNoiseStd at stride 1):
+/// sensor noise floor of one channel from its high-frequency content: the robust (MAD) standard
 /// deviation of the 4th-order differences divided by sqrt(70) (the sum of the squared binomial
 /// coefficients 1 4 6 4 1), which equals the white-noise std while any smooth signal (motion at a
 /// few Hz sampled at >= 100 Hz) is suppressed by (2 pi f dt)^4. Needs >= 8 samples.
@@ -88,6 +95,17 @@ struct CandidateResult {
   std::string next_command;
   std::string note;                 ///< why it was skipped, if it was
   bool skipped = false;
+  /// Confounded or implausible in this data (never significant, never taken by --explain):
+  bool confounded = false;
+  std::string confound;             ///< which parameters and why, in words
+  std::string separating_motion;    ///< what motion would tell them apart
+};
+
+/// Glitches found and left out (times since the first sample of their log).
+struct OutlierReport {
+  int count = 0;
+  std::vector<double> times;        ///< [s]
+  std::vector<int> axes;            ///< worst axis of each
 };
 
 struct ExplainStep {
@@ -118,6 +136,11 @@ struct AnalysisResult {
   int n_eval = 0;                        ///< held-out samples evaluated
   int folds = 0;
   Vec6 noise_floor = Vec6::Zero();
+  std::string noise_method;              ///< white, coloured, static_poses, not_observable, data_sheet
+  std::string noise_detail;              ///< how, in words
+  Vec6 noise_ar1 = Vec6::Zero();         ///< lag-1 noise correlation per axis (prewhitening)
+  OutlierReport outliers;
+  std::vector<std::string> warnings;     ///< one line each
   ModelReport report;                    ///< the starting model
   std::vector<FailWindow> windows;       ///< largest held-out residual first
   std::vector<double> window_ratio;      ///< every window's ratio, in time order

@@ -17,6 +17,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <vector>
 
 #include "ftid/common/types.hpp"
 #include "ftid/logio/log.hpp"
@@ -32,9 +33,17 @@ struct PayloadTruth {
   Mat3 I_C_S = Mat3::Zero();        ///< inertia tensor about C, in S [kg m^2] (symmetric, PSD)
 };
 
-/// White Gaussian noise (standard deviations). Zero means noise-free for that channel.
+/// Gaussian noise (standard deviations). Zero means noise-free for that channel. The IMU and
+/// temperature noise is white; the wrench noise is white unless filtered or oversampled:
+///   sub-samples at K * rate_hz (K = wrench_oversample), each with noise n_j of std wrench_std,
+///   white, or 1st-order low-pass filtered at wrench_lowpass_hz (an AR(1) recursion
+///   n_j = phi n_{j-1} + sqrt(1 - phi^2) e_j, phi = exp(-2 pi f_c / (K rate)), so the marginal std
+///   stays wrench_std); the logged sample is the mean of its K sub-samples (noise and signal, the
+///   K sub-sample instants centred on t). docs/simulator.md.
 struct NoiseConfig {
-  Vec6 wrench_std = Vec6::Zero();   ///< per axis fx..tz [N, Nm]
+  Vec6 wrench_std = Vec6::Zero();   ///< per axis fx..tz [N, Nm] (of one sub-sample)
+  double wrench_lowpass_hz = 0.0;   ///< cut-off of the 1st-order noise filter [Hz] (0 = white)
+  int wrench_oversample = 1;        ///< K sub-samples averaged into each logged sample (>= 1)
   double acc_std = 0.0;             ///< accelerometer, each axis [m/s^2]
   double gyro_std = 0.0;            ///< angular velocity, each axis [rad/s]
   double alpha_std = 0.0;           ///< angular acceleration, each axis [rad/s^2]
@@ -76,6 +85,40 @@ struct TimeDriftSwitch {
 struct SensorDelaySwitch {
   bool enabled = false;
   double tau_s = 0.012;                          ///< wrench stream lags kinematics/IMU by tau
+                                                 ///< (negative: leads), |tau| < 1 s
+};
+/// Glitches: isolated spikes (CAN bus errors, EMI). Each logged sample carries one with
+/// probability `probability`, on one axis drawn uniformly from fx..tz, with a random sign and the
+/// magnitude of that axis type. Drawn from their own random stream (seed-derived), so switching
+/// glitches on does not change the noise.
+struct GlitchSwitch {
+  bool enabled = false;
+  double probability = 0.004;                    ///< per logged sample
+  double force_N = 10.0;                         ///< spike on a force axis
+  double torque_Nm = 1.0;                        ///< spike on a torque axis
+};
+/// The sensor is mounted rotated against the configured X_FS: its true frame S' has
+/// R_SS' = Rz(yaw) Ry(pitch) Rx(roll) in the configured S (same origin). The sensor reports the
+/// wrench (and, with rotate_imu, the IMU it carries) in S': w' = [R_SS'^T f; R_SS'^T t]; its offsets
+/// and crosstalk belong to the sensor and apply in S'.
+struct MountingSwitch {
+  bool enabled = false;
+  Vec3 rpy_rad = Vec3(0.0, 0.0, 0.05235987755982988);  ///< roll, pitch, yaw (default 3 deg yaw)
+  bool rotate_imu = true;
+  Mat3 rotation() const;                         ///< R_SS'
+};
+/// Static pose sets (the usual calibration data): `poses` poses, each held still for hold_s
+/// (samples at rate_hz, qd = qdd = 0), pose k = the configured motion's q at
+/// (k + 0.5) span / poses (span = span_s, or the trajectory's duration when 0). With `average`,
+/// each hold is logged as one reading: the mean of its samples (wrench, IMU, temperature), at the
+/// hold's mid time. Replaces duration_s: the run lasts poses * hold_s (each hold rounded to a whole
+/// number of samples, at least one).
+struct StaticPoseSetSwitch {
+  bool enabled = false;
+  int poses = 100;
+  double hold_s = 0.4;
+  bool average = false;
+  double span_s = 0.0;
 };
 struct CrosstalkSwitch {
   bool enabled = false;
@@ -116,6 +159,16 @@ struct CellSimConfig {
   SensorDelaySwitch sensor_delay;
   CrosstalkSwitch crosstalk;
   ContactSwitch contact;
+  GlitchSwitch glitches;
+  MountingSwitch mounting;
+  StaticPoseSetSwitch static_poses;
+};
+
+/// One glitch of a run: logged sample index, axis 0..5 and the spike added [N or Nm].
+struct Glitch {
+  std::size_t sample = 0;
+  int axis = 0;
+  double value = 0.0;
 };
 
 /// One noise-free (or noisy, after addNoise) sensor sample.
@@ -135,6 +188,7 @@ class CellSim {
 
   /// Simulates the whole run: columns t, q, qd, qdd, wrench, IMU, temp (+ contact_fx..contact_tz
   /// truth columns when the contact switch is on). Same config and seed -> identical log.
+  /// Glitches are added to the logged (averaged) samples; static pose sets replace the time grid.
   logio::LogData run() const;
 
   // --- Per-instant API (e.g. for a sensor simulator fed by a robot simulator) -----------------
@@ -161,8 +215,11 @@ class CellSim {
   SensorReading sampleAt(double t_s) const;
 
   /// Adds the configured white noise to a reading (draw order: 6 wrench, 3 acc, 3 gyro,
-  /// 3 alpha, 1 temp; always drawn, so switching effects on does not change the noise).
+  /// 3 alpha, 1 temp; always drawn, so switching effects on does not change the noise). The wrench
+  /// part is added only when the wrench noise is white and not oversampled (else run() adds it).
   void addNoise(SensorReading& reading, std::mt19937_64& rng) const;
+  /// The glitches run() adds (same seed -> same glitches), in sample order.
+  std::vector<Glitch> glitches() const;
 
   /// Sensor offsets at time t and temperature T, including drift switches.
   Wrench offsetsAt(double t_s, double temp_degC) const;
@@ -182,6 +239,7 @@ class CellSim {
 
  private:
   Wrench loadWrenchFor(const model::SensorMotion& m, double t_s) const;
+  std::size_t samplesPerHold() const;
   CellSimConfig config_;
   Vec3 g_B_;
 };

@@ -1,0 +1,164 @@
+// Held-out residual against the noise floor (include/ftid/identify/fit_check.hpp).
+#include "ftid/identify/fit_check.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include "ftid/common/error.hpp"
+#include "ftid/effects/model.hpp"
+#include "ftid/identify/fit.hpp"
+
+namespace ftid::identify {
+
+namespace {
+
+std::string num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char b[40];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+std::string axesJson(const Vec6& v) {
+  std::string o = "{";
+  for (int a = 0; a < 6; ++a) o += std::string(a ? ", " : "") + "\"" + kWrenchAxisNames[a] + "\": " + num(v(a));
+  return o + "}";
+}
+
+std::string jsonString(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    o += c;
+  }
+  return o + "\"";
+}
+
+}  // namespace
+
+FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& identify, const std::string& analyze_command,
+                  const std::optional<Vec6>& noise_std, int folds) {
+  FitCheck out;
+  const int n = static_cast<int>(ctx.size());
+  out.noise = noise_std ? dataSheetNoiseFloor(*noise_std) : estimateNoiseFloor(ctx);
+  out.folds = folds;
+  auto predict = [&](const ParameterSet& set, const std::vector<int>& idx) {
+    const effects::Model model = effects::Model::fromName(set.model);
+    const Eigen::VectorXd theta = thetaFor(model, set);
+    std::optional<double> u, v;
+    if (set.tilt_estimated) {
+      u = set.tilt_u_rad;
+      v = set.tilt_v_rad;
+    }
+    return predictWrench(model, theta, u, v, ctx, idx);
+  };
+  // The residual of the fit on all data: the noise colour (noise.hpp, refineNoiseFloor) and the
+  // glitches, which are left out of the held-out sums (a spike is not a model error).
+  std::vector<char> glitch(static_cast<std::size_t>(n), 0);
+  {
+    std::vector<int> all(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+    const auto pred = predict(identify(ctx), all);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> res(6, n);
+    for (int i = 0; i < n; ++i) res.col(i) = ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
+    if (!noise_std) refineNoiseFloor(out.noise, res, ctx);
+    bool is_static = false;
+    (void)poseGroups(ctx, &is_static);
+    for (int i : detectOutliers(res, !is_static, 6.0).samples) {
+      glitch[static_cast<std::size_t>(i)] = 1;
+      ++out.glitches;
+    }
+  }
+  Vec6 ss = Vec6::Zero();
+  int counted = 0, failed = 0;
+  for (int f = 0; f < folds; ++f) {
+    const int b0 = static_cast<int>(static_cast<long long>(n) * f / folds);
+    const int b1 = static_cast<int>(static_cast<long long>(n) * (f + 1) / folds);
+    std::vector<SampleContext> train;
+    train.reserve(static_cast<std::size_t>(n - (b1 - b0)));
+    std::vector<int> test;
+    for (int i = 0; i < n; ++i) {
+      if (i >= b0 && i < b1) {
+        test.push_back(i);
+      } else {
+        train.push_back(ctx[static_cast<std::size_t>(i)]);
+      }
+    }
+    try {
+      const auto pred = predict(identify(train), test);
+      for (std::size_t k = 0; k < test.size(); ++k) {
+        if (glitch[static_cast<std::size_t>(test[k])]) continue;
+        ss += (ctx[static_cast<std::size_t>(test[k])].wrench_S - pred.col(static_cast<Eigen::Index>(k))).cwiseAbs2();
+        ++counted;
+      }
+    } catch (const Error&) {
+      ++failed;
+    }
+  }
+  out.heldout_rms = counted > 0 ? Vec6((ss / counted).cwiseSqrt()) : Vec6::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (out.glitches > 0) {
+    out.warnings.push_back(std::to_string(out.glitches) + " glitch" + (out.glitches == 1 ? "" : "es") +
+                           " (isolated spikes beyond 6 robust standard deviations) left out of the held-out "
+                           "residual; they are in the fit: `ftid analyze` leaves them out of it");
+  }
+  if (failed > 0) {
+    out.warnings.push_back(std::to_string(failed) + " of " + std::to_string(folds) +
+                           " held-out blocks could not be identified without them (too little excitation "
+                           "elsewhere): the held-out residual covers the rest");
+  }
+  if (!out.noise.observable()) {
+    out.residual_to_noise = Vec6::Constant(std::numeric_limits<double>::quiet_NaN());
+    out.warnings.push_back("the noise floor is not observable (one reading per pose), so the fit cannot be "
+                           "judged against it: give the sensor's noise with --noise fx=..,..,tz=..");
+    return out;
+  }
+  std::string above;
+  double worst = 0.0;
+  for (int a = 0; a < 6; ++a) {
+    out.residual_to_noise(a) = out.heldout_rms(a) / std::max(out.noise.std(a), 1e-12);
+    if (out.residual_to_noise(a) > 1.2) {
+      char b[48];
+      std::snprintf(b, sizeof b, "%s%s %.2gx", above.empty() ? "" : ", ", kWrenchAxisNames[a], out.residual_to_noise(a));
+      above += b;
+    }
+    worst = std::max(worst, out.residual_to_noise(a));
+  }
+  if (!above.empty()) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.2g", worst);
+    out.warnings.push_back("the held-out residual is up to " + std::string(b) + "x the noise floor (" + above +
+                           "): the model misses something and its standard errors are too optimistic; run `" +
+                           analyze_command + "`");
+  }
+  return out;
+}
+
+std::string formatFitCheck(const FitCheck& c) {
+  std::string s = "held-out residual (" + std::to_string(c.folds) + " contiguous blocks) against the noise floor (" +
+                  toString(c.noise.method) + "):\n";
+  char line[160];
+  for (int a = 0; a < 6; ++a) {
+    const char* u = a < 3 ? "N" : "Nm";
+    char ratio[40] = "(noise not observable)";
+    if (std::isfinite(c.residual_to_noise(a))) {
+      std::snprintf(ratio, sizeof ratio, "%.2fx%s", c.residual_to_noise(a), c.residual_to_noise(a) > 1.2 ? "  <- above" : "");
+    }
+    std::snprintf(line, sizeof line, "  %-3s %10.4g %-2s  noise %10.4g %-2s  %s\n", kWrenchAxisNames[a], c.heldout_rms(a), u,
+                  c.noise.std(a), u, ratio);
+    s += line;
+  }
+  for (const auto& w : c.warnings) s += "warning: " + w + "\n";
+  return s;
+}
+
+std::string fitCheckJsonMembers(const FitCheck& c) {
+  std::string o = "\"noise_floor\": " + axesJson(c.noise.std) + ", \"noise_method\": " + jsonString(toString(c.noise.method)) +
+                  ", \"heldout_rms\": " + axesJson(c.heldout_rms) + ", \"residual_to_noise\": " +
+                  axesJson(c.residual_to_noise) + ", \"glitches\": " + std::to_string(c.glitches) + ", \"warnings\": [";
+  for (std::size_t k = 0; k < c.warnings.size(); ++k) o += (k ? ", " : "") + jsonString(c.warnings[k]);
+  return o + "]";
+}
+
+}  // namespace ftid::identify

@@ -1,0 +1,541 @@
+// The noise floor from the data (include/ftid/identify/noise.hpp, docs/identification.md).
+#include "ftid/identify/noise.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "ftid/common/error.hpp"
+
+namespace ftid::identify {
+
+namespace {
+
+constexpr double kMadToStd = 1.482602218505602;
+constexpr double kColouredPhi = 0.2;  // below: white (the stride-1 estimate is used unchanged)
+constexpr int kMaxStride = 3;
+
+double median(std::vector<double>& v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// |4th differences| at stride s of one segment, appended to out.
+void appendDifferences(const std::vector<double>& x, int s, std::vector<double>& out) {
+  const std::size_t st = static_cast<std::size_t>(s);
+  for (std::size_t i = 0; i + 4 * st < x.size(); ++i) {
+    out.push_back(std::abs(x[i] - 4.0 * x[i + st] + 6.0 * x[i + 2 * st] - 4.0 * x[i + 3 * st] + x[i + 4 * st]));
+  }
+}
+
+/// Robust lag-1 correlation of the first differences inside each segment, mapped to the AR(1)
+/// coefficient: for AR(1) noise corr(dx_i, dx_{i+1}) = -(1 - phi) / 2 (white: -1/2). Pairs are
+/// (d_i + d_{i+1}) and (d_i - d_{i+1}): corr = (s+^2 - s-^2) / (s+^2 + s-^2), s = 1.4826 MAD.
+/// Returns -1 if fewer than 16 pairs.
+double ar1FromDifferences(const std::vector<std::vector<double>>& segments) {
+  std::vector<double> plus, minus;
+  for (const auto& seg : segments) {
+    for (std::size_t i = 0; i + 2 < seg.size(); ++i) {
+      const double d0 = seg[i + 1] - seg[i];
+      const double d1 = seg[i + 2] - seg[i + 1];
+      plus.push_back(std::abs(d0 + d1));
+      minus.push_back(std::abs(d0 - d1));
+    }
+  }
+  if (plus.size() < 16) return -1.0;
+  const double sp = median(plus), sm = median(minus);
+  if (!(sp * sp + sm * sm > 0.0)) return 0.0;
+  const double rho = (sp * sp - sm * sm) / (sp * sp + sm * sm);
+  return std::clamp(1.0 + 2.0 * rho, 0.0, 0.99);
+}
+
+/// sum_{i,j < m} phi^|i-j|
+double correlationSum(double phi, std::size_t m) {
+  double s = static_cast<double>(m);
+  double p = 1.0;
+  for (std::size_t k = 1; k < m; ++k) {
+    p *= phi;
+    s += 2.0 * static_cast<double>(m - k) * p;
+  }
+  return s;
+}
+
+/// Welch periodogram of the segments (Hann window, 50 % overlap, segment length L), normalised so
+/// that white noise of variance s^2 gives s^2 at every frequency. Frequencies k / L cycles a
+/// sample, k = 0..L/2. Returns an empty vector if no segment is long enough.
+std::vector<double> welch(const std::vector<std::vector<double>>& segments, int L) {
+  std::vector<double> P(static_cast<std::size_t>(L / 2 + 1), 0.0);
+  std::vector<double> w(static_cast<std::size_t>(L));
+  double wsum = 0.0;
+  for (int j = 0; j < L; ++j) {
+    w[static_cast<std::size_t>(j)] = 0.5 - 0.5 * std::cos(2.0 * 3.141592653589793 * (j + 0.5) / L);
+    wsum += w[static_cast<std::size_t>(j)] * w[static_cast<std::size_t>(j)];
+  }
+  std::vector<double> c(static_cast<std::size_t>(L)), sn(static_cast<std::size_t>(L));
+  for (int j = 0; j < L; ++j) {
+    c[static_cast<std::size_t>(j)] = std::cos(2.0 * 3.141592653589793 * j / L);
+    sn[static_cast<std::size_t>(j)] = std::sin(2.0 * 3.141592653589793 * j / L);
+  }
+  int count = 0;
+  std::vector<double> x(static_cast<std::size_t>(L));
+  for (const auto& seg : segments) {
+    for (std::size_t start = 0; start + static_cast<std::size_t>(L) <= seg.size(); start += static_cast<std::size_t>(L / 2)) {
+      double mean = 0.0;
+      for (int j = 0; j < L; ++j) mean += seg[start + static_cast<std::size_t>(j)] / L;
+      for (int j = 0; j < L; ++j) x[static_cast<std::size_t>(j)] = (seg[start + static_cast<std::size_t>(j)] - mean) * w[static_cast<std::size_t>(j)];
+      for (int k = 0; k <= L / 2; ++k) {
+        double re = 0.0, im = 0.0;
+        std::size_t m = 0;  // (k j) mod L
+        for (int j = 0; j < L; ++j) {
+          re += x[static_cast<std::size_t>(j)] * c[m];
+          im -= x[static_cast<std::size_t>(j)] * sn[m];
+          m += static_cast<std::size_t>(k);
+          if (m >= static_cast<std::size_t>(L)) m -= static_cast<std::size_t>(L);
+        }
+        P[static_cast<std::size_t>(k)] += (re * re + im * im) / wsum;
+      }
+      ++count;
+    }
+  }
+  if (count == 0) return {};
+  for (double& v : P) v /= count;
+  return P;
+}
+
+/// Marginal std of AR(1) noise with coefficient phi from the Welch spectrum over [k_lo, L/2):
+/// s_e^2 = mean(P / shape), std = s_e / sqrt(1 - phi^2).
+double spectralLevel(const std::vector<double>& P, int L, int k_lo, double phi) {
+  const int k_hi = L / 2;
+  double s2 = 0.0;
+  for (int k = k_lo; k < k_hi; ++k) {
+    const double wk = 2.0 * 3.141592653589793 * k / L;
+    s2 += P[static_cast<std::size_t>(k)] * (1.0 - 2.0 * phi * std::cos(wk) + phi * phi) / (k_hi - k_lo);
+  }
+  return std::sqrt(s2 / (1.0 - phi * phi));
+}
+
+/// AR(1) fit to the Welch spectrum over bins [k_lo, L/2): phi by least squares on the log
+/// spectrum against log(1 / (1 - 2 phi cos w + phi^2)) (level profiled out), the innovation
+/// variance by the mean of P / shape (unbiased). Returns phi < 0 if too few bins.
+Ar1Noise ar1FromSpectrum(const std::vector<double>& P, int L, int k_lo) {
+  Ar1Noise out{0.0, -1.0};
+  const int k_hi = L / 2;  // Nyquist bin excluded (real-valued, half the averaging)
+  if (k_hi - k_lo < 12) return out;
+  // Whittle likelihood over the band, the innovation variance profiled out:
+  //   minimise  nb log(mean(P_k / g_k)) + sum log g_k,   g_k = 1 / (1 - 2 phi cos w_k + phi^2).
+  double best = 1e300;
+  const int nb = k_hi - k_lo;
+  for (int g = 0; g <= 990; g += 2) {
+    const double phi = g * 1e-3;
+    double mean = 0.0, logg = 0.0;
+    for (int k = k_lo; k < k_hi; ++k) {
+      const double wk = 2.0 * 3.141592653589793 * k / L;
+      const double inv_shape = 1.0 - 2.0 * phi * std::cos(wk) + phi * phi;
+      mean += P[static_cast<std::size_t>(k)] * inv_shape / nb;
+      logg -= std::log(inv_shape);
+    }
+    const double cost = nb * std::log(std::max(mean, 1e-300)) + logg;
+    if (cost < best) {
+      best = cost;
+      out.phi = phi;
+    }
+  }
+  out.std = spectralLevel(P, L, k_lo, out.phi);
+  return out;
+}
+
+std::string fmt(double v) {
+  std::ostringstream s;
+  s.precision(3);
+  s << v;
+  return s.str();
+}
+
+}  // namespace
+
+std::string toString(NoiseMethod method) {
+  switch (method) {
+    case NoiseMethod::kWhite: return "white";
+    case NoiseMethod::kColoured: return "coloured";
+    case NoiseMethod::kStaticPoses: return "static_poses";
+    case NoiseMethod::kNotObservable: return "not_observable";
+    case NoiseMethod::kDataSheet: return "data_sheet";
+  }
+  return "?";
+}
+
+Vec6 NoiseFloor::innovationStd() const {
+  Vec6 out;
+  for (int a = 0; a < 6; ++a) out(a) = std(a) * std::sqrt(std::max(0.0, 1.0 - ar1(a) * ar1(a)));
+  return out;
+}
+
+double differenceNoiseStd(const std::vector<double>& x, int stride) {
+  if (stride < 1) throw std::invalid_argument("differenceNoiseStd: stride must be >= 1");
+  const std::size_t need = 4 * static_cast<std::size_t>(stride) + 4;
+  if (x.size() < need) {
+    throw DataError("noise floor: need at least " + std::to_string(need) + " samples, got " + std::to_string(x.size()));
+  }
+  std::vector<double> d;
+  d.reserve(x.size());
+  appendDifferences(x, stride, d);
+  return kMadToStd * median(d) / std::sqrt(70.0);
+}
+
+double differenceVarianceFactor(double phi, int stride) {
+  const double p = std::pow(phi, stride);
+  return 70.0 - 112.0 * p + 56.0 * p * p - 16.0 * p * p * p + 2.0 * p * p * p * p;
+}
+
+Ar1Noise estimateAr1Noise(const std::vector<std::vector<double>>& segments) {
+  // Robust spread of the differences at each stride, then the AR(1) phi whose variance factors
+  // fit their growth with the stride best (least squares in log variance; sigma^2 profiled out).
+  double logv[kMaxStride];
+  for (int s = 1; s <= kMaxStride; ++s) {
+    std::vector<double> d;
+    for (const auto& seg : segments) {
+      if (seg.size() >= 4 * kMaxStride + 1) appendDifferences(seg, s, d);
+    }
+    if (d.size() < 16) throw DataError("noise floor: too few consecutive samples for the difference estimate");
+    const double sd = kMadToStd * median(d);
+    logv[s - 1] = std::log(std::max(sd * sd, 1e-300));
+  }
+  double best_cost = 1e300, best_phi = 0.0, best_logs2 = 0.0;
+  for (int k = 0; k <= 995; ++k) {
+    const double phi = k * 1e-3;
+    double lf[kMaxStride];
+    double mean = 0.0;
+    for (int s = 1; s <= kMaxStride; ++s) {
+      lf[s - 1] = std::log(differenceVarianceFactor(phi, s));
+      mean += (logv[s - 1] - lf[s - 1]) / kMaxStride;
+    }
+    double cost = 0.0;
+    for (int s = 0; s < kMaxStride; ++s) cost += std::pow(logv[s] - lf[s] - mean, 2);
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_phi = phi;
+      best_logs2 = mean;
+    }
+  }
+  return {std::sqrt(std::exp(best_logs2)), best_phi};
+}
+
+std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static) {
+  std::vector<std::pair<int, int>> groups;
+  const int n = static_cast<int>(ctx.size());
+  bool stat = false;
+  int pose_col = -1;
+  if (n > 0 && ctx.front().extra_names != nullptr && ctx.front().extra != nullptr) {
+    const auto& names = *ctx.front().extra_names;
+    for (std::size_t k = 0; k < names.size(); ++k) {
+      if (names[k] == "pose") pose_col = static_cast<int>(k);
+    }
+  }
+  if (pose_col >= 0) {
+    stat = true;
+    int begin = 0;
+    for (int i = 1; i <= n; ++i) {
+      if (i == n || ctx[static_cast<std::size_t>(i)].extra[pose_col] != ctx[static_cast<std::size_t>(i - 1)].extra[pose_col]) {
+        groups.emplace_back(begin, i);
+        begin = i;
+      }
+    }
+  } else if (n > 0) {
+    std::vector<double> qd(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i) qd[static_cast<std::size_t>(i)] = ctx[static_cast<std::size_t>(i)].qd.cwiseAbs().maxCoeff();
+    stat = median(qd) < 1e-3;
+    if (stat) {
+      int begin = 0;
+      for (int i = 1; i <= n; ++i) {
+        if (i == n ||
+            (ctx[static_cast<std::size_t>(i)].q - ctx[static_cast<std::size_t>(i - 1)].q).cwiseAbs().maxCoeff() > 1e-4) {
+          groups.emplace_back(begin, i);
+          begin = i;
+        }
+      }
+    }
+  }
+  if (is_static != nullptr) *is_static = stat;
+  return groups;
+}
+
+NoiseFloor dataSheetNoiseFloor(const Vec6& std) {
+  NoiseFloor f;
+  f.method = NoiseMethod::kDataSheet;
+  f.std = std;
+  f.detail = "from the sensor's data sheet (--noise), treated as white";
+  return f;
+}
+
+NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
+  NoiseFloor f;
+  const int n = static_cast<int>(ctx.size());
+  if (n < 8) throw DataError("noise floor: need at least 8 samples, got " + std::to_string(n));
+  bool is_static = false;
+  const auto groups = poseGroups(ctx, &is_static);
+  auto channel = [&](int a, int begin, int end) {
+    std::vector<double> x;
+    x.reserve(static_cast<std::size_t>(end - begin));
+    for (int i = begin; i < end; ++i) x.push_back(ctx[static_cast<std::size_t>(i)].wrench_S(a));
+    return x;
+  };
+  if (is_static) {
+    f.pose_groups = static_cast<int>(groups.size());
+    int repeated = 0, long_groups = 0;
+    for (const auto& g : groups) {
+      if (g.second - g.first >= 2) repeated += g.second - g.first;
+      if (g.second - g.first >= 4 * kMaxStride + 1) long_groups += g.second - g.first;
+    }
+    if (repeated < n / 2 || repeated - static_cast<int>(groups.size()) < 12) {
+      f.method = NoiseMethod::kNotObservable;
+      f.detail = "static pose set with one reading per pose (" + std::to_string(groups.size()) +
+                 " poses): the noise cannot be separated from the model error; the scale is the "
+                 "cross-validated residual (give the data sheet's noise with --noise)";
+      return f;
+    }
+    f.method = NoiseMethod::kStaticPoses;
+    // Within each pose the reading is the noise around a constant: its lag-1 correlation from the
+    // first differences, its variance from the spread around the pose means (corrected for the
+    // mean removal: E sum (x - mean)^2 = sigma^2 (m - sum_{i,j} phi^|i-j| / m)).
+    for (int a = 0; a < 6; ++a) {
+      std::vector<std::vector<double>> segs;
+      for (const auto& g : groups) {
+        if (g.second - g.first >= 2) segs.push_back(channel(a, g.first, g.second));
+      }
+      double phi = ar1FromDifferences(segs);
+      if (phi < kColouredPhi) phi = 0.0;
+      double ss = 0.0, expected = 0.0;
+      for (const auto& seg : segs) {
+        double m = 0.0;
+        for (double v : seg) m += v;
+        m /= static_cast<double>(seg.size());
+        for (double v : seg) ss += (v - m) * (v - m);
+        expected += static_cast<double>(seg.size()) - correlationSum(phi, seg.size()) / static_cast<double>(seg.size());
+      }
+      f.std(a) = std::sqrt(ss / std::max(expected, 1e-12));
+      f.ar1(a) = phi;
+    }
+    (void)long_groups;
+    f.detail = "static pose set: spread of the repeated readings within each of " + std::to_string(groups.size()) +
+               " poses" + (f.ar1.maxCoeff() > 0.0 ? ", correlated (lag-1 up to " + fmt(f.ar1.maxCoeff()) + ")" : "");
+    return f;
+  }
+  // Dense time series.
+  for (int a = 0; a < 6; ++a) {
+    const std::vector<double> x = channel(a, 0, n);
+    const double white = differenceNoiseStd(x, 1);
+    f.std(a) = white;
+    f.difference_std(a) = white;
+    if (n >= 4 * kMaxStride + 1 + 16) {
+      const Ar1Noise e = estimateAr1Noise({x});
+      if (e.phi >= kColouredPhi) {
+        f.std(a) = e.std;
+        f.ar1(a) = e.phi;
+      }
+    }
+  }
+  if (f.ar1.maxCoeff() > 0.0) {
+    f.method = NoiseMethod::kColoured;
+    f.detail = "coloured (low-pass filtered or averaged) noise: spread of 4th differences grows with the stride; "
+               "AR(1) lag-1 correlation up to " + fmt(f.ar1.maxCoeff());
+  } else {
+    f.method = NoiseMethod::kWhite;
+    f.detail = "white noise: robust spread of the 4th-order differences of the readings";
+  }
+  return f;
+}
+
+Outliers detectOutliers(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual, bool time_series, double threshold,
+                        const std::vector<int>& segment_starts) {
+  Outliers out;
+  const int n = static_cast<int>(residual.cols());
+  if (n < 8 || !(threshold > 0.0)) return out;
+  std::vector<int> starts = segment_starts.empty() ? std::vector<int>{0} : segment_starts;
+  starts.push_back(n);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> score(6, n);
+  std::vector<double> h(static_cast<std::size_t>(n)), win;
+  for (int a = 0; a < 6; ++a) {
+    if (time_series) {
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        const int b0 = starts[s], b1 = starts[s + 1];
+        for (int i = b0; i < b1; ++i) {
+          win.clear();
+          for (int j = std::max(b0, i - 3); j <= std::min(b1 - 1, i + 3); ++j) win.push_back(residual(a, j));
+          h[static_cast<std::size_t>(i)] = residual(a, i) - median(win);
+        }
+      }
+    } else {
+      std::vector<double> all(static_cast<std::size_t>(n));
+      for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = residual(a, i);
+      const double m = median(all);
+      for (int i = 0; i < n; ++i) h[static_cast<std::size_t>(i)] = residual(a, i) - m;
+    }
+    std::vector<double> dev(h.size());
+    for (std::size_t i = 0; i < h.size(); ++i) dev[i] = std::abs(h[i]);
+    const double sigma = kMadToStd * median(dev);
+    for (int i = 0; i < n; ++i) score(a, i) = sigma > 0.0 ? std::abs(h[static_cast<std::size_t>(i)]) / sigma : 0.0;
+    if (time_series) {
+      // A spike also stands out from the line through its two neighbours, which smooth model
+      // error (curvature over two samples) does not: both tests must flag it.
+      std::vector<double> g(static_cast<std::size_t>(n), 0.0);
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        for (int i = starts[s]; i < starts[s + 1]; ++i) {
+          const int l = i > starts[s] ? i - 1 : i + 1;
+          const int r = i + 1 < starts[s + 1] ? i + 1 : i - 1;
+          if (l < starts[s] || r >= starts[s + 1]) continue;
+          g[static_cast<std::size_t>(i)] = residual(a, i) - 0.5 * (residual(a, l) + residual(a, r));
+        }
+      }
+      for (std::size_t i = 0; i < g.size(); ++i) dev[i] = std::abs(g[i]);
+      const double sg = kMadToStd * median(dev);
+      for (int i = 0; i < n; ++i) {
+        const double s2 = sg > 0.0 ? std::abs(g[static_cast<std::size_t>(i)]) / sg : 0.0;
+        score(a, i) = std::min(score(a, i), s2);
+      }
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    int axis = 0;
+    const double worst = score.col(i).maxCoeff(&axis);
+    if (worst > threshold) {
+      out.samples.push_back(i);
+      out.axes.push_back(axis);
+    }
+  }
+  return out;
+}
+
+void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual,
+                      const std::vector<SampleContext>& ctx, const std::vector<int>& segment_starts) {
+  if (f.method != NoiseMethod::kWhite && f.method != NoiseMethod::kColoured) return;
+  const int n = static_cast<int>(std::min<Eigen::Index>(residual.cols(), static_cast<Eigen::Index>(ctx.size())));
+  std::vector<int> starts = segment_starts.empty() ? std::vector<int>{0} : segment_starts;
+  starts.push_back(n);
+  int L = 256;
+  while (L > 32 && L > n / 4) L /= 2;
+  // The motion's band: 99.9 % of the joint-velocity power lies below bin k_motion; the model error
+  // is made of the motion (and its products: a few times its frequencies), so the noise is fitted
+  // above 3 k_motion.
+  int k_lo = 2;
+  {
+    std::vector<double> total;
+    for (int j = 0; j < kNumJoints; ++j) {
+      std::vector<std::vector<double>> segs;
+      for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+        std::vector<double> seg;
+        for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(ctx[static_cast<std::size_t>(i)].qd(j));
+        segs.push_back(std::move(seg));
+      }
+      const auto P = welch(segs, L);
+      if (total.empty()) total.assign(P.size(), 0.0);
+      for (std::size_t k = 0; k < P.size() && k < total.size(); ++k) total[k] += P[k];
+    }
+    double sum = 0.0;
+    for (std::size_t k = 1; k < total.size(); ++k) sum += total[k];
+    double acc = 0.0;
+    int k_motion = 1;
+    for (std::size_t k = 1; k < total.size(); ++k) {
+      acc += total[k];
+      if (acc >= 0.999 * sum) {
+        k_motion = static_cast<int>(k);
+        break;
+      }
+    }
+    if (sum > 0.0) k_lo = std::max(k_lo, 3 * k_motion + 2);
+  }
+  bool used_spectrum = false;
+  const Outliers glitches = detectOutliers(residual.leftCols(n), true, 6.0, segment_starts);
+  std::vector<char> bad(static_cast<std::size_t>(n), 0);
+  for (int i : glitches.samples) bad[static_cast<std::size_t>(i)] = 1;
+  for (int a = 0; a < 6; ++a) {
+    std::vector<std::vector<double>> segs;
+    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+      std::vector<double> seg;
+      for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(residual(a, i));
+      segs.push_back(std::move(seg));
+    }
+    // Glitches would add a white floor to the spectrum: each run of them is replaced by the line
+    // between its nearest good neighbours.
+    for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+      auto& seg = segs[s];
+      const int len = static_cast<int>(seg.size());
+      int j = 0;
+      while (j < len) {
+        if (!bad[static_cast<std::size_t>(starts[s] + j)]) {
+          ++j;
+          continue;
+        }
+        int e = j;
+        while (e < len && bad[static_cast<std::size_t>(starts[s] + e)]) ++e;
+        const double left = j > 0 ? seg[static_cast<std::size_t>(j - 1)] : (e < len ? seg[static_cast<std::size_t>(e)] : 0.0);
+        const double right = e < len ? seg[static_cast<std::size_t>(e)] : left;
+        for (int k = j; k < e; ++k) {
+          const double w = static_cast<double>(k - j + 1) / static_cast<double>(e - j + 1);
+          seg[static_cast<std::size_t>(k)] = (1.0 - w) * left + w * right;
+        }
+        j = e;
+      }
+    }
+    const auto P = welch(segs, L);
+    const Ar1Noise e = P.empty() ? Ar1Noise{0.0, -1.0} : ar1FromSpectrum(P, L, k_lo);
+    double phi = e.phi;
+    if (phi < 0.0) {
+      phi = ar1FromDifferences(segs);  // too short for a spectrum
+    } else {
+      used_spectrum = true;
+    }
+    if (phi < kColouredPhi) phi = 0.0;
+    f.ar1(a) = phi;
+    // White: today's estimator; coloured: the spectral level above the motion's band.
+    if (e.phi >= 0.0) {
+      f.std(a) = spectralLevel(P, L, k_lo, phi);  // phi = 0: the flat level of white noise
+    } else {
+      f.std(a) = f.difference_std(a) * std::sqrt(70.0 / differenceVarianceFactor(phi, 1));
+    }
+  }
+  if (f.ar1.maxCoeff() > 0.0) {
+    f.method = NoiseMethod::kColoured;
+    f.detail = "coloured (low-pass filtered) noise: lag-1 correlation up to " + fmt(f.ar1.maxCoeff()) +
+               (used_spectrum ? " (AR(1) fitted to the residual's spectrum above the motion's band)"
+                              : " (from the residual's differences)");
+  } else {
+    f.method = NoiseMethod::kWhite;
+    f.detail = used_spectrum ? "white noise: flat spectrum of the residual above the motion's band"
+                             : "white noise: robust spread of the 4th-order differences of the readings";
+  }
+}
+
+Vec6 parseNoiseSpec(const std::string& spec, const std::string& what) {
+  Vec6 out = Vec6::Constant(-1.0);
+  std::stringstream ss(spec);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    const auto eq = item.find('=');
+    if (eq == std::string::npos) throw ConfigError(what + ": expected axis=std, got '" + item + "'");
+    const std::string key = item.substr(0, eq);
+    int axis = -1;
+    for (int a = 0; a < 6; ++a) {
+      if (key == kWrenchAxisNames[a]) axis = a;
+    }
+    if (axis < 0) throw ConfigError(what + ": unknown axis '" + key + "' (fx, fy, fz, tx, ty, tz)");
+    const std::string val = item.substr(eq + 1);
+    std::size_t used = 0;
+    double v = 0.0;
+    try {
+      v = std::stod(val, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != val.size() || !std::isfinite(v) || !(v > 0.0)) {
+      throw ConfigError(what + ": " + key + ": not a positive number: '" + val + "'");
+    }
+    out(axis) = v;
+  }
+  for (int a = 0; a < 6; ++a) {
+    if (out(a) < 0.0) throw ConfigError(what + ": missing " + kWrenchAxisNames[a] + " (give all six: fx=..,fy=..,fz=..,tx=..,ty=..,tz=..)");
+  }
+  return out;
+}
+
+}  // namespace ftid::identify

@@ -1,0 +1,253 @@
+// The laboratory on data as real sensors deliver it (docs/analyze.md): the noise floor from the
+// data that is there, correlated (low-pass filtered) noise, glitches, static pose sets where a
+// constant pull cannot be told from the weight, and `identify` telling the truth about its fit.
+// The simulator makes each imperfection its own way (src/sim); the laboratory is not told.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "ftid/common/error.hpp"
+#include "ftid/identify/fit.hpp"
+#include "ftid/identify/fit_check.hpp"
+#include "ftid/identify/noise.hpp"
+#include "ftid/identify/paper_method.hpp"
+#include "ftid/lab/analyze.hpp"
+#include "lab_sim.hpp"
+
+namespace {
+
+using namespace ftid;
+using labtest::baseConfig;
+using labtest::findParam;
+
+sim::CellSimConfig filtered(std::uint64_t seed) {
+  auto c = baseConfig(seed);
+  c.noise.wrench_lowpass_hz = 10.0;  // lag-1 correlation exp(-2 pi 10 / 125) = 0.605
+  return c;
+}
+
+sim::CellSimConfig poseSet(std::uint64_t seed, bool average) {
+  auto c = baseConfig(seed);
+  c.static_poses.enabled = true;
+  c.static_poses.poses = average ? 100 : 40;
+  c.static_poses.hold_s = average ? 0.5 : 0.25;
+  c.static_poses.average = average;
+  return c;
+}
+
+TEST(NoiseFloor, DetectsWhiteColouredStaticAndNotObservable) {
+  const Vec6 truth = baseConfig(1).noise.wrench_std;
+  const effects::Model paper = effects::Model::fromName("paper");
+  // Dense data: the readings give the level, a model residual the colour.
+  auto dense = [&](const sim::CellSimConfig& c) {
+    const auto set = labtest::contexts(c);
+    auto nf = identify::estimateNoiseFloor(set.samples);
+    identify::refineNoiseFloor(nf, identify::fitModel(paper, set.samples).residual, set.samples);
+    return nf;
+  };
+  for (std::uint64_t seed : {201u, 205u, 206u}) {
+    const auto nf = dense(baseConfig(seed));
+    EXPECT_EQ(nf.method, identify::NoiseMethod::kWhite) << nf.detail;
+    for (int a = 0; a < 6; ++a) EXPECT_NEAR(nf.std(a), truth(a), 0.1 * truth(a)) << "seed " << seed << " axis " << a << " ar1 " << nf.ar1.transpose();
+  }
+  // Coloured: a claim over 5 seeds x 6 axes (the estimate of a 10 s record scatters by ~6 %).
+  double ss_std = 0.0, max_std = 0.0, sum_phi = 0.0, max_phi = 0.0;
+  const double phi_true = std::exp(-2.0 * M_PI * 10.0 / 125.0);
+  int count = 0;
+  for (std::uint64_t seed : {202u, 207u, 208u, 209u, 210u}) {
+    const auto nf = dense(filtered(seed));
+    EXPECT_EQ(nf.method, identify::NoiseMethod::kColoured) << nf.detail;
+    for (int a = 0; a < 6; ++a) {
+      const double e = nf.std(a) / truth(a) - 1.0;
+      ss_std += e * e;
+      max_std = std::max(max_std, std::abs(e));
+      sum_phi += nf.ar1(a) - phi_true;
+      max_phi = std::max(max_phi, std::abs(nf.ar1(a) - phi_true));
+      ++count;
+    }
+  }
+  EXPECT_LT(std::sqrt(ss_std / count), 0.08);
+  EXPECT_LT(max_std, 0.2);
+  EXPECT_LT(std::abs(sum_phi / count), 0.03);
+  EXPECT_LT(max_phi, 0.12);
+  {
+    auto c = poseSet(203, false);
+    c.noise.wrench_lowpass_hz = 0.0;
+    const auto nf = identify::estimateNoiseFloor(labtest::contexts(c).samples);
+    EXPECT_EQ(nf.method, identify::NoiseMethod::kStaticPoses) << nf.detail;
+    EXPECT_EQ(nf.pose_groups, 40);
+    for (int a = 0; a < 6; ++a) EXPECT_NEAR(nf.std(a), truth(a), 0.1 * truth(a));
+  }
+  {
+    const auto nf = identify::estimateNoiseFloor(labtest::contexts(poseSet(204, true)).samples);
+    EXPECT_EQ(nf.method, identify::NoiseMethod::kNotObservable) << nf.detail;
+    EXPECT_FALSE(nf.observable());
+  }
+}
+
+TEST(NoiseFloor, PoseColumnGroupsReadingsWhenTheJointAnglesJitter) {
+  // Held poses whose logged q jitters (encoder noise, 2e-3 rad): by q alone every reading looks
+  // like its own pose (not observable); a `pose` column says which readings belong together.
+  auto c = poseSet(251, false);
+  c.noise.wrench_lowpass_hz = 0.0;
+  logio::LogData log = sim::CellSim(c).run();
+  std::mt19937_64 gen(9);
+  std::normal_distribution<double> jitter(0.0, 2e-3);
+  for (auto& smp : log.samples) {
+    for (int j = 0; j < kNumJoints; ++j) smp.q(j) += jitter(gen);
+  }
+  {
+    const auto set = identify::buildContexts(log, *c.robot);
+    EXPECT_EQ(identify::estimateNoiseFloor(set.samples).method, identify::NoiseMethod::kNotObservable);
+  }
+  log.extra_names.push_back("pose");
+  log.extra_columns.emplace_back();
+  for (std::size_t k = 0; k < log.samples.size(); ++k) log.extra_columns.back().push_back(static_cast<double>(k / 31));
+  const auto set = identify::buildContexts(log, *c.robot);
+  const auto nf = identify::estimateNoiseFloor(set.samples);
+  EXPECT_EQ(nf.method, identify::NoiseMethod::kStaticPoses) << nf.detail;
+  const Vec6 truth = c.noise.wrench_std;
+  for (int a = 0; a < 6; ++a) EXPECT_NEAR(nf.std(a), truth(a), 0.1 * truth(a));
+}
+
+TEST(NoiseFloor, DataSheetSpecIsParsedAndBadInputNamed) {
+  const Vec6 v = identify::parseNoiseSpec("fx=0.05,fy=0.06,fz=0.07,tx=0.001,ty=0.002,tz=0.003");
+  EXPECT_DOUBLE_EQ(v(1), 0.06);
+  EXPECT_DOUBLE_EQ(v(5), 0.003);
+  for (const char* bad : {"fx=0.05", "fx=0.05,fy=0.06,fz=0.07,tx=0.001,ty=0.002,tq=0.003",
+                          "fx=-1,fy=0.06,fz=0.07,tx=0.001,ty=0.002,tz=0.003", "fx"}) {
+    EXPECT_THROW(identify::parseNoiseSpec(bad), ConfigError) << bad;
+  }
+  try {
+    identify::parseNoiseSpec("fx=0.05,fy=0.06,fz=0.07,tx=0.001,ty=0.002");
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("tz"), std::string::npos);
+  }
+}
+
+TEST(Analyze, FilteredNoiseRaisesNoAlarmAndHiddenCableIsStillFound) {
+  for (std::uint64_t seed : {211u, 212u}) {
+    const auto r = labtest::analyzeRun(filtered(seed), "paper", true);
+    EXPECT_EQ(r.noise_method, "coloured");
+    for (const auto& c : r.candidates) EXPECT_FALSE(c.significant) << "seed " << seed << "\n" << lab::formatText(r);
+    for (int a = 0; a < 6; ++a) EXPECT_LT(r.report.residual_rms(a), 1.2 * r.noise_floor(a)) << lab::formatText(r);
+    EXPECT_TRUE(r.warnings.empty()) << lab::formatText(r);
+  }
+  auto c = filtered(213);
+  c.cable.enabled = true;
+  c.cable.stiffness_N_per_m = 4.0;
+  const auto r = labtest::analyzeRun(c, "paper", true);
+  ASSERT_GE(r.steps.size(), 2u) << lab::formatText(r);
+  EXPECT_EQ(r.steps[1].added, "cable") << lab::formatText(r);
+  EXPECT_EQ(r.steps.size(), 2u) << lab::formatText(r);
+  for (int a = 0; a < 6; ++a) EXPECT_LT(r.final_report->residual_rms(a), 1.2 * r.noise_floor(a)) << lab::formatText(r);
+}
+
+TEST(Analyze, GlitchesAreFoundLeftOutAndMoveNoParameter) {
+  auto c = baseConfig(221);
+  const auto clean = labtest::analyzeRun(c, "paper", true);
+  c.glitches.enabled = true;
+  c.glitches.probability = 0.004;
+  c.glitches.force_N = 10.0;
+  c.glitches.torque_Nm = 1.0;
+  const auto truth = sim::CellSim(c).glitches();
+  ASSERT_GE(truth.size(), 2u);
+  const auto r = labtest::analyzeRun(c, "paper", true);
+  // Every glitch found at its time, at most one false alarm.
+  EXPECT_GE(r.outliers.count, static_cast<int>(truth.size())) << lab::formatText(r);
+  EXPECT_LE(r.outliers.count, static_cast<int>(truth.size()) + 1) << lab::formatText(r);
+  for (const auto& g : truth) {
+    const double t = static_cast<double>(g.sample) / c.rate_hz;
+    bool found = false;
+    for (double x : r.outliers.times) found = found || std::abs(x - t) < 1e-9;
+    EXPECT_TRUE(found) << "glitch at t = " << t;
+  }
+  for (const auto& cand : r.candidates) EXPECT_FALSE(cand.significant) << lab::formatText(r);
+  for (int a = 0; a < 6; ++a) EXPECT_LT(r.report.residual_rms(a), 1.2 * r.noise_floor(a)) << lab::formatText(r);
+  for (const char* name : {"mass", "com_x", "com_z", "f0_x", "f0_z", "t0_y", "tilt_u", "tilt_v"}) {
+    const auto* p = findParam(r.report, name);
+    const auto* q = findParam(clean.report, name);
+    ASSERT_TRUE(p && q) << name;
+    EXPECT_LT(std::abs(p->value - q->value), q->std) << name << ": " << p->value << " vs " << q->value << " +- " << q->std
+                                                     << "\n" << lab::formatText(r);
+  }
+  const std::string j = lab::formatJson(r);
+  EXPECT_NE(j.find("\"outliers\": {\"count\": " + std::to_string(r.outliers.count)), std::string::npos);
+  EXPECT_NE(lab::formatText(r).find("glitches: " + std::to_string(r.outliers.count)), std::string::npos);
+  EXPECT_NE(lab::renderHtml(r).find("Glitches: " + std::to_string(r.outliers.count)), std::string::npos);
+}
+
+TEST(Analyze, StaticPoseSetCablePullIsConfoundedWithTheWeightAndNotTaken) {
+  // The case: one averaged reading per pose, a cable pulling up. Without translational
+  // acceleration the constant vertical pull (cable_kp_z) is the weight.
+  auto c = poseSet(231, true);
+  c.cable.enabled = true;
+  const auto set = labtest::contexts(c);
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.explain = true;
+  o.candidates = {"cable", "poly(t,2)", "crosstalk"};
+  const auto r = lab::analyze(set.samples, nullptr, o, "poses.csv");
+  EXPECT_EQ(r.noise_method, "not_observable");
+  const lab::CandidateResult* cable = nullptr;
+  for (const auto& cand : r.candidates) {
+    if (cand.effect == "cable") cable = &cand;
+  }
+  ASSERT_NE(cable, nullptr);
+  EXPECT_FALSE(cable->significant) << lab::formatText(r);
+  EXPECT_TRUE(cable->confounded) << lab::formatText(r);
+  EXPECT_NE(cable->confound.find("mass"), std::string::npos) << cable->confound;
+  EXPECT_NE(cable->separating_motion.find("acceleration"), std::string::npos) << cable->separating_motion;
+  for (const auto& st : r.steps) EXPECT_EQ(st.added.find("cable"), std::string::npos) << lab::formatText(r);
+  const std::string text = lab::formatText(r);
+  EXPECT_NE(text.find("NOT recommended"), std::string::npos) << text;
+  EXPECT_NE(text.find("not observable"), std::string::npos) << text;
+}
+
+identify::ParameterSet paperDynamic(const std::vector<effects::SampleContext>& ctx) {
+  identify::PaperOptions po;
+  po.method = identify::PaperMethod::kDynamic;
+  return identify::identifyPaper(ctx, po).toParameterSet();
+}
+
+TEST(IdentifyCheck, WarnsWhenTheModelMissesSomethingAndOnlyThen) {
+  {
+    const auto set = labtest::contexts(baseConfig(241));
+    const auto chk = identify::checkFit(set.samples, paperDynamic, "ftid analyze run.csv --model paper --explain");
+    EXPECT_TRUE(chk.warnings.empty()) << identify::formatFitCheck(chk);
+    for (int a = 0; a < 6; ++a) EXPECT_LT(chk.residual_to_noise(a), 1.2) << identify::formatFitCheck(chk);
+    const std::string j = identify::fitCheckJsonMembers(chk);
+    for (const char* key : {"\"noise_floor\"", "\"residual_to_noise\"", "\"warnings\": []", "\"noise_method\": \"white\""}) {
+      EXPECT_NE(j.find(key), std::string::npos) << key << " in " << j;
+    }
+  }
+  {
+    // Full rigid-body physics: the paper's model misses the rotational inertia.
+    auto c = baseConfig(242);
+    c.full_rigid_body = true;
+    const auto set = labtest::contexts(c);
+    const auto chk = identify::checkFit(set.samples, paperDynamic, "ftid analyze run.csv --model paper --explain");
+    ASSERT_EQ(chk.warnings.size(), 1u) << identify::formatFitCheck(chk);
+    EXPECT_NE(chk.warnings[0].find("ftid analyze run.csv --model paper --explain"), std::string::npos);
+    EXPECT_GT(chk.residual_to_noise.maxCoeff(), 1.2);
+  }
+  {
+    const auto set = labtest::contexts(poseSet(243, true));
+    identify::PaperOptions po;
+    po.method = identify::PaperMethod::kStatic;
+    const auto chk = identify::checkFit(
+        set.samples, [&](const auto& ctx) { return identify::identifyPaper(ctx, po).toParameterSet(); }, "x");
+    EXPECT_EQ(chk.noise.method, identify::NoiseMethod::kNotObservable);
+    ASSERT_FALSE(chk.warnings.empty());
+    EXPECT_NE(chk.warnings.back().find("--noise"), std::string::npos);
+    // With the data sheet's noise it can judge again.
+    const auto sheet = identify::checkFit(
+        set.samples, [&](const auto& ctx) { return identify::identifyPaper(ctx, po).toParameterSet(); }, "x",
+        Vec6(0.05, 0.05, 0.05, 0.01, 0.01, 0.01));
+    EXPECT_EQ(sheet.noise.method, identify::NoiseMethod::kDataSheet);
+    EXPECT_TRUE(std::isfinite(sheet.residual_to_noise(0)));
+  }
+}
+
+}  // namespace
