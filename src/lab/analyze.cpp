@@ -365,8 +365,7 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
       continue;
     }
     std::string miss = missingSignal(cand, eng.data().ctx);
-    if (miss.empty() && eng.data().static_data && (cand.signals() & effects::kSignalModelDerivative) != 0 &&
-        !base.model.contains("crosstalk") && c.effect.rfind("sensor_delay", 0) == 0) {
+    if (miss.empty() && eng.data().static_data && cand.estimatesDelay() && !base.model.estimatesDelay()) {
       miss = "static pose set: a delay shows only while the wrench changes (the time between poses is not motion)";
     }
     if (!miss.empty()) {
