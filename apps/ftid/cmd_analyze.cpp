@@ -31,11 +31,13 @@ const char* const kUsage =
     "                    estimate from the data (needed for static pose sets with one reading a pose)\n"
     "  --glitch-sigma K  leave out isolated samples beyond K robust standard deviations (default 6;\n"
     "                    0 = keep every sample)\n"
+    "  --max-delay S     search range of sensor_delay's delay, +-S seconds (default 1)\n"
     "  --alpha A         false-alarm probability of one ranking (default 0.001, Bonferroni-split)\n"
     "  --report FILE     write a self-contained HTML report (inline SVG; opens offline)\n"
     "  --json            print one JSON object (model, residual_rms, noise_floor, candidates, steps)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
-    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
+    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "\n"
     "The noise floor is detected from the data (white, coloured, static pose set, or not observable)\n"
     "and named in the report; standard errors and tests account for correlated noise; effects whose\n"
@@ -72,6 +74,7 @@ int runAnalyze(const std::vector<std::string>& argv) {
   const std::string alpha = args.value("--alpha", "0.001");
   const std::string noise = args.value("--noise");
   const std::string glitch = args.value("--glitch-sigma", "6");
+  const std::string max_delay = args.value("--max-delay", "1");
   const std::string report = args.value("--report");
   const bool json = args.flag("--json");
   req.robot_urdf = args.value("--robot");
@@ -91,8 +94,12 @@ int runAnalyze(const std::vector<std::string>& argv) {
     const double g = std::stod(glitch, &used);
     if (used != glitch.size() || !(g >= 0.0 && g < 1e6)) throw std::invalid_argument("range");
     req.options.glitch_threshold = g;
+    const double d = std::stod(max_delay, &used);
+    if (used != max_delay.size() || !(d > 0.0 && d <= 10.0)) throw std::invalid_argument("range");
+    req.options.max_delay_s = d;
   } catch (const std::exception&) {
-    throw ftid::cli::UsageError("--folds must be an integer 2..50, --alpha a number in (0, 1) and --glitch-sigma >= 0");
+    throw ftid::cli::UsageError(
+        "--folds must be an integer 2..50, --alpha a number in (0, 1), --glitch-sigma >= 0 and --max-delay in (0, 10] s");
   }
   if (!noise.empty()) {
     try {

@@ -25,12 +25,14 @@ const char* const kUsage =
     "  --model M         instead of the paper's method, fit a composed model by weighted least\n"
     "                    squares, e.g. 'paper' or 'paper+rigid_body' (docs/effects.md)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
-    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
+    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
     "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
     "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
     "  --config FILE     ftidd configuration for the exports (sensor mount, `export:` section;\n"
     "                    default /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml)\n"
+    "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
@@ -54,7 +56,21 @@ int runIdentify(const std::vector<std::string>& argv) {
   std::string config = args.value("--config");
   const bool json = args.flag("--json");
   const std::string noise = args.value("--noise");
+  const std::string max_delay = args.value("--max-delay");
   args.finish();
+  if (!max_delay.empty()) {
+    std::size_t used = 0;
+    double d = 0.0;
+    try {
+      d = std::stod(max_delay, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != max_delay.size() || !(d > 0.0 && d <= 10.0)) {
+      throw ftid::cli::UsageError("--max-delay must be a number of seconds in (0, 10], not '" + max_delay + "'");
+    }
+    req.max_delay_s = d;
+  }
   if (!noise.empty()) {
     try {
       req.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");

@@ -44,15 +44,17 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
   const int n = static_cast<int>(ctx.size());
   out.noise = noise_std ? dataSheetNoiseFloor(*noise_std) : estimateNoiseFloor(ctx);
   out.folds = folds;
+  // Predictions use the whole series (a delayed model reads the kinematics of neighbouring samples,
+  // which are inputs, not training data), then keep the samples asked for.
+  std::vector<int> all_idx(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) all_idx[static_cast<std::size_t>(i)] = i;
   auto predict = [&](const ParameterSet& set, const std::vector<int>& idx) {
     const effects::Model model = effects::Model::fromName(set.model);
     const Eigen::VectorXd theta = thetaFor(model, set);
-    std::optional<double> u, v;
-    if (set.tilt_estimated) {
-      u = set.tilt_u_rad;
-      v = set.tilt_v_rad;
-    }
-    return predictWrench(model, theta, u, v, ctx, idx);
+    const auto full = predictWrench(model, theta, nonlinearFor(model, set), set.tilt_estimated, ctx, all_idx);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> sel(6, static_cast<Eigen::Index>(idx.size()));
+    for (std::size_t k = 0; k < idx.size(); ++k) sel.col(static_cast<Eigen::Index>(k)) = full.col(idx[k]);
+    return sel;
   };
   // The residual of the fit on all data: the noise colour (noise.hpp, refineNoiseFloor) and the
   // glitches, which are left out of the held-out sums (a spike is not a model error).

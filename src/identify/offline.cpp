@@ -64,7 +64,9 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
         // not a signal argument (e.g. temperature_drift(20))
       }
     }
-    const FitResult fit = fitModel(model, samples);
+    FitOptions fo;
+    fo.max_delay_s = request.max_delay_s;
+    const FitResult fit = fitModel(model, samples, fo);
     set = toParameterSet(fit);
   } else {
     PaperOptions o;

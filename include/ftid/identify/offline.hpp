@@ -22,6 +22,7 @@ struct IdentifyRequest {
   ContextOptions context;          ///< sensor mount
   ProgressFn progress;             ///< optional progress lines
   std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
+  double max_delay_s = 1.0;        ///< models with sensor_delay: search range of the delay [s]
 };
 
 /// Reads the log, builds the contexts, identifies. Throws DataError (bad log), ConfigError (bad
