@@ -293,6 +293,10 @@ TEST(RobotFaultTolerance, CallerStallBeforeTheLoopDoesNotEndTheRun) {
   EXPECT_EQ(stalls, 1);
   EXPECT_EQ(r.run.status, motion::RunStatus::kCompleted) << r.run.message << " [loop: " << r.run.realtime.describe() << "]";
   EXPECT_FALSE(s.snapshot().watchdog_fired) << s.snapshot().last_event;
+  std::size_t arming_ticks = 0;  // recorded ticks before the first servo target
+  while (arming_ticks < r.recording.size() && !r.recording[arming_ticks].q_command.allFinite()) ++arming_ticks;
+  EXPECT_LT(arming_ticks, 63u);  // within watchdog_arm_timeout
+  std::printf("watchdog armed by the loop after %zu ticks\n", arming_ticks);
 }
 
 // ...and the watchdog the loop armed does guard the run: a 300 ms stall of the loop thread itself

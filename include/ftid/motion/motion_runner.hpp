@@ -109,7 +109,7 @@ struct MotionConfig {
   double startup_lost_time_limit = 0.064;
   double startup_grace = 0.5;  ///< [s] of controller time after the loop starts
   /// [s] of controller time the loop's first cycles may take to arm the program's RTDE watchdog
-  /// (ftid's servo program needs ~4-6 ticks); after that the run ends with kWatchdogNotArmed and
+  /// (2-3 ticks with the simulator); after that the run ends with kWatchdogNotArmed and
   /// nothing has moved.
   double watchdog_arm_timeout = 0.5;
   double timeout_periods = 1.5;         ///< device wait timeout in controller periods
