@@ -8,6 +8,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/ur/rtde_protocol.hpp"
+#include "ftid/drivers/ur/servo_program.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/rt_thread.hpp"
 
@@ -32,6 +33,7 @@ const char* runStatusName(RunStatus s) noexcept {
     case RunStatus::kTargetRejected: return "servo target rejected";
     case RunStatus::kSpeedScaled: return "speed scaling active";
     case RunStatus::kRefused: return "motion refused by the pre-motion check";
+    case RunStatus::kWatchdogNotArmed: return "robot program watchdog not armed";
   }
   return "unknown";
 }
@@ -107,6 +109,17 @@ struct RunCycle {
   std::uint32_t max_missed_startup = 3;  // startup_lost_time_limit in ticks
   std::uint32_t startup_ticks = 0;       // startup_grace in ticks
   std::uint32_t ticks_seen = 0;          // states and misses since the loop started
+  std::uint32_t arm_timeout_ticks = 0;   // watchdog_arm_timeout in ticks
+
+  /// Arming the servo program's RTDE watchdog in the loop's first cycles (before any servo target):
+  /// request (command 35) until the program reports done (2), then clear (0) until ready (1).
+  enum class Arming : std::uint8_t { kRequest, kClear, kArmed };
+  Arming arming = Arming::kRequest;
+
+  /// Keeps the command register written while arming (a lost tick repeats the current step).
+  Status sendArmingStep() noexcept {
+    return arming == Arming::kRequest ? arm.sendArmWatchdog() : arm.sendClearCommand();
+  }
 
   /// Lost ticks tolerated now: more during the loop's first startup_ticks (a start-up burst on a
   /// loaded host), never more than the program's own watchdog allows.
@@ -143,7 +156,11 @@ struct RunCycle {
     if (consecutive >= limit) {
       return fail(RunStatus::kLostPackets, -1, static_cast<double>(consecutive), static_cast<double>(limit));
     }
-    arm.sendHold();
+    if (arming != Arming::kArmed) {
+      sendArmingStep();
+    } else {
+      arm.sendHold();
+    }
     return rt::CycleAction::kContinue;
   }
 
@@ -156,6 +173,9 @@ struct RunCycle {
   }
 
   rt::CycleAction onTick() noexcept {
+    // The gap between the last state read before the loop (readiness) and the loop's first state
+    // is set-up time on the calling thread, not a loss: nothing is streamed and the arm rests.
+    if (ticks_seen == 0) state.packages_skipped = 0;
     const ArmState& s = state;
     ticks_seen += 1 + s.packages_skipped;
     RecordedTick tick;
@@ -187,6 +207,22 @@ struct RunCycle {
       record(tick);
       if (hook) hook(hook_context, tick);
       return action;
+    }
+
+    if (arming != Arming::kArmed) {
+      // No servo target before the program confirmed its watchdog (the arm rests meanwhile).
+      if (arming == Arming::kRequest && s.script_state == drivers::ur::kScriptDone) arming = Arming::kClear;
+      if (arming == Arming::kClear && s.script_state == drivers::ur::kScriptReady) arming = Arming::kArmed;
+      if (arming != Arming::kArmed) {
+        if (ticks_seen > arm_timeout_ticks) {
+          action = fail(RunStatus::kWatchdogNotArmed, -1, 0.0, 0.0, s.script_state);
+        } else if (sendArmingStep() != Status::kOk) {
+          action = fail(RunStatus::kConnectionLost);
+        }
+        record(tick);
+        if (hook) hook(hook_context, tick);
+        return action;
+      }
     }
 
     JointVector target = q_a1;
@@ -358,6 +394,12 @@ std::string describe(const Failure& f, const MotionConfig& cfg, double t0) {
       std::snprintf(buf, sizeof buf, "the controller scaled the speed to %.2f at robot time %.3f s", f.value,
                     f.timestamp);
       break;
+    case RunStatus::kWatchdogNotArmed:
+      std::snprintf(buf, sizeof buf,
+                    "the robot program did not confirm arming its RTDE watchdog within %.2f s (script register "
+                    "%lld at robot time %.3f s); nothing was moved",
+                    cfg.watchdog_arm_timeout, static_cast<long long>(f.code), f.timestamp);
+      break;
     default:
       std::snprintf(buf, sizeof buf, "%s", runStatusName(f.status));
   }
@@ -488,6 +530,7 @@ RunResult MotionRunner::run(const JointTrajectorySource& trajectory, const std::
   cycle.max_missed_startup = std::max(
       cycle.max_missed, static_cast<std::uint32_t>(std::floor(config_.startup_lost_time_limit / period + 1e-9)));
   cycle.startup_ticks = static_cast<std::uint32_t>(std::ceil(config_.startup_grace / period));
+  cycle.arm_timeout_ticks = static_cast<std::uint32_t>(std::ceil(config_.watchdog_arm_timeout / period));
   ec.max_consecutive_missed = std::max(cycle.max_missed, cycle.max_missed_startup) + 1;  // the cycle decides first
   rt::LoopExit exit = rt::LoopExit::kCycleStopped;
   progress_.running.store(true);

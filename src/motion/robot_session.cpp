@@ -7,8 +7,9 @@ namespace ftid::motion {
 SessionResult runOnRobot(const RobotSessionConfig& config, const JointTrajectorySource& trajectory,
                          const std::atomic<bool>* abort, CycleHook hook, void* hook_context) {
   SessionResult out;
-  // Lock memory before connecting: mlockall can take long, and once the servo program runs its
-  // RTDE watchdog expects inputs every 1 / watchdog_min_hz seconds.
+  // Lock memory before connecting: mlockall can take long. The servo program's RTDE watchdog is
+  // armed by the runner's real-time loop in its first cycles, not here: a stall of this thread
+  // between the upload and the loop (load, page faults, the pre-motion check) must not fire it.
   rt::RealtimeReport early;
   rt::lockProcessMemory(config.motion.realtime, &early);
   drivers::ur::RtdeArm arm(config.arm);
@@ -16,7 +17,6 @@ SessionResult runOnRobot(const RobotSessionConfig& config, const JointTrajectory
   out.controller_version = arm.controllerVersion().toString();
   out.period = arm.period();
   arm.uploadProgram();
-  arm.armWatchdog();
   MotionRunner runner(arm, config.motion, MotionRunner::capacityFor(trajectory.duration(), arm.period()));
   out.run = runner.run(trajectory, abort, hook, hook_context);
   if (out.run.status == RunStatus::kTargetRejected) {

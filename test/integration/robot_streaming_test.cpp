@@ -273,6 +273,57 @@ TEST(RobotFaultTolerance, ClientStallTriggersTheWatchdog) {
   EXPECT_FALSE(snap.moving);
 }
 
+// Issue 14, "Links": the calling (non-real-time) thread stalls for 150 ms between the program
+// upload and the loop (here in the pre-motion check; in the field: load, page faults, a long
+// check). The servo program's watchdog (10 Hz: 0.1 s) is armed by the loop's first cycles, so the
+// stall cannot fire it, and the backlog it leaves is not counted as lost packages.
+TEST(RobotFaultTolerance, CallerStallBeforeTheLoopDoesNotEndTheRun) {
+  sim::SimRobot s(simConfig(sim::RobotModel::kUR10));
+  s.start();
+  const auto traj = makeTrajectory();
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  auto cfg = sessionConfig(s);
+  int stalls = 0;
+  cfg.motion.preflight = [&](const motion::PlannedMotion&) {
+    ++stalls;
+    std::this_thread::sleep_for(150ms);
+    return std::string();
+  };
+  const auto r = motion::runOnRobot(cfg, src);
+  EXPECT_EQ(stalls, 1);
+  EXPECT_EQ(r.run.status, motion::RunStatus::kCompleted) << r.run.message << " [loop: " << r.run.realtime.describe() << "]";
+  EXPECT_FALSE(s.snapshot().watchdog_fired) << s.snapshot().last_event;
+  std::size_t arming_ticks = 0;  // recorded ticks before the first servo target
+  while (arming_ticks < r.recording.size() && !r.recording[arming_ticks].q_command.allFinite()) ++arming_ticks;
+  EXPECT_LT(arming_ticks, 63u);  // within watchdog_arm_timeout
+  std::printf("watchdog armed by the loop after %zu ticks\n", arming_ticks);
+}
+
+// ...and the watchdog the loop armed does guard the run: a 300 ms stall of the loop thread itself
+// (in its hook, mid-excitation) fires it, the program stops and the arm is brought to rest.
+TEST(RobotFaultTolerance, LoopStallFiresTheWatchdogTheLoopArmed) {
+  sim::SimRobot s(simConfig(sim::RobotModel::kUR10));
+  s.start();
+  const auto traj = makeTrajectory();
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  struct StallOnce {
+    bool done = false;
+    static void hook(void* ctx, const motion::RecordedTick& t) noexcept {
+      auto* self = static_cast<StallOnce*>(ctx);
+      if (!self->done && t.phase == motion::Phase::kExcite && t.t_traj > 0.5) {
+        self->done = true;
+        std::this_thread::sleep_for(300ms);
+      }
+    }
+  } stall;
+  const auto r = motion::runOnRobot(sessionConfig(s), src, nullptr, &StallOnce::hook, &stall);
+  EXPECT_TRUE(stall.done);
+  EXPECT_NE(r.run.status, motion::RunStatus::kCompleted) << r.run.message;
+  const auto snap = snapshotOnce(s, stoppedAndAtRest);
+  EXPECT_TRUE(snap.watchdog_fired) << snap.last_event << " / " << r.run.message;
+  EXPECT_FALSE(snap.moving);
+}
+
 // The last hop refuses a non-finite target and the run ends with the arm held and stopped.
 TEST(RobotFaultTolerance, NonFiniteTargetIsNeverSent) {
   sim::SimRobot s(simConfig(sim::RobotModel::kUR10));

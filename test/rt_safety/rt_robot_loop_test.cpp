@@ -12,6 +12,7 @@
 #include "ftid/drivers/ur/rtde_client.hpp"
 #include "ftid/drivers/ur/rtde_protocol.hpp"
 #include "ftid/motion/motion_runner.hpp"
+#include "../support/fake_servo_program.hpp"
 #include "ftid/rt/mailbox.hpp"
 #include "ftid/rt/spsc_queue.hpp"
 #include "ftid/simrobot/sim_robot.hpp"
@@ -53,22 +54,45 @@ class FakeArm final : public ur::Arm {
     out->robot_mode = ur::rtde::kRobotModeRunning;
     out->safety_mode = ur::rtde::kSafetyModeNormal;
     out->runtime_state = ur::rtde::kRuntimePlaying;
-    out->script_state = 1;
+    program.step();
+    out->script_state = program.script;
     out->speed_scaling = 1.0;
     return Status::kOk;
   }
   Status sendServoTarget(const JointVector& q) noexcept override {
     target_ = q;
+    program.command = 11;
+    if (!program.watchdog_armed) ++targets_before_watchdog;
     ++targets_;
     return Status::kOk;
   }
-  Status sendHold() noexcept override { return Status::kOk; }
+  Status sendHold() noexcept override {
+    if (!reference_set) {  // like RtdeArm: no servo reference yet, so only clear the register
+      program.command = 0;
+      return Status::kOk;
+    }
+    program.command = 11;  // re-sends the servo package
+    if (!program.watchdog_armed) ++targets_before_watchdog;
+    return Status::kOk;
+  }
+  Status sendArmWatchdog() noexcept override {
+    program.command = 35;
+    return Status::kOk;
+  }
+  Status sendClearCommand() noexcept override {
+    program.command = 0;
+    return Status::kOk;
+  }
   Status sendServoStop() noexcept override {
+    program.command = 16;
     stopping_ = true;
     return Status::kOk;
   }
-  void resetServoReference(const JointVector&, const JointVector&) noexcept override {}
+  void resetServoReference(const JointVector&, const JointVector&) noexcept override { reference_set = true; }
   double period() const noexcept override { return period_; }
+  ftid::test::FakeServoProgram program;
+  bool reference_set = false;
+  std::size_t targets_before_watchdog = 0;  ///< servo targets or holds sent before command 35 ran
 
   std::size_t loop_allocations_ = 0;
   std::size_t loop_calls_ = 0;
@@ -123,6 +147,9 @@ TEST(RtRobotLoop, MotionRunnerCycleDoesNotAllocate) {
   EXPECT_GT(arm.loop_calls_, 4000u);  // 8 s at 500 Hz plus approach/settle
   EXPECT_GT(r.stats.missed, 5u);      // the missed-cycle path ran too
   EXPECT_GT(arm.targets_, 4000u);
+  // The loop armed the program's watchdog itself (its first cycles are counted too).
+  EXPECT_EQ(arm.program.watchdog_requests, 1);
+  EXPECT_EQ(arm.targets_before_watchdog, 0u);
   EXPECT_EQ(arm.loop_allocations_, 0u);
 }
 

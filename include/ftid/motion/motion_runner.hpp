@@ -2,6 +2,12 @@
 // Streams a joint trajectory to an Arm in a device-clocked real-time loop and records every tick.
 //
 // Phases (one loop, the controller is the clock):
+//   0. arming:   the loop's first cycles arm the robot program's RTDE watchdog (Arm::sendArmWatchdog
+//      until the program reports done, then sendClearCommand until ready; bounded by
+//      MotionConfig::watchdog_arm_timeout) and send no servo target; from then on every cycle writes
+//      the command register (the watchdog's kick). Arming here, not on the calling thread, means a
+//      stall of the calling thread before the loop (page faults, a slow pre-motion check, load)
+//      cannot fire the watchdog and end the run;
 //   1. approach: a quintic rest-to-rest move from the current pose to the trajectory's start pose,
 //      slow (MotionConfig::approach_velocity / approach_acceleration), streamed through servoj;
 //   2. settle:   hold the start pose until |actual_q - start| < start_tolerance (bounded time);
@@ -102,6 +108,10 @@ struct MotionConfig {
   /// The arm is at rest then (first approach targets), so a held target is harmless.
   double startup_lost_time_limit = 0.064;
   double startup_grace = 0.5;  ///< [s] of controller time after the loop starts
+  /// [s] of controller time the loop's first cycles may take to arm the program's RTDE watchdog
+  /// (2-3 ticks with the simulator); after that the run ends with kWatchdogNotArmed and
+  /// nothing has moved.
+  double watchdog_arm_timeout = 0.5;
   double timeout_periods = 1.5;         ///< device wait timeout in controller periods
   bool abort_on_speed_scaling = true;   ///< speed_scaling < 0.99 means the robot time-scales: abort
   double stop_timeout = 2.0;            ///< [s] wait for rest after a stop
@@ -125,6 +135,7 @@ enum class RunStatus : std::uint8_t {
   kTargetRejected,   ///< last-hop safety check refused a target
   kSpeedScaled,      ///< speed_scaling < 1
   kRefused,          ///< the preflight check refused the planned motion; nothing moved
+  kWatchdogNotArmed, ///< the robot program did not confirm its RTDE watchdog in time; nothing moved
 };
 const char* runStatusName(RunStatus s) noexcept;
 

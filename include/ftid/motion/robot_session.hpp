@@ -1,6 +1,7 @@
 #pragma once
 // One complete motion session on a UR controller (real or ftid sim-robot): RTDE connect, upload
-// ftid's servo program, arm the RTDE watchdog, run the MotionRunner, stop the program, disconnect.
+// ftid's servo program, run the MotionRunner (whose real-time loop arms the program's RTDE watchdog
+// in its first cycles), stop the program, disconnect.
 #include <atomic>
 #include <string>
 #include <vector>

@@ -19,6 +19,10 @@ RtdeArm::RtdeArm(RtdeArmConfig config) : config_(std::move(config)), safety_(con
   if (config_.register_offset != 0 && config_.register_offset != 24) {
     throw ConfigError("robot.register_offset must be 0 or 24 (got " + std::to_string(config_.register_offset) + ")");
   }
+  if (!(config_.watchdog_min_hz >= 1.0 && config_.watchdog_min_hz <= 1000.0)) {
+    throw ConfigError("robot watchdog_min_hz must be in [1, 1000] Hz (got " + std::to_string(config_.watchdog_min_hz) +
+                      ")");
+  }
 }
 
 RtdeArm::~RtdeArm() { disconnect(); }
@@ -109,6 +113,10 @@ Status RtdeArm::sendHold() noexcept {
 }
 
 Status RtdeArm::sendServoStop() noexcept { return sendCommand(kCmdServoStop, config_.servo_stop_deceleration); }
+
+Status RtdeArm::sendArmWatchdog() noexcept { return sendCommand(kCmdSetWatchdog, config_.watchdog_min_hz); }
+
+Status RtdeArm::sendClearCommand() noexcept { return sendCommand(kCmdNone); }
 
 Status RtdeArm::sendCommand(std::int32_t command, double arg0) noexcept {
   command_pkg_.setInt32(0, command);

@@ -11,6 +11,7 @@
 #include "ftid/design/trajectory_check.hpp"
 #include "ftid/drivers/ur/rtde_protocol.hpp"
 #include "ftid/motion/motion_runner.hpp"
+#include "../../support/fake_servo_program.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 
 using ftid::JointVector;
@@ -28,11 +29,18 @@ class FakeArm final : public ur::Arm {
   Status waitForState(std::chrono::nanoseconds, ur::ArmState* out) noexcept override {
     if (stopping_ && ++stop_calls_ > 5) return Status::kFault;
     ++calls_;
+    program.step();  // the program runs on whether or not its package reaches us
     if (calls_ >= timeout_from && calls_ < timeout_from + timeout_count) {
       ts_ += period_;  // the controller ran on; its package was lost
       return Status::kTimeout;
     }
     ts_ += period_;
+    out->packages_skipped = 0;
+    if (calls_ == gap_at_call) {  // the client did not read for gap_ticks: the newest package wins
+      for (int k = 0; k < gap_ticks; ++k) program.step();
+      ts_ += gap_ticks * period_;
+      out->packages_skipped = static_cast<std::uint32_t>(gap_ticks);
+    }
     out->timestamp = ts_;
     out->qd = (target_ - q_) / period_;
     q_ = target_;
@@ -41,25 +49,49 @@ class FakeArm final : public ur::Arm {
     out->robot_mode = ur::rtde::kRobotModeRunning;
     out->safety_mode = ur::rtde::kSafetyModeNormal;
     out->runtime_state = ur::rtde::kRuntimePlaying;
-    out->script_state = 1;
+    out->script_state = program.script;
     out->speed_scaling = 1.0;
     return Status::kOk;
   }
   Status sendServoTarget(const JointVector& q) noexcept override {
     target_ = q;
+    program.command = 11;
+    if (!program.watchdog_armed) ++targets_before_watchdog;
     ++targets;
     return Status::kOk;
   }
-  Status sendHold() noexcept override { return Status::kOk; }
+  Status sendHold() noexcept override {
+    if (!reference_set) {  // like RtdeArm: no servo reference yet, so only clear the register
+      program.command = 0;
+      return Status::kOk;
+    }
+    program.command = 11;  // re-sends the servo package
+    if (!program.watchdog_armed) ++targets_before_watchdog;
+    return Status::kOk;
+  }
+  Status sendArmWatchdog() noexcept override {
+    program.command = 35;
+    return Status::kOk;
+  }
+  Status sendClearCommand() noexcept override {
+    program.command = 0;
+    return Status::kOk;
+  }
   Status sendServoStop() noexcept override {
+    program.command = 16;
     stopping_ = true;
     return Status::kOk;
   }
-  void resetServoReference(const JointVector&, const JointVector&) noexcept override {}
+  void resetServoReference(const JointVector&, const JointVector&) noexcept override { reference_set = true; }
   double period() const noexcept override { return period_; }
+  ftid::test::FakeServoProgram program;
+  bool reference_set = false;
+  std::size_t targets_before_watchdog = 0;  ///< servo targets or holds sent before command 35 ran
   std::size_t targets = 0;
   int timeout_from = -1;  ///< waitForState call (1-based) from which timeout_count calls time out
   int timeout_count = 0;
+  int gap_at_call = -1;  ///< waitForState call (1-based) that follows gap_ticks unread packages
+  int gap_ticks = 0;
 
  private:
   int calls_ = 0;
@@ -209,4 +241,81 @@ TEST(MotionStartup, TheSameBurstLaterAborts) {
   const auto later = runWithLostBurst(400, 6, 0.064);  // ~3 s into the run
   EXPECT_EQ(later.status, motion::RunStatus::kLostPackets) << later.message;
   EXPECT_NE(later.message.find("limit 3"), std::string::npos) << later.message;
+}
+
+// Issue 14, "Links": the servo program's RTDE watchdog is armed by the loop's first cycles (command
+// 35 until the program reports done, then 0 until ready) and no servo target or hold (command 11)
+// reaches the program before; the calling thread never arms it, so its stalls cannot fire it.
+namespace {
+struct ArmedRun {
+  motion::RunResult result;
+  std::size_t targets = 0, targets_before_watchdog = 0;
+  int watchdog_requests = 0;
+  std::size_t unarmed_ticks = 0;  ///< recorded ticks before the first target
+};
+
+ArmedRun runArming(bool program_ignores_watchdog, int timeout_from = -1, int timeout_count = 0, int gap_at_call = -1,
+                   int gap_ticks = 0) {
+  const auto file = shipped();
+  const auto traj = file.toTrajectory();
+  FakeArm arm(0.008, file.q0);
+  arm.program.ignore_watchdog = program_ignores_watchdog;
+  arm.timeout_from = timeout_from;
+  arm.timeout_count = timeout_count;
+  arm.gap_at_call = gap_at_call;
+  arm.gap_ticks = gap_ticks;
+  motion::MotionConfig cfg;
+  cfg.realtime.enable = false;
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  motion::MotionRunner runner(arm, cfg, motion::MotionRunner::capacityFor(traj.duration(), 0.008));
+  ArmedRun out;
+  out.result = runner.run(src);
+  out.targets = arm.targets;
+  out.targets_before_watchdog = arm.targets_before_watchdog;
+  out.watchdog_requests = arm.program.watchdog_requests;
+  for (const auto& t : runner.recording()) {
+    if (t.q_command.allFinite() || t.phase != motion::Phase::kApproach) break;
+    ++out.unarmed_ticks;
+  }
+  return out;
+}
+}  // namespace
+
+TEST(MotionWatchdog, TheLoopArmsItBeforeTheFirstTarget) {
+  const ArmedRun r = runArming(false);
+  EXPECT_EQ(r.result.status, motion::RunStatus::kCompleted) << r.result.message;
+  EXPECT_EQ(r.watchdog_requests, 1);
+  EXPECT_EQ(r.targets_before_watchdog, 0u);
+  // Request seen done one tick later, clear seen ready one tick after that: 2 ticks, no target.
+  EXPECT_EQ(r.unarmed_ticks, 2u);
+}
+
+TEST(MotionWatchdog, LostTicksWhileArmingKeepArming) {
+  // Calls 2 and 3 (the loop's first) time out: the loop re-sends the arming step, never a hold.
+  const ArmedRun r = runArming(false, 2, 2);
+  EXPECT_EQ(r.result.status, motion::RunStatus::kCompleted) << r.result.message;
+  EXPECT_EQ(r.watchdog_requests, 1);
+  EXPECT_EQ(r.targets_before_watchdog, 0u);
+}
+
+TEST(MotionWatchdog, AProgramThatNeverConfirmsEndsTheRunBeforeAnyMotion) {
+  const ArmedRun r = runArming(true);
+  EXPECT_EQ(r.result.status, motion::RunStatus::kWatchdogNotArmed) << r.result.message;
+  EXPECT_EQ(r.targets, 0u);
+  EXPECT_NE(r.result.message.find("did not confirm arming its RTDE watchdog within 0.50 s"), std::string::npos)
+      << r.result.message;
+  // Bounded by watchdog_arm_timeout (0.5 s = 63 ticks at 125 Hz), not by the lost-package limits.
+  EXPECT_GE(r.unarmed_ticks, 63u);
+  EXPECT_LE(r.unarmed_ticks, 65u);
+}
+
+TEST(MotionWatchdog, AStallOfTheCallingThreadBeforeTheLoopIsNotALoss) {
+  // 150 ms (19 ticks) pass between the readiness state (call 1) and the loop's first state
+  // (call 2): nothing was streamed then, so it is set-up time, not 19 lost packages.
+  const ArmedRun r = runArming(false, -1, 0, 2, 19);
+  EXPECT_EQ(r.result.status, motion::RunStatus::kCompleted) << r.result.message;
+  EXPECT_EQ(r.result.stats.packets_lost, 0u);
+  // The same gap later in the run is a loss.
+  const ArmedRun later = runArming(false, -1, 0, 400, 19);
+  EXPECT_EQ(later.result.status, motion::RunStatus::kLostPackets) << later.result.message;
 }

@@ -42,6 +42,15 @@ class Arm {
   virtual Status sendHold() noexcept = 0;
   /// Asks the controller to stop servoing (decelerate to rest). Non-blocking.
   virtual Status sendServoStop() noexcept = 0;
+  /// Asks the robot program to arm its RTDE watchdog (ftid's servo program: command 35 with the
+  /// configured minimum frequency; the program stops itself, and so the arm, when the command
+  /// register is not written that often). Non-blocking: the loop repeats it every tick until the
+  /// state's script_state shows the program done with it (2), then clears it with
+  /// sendClearCommand() until the program is ready again (1). Sent only from the real-time loop's
+  /// first cycles, so no stall of a non-real-time thread can fire the watchdog.
+  virtual Status sendArmWatchdog() noexcept = 0;
+  /// Clears a finished non-real-time command (command 0; the program answers ready, 1).
+  virtual Status sendClearCommand() noexcept = 0;
   /// Re-bases the last-hop check (previous target and velocity) on the robot's current state;
   /// call before streaming starts. The held target becomes q.
   virtual void resetServoReference(const JointVector& q, const JointVector& qd) noexcept = 0;

@@ -6,8 +6,8 @@
 //   RtdeArm arm(config);
 //   arm.connect();                 // RTDE handshake, recipes, start streaming
 //   arm.uploadProgram();           // URScript over 30003, waits until it reports ready
-//   arm.armWatchdog();             // program stops the arm if no input arrives for 1/f s
-//   ... loop: waitForState() / sendServoTarget() ...
+//   ... loop: sendArmWatchdog() / sendClearCommand() in its first cycles (the program stops the
+//       arm if no input arrives for 1/f s from then on), then waitForState() / sendServoTarget() ...
 //   arm.stopProgram();
 #include <chrono>
 #include <cstdint>
@@ -48,7 +48,10 @@ class RtdeArm final : public Arm {
   /// Uploads the servo program and waits until runtime_state == PLAYING and the program reports
   /// ready. Throws DriverError on timeout (naming the state seen).
   void uploadProgram();
-  /// Sends command 35 (watchdog on the command register at watchdog_min_hz) and waits for "done".
+  /// Non-RT: sends command 35 (watchdog on the command register at watchdog_min_hz), waits for
+  /// "done", clears it and waits for "ready". The caller must then write the command register at
+  /// least watchdog_min_hz times per second. The motion runner does not use this: it arms the
+  /// watchdog from its real-time loop (sendArmWatchdog), so a stalled calling thread cannot fire it.
   void armWatchdog();
   /// Clears a pending command (0), sends 255 and waits (bounded, ~1.5 s) until the program has
   /// stopped. Never throws.
@@ -62,6 +65,8 @@ class RtdeArm final : public Arm {
   Status sendServoTarget(const JointVector& q) noexcept override;
   Status sendHold() noexcept override;
   Status sendServoStop() noexcept override;
+  Status sendArmWatchdog() noexcept override;
+  Status sendClearCommand() noexcept override;
   double period() const noexcept override { return period_; }
 
   /// Writes a bare command (e.g. kCmdNone) with one double argument. Real-time safe.
