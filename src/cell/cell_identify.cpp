@@ -145,6 +145,15 @@ void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
     c->abort.store(true);
     return;
   }
+  // This loop itself was stopped or starved (SIGSTOP, overload): named first, whatever else the
+  // gap caused (after SIGCONT the receive thread may already have caught up with ftidd's queued
+  // data, and the robot program's watchdog may have stopped the program: this tick reports that).
+  if (since_hook > c->timeout_ns) {
+    c->detail_ms.store(since_hook / 1000000);
+    c->reason.store(4);
+    c->abort.store(true);
+    return;
+  }
   const std::int64_t age = now - c->recorder->lastReceiveNs();
   if (age > c->timeout_ns) {
     // Who went quiet? This loop itself (stopped or starved: the gap is between our own calls),
