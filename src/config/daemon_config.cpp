@@ -258,6 +258,15 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.output.tool_rpy.cwiseAbs().maxCoeff() <= 2.0 * M_PI)) {
     fail("output.tool_rpy", "must be angles in radians (|angle| <= 2 pi)");
   }
+  if (!(c.parameters.tare_window_s > 0.0 && c.parameters.tare_window_s <= 5.0)) {
+    fail("parameters.tare_window_s", "must be in (0, 5] s");
+  }
+  if (!(c.parameters.tare_max_qd > 0.0 && c.parameters.tare_max_qd <= 1.0)) {
+    fail("parameters.tare_max_qd", "must be in (0, 1] rad/s");
+  }
+  if (!(c.parameters.tare_max_qdd > 0.0 && c.parameters.tare_max_qdd <= 10.0)) {
+    fail("parameters.tare_max_qdd", "must be in (0, 10] rad/s^2");
+  }
   if (!(c.output.lowpass_hz == 0.0 ||
         (c.output.lowpass_hz > 0.0 && c.output.lowpass_hz < 0.45 * c.robot.rtde_frequency_hz))) {
     fail("output.lowpass_hz", "must be 0 (off) or in (0, 0.45 x robot.rtde_frequency_hz) Hz");
@@ -430,6 +439,9 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
         readSection(r, n, k, {
           {"path", S([&](const YAML::Node& v, const std::string& key) { c.parameters.path = r.path(v, key); })},
           {"required", S([&](const YAML::Node& v, const std::string& key) { c.parameters.required = r.boolean(v, key); })},
+          {"tare_window_s", S([&](const YAML::Node& v, const std::string& key) { c.parameters.tare_window_s = r.number(v, key); })},
+          {"tare_max_qd", S([&](const YAML::Node& v, const std::string& key) { c.parameters.tare_max_qd = r.number(v, key); })},
+          {"tare_max_qdd", S([&](const YAML::Node& v, const std::string& key) { c.parameters.tare_max_qdd = r.number(v, key); })},
         });
       }},
       {"lcm", [&](const YAML::Node& n, const std::string& k) {
@@ -541,6 +553,8 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "sensor.mount_rpy: [" << c.sensor.mount_rpy.transpose() << "]\n"
      << "parameters.path: " << c.parameters.path << "\n"
      << "parameters.required: " << b(c.parameters.required) << "\n"
+     << "parameters.tare: window " << c.parameters.tare_window_s << " s, max qd " << c.parameters.tare_max_qd
+     << " rad/s, max qdd " << c.parameters.tare_max_qdd << " rad/s^2\n"
      << "lcm.url: " << c.lcm.url << "\n"
      << "lcm.channels: cycle=" << c.lcm.channels.cycle << " wrench=" << c.lcm.channels.wrench
      << " stats=" << c.lcm.channels.stats << " command=" << c.lcm.channels.command

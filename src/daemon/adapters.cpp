@@ -172,8 +172,11 @@ model::SensorMotion KinematicsMotionModel::computeSensorMotion(const JointVector
 }
 
 // ---------------------------------------------------------------------------------------------
-ParameterFileCompensation::ParameterFileCompensation(const std::string& path) {
-  const identify::ParameterSet set = identify::readParameterFile(path);
+ParameterFileCompensation::ParameterFileCompensation(const std::string& path)
+    : ParameterFileCompensation(identify::readParameterFile(path), path) {}
+
+ParameterFileCompensation::ParameterFileCompensation(const identify::ParameterSet& set,
+                                                     const std::string& path) {
   const effects::Model model = effects::Model::fromName(set.model);
   const Eigen::VectorXd theta = identify::thetaFor(model, set, path);
   if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_v_rad)) {

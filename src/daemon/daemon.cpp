@@ -18,6 +18,7 @@
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid/daemon/reloader.hpp"
+#include "ftid/daemon/tare.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/mailbox.hpp"
 #include "ftid/rt/rt_setup.hpp"
@@ -150,6 +151,10 @@ std::string checkCommand(const ftid_lcm::command_t& cmd, transport::CommandVerif
     ++counters->malformed;
     why = "RELOAD_PARAMETERS takes no path: ftidd reloads only its configured parameter file";
   }
+  if (why.empty() && cmd.command == ftid_lcm::command_t::TARE && !cmd.argument.empty()) {
+    ++counters->malformed;
+    why = "TARE takes no argument (the window and limits are in ftidd's configuration)";
+  }
   if (why.empty()) return {};
   return "command " + std::to_string(static_cast<int>(cmd.command)) + " (request " +
          std::to_string(cmd.request_id) + ") refused: " + why;
@@ -196,7 +201,18 @@ int Daemon::run() {
       cfg.robot.urdf_path, cfg.robot.base_link, cfg.robot.tip_link);
   kinematics.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   KinematicsMotionModel motion(kinematics);
-  const CompensationFactory factory = parameterFileFactory();
+  // The factory reads the parameter file with the tare state next to it (applied if it belongs
+  // to this content; docs/daemon.md, "Tare") and remembers what it built for the next TARE.
+  bool apply_tare = true;                 // false during a reload: a reload discards the tare
+  LoadedParameters built;                 // the set of the last successful build
+  LoadedParameters active;                // the set of the parameters offered to the loop
+  bool have_active = false;
+  const CompensationFactory factory = [&](const std::string& path) -> std::unique_ptr<Compensation> {
+    LoadedParameters lp = loadParameters(path, apply_tare);
+    auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path);
+    built = std::move(lp);
+    return comp;
+  };
   OwnedSwapSlot<Compensation> params;
   ParameterReloader reloader(&params, factory);
   std::int32_t reloads_failed = 0;
@@ -210,7 +226,11 @@ int Daemon::run() {
     } else {
       params.tryAcquire();  // the loop is not running yet: take it into use here
       params.collectRetired();
-      logLine("payload parameters loaded from " + cfg.parameters.path);
+      active = built;
+      have_active = true;
+      logLine("payload parameters loaded from " + cfg.parameters.path +
+              (active.tared ? " with the tared offsets of " + tareStatePath(cfg.parameters.path) : ""));
+      if (!active.note.empty()) logLine(active.note);
     }
   }
 
@@ -275,6 +295,10 @@ int Daemon::run() {
   out_cfg.sample_rate_hz = cfg.robot.rtde_frequency_hz;
   OutputStage output_stage(out_cfg);
   cycle.attachOutputStage(&output_stage);
+  auto tare_requests = std::make_unique<rt::Mailbox<TareRequest>>();
+  auto tare_results = std::make_unique<rt::Mailbox<TareResult>>();
+  cycle.attachTare(tare_requests.get(), tare_results.get());
+  std::uint64_t tare_id = 0;
   auto loop_stats = std::make_unique<rt::LoopStats>();
   auto stats_box = std::make_unique<rt::Mailbox<rt::LoopStats>>();
   const double period_s = 1.0 / cfg.robot.rtde_frequency_hz;
@@ -332,8 +356,17 @@ int Daemon::run() {
 
   auto doReload = [&](const std::string& path) -> ReloadResult {
     notifySystemd("RELOADING=1");
+    apply_tare = false;  // a reload returns to the parameter file's own offsets
     const ReloadResult r = reloader.reload(path, std::chrono::seconds(1));
+    apply_tare = true;
     if (r.ok) {
+      active = built;
+      have_active = true;
+      try {
+        removeTareState(tareStatePath(path));
+      } catch (const Error& e) {
+        logLine(e.what());
+      }
       ++reloads_applied;
       logLine("parameters reloaded from " + path + (r.applied ? "" : " (pending)") +
               ", version " + std::to_string(r.version));
@@ -343,6 +376,86 @@ int Daemon::run() {
     }
     notifySystemd("READY=1");
     return r;
+  };
+
+  // TARE (docs/daemon.md, "Tare"): the loop averages the contact wrench over the window and
+  // refuses if the robot moves or a cycle is invalid; here, off the loop, the offsets are
+  // adjusted, the state saved atomically and the new compensation offered like a reload.
+  struct TareAnswer {
+    bool ok = false;
+    std::string message;
+  };
+  auto doTare = [&]() -> TareAnswer {
+    if (!have_active) return {false, "tare refused: no payload parameters loaded"};
+    TareRequest req;
+    req.id = ++tare_id;
+    req.cycles = static_cast<std::uint32_t>(
+        std::max(1.0, std::round(cfg.parameters.tare_window_s * cfg.robot.rtde_frequency_hz)));
+    req.max_qd_rad_s = cfg.parameters.tare_max_qd;
+    req.max_qdd_rad_s2 = cfg.parameters.tare_max_qdd;
+    TareResult res;
+    bool answered = false;
+    while (tare_results->tryPop(&res)) {}  // nothing stale from an abandoned request
+    tare_requests->tryPush(req);
+    const auto deadline = Clock::now() + std::chrono::duration<double>(cfg.parameters.tare_window_s + 1.0);
+    while (Clock::now() < deadline && !loop_done.load(std::memory_order_acquire)) {
+      if (tare_results->tryPop(&res) && res.id == req.id) {
+        answered = true;
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    char buf[512];
+    if (!answered) {
+      return {false, "tare refused: the loop did not complete the window (no robot state packages?)"};
+    }
+    if (res.outcome == TareOutcome::kMoving) {
+      std::snprintf(buf, sizeof buf,
+                    "tare refused: the robot moves (max |qd| %.4g rad/s, max |qdd| %.4g rad/s^2; "
+                    "limits %.4g and %.4g, parameters.tare_max_qd/_qdd)",
+                    res.max_qd, res.max_qdd, req.max_qd_rad_s, req.max_qdd_rad_s2);
+      return {false, buf};
+    }
+    if (res.outcome == TareOutcome::kInvalid) {
+      std::snprintf(buf, sizeof buf,
+                    "tare refused: a cycle without a valid compensated wrench after %u of %u cycles "
+                    "(sensor stale or invalid, or robot state unusable)",
+                    res.cycles, req.cycles);
+      return {false, buf};
+    }
+    if (res.outcome == TareOutcome::kParametersChanged || res.param_version != params.version()) {
+      return {false, "tare refused: the parameters changed during the window; send TARE again"};
+    }
+    Wrench new_offsets = res.mean_contact_S;
+    LoadedParameters next = active;
+    std::unique_ptr<Compensation> comp;
+    TareState state;
+    const std::string state_path = tareStatePath(cfg.parameters.path);
+    try {
+      new_offsets += offsetsOf(active.set, cfg.parameters.path);
+      setOffsets(&next.set, new_offsets);
+      state.parameter_sha256 = active.sha256;
+      state.offsets = new_offsets;
+      state.utime = realtimeNowUs();
+      state.cycles = res.cycles;
+      comp = std::make_unique<ParameterFileCompensation>(next.set, cfg.parameters.path);
+      writeTareState(state_path, state);
+    } catch (const std::exception& e) {
+      return {false, std::string("tare refused: ") + e.what()};
+    }
+    const ReloadResult r = reloader.offer(std::move(comp), std::chrono::seconds(1));
+    next.tared = true;
+    active = next;
+    std::snprintf(buf, sizeof buf,
+                  "tared over %u cycles: f0 = (%.5g, %.5g, %.5g) N, t0 = (%.5g, %.5g, %.5g) Nm "
+                  "(change %+.4g %+.4g %+.4g N, %+.4g %+.4g %+.4g Nm); saved to ",
+                  res.cycles, new_offsets(0), new_offsets(1), new_offsets(2), new_offsets(3),
+                  new_offsets(4), new_offsets(5), res.mean_contact_S(0), res.mean_contact_S(1),
+                  res.mean_contact_S(2), res.mean_contact_S(3), res.mean_contact_S(4),
+                  res.mean_contact_S(5));
+    const std::string msg = buf + state_path + (r.applied ? "" : " (" + r.message + ")");
+    logLine(msg);
+    return {r.applied, msg};
   };
 
   for (;;) {
@@ -378,6 +491,10 @@ int Daemon::run() {
         const ReloadResult r = doReload(cfg.parameters.path);  // never a path from the network
         ack.ok = r.ok && r.applied;
         ack.message = r.message;
+      } else if (cmd.command == ftid_lcm::command_t::TARE) {
+        const TareAnswer a = doTare();
+        ack.ok = a.ok;
+        ack.message = a.message;
       } else if (cmd.command == ftid_lcm::command_t::PING) {
         ack.ok = true;
       } else {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <limits>
 
 #include "ftid/model/frames.hpp"
 
@@ -30,6 +31,55 @@ bool sensorFinite(const transport::SensorSampleRecord& s) noexcept {
 }
 
 }  // namespace
+
+void TareAccumulator::start(const TareRequest& request) noexcept {
+  request_ = request;
+  if (request_.cycles == 0) request_.cycles = 1;
+  active_ = true;
+  n_ = 0;
+  version_ = 0;
+  max_qd_ = 0.0;
+  max_qdd_ = 0.0;
+  sum_.setZero();
+}
+
+bool TareAccumulator::add(const transport::CycleRecord& rec, TareResult* result) noexcept {
+  if (!active_) return false;
+  const auto version = static_cast<std::uint32_t>(rec.param_version);
+  if (n_ == 0) version_ = version;
+  const double qd = rec.robot.qd.allFinite() ? rec.robot.qd.cwiseAbs().maxCoeff()
+                                             : std::numeric_limits<double>::infinity();
+  const double qdd = rec.robot.qdd.allFinite() ? rec.robot.qdd.cwiseAbs().maxCoeff()
+                                               : std::numeric_limits<double>::infinity();
+  max_qd_ = std::max(max_qd_, qd);
+  max_qdd_ = std::max(max_qdd_, qdd);
+  TareOutcome outcome = TareOutcome::kOk;
+  bool done = false;
+  if (!(qd <= request_.max_qd_rad_s) || !(qdd <= request_.max_qdd_rad_s2)) {
+    outcome = TareOutcome::kMoving;
+    done = true;
+  } else if (!rec.wrench_valid || !rec.contact_S.allFinite()) {
+    outcome = TareOutcome::kInvalid;
+    done = true;
+  } else if (version != version_) {
+    outcome = TareOutcome::kParametersChanged;
+    done = true;
+  } else {
+    sum_ += rec.contact_S;
+    ++n_;
+    done = n_ >= request_.cycles;
+  }
+  if (!done) return false;
+  result->id = request_.id;
+  result->outcome = outcome;
+  result->cycles = n_;
+  result->param_version = version_;
+  result->max_qd = max_qd_;
+  result->max_qdd = max_qdd_;
+  result->mean_contact_S = n_ > 0 ? Wrench(sum_ / static_cast<double>(n_)) : Wrench(Wrench::Zero());
+  active_ = false;
+  return true;
+}
 
 DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
                          OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
@@ -219,6 +269,12 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
   } else {
     counters_.invalid.fetch_add(1, std::memory_order_relaxed);
   }
+  // Tare window (docs/daemon.md, "Tare"): a new request starts it; the result goes back off the loop.
+  if (tare_requests_ != nullptr) {
+    if (tare_requests_->tryPop(&tare_request_)) tare_.start(tare_request_);
+    if (tare_.add(rec, &tare_result_)) tare_results_->tryPush(tare_result_);
+  }
+
   if (sink_ != nullptr && !sink_->tryPush(rec)) {
     counters_.sink_dropped.fetch_add(1, std::memory_order_relaxed);
     rec.fault_bits |= kFaultPublishDropped;

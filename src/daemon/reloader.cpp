@@ -52,9 +52,15 @@ ReloadResult ParameterReloader::reload(const std::string& path,
     result.message = path + ": parameter file produced no model";
     return result;
   }
+  ++succeeded_;
+  return offer(std::move(fresh), apply_timeout);
+}
+
+ReloadResult ParameterReloader::offer(std::unique_ptr<Compensation> fresh,
+                                      std::chrono::milliseconds apply_timeout) {
+  ReloadResult result;
   const std::uint32_t before = slot_->version();
   slot_->post(std::move(fresh));
-  ++succeeded_;
   result.ok = true;
   const auto deadline = std::chrono::steady_clock::now() + apply_timeout;
   while (slot_->hasPending() && std::chrono::steady_clock::now() < deadline) {

@@ -725,6 +725,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       ranking = rankCandidates(engine, cur, menu, options, log_cmd);
     }
     result.final_report = makeReport(engine, cur.model, cur.lin, cur.sol);
+    result.final_residual = cur.sol.heldout_residual;
   }
   // What is left: the last model's held-out residual against the noise floor.
   if (nf.observable()) {

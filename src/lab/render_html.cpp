@@ -357,6 +357,35 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</table>\n";
   }
+  if (r.final_report && r.final_residual.cols() == static_cast<Eigen::Index>(n) && n > 0) {
+    // Before / after: the same held-out samples, residual of the starting and of the final model.
+    o << "<h2>Before and after: held-out residual of the starting model <code>" << esc(r.report.model)
+      << "</code> and the final model <code>" << esc(r.final_report->model) << "</code></h2>";
+    o << "<table class=\"before-after\"><tr><th>axis</th><th>starting model RMS</th><th>final model RMS</th>"
+         "<th>noise floor</th><th>change</th></tr>";
+    for (int a = 0; a < 6; ++a) {
+      const double before = r.report.residual_rms(a), after = r.final_report->residual_rms(a);
+      o << "<tr><td>" << kWrenchAxisNames[a] << "</td><td>" << f(before) << "</td><td>" << f(after) << "</td><td>"
+        << f(r.noise_floor(a)) << "</td><td>" << (before > 0.0 ? f(100.0 * (after - before) / before, 3) + " %" : "-")
+        << "</td></tr>";
+    }
+    o << "</table><div class=\"grid\">";
+    for (int a = 0; a < 6; ++a) {
+      std::vector<double> before(n), after(n);
+      for (std::size_t i = 0; i < n; ++i) {
+        const auto k = static_cast<Eigen::Index>(i);
+        before[i] = r.measured(a, k) - r.predicted(a, k);
+        after[i] = r.final_residual(a, k);
+      }
+      Series sb{{}, {}, "#d62728", "start", false}, sa{{}, {}, "#1f77b4", "final", false};
+      decimate(r.t, before, 1200, &sb.x, &sb.y);
+      decimate(r.t, after, 1200, &sa.x, &sa.y);
+      o << plot(std::string("residual ") + kWrenchAxisNames[a] + ": start RMS " + f(r.report.residual_rms(a), 3) +
+                    ", final RMS " + f(r.final_report->residual_rms(a), 3),
+                "t [s]", a < 3 ? "N" : "Nm", {sb, sa}, {}, 540, 200, {r.noise_floor(a), -r.noise_floor(a)});
+    }
+    o << "</div>\n";
+  }
   const ModelReport& fr = r.final_report ? *r.final_report : r.report;
   o << "<h2>Parameters of <code>" << esc(fr.model) << "</code></h2><table><tr><th>name</th><th>value</th><th>std</th><th>unit</th></tr>";
   for (const auto& p : fr.params) {

@@ -9,6 +9,8 @@
 # own hmac/hashlib (an implementation independent of ftid's), sent as raw LCM datagrams.
 # Checks:
 #   - a correctly signed PING and RELOAD are accepted (Python's HMAC = ftid's);
+#   - a signed TARE (robot at rest) is acknowledged with the new offsets, saves
+#     parameters.yaml.tare.yaml with the parameter file's SHA-256, and RELOAD removes it;
 #   - unsigned, wrong-key, replayed, stale commands and a signed RELOAD naming a file
 #     (parameters.yaml.bak) are refused with the reason, not executed, and counted in loop_stats_t;
 #   - a correctly signed RELOAD sent by unicast from namespace B gets no answer and reloads nothing
@@ -167,11 +169,11 @@ if mode == "stats":
 c = command_t()
 c.utime = now_us()
 c.request_id = int.from_bytes(os.urandom(6), "big")
-c.command = command_t.PING if mode == "ping" else command_t.RELOAD_PARAMETERS
+c.command = {"ping": command_t.PING, "tare": command_t.TARE}.get(mode, command_t.RELOAD_PARAMETERS)
 c.argument = "parameters.yaml.bak" if mode == "path" else ""
 c.sequence = now_us() - (60_000_000 if mode == "stale" else 0)
 c.mac = bytes(32)
-if mode in ("ping", "reload", "path", "stale", "replay", "remote"):
+if mode in ("ping", "tare", "reload", "path", "stale", "replay", "remote"):
     sign(c, key)
 elif mode == "wrongkey":
     sign(c, os.urandom(32))
@@ -216,6 +218,12 @@ out=$(send replay)
 echo "replay: $out"
 echo "$out" | grep -q "first ack ok" || fail "replay: the first (genuine) datagram was not accepted: $out"
 echo "$out" | grep -Eq "^ack refused .*replayed" || fail "replay: the repeated datagram was not refused: $out"
+# TARE with the simulated robot at rest: acknowledged with the new offsets, saved next to the
+# parameter file; the RELOAD below discards it.
+expect tare "^ack ok tared over [0-9]+ cycles: f0 = \(.*\) N, t0 = \(.*\) Nm"
+[ -f "$PARAMS.tare.yaml" ] || fail "TARE did not save $PARAMS.tare.yaml"
+grep -q "parameter_sha256: $(sha256sum "$PARAMS" | cut -d' ' -f1)" "$PARAMS.tare.yaml" 2>/dev/null ||
+  fail "the tare state does not record the parameter file's SHA-256"
 reloads_before=$(grep -c "parameters reloaded" "$WORK/ftidd.log")
 # From "another host": a correctly signed RELOAD by unicast. The kernel filter drops it.
 out=$(nsenter -t "$RPID" -n python3 "$WORK/cmd.py" "$WORK" remote 10.77.0.1 2>&1)
@@ -224,6 +232,7 @@ sleep 0.5
 [ "$(grep -c "parameters reloaded" "$WORK/ftidd.log")" = "$reloads_before" ] || fail "a datagram from another host was executed"
 [ "$out" = "noack" ] || fail "a datagram from another host was answered: $out"
 expect reload "^ack ok"
+[ -e "$PARAMS.tare.yaml" ] && fail "RELOAD did not discard the tare state"
 grep -q "reloaded from .*\.bak" "$WORK/ftidd.log" && fail "ftidd loaded the .bak file"
 stats=$(send stats)
 echo "$stats"

@@ -57,6 +57,11 @@ struct ParametersConfig {
   /// If true, ftidd refuses to start without a valid parameter file; if false it starts and
   /// publishes the raw wrench with valid = false until parameters are loaded.
   bool required = false;
+  /// TARE command (docs/daemon.md, "Tare"): averaging window [s], and the joint speed
+  /// [rad/s] and acceleration [rad/s^2] above which the robot counts as moving (tare refused).
+  double tare_window_s = 0.25;
+  double tare_max_qd = 0.01;
+  double tare_max_qdd = 0.2;
 };
 
 struct LcmChannels {

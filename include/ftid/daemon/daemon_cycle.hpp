@@ -78,6 +78,51 @@ struct CycleCounters {
   std::atomic<std::int64_t> last_utime{0};       ///< utime of the last cycle
 };
 
+/// A tare request from the command thread to the loop (docs/daemon.md, "Tare").
+struct TareRequest {
+  std::uint64_t id = 0;            ///< non-zero, increasing; echoed in the result
+  std::uint32_t cycles = 125;      ///< valid cycles to average (the window)
+  double max_qd_rad_s = 0.01;      ///< |qd_j| above this in the window: refused (robot moves)
+  double max_qdd_rad_s2 = 0.05;    ///< |qdd_j| above this in the window: refused
+};
+
+enum class TareOutcome : std::int8_t {
+  kOk = 0,
+  kMoving = 1,             ///< qd or qdd beyond the threshold during the window
+  kInvalid = 2,            ///< a cycle without a valid compensated wrench during the window
+  kParametersChanged = 3,  ///< the parameters in use changed during the window
+};
+
+/// The loop's answer: mean contact wrench over the window (in S), to be added to the offsets.
+struct TareResult {
+  std::uint64_t id = 0;
+  TareOutcome outcome = TareOutcome::kOk;
+  std::uint32_t cycles = 0;         ///< cycles accumulated before the end / the refusal
+  std::uint32_t param_version = 0;  ///< parameters the contact was computed with
+  double max_qd = 0.0;              ///< largest |qd_j| seen [rad/s]
+  double max_qdd = 0.0;             ///< largest |qdd_j| seen [rad/s^2]
+  Wrench mean_contact_S = Wrench::Zero();
+};
+
+/// Loop-side accumulation of a tare window: fixed size, noexcept, allocation-free.
+class TareAccumulator {
+ public:
+  /// Starts a window (replaces one in progress).
+  void start(const TareRequest& request) noexcept;
+  bool active() const noexcept { return active_; }
+  /// Adds one cycle. Returns true when the window ended (done or refused); then *result is set.
+  bool add(const transport::CycleRecord& rec, TareResult* result) noexcept;
+
+ private:
+  TareRequest request_;
+  bool active_ = false;
+  std::uint32_t n_ = 0;
+  std::uint32_t version_ = 0;
+  double max_qd_ = 0.0;
+  double max_qdd_ = 0.0;
+  Wrench sum_ = Wrench::Zero();
+};
+
 class DaemonCycle {
  public:
   /// All pointers must outlive the cycle. params may hold no object yet (then every cycle is
@@ -106,6 +151,14 @@ class DaemonCycle {
   /// The output stage (frame, low-pass) applied to the contact wrench of every cycle; nullptr =
   /// output = contact in S. Call before the loop starts.
   void attachOutputStage(OutputStage* stage) noexcept { output_stage_ = stage; }
+
+  /// Tare: step() takes a request from *requests, accumulates its window over the following
+  /// cycles and writes the result to *results (both wait-free mailboxes; the command thread
+  /// builds the new parameters off the loop). Call before the loop starts.
+  void attachTare(rt::Mailbox<TareRequest>* requests, rt::Mailbox<TareResult>* results) noexcept {
+    tare_requests_ = requests;
+    tare_results_ = results;
+  }
 
   const CycleCounters& counters() const noexcept { return counters_; }
   /// Fault bits raised since the supervisor last cleared them.
@@ -144,6 +197,11 @@ class DaemonCycle {
   std::int64_t last_pair_time_us_ = 0;
   double prev_wait_robot_time_ = 0.0;  // robot_time of the previous waitForTick() state
   OutputStage* output_stage_ = nullptr;
+  rt::Mailbox<TareRequest>* tare_requests_ = nullptr;
+  rt::Mailbox<TareResult>* tare_results_ = nullptr;
+  TareAccumulator tare_;
+  TareRequest tare_request_;
+  TareResult tare_result_;
   const rt::LoopStats* loop_stats_ = nullptr;
   rt::Mailbox<rt::LoopStats>* stats_box_ = nullptr;
   std::uint32_t stats_every_ = 1;

@@ -39,6 +39,9 @@ class ParameterReloader {
   /// device, directory, /proc/self/fd/N of a pipe) before reading it, so a reload never blocks.
   ReloadResult reload(const std::string& path, std::chrono::milliseconds apply_timeout);
 
+  /// Offers an object built elsewhere (a tare) to the loop as reload() does after building.
+  ReloadResult offer(std::unique_ptr<Compensation> fresh, std::chrono::milliseconds apply_timeout);
+
   /// Frees a replaced object if the loop has retired one (call periodically).
   void collect() { slot_->collectRetired(); }
 

@@ -153,6 +153,9 @@ struct AnalysisResult {
   std::vector<double> t;
   Eigen::Matrix<double, 6, Eigen::Dynamic> measured;
   Eigen::Matrix<double, 6, Eigen::Dynamic> predicted;   ///< held-out prediction
+  /// With explain: the final model's held-out residual on the same samples (columns of t);
+  /// empty otherwise. The report overlays it on the starting model's (before / after).
+  Eigen::Matrix<double, 6, Eigen::Dynamic> final_residual;
   std::vector<double> top_signal;                       ///< values of correlations[0].signal
   double seconds = 0.0;                                 ///< wall time of the analysis
   std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance

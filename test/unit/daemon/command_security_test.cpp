@@ -100,5 +100,18 @@ TEST(CommandChecks, RefusesPathsBadStaleAndReplayedCommandsAndCountsThem) {
   EXPECT_EQ(counters.auth, 2);
 }
 
+TEST(CommandChecks, TareTakesNoArgument) {
+  transport::CommandVerifier verifier(key(), transport::realtimeUs() - 1000);
+  CommandCounters counters;
+  auto with_arg = command(ftid_lcm::command_t::TARE, "0.5");
+  transport::signCommand(&with_arg, key());
+  const std::string r = checkCommand(with_arg, &verifier, &counters);
+  EXPECT_NE(r.find("TARE takes no argument"), std::string::npos) << r;
+  EXPECT_EQ(counters.malformed, 1);
+  auto plain = command(ftid_lcm::command_t::TARE);
+  transport::signCommand(&plain, key(), with_arg.sequence + 1);
+  EXPECT_EQ(checkCommand(plain, &verifier, &counters), "");
+}
+
 }  // namespace
 }  // namespace ftid::daemon

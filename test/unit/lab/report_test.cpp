@@ -2,6 +2,8 @@
 // headless Chromium (skipped with the reason when Debian's chromium is not installed).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -104,6 +106,46 @@ TEST_F(Report, IsSelfContained) {
   std::size_t fold_lines = 0;
   for (std::size_t at = h.find("class=\"fold\""); at != std::string::npos; at = h.find("class=\"fold\"", at + 1)) ++fold_lines;
   EXPECT_EQ(fold_lines, 12u * static_cast<std::size_t>(result_->folds - 1));
+}
+
+// Before / after (issue 12 item 7): the starting and the final model's held-out residual on the
+// same samples, overlaid per axis, with a table of both RMS values. The plotted final series must be
+// the residual the final model's RMS was computed from, and the error must fall.
+TEST_F(Report, OverlaysTheStartingAndTheFinalModelsResidual) {
+  const lab::AnalysisResult& r = *result_;
+  ASSERT_TRUE(r.final_report.has_value());
+  ASSERT_NE(r.final_report->model, r.report.model);
+  ASSERT_EQ(r.final_residual.cols(), static_cast<Eigen::Index>(r.t.size()));
+  ASSERT_EQ(r.outliers.count, 0) << "glitches are left out of the RMS but plotted; this run has none";
+  for (int a = 0; a < 6; ++a) {
+    const double rms = std::sqrt(r.final_residual.row(a).squaredNorm() / static_cast<double>(r.t.size()));
+    EXPECT_NEAR(rms, r.final_report->residual_rms(a), 1e-9 * (1.0 + rms)) << "axis " << a;
+    const double start = std::sqrt((r.measured.row(a) - r.predicted.row(a)).squaredNorm() / static_cast<double>(r.t.size()));
+    EXPECT_NEAR(start, r.report.residual_rms(a), 1e-9 * (1.0 + start)) << "axis " << a;
+  }
+  // The data carry the full rigid body, the start is the paper model: the final model does better.
+  EXPECT_LT(r.final_report->residual_rms.norm(), 0.9 * r.report.residual_rms.norm());
+
+  const std::string& h = *html_;
+  const std::size_t at = h.find("<h2>Before and after: held-out residual of the starting model <code>paper</code>");
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t end = h.find("<h2>", at + 4);
+  const std::string section = h.substr(at, end - at);
+  EXPECT_NE(section.find("<code>" + r.final_report->model + "</code>"), std::string::npos);
+  EXPECT_NE(section.find("class=\"before-after\""), std::string::npos);
+  std::size_t svgs = 0, lines = 0;
+  for (std::size_t p = section.find("<svg"); p != std::string::npos; p = section.find("<svg", p + 1)) ++svgs;
+  for (std::size_t p = section.find("<polyline"); p != std::string::npos; p = section.find("<polyline", p + 1)) ++lines;
+  EXPECT_EQ(svgs, 6u);
+  EXPECT_EQ(lines, 12u);  // start and final in each
+  for (const char* axis : {"fx", "fy", "fz", "tx", "ty", "tz"}) {
+    EXPECT_NE(section.find(std::string("residual ") + axis + ": start RMS "), std::string::npos) << axis;
+  }
+  // Without explain there is no final model and no overlay.
+  lab::AnalysisResult no_final = r;
+  no_final.final_report.reset();
+  no_final.final_residual.resize(6, 0);
+  EXPECT_EQ(lab::renderHtml(no_final).find("Before and after"), std::string::npos);
 }
 
 TEST_F(Report, RendersInHeadlessChromium) {

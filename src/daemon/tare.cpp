@@ -1,0 +1,150 @@
+#include "ftid/daemon/tare.hpp"
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <sstream>
+
+#include "ftid/common/error.hpp"
+#include "ftid/daemon/reloader.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_strict.hpp"
+#include "ftid/transport/hmac_sha256.hpp"
+
+namespace ftid::daemon {
+
+const char* const kOffsetNames[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
+
+namespace {
+
+std::string hexOf(const transport::Sha256Digest& d) {
+  static const char* digits = "0123456789abcdef";
+  std::string s;
+  for (const std::uint8_t b : d) {
+    s += digits[b >> 4];
+    s += digits[b & 0xF];
+  }
+  return s;
+}
+
+std::string formatDouble(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+}  // namespace
+
+Wrench offsetsOf(const identify::ParameterSet& set, const std::string& source) {
+  Wrench w;
+  for (int i = 0; i < 6; ++i) {
+    const identify::NamedValue* v = nullptr;
+    for (const auto& p : set.params) {
+      if (p.name == kOffsetNames[i]) v = &p;
+    }
+    if (v == nullptr) {
+      throw ConfigError(source + ": key 'parameters." + kOffsetNames[i] +
+                        "': missing (a tare adjusts the offsets f0_x..t0_z)");
+    }
+    w(i) = v->value;
+  }
+  return w;
+}
+
+void setOffsets(identify::ParameterSet* set, const Wrench& offsets) {
+  for (int i = 0; i < 6; ++i) {
+    for (auto& p : set->params) {
+      if (p.name == kOffsetNames[i]) {
+        p.value = offsets(i);
+        p.std = 0.0;
+      }
+    }
+  }
+}
+
+std::string tareStatePath(const std::string& parameter_path) { return parameter_path + ".tare.yaml"; }
+
+void writeTareState(const std::string& path, const TareState& state) {
+  std::ostringstream out;
+  out << "# ftidd tare state (docs/daemon.md, \"Tare\"): offsets measured by a TARE command.\n"
+      << "# Applied only to the parameter file whose SHA-256 is parameter_sha256; a reload\n"
+      << "# (SIGHUP or RELOAD_PARAMETERS) deletes this file. Written by ftidd; do not edit.\n"
+      << "parameter_sha256: " << state.parameter_sha256 << "\n"
+      << "utime: " << state.utime << "\n"
+      << "cycles: " << state.cycles << "\n"
+      << "offsets:  # N (f0) and Nm (t0), in the sensor frame S\n";
+  for (int i = 0; i < 6; ++i) out << "  " << kOffsetNames[i] << ": " << formatDouble(state.offsets(i)) << "\n";
+  writeFileAtomically(path, out.str());
+}
+
+std::optional<TareState> readTareState(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0 && errno == ENOENT) return std::nullopt;
+  const YAML::Node root = loadYamlFileStrict(path, "tare state file");
+  if (!root.IsMap()) throw ConfigError(path + ": expected a mapping (tare state file)");
+  auto need = [&](const YAML::Node& parent, const std::string& key, const std::string& full) {
+    const YAML::Node n = parent[key];
+    if (!n || !n.IsScalar()) throw ConfigError(path + ": key '" + full + "': missing or not a value");
+    return n;
+  };
+  TareState s;
+  try {
+    s.parameter_sha256 = need(root, "parameter_sha256", "parameter_sha256").as<std::string>();
+    if (s.parameter_sha256.size() != 64) {
+      throw ConfigError(path + ": key 'parameter_sha256': expected 64 hex digits");
+    }
+    s.utime = need(root, "utime", "utime").as<std::int64_t>();
+    s.cycles = need(root, "cycles", "cycles").as<std::uint32_t>();
+    const YAML::Node off = root["offsets"];
+    if (!off || !off.IsMap()) throw ConfigError(path + ": key 'offsets': missing or not a mapping");
+    for (int i = 0; i < 6; ++i) {
+      const std::string full = std::string("offsets.") + kOffsetNames[i];
+      const double v = need(off, kOffsetNames[i], full).as<double>();
+      if (!std::isfinite(v)) throw ConfigError(path + ": key '" + full + "': must be finite");
+      s.offsets(i) = v;
+    }
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  return s;
+}
+
+void removeTareState(const std::string& path) {
+  if (::unlink(path.c_str()) != 0 && errno != ENOENT) {
+    throw FileError(path + ": cannot remove the tare state (" + std::strerror(errno) + ")");
+  }
+}
+
+LoadedParameters loadParameters(const std::string& path, bool apply_tare) {
+  // Never block on a FIFO, a device or a pipe named as the parameter file (issue 14).
+  if (const std::string problem = regularFileProblem(path); !problem.empty()) throw ConfigError(problem);
+  LoadedParameters out;
+  const std::string text = readInputFile(path, "parameter file");
+  out.sha256 = hexOf(transport::sha256(text.data(), text.size()));
+  out.set = identify::parseParameterText(text, path);
+  if (!apply_tare) return out;
+  const std::string tare_path = tareStatePath(path);
+  std::optional<TareState> state;
+  try {
+    state = readTareState(tare_path);
+  } catch (const Error& e) {
+    out.note = std::string("tare state ignored: ") + e.what();
+    return out;
+  }
+  if (!state) return out;
+  if (state->parameter_sha256 != out.sha256) {
+    out.note = "tare state ignored: " + tare_path + " belongs to other content of " + path;
+    return out;
+  }
+  offsetsOf(out.set, path);  // the model must have the offsets
+  setOffsets(&out.set, state->offsets);
+  out.tared = true;
+  return out;
+}
+
+}  // namespace ftid::daemon
