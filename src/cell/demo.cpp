@@ -17,6 +17,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
 #include <sstream>
@@ -199,6 +200,21 @@ int runDemo(const DemoOptions& opt) {
   const fs::path params = work / "parameters.yaml";
   fs::remove(params);
   fs::remove(fs::path(params.string() + ".bak"));
+  // The demo's own command key (ftidd refuses unsigned commands; the installed key in /etc/ftid
+  // is root's): 32 random bytes as hex, readable by this user only.
+  const fs::path key = work / "command.key";
+  {
+    std::random_device rd;
+    std::string hex = "# command key of this demo cell (docs/operations.md, \"Network and commands\")\n";
+    const char* digits = "0123456789abcdef";
+    for (int i = 0; i < 32; ++i) {
+      const unsigned b = rd() & 0xFFu;
+      hex += digits[b >> 4];
+      hex += digits[b & 0xFu];
+    }
+    writeFile(key, hex + "\n");
+    fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+  }
   writeFile(work / "ftidd.yaml",
             "# ftidd configuration written by `ftid demo` (see config/ftidd.yaml for every key)\n"
             "robot:\n  host: 127.0.0.1\n  rtde_port: 30004\n  dashboard_port: 29999\n"
@@ -206,7 +222,7 @@ int runDemo(const DemoOptions& opt) {
             "sensor:\n  transport: seqpacket\n  socket_path: " + sock.string() + "\n"
             "  dbc_path: " + (cfgdir / "ftsensor.dbc").string() + "\n  stale_timeout_ms: 20\n"
             "parameters:\n  path: " + params.string() + "\n  required: false\n"
-            "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n"
+            "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  command_key_path: " + key.string() + "\n"
             "rt:\n  require_rt: false\n");
   std::string sensor_yaml;
   {
