@@ -186,6 +186,8 @@ int runDesign(const std::vector<std::string>& argv) {
 
   if (o.robot_path.empty()) o.robot_path = findDefaultFile("ur10.urdf");
   const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
+  // Provenance names the shipped default by its name, not by this machine's path to it.
+  const bool shipped_config = config.empty();
   if (config.empty()) config = findDefaultFile("design.yaml");
   o.constraints = design::loadDesignConstraints(config, kin, o.q0);
   if (!quiet) o.progress = &std::cerr;
@@ -212,7 +214,7 @@ int runDesign(const std::vector<std::string>& argv) {
   } else {
     r = design::designExcitation(o, kin);
   }
-  r.file.design["config"] = config.empty() ? "(built-in defaults)" : config;
+  r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : config;
   if (!target.empty()) r.file.design["target_std"] = target;
 
   for (const auto& w : r.warnings) std::cerr << "ftid design: warning: " << w << "\n";
