@@ -199,6 +199,31 @@ TEST(RtSetup, RequireTurnsFailuresIntoErrors) {
   EXPECT_THROW(runInRealtimeThread(cfg, [] {}), ftid::RealtimeSetupError);
 }
 
+// The PM QoS request is power management: the packaged unit (non-root, PrivateDevices=yes) cannot
+// open /dev/cpu_dma_latency, and rt.require_rt must still let ftidd run (found under systemd in
+// the kernel rig). The failure is reported, not thrown.
+TEST(RtSetup, RequireDoesNotExtendToTheDmaLatencyRequest) {
+  RealtimeConfig cfg;
+  cfg.lock_memory = false;
+  cfg.require = true;
+  cfg.priority = 10;
+  cfg.dma_latency = true;
+  cfg.dma_latency_path = "/nonexistent/cpu_dma_latency";
+  bool ran = false;
+  RealtimeReport r;
+  try {
+    r = runInRealtimeThread(cfg, [&] { ran = true; });
+  } catch (const ftid::RealtimeSetupError& e) {
+    // Only SCHED_FIFO may be refused here (an unprivileged test run), never the DMA request.
+    EXPECT_EQ(std::string(e.what()).find("cpu_dma_latency"), std::string::npos) << e.what();
+    GTEST_SKIP() << "SCHED_FIFO refused in this environment: " << e.what();
+  }
+  EXPECT_TRUE(ran);
+  EXPECT_FALSE(r.dma_latency);
+  ASSERT_FALSE(r.problems.empty());
+  EXPECT_NE(r.problems.back().find("/nonexistent/cpu_dma_latency"), std::string::npos);
+}
+
 TEST(RtSetup, ExceptionsInTheBodyReachTheCaller) {
   RealtimeConfig cfg;
   cfg.enable = false;
