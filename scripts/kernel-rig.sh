@@ -29,7 +29,7 @@ root="$(dirname "$here")"
 build="$(cd "${1:-${FTID_BUILD_DIR:-$root/build}}" 2>/dev/null && pwd)" || {
   echo "kernel-rig: build directory '${1:-${FTID_BUILD_DIR:-$root/build}}' does not exist" >&2
   echo "kernel-rig: 0 passed, 1 failed"; exit 1; }
-timeout_s="${FTID_KERNEL_RIG_TIMEOUT:-240}"   # whole VM run, wall clock
+timeout_s="${FTID_KERNEL_RIG_TIMEOUT:-480}"   # whole VM run, wall clock (both stages)
 accel="${FTID_KERNEL_RIG_ACCEL:-tcg}"          # tcg (default) or kvm
 latency_s="${FTID_KERNEL_RIG_LATENCY_S:-0}"    # > 0: latency mode, seconds per measurement
 case "$accel" in tcg|kvm) ;; *) echo "kernel-rig: FTID_KERNEL_RIG_ACCEL must be tcg or kvm" >&2; exit 2 ;; esac
