@@ -455,7 +455,8 @@ int runDemo(const DemoOptions& opt) {
   say("   " + std::to_string(st.samples) + " compensated samples (" + std::to_string(st.valid) + " valid)");
   say("   tool free:   |contact force| RMS " + f3(st.rms_quiet_force) + " N, |contact torque| RMS " +
       f3(st.rms_quiet_torque) + " Nm (" + noise_only + "; the raw reading's |force| is " +
-      f3(st.raw_quiet_force) + " N there: the tool's weight and the sensor offsets)");
+      f3(st.raw_quiet_force) + " N there: the tool's weight and the sensor offsets" +
+      (opt.hidden_effect == "cable" ? ", and the cable's pull)" : ")"));
   say("   during push: peak |contact force| " + f3(st.peak_push_force) + " N (the simulated push peaks at " +
       f3(push_peak_N) + " N): only the contact remains");
   const bool live_ok = st.valid > 0 && st.peak_push_force > 0.5 * push_peak_N && st.rms_quiet_force < 0.5;
