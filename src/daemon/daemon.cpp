@@ -388,6 +388,11 @@ int Daemon::run() {
   };
   std::int32_t tares_done = 0;     // loop_stats_t.tares_done / tares_refused
   std::int32_t tares_refused = 0;
+  // The answer to the last authenticated command: a resend of it (same request_id and command,
+  // signed afresh by a client that missed the ack) is answered again, not executed twice (a
+  // second TARE would average a new window and count twice).
+  bool have_last_ack = false;
+  ftid_lcm::ack_t last_ack{};
   auto doTare = [&]() -> TareAnswer {
     if (!have_active) return {false, "tare refused: no payload parameters loaded"};
     TareRequest req;
@@ -491,6 +496,8 @@ int Daemon::run() {
         } else {
           ++refusals_unlogged;
         }
+      } else if (have_last_ack && cmd.request_id == last_ack.request_id && cmd.command == last_ack.command) {
+        ack = last_ack;  // a resend of the request just answered
       } else if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
         const ReloadResult r = doReload(cfg.parameters.path);  // never a path from the network
         ack.ok = r.ok && r.applied;
@@ -509,6 +516,10 @@ int Daemon::run() {
       }
       ack.param_version = static_cast<std::int32_t>(params.version());
       ack.utime = realtimeNowUs();
+      if (refusal.empty()) {
+        last_ack = ack;
+        have_last_ack = true;
+      }
       outbox.publishAck(ack);
     }
     reloader.collect();

@@ -171,6 +171,33 @@ if mode == "stats":
         s.commands_refused_malformed, s.reloads_applied, s.tares_done, s.tares_refused, s.param_version))
     sys.exit(0)
 
+if mode == "taretwice":
+    # A client that missed the ack sends the same request again, signed afresh (new sequence):
+    # ftidd must answer it again, not tare twice.
+    c = command_t()
+    c.utime = now_us()
+    c.request_id = int.from_bytes(os.urandom(6), "big")
+    c.command = command_t.TARE
+    c.argument = ""
+    answers = []
+    for attempt in range(2):
+        c.sequence = now_us()
+        sign(c, key)
+        tx.sendto(packet(b"FTID_COMMAND", c.encode(), 3 + attempt), (dest, 7667))
+        deadline = time.monotonic() + 3.0
+        while time.monotonic() < deadline:
+            a = receive(b"FTID_ACK", deadline - time.monotonic())
+            if a is None:
+                break
+            ack = ack_t.decode(a)
+            if ack.request_id == c.request_id:
+                answers.append(ack)
+                break
+    same = len(answers) == 2 and answers[0].message == answers[1].message and \
+        list(answers[0].offsets) == list(answers[1].offsets) and answers[0].ok and answers[1].ok
+    print("taretwice %d answers, %s" % (len(answers), "same" if same else "different"))
+    sys.exit(0)
+
 c = command_t()
 c.utime = now_us()
 c.request_id = int.from_bytes(os.urandom(6), "big")
@@ -310,6 +337,14 @@ echo "$stats" | awk '{ exit !($13 == 3 && $15 == 2) }' ||
   fail "tares not counted (3 done: python's and two by ftid tare; 2 refused: wrong key, sensor stopped): $stats"
 echo "$stats" | awk -v v="$version_tared" '{ exit !($17 == v) }' ||
   fail "a refused tare changed ftidd's parameters (version $version_tared after the last tare): $stats"
+# The same TARE request sent twice (a client that missed the ack resends it, signed afresh): one
+# tare, the same answer twice.
+expect taretwice "^taretwice 2 answers, same"
+sleep 0.5
+stats=$(send stats)
+echo "$stats"
+echo "$stats" | awk -v v="$version_tared" '{ exit !($13 == 4 && $15 == 2 && $17 == v + 1) }' ||
+  fail "a resent TARE request was executed twice (expected 4 tares done, version $version_tared + 1): $stats"
 
 # The parameter file becomes a FIFO: SIGHUP must not wedge ftidd, SIGTERM must still work.
 mv "$PARAMS" "$WORK/saved.yaml" && mkfifo "$PARAMS"
