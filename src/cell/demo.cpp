@@ -203,14 +203,20 @@ std::string truthText(const simsensor::SimSensorConfig& s, const std::string& hi
   const sim::CellSimConfig& c = s.cell;
   constexpr double kDeg = 180.0 / M_PI;
   const Mat3& I = c.payload.I_C_S;
+  char inertia[160];
+  if (I(0, 1) == 0.0 && I(0, 2) == 0.0 && I(1, 2) == 0.0) {
+    std::snprintf(inertia, sizeof(inertia), "diag(%.5f, %.5f, %.5f)", I(0, 0), I(1, 1), I(2, 2));
+  } else {
+    std::snprintf(inertia, sizeof(inertia), "[xx, yy, zz, xy, xz, yz] = [%.5f, %.5f, %.5f, %.5f, %.5f, %.5f]",
+                  I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2));
+  }
   char b[1024];
   std::snprintf(b, sizeof(b),
-                "      payload %.4f kg (weight %.3f N), centre of mass %s mm, inertia about it diag(%.5f, %.5f, "
-                "%.5f) kg m^2\n"
+                "      payload %.4f kg (weight %.3f N), centre of mass %s mm, inertia about it %s kg m^2\n"
                 "      offsets F0 %s N, T0 %s Nm; base tilt U = %.2f deg, V = %.2f deg\n"
                 "      %s physics; noise %.3g N / %.3g Nm (1 sigma); hidden effect: %s",
                 c.payload.mass_kg, c.payload.mass_kg * kStandardGravity, vec3Text(c.payload.p_SC_S, 1000.0, 1).c_str(),
-                I(0, 0), I(1, 1), I(2, 2), vec3Text(c.F0_N, 1.0, 4).c_str(), vec3Text(c.T0_Nm, 1.0, 4).c_str(),
+                inertia, vec3Text(c.F0_N, 1.0, 4).c_str(), vec3Text(c.T0_Nm, 1.0, 4).c_str(),
                 c.tilt_u_rad * kDeg, c.tilt_v_rad * kDeg,
                 c.full_rigid_body ? "full rigid-body (Newton-Euler)" : "the paper's (no rotational inertia)",
                 c.noise.wrench_std(0), c.noise.wrench_std(3), hidden.c_str());
