@@ -194,8 +194,9 @@ if mode == "taretwice":
                 answers.append(ack)
                 break
     same = len(answers) == 2 and answers[0].message == answers[1].message and \
-        list(answers[0].offsets) == list(answers[1].offsets) and answers[0].ok and answers[1].ok
-    print("taretwice %d answers, %s" % (len(answers), "same" if same else "different"))
+        list(answers[0].offsets) == list(answers[1].offsets) and answers[0].ok == answers[1].ok
+    print("taretwice %d answers, %s, %s" % (len(answers), "same" if same else "different",
+                                            "ok" if answers and answers[0].ok else "refused"))
     sys.exit(0)
 
 c = command_t()
@@ -272,13 +273,27 @@ echo "$stats" | awk '{ exit !($3 >= 2 && $5 >= 1 && $7 >= 1 && $9 >= 1 && $11 ==
   fail "refused commands not counted as expected (auth>=2 stale>=1 replay>=1 malformed>=1, 2 reloads applied: the replayed one and the last, 1 tare done, none refused): $stats"
 
 # ---- `ftid tare`, the command-line sender (after the RELOAD above: no tare state now).
-"$FTID" tare --config "$WORK/ftidd.yaml" > "$WORK/tare.out" 2> "$WORK/tare.err"; rc=$?
-echo "ftid tare: exit $rc: $(cat "$WORK/tare.out" "$WORK/tare.err")"
+# On a loaded host a window may hold a stale sensor sample: ftidd then rightly refuses ("a cycle
+# without a valid compensated wrench"); tare_ok tries up to 3 times. The counters are checked
+# against the outcomes ftid tare reported (exit 0 = done, 3 = refused).
+DONE=1; REFUSED=0   # the signed TARE sent by Python above
+tare_ok() {  # tare_ok OUT [ARGS...]: ftid tare until it exits 0 (3 tries); returns its last status
+  local out=$1 rc=0 try; shift
+  for try in 1 2 3; do
+    "$FTID" tare --config "$WORK/ftidd.yaml" "$@" > "$out" 2> "$WORK/tare.err"; rc=$?
+    echo "ftid tare $*: exit $rc: $(cat "$WORK/tare.err")"
+    case $rc in 0) DONE=$((DONE + 1)); return 0 ;; 3) REFUSED=$((REFUSED + 1)) ;; esac
+    grep -q "without a valid compensated wrench" "$WORK/tare.err" || return $rc
+  done
+  return $rc
+}
+tare_ok "$WORK/tare.out"; rc=$?
+cat "$WORK/tare.out"
 [ $rc -eq 0 ] || fail "ftid tare exited $rc, expected 0"
 grep -Eq "^tared: f0 = \(.*\) N, t0 = \(.*\) Nm" "$WORK/tare.out" || fail "ftid tare printed no offsets"
 [ -f "$PARAMS.tare.yaml" ] || fail "ftid tare: no $PARAMS.tare.yaml saved"
-"$FTID" tare --config "$WORK/ftidd.yaml" --json > "$WORK/tare.json" 2> "$WORK/tare.err"; rc=$?
-[ $rc -eq 0 ] || fail "ftid tare --json exited $rc: $(cat "$WORK/tare.err")"
+tare_ok "$WORK/tare.json" --json; rc=$?
+[ $rc -eq 0 ] || fail "ftid tare --json exited $rc"
 cp "$PARAMS.tare.yaml" "$WORK/tare_state_ok.yaml" 2>/dev/null
 sleep 0.5
 version_tared=$(send stats | awk '{ print $17 }')
@@ -304,7 +319,7 @@ PY
 head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/wrong.key"; chmod 0600 "$WORK/wrong.key"
 "$FTID" tare --config "$WORK/ftidd.yaml" --key "$WORK/wrong.key" > "$WORK/tare.out" 2> "$WORK/tare.err"; rc=$?
 echo "ftid tare (wrong key): exit $rc: $(cat "$WORK/tare.err")"
-[ $rc -eq 3 ] || fail "ftid tare with a wrong key exited $rc, expected 3"
+[ $rc -eq 3 ] && REFUSED=$((REFUSED + 1)) || fail "ftid tare with a wrong key exited $rc, expected 3"
 grep -q "refused the tare: .*bad authenticator" "$WORK/tare.err" || fail "ftid tare with a wrong key did not print ftidd's reason"
 cmp -s "$PARAMS.tare.yaml" "$WORK/tare_state_ok.yaml" || fail "a refused tare changed the tare state"
 # The sensor stopped: no valid wrench in the window -> refused with ftidd's reason.
@@ -313,7 +328,7 @@ sleep 0.3
 "$FTID" tare --config "$WORK/ftidd.yaml" > "$WORK/tare.out" 2> "$WORK/tare.err"; rc=$?
 kill -CONT "$SENSOR"
 echo "ftid tare (sensor stopped): exit $rc: $(cat "$WORK/tare.err")"
-[ $rc -eq 3 ] || fail "ftid tare with the sensor stopped exited $rc, expected 3"
+[ $rc -eq 3 ] && REFUSED=$((REFUSED + 1)) || fail "ftid tare with the sensor stopped exited $rc, expected 3"
 grep -q "refused the tare: tare refused: a cycle without a valid compensated wrench" "$WORK/tare.err" ||
   fail "ftid tare with the sensor stopped did not print ftidd's reason"
 cmp -s "$PARAMS.tare.yaml" "$WORK/tare_state_ok.yaml" || fail "a refused tare changed the tare state"
@@ -333,18 +348,22 @@ grep -q "no answer from ftidd on NOBODY_ACK .*TARE sent on NOBODY_COMMAND" "$WOR
 sleep 0.5
 stats=$(send stats)
 echo "$stats"
-echo "$stats" | awk '{ exit !($13 == 3 && $15 == 2) }' ||
-  fail "tares not counted (3 done: python's and two by ftid tare; 2 refused: wrong key, sensor stopped): $stats"
+echo "$stats" | awk -v d=$DONE -v r=$REFUSED '{ exit !($13 == d && $15 == r) }' ||
+  fail "tares not counted ($DONE done, $REFUSED refused as ftid tare saw them, the wrong key and the stopped sensor among them): $stats"
 echo "$stats" | awk -v v="$version_tared" '{ exit !($17 == v) }' ||
   fail "a refused tare changed ftidd's parameters (version $version_tared after the last tare): $stats"
 # The same TARE request sent twice (a client that missed the ack resends it, signed afresh): one
 # tare, the same answer twice.
-expect taretwice "^taretwice 2 answers, same"
+# (Refused on a loaded host for a stale sample: then refused once, counted once, nothing changes.)
+out=$(send taretwice)
+echo "taretwice: $out"
+echo "$out" | grep -Eq "^taretwice 2 answers, same" || fail "a resent TARE request was not answered the same: $out"
+if echo "$out" | grep -q ", ok$"; then DONE=$((DONE + 1)); version_tared=$((version_tared + 1)); else REFUSED=$((REFUSED + 1)); fi
 sleep 0.5
 stats=$(send stats)
 echo "$stats"
-echo "$stats" | awk -v v="$version_tared" '{ exit !($13 == 4 && $15 == 2 && $17 == v + 1) }' ||
-  fail "a resent TARE request was executed twice (expected 4 tares done, version $version_tared + 1): $stats"
+echo "$stats" | awk -v d=$DONE -v r=$REFUSED -v v="$version_tared" '{ exit !($13 == d && $15 == r && $17 == v) }' ||
+  fail "a resent TARE request was executed twice (expected $DONE done, $REFUSED refused, version $version_tared): $stats"
 
 # The parameter file becomes a FIFO: SIGHUP must not wedge ftidd, SIGTERM must still work.
 mv "$PARAMS" "$WORK/saved.yaml" && mkfifo "$PARAMS"
