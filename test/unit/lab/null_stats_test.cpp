@@ -21,9 +21,11 @@
 #include <cstdio>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "../identify/seed_study.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_sim.hpp"
 
@@ -106,6 +108,24 @@ TEST(LabNull, CandidatePValuesHoldOnAStaticPoseSetWithFilteredNoise) {
   cfg.static_poses.poses = 40;
   cfg.static_poses.hold_s = 0.25;
   expectNullHolds(runNull(cfg, 16000), "static");
+}
+
+// Not a p-value, but the same rule of "no number that the data cannot support": a static pose set
+// shows no delay, and analyze refuses a starting model with sensor_delay there (as fitModel does).
+TEST(LabNull, DelayModelOnAStaticPoseSetIsRefused) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  cfg.static_poses.enabled = true;
+  cfg.static_poses.poses = 40;
+  cfg.static_poses.hold_s = 0.25;
+  cfg.sensor_delay.enabled = true;
+  AnalyzeOptions o;
+  o.model = "paper+sensor_delay";
+  try {
+    (void)analyze(labtest::contexts(cfg).samples, nullptr, o, "sim.csv");
+    ADD_FAILURE() << "analyze fitted a delay on a static pose set";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("static pose set"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace
