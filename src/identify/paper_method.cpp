@@ -119,8 +119,8 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
 
   // ---- Force stage (Eq. 14-20; dynamic Eq. 31-38 corrected): f_i + (G/g) a_i = R_i^T L + F0.
   // Rows for axis a: [R_i(:, a)^T, e_a^T | f_i(a) | a_i(a)], compressed exactly (thinR) to 18 x 8. One column-scaled pivoted QR of the compressed regressor serves the rank check, every
-  // fixed-point solve (Q^T is linear: Q^T (f + s a) = Q^T f + s Q^T a) and the covariance (a
-  // rank-one update of its R).
+  // fixed-point solve (Q^T is linear: Q^T (f + s a) = Q^T f + s Q^T a) and (A^T A)^-1 for the
+  // bread of the covariance.
   Eigen::MatrixXd K_f = Eigen::MatrixXd::Zero(18, 8);  // zero rows (n < 6) change nothing
   {
     // D[a] = [R_i(:, a)^T, 1, f_i(a), a_i(a)], one row per sample
