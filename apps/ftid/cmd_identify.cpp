@@ -38,8 +38,9 @@ const char* const kUsage =
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
     "                    from the data: white, coloured or static pose set; docs/identification.md)\n"
     "\n"
-    "Prints each parameter with its standard error, the residual RMS per axis and the condition\n"
-    "number, then checks the fit: the identification is repeated with each of 5 time blocks left\n"
+    "Prints each parameter with its standard error (autocorrelation-robust: it holds for white and\n"
+    "for low-pass filtered noise, docs/identification.md \"Uncertainty\"), the residual RMS per axis\n"
+    "and the condition number, then checks the fit: the identification is repeated with each of 5 time blocks left\n"
     "out, and the held-out residual per axis is printed against the noise floor. Above 1.2x on any\n"
     "axis a warning says the model misses something and names the `ftid analyze` command. Exit code 1 with a one-line reason if the log is malformed or does not determine the\n"
     "parameters (the message names those not excited).";

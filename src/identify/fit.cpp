@@ -11,6 +11,7 @@
 
 #include "fit_internal.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/identify/uncertainty.hpp"
 #include "ftid/model/frames.hpp"
@@ -332,6 +333,23 @@ void checkTimeOrder(const Problem& pb) {
   }
 }
 
+/// A static pose set (noise.hpp, poseGroups: the robot at rest) cannot show a delay: the reading
+/// does not change while a pose is held, and the jump between poses is not motion that the
+/// kinematics describe. Refuse rather than report a number.
+void checkNotStatic(const Problem& pb, const Model& model) {
+  std::vector<SampleContext> subset;
+  subset.reserve(static_cast<std::size_t>(pb.n));
+  for (int i = 0; i < pb.n; ++i) subset.push_back(pb.at(i));
+  bool is_static = false;
+  (void)poseGroups(subset, &is_static);
+  if (is_static) {
+    throw IdentificationError("model '" + model.name() +
+                              "' estimates a sensor delay, but the log is a static pose set (the robot is at "
+                              "rest): a delay shows only while the wrench changes with the motion; fit it on an "
+                              "excitation run, or leave sensor_delay out");
+  }
+}
+
 std::vector<std::string> paramNames(const Model& model) { return model.paramIndex().names(); }
 
 }  // namespace
@@ -471,6 +489,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   checkFinite(pb);
   if (pb.delay) checkTimeOrder(pb);
+  if (pb.delay) checkNotStatic(pb, model);
   if (pb.delay && !(options.max_delay_s > 0.0 && std::isfinite(options.max_delay_s))) {
     throw ConfigError("fit: the delay search range must be positive (got " + std::to_string(options.max_delay_s) + " s)");
   }

@@ -8,6 +8,7 @@
 
 #include "fit_internal.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/identify/uncertainty.hpp"
 
 namespace ftid::identify {
 
@@ -118,8 +119,8 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
 
   // ---- Force stage (Eq. 14-20; dynamic Eq. 31-38 corrected): f_i + (G/g) a_i = R_i^T L + F0.
   // Rows for axis a: [R_i(:, a)^T, e_a^T | f_i(a) | a_i(a)], compressed exactly (thinR) to 18 x 8. One column-scaled pivoted QR of the compressed regressor serves the rank check, every
-  // fixed-point solve (Q^T is linear: Q^T (f + s a) = Q^T f + s Q^T a) and the covariance (a
-  // rank-one update of its R).
+  // fixed-point solve (Q^T is linear: Q^T (f + s a) = Q^T f + s Q^T a) and (A^T A)^-1 for the
+  // bread of the covariance.
   Eigen::MatrixXd K_f = Eigen::MatrixXd::Zero(18, 8);  // zero rows (n < 6) change nothing
   {
     // D[a] = [R_i(:, a)^T, 1, f_i(a), a_i(a)], one row per sample
@@ -170,32 +171,36 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
   const double G = L.norm();
   const double m = G / kStandardGravity;
 
-  // Force-stage residual; torque-stage data rows [f_i, 1, t_i] (measured force) and [f_model_i, 1].
-  double sse_f = 0.0;
+  // Torque-stage data rows [f_i, 1, t_i] (measured force) and [f_model_i, 1].
   Eigen::MatrixXd D_meas(n, 7);
   Eigen::MatrixXd D_model(n, 4);
   for (int i = 0; i < n; ++i) {
     const SampleContext& c = at(i);
     Vec3 model_f = c.R_BS.transpose() * L + F0;
     if (dynamic) model_f -= m * c.a_S;
-    sse_f += (c.wrench_S.head<3>() - model_f).squaredNorm();
     D_meas.block<1, 3>(i, 0) = c.wrench_S.head<3>().transpose();
     D_meas(i, 3) = 1.0;
     D_meas.block<1, 3>(i, 4) = c.wrench_S.tail<3>().transpose();
     D_model.block<1, 3>(i, 0) = model_f.transpose();
     D_model(i, 3) = 1.0;
   }
-  // Covariance from the Jacobian of the stage model at the solution: Af itself (static), or
-  // Af - a v^T with v = [L / (g G); 0] (dynamic, the G dependence of the inertial term).
-  Eigen::MatrixXd cov_l;
+  // Bread of the force stage (the sandwich below): B_f = -d(sum_i A_i^T r_i)/dl. Static: A^T A.
+  // Dynamic: the fixed point solves A^T (f + (G(l)/g) a - A l) = 0, so B_f = A^T (A - a v^T) =
+  // A^T A - u v^T with u = A^T a, v = [L / (g G); 0] (the G dependence of the inertial term).
+  Eigen::MatrixXd bread_f_inv = qr_f.inverseGram();
   if (dynamic) {
-    Eigen::VectorXd v = Eigen::VectorXd::Zero(6);
+    Vec6 u = Vec6::Zero();
+    for (int i = 0; i < n; ++i) {
+      const SampleContext& c = at(i);
+      u.head<3>() += c.R_BS * c.a_S;  // A_i^T a_i, A_i = [R_BS,i^T, I]
+      u.tail<3>() += c.a_S;
+    }
+    Vec6 v = Vec6::Zero();
     v.head<3>() = L / (kStandardGravity * G);
-    cov_l = qr_f.inverseGramRankOneUpdate(qt_a, v);
-  } else {
-    cov_l = qr_f.inverseGram();
+    // (G_f - u v^T)^-1 = (I - G_f^-1 u v^T)^-1 G_f^-1
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(6, 6) - bread_f_inv * u * v.transpose();
+    bread_f_inv = M.partialPivLu().solve(bread_f_inv);
   }
-  cov_l *= sse_f / (3 * n - 6);
 
   // ---- Torque stage (Eq. 5-9, corrected sign): t_i = -skew(f_i) c + k, k = T0 - c x F0.
   // The measured force already contains the inertial force -m a_S, so the same equation holds in
@@ -219,8 +224,32 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
   const Vec6 h = qr_t.solveHead(qt_t.head<6>());
   const Vec3 c_S = h.head<3>();
   const Vec3 k = h.tail<3>();
-  const double sse_t = qt_t.tail(qt_t.size() - 6).squaredNorm();  // |t - At h|^2
-  const Eigen::MatrixXd cov_h = (sse_t / (3 * n - 6)) * qr_t.inverseGram();
+
+  // ---- Covariance of [L, F0, c, k]: one Newey-West sandwich over both stages (uncertainty.hpp),
+  // so that it holds for autocorrelated (filtered) noise and includes the coupling of the stages
+  // (the torque stage regresses on the measured, noisy force). Per sample i the scores are
+  //   force:  A_i^T r_f,i = [R_BS,i r_f,i; r_f,i],   r_f,i = f_i (+ m a_S,i) - R_BS,i^T L - F0
+  //   torque: A_t,i^T r_t,i = [f_i x r_t,i; r_t,i],   r_t,i = t_i - c x f_i - k
+  // and the bread is blockdiag(B_f, A_t^T A_t).
+  Eigen::MatrixXd scores(n, 12);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> stage_residual(6, n);
+  for (int i = 0; i < n; ++i) {
+    const SampleContext& c = at(i);
+    const Vec3 f = c.wrench_S.head<3>();
+    Vec3 r_f = f - c.R_BS.transpose() * L - F0;  // D_model was overwritten by its compression
+    if (dynamic) r_f += m * c.a_S;
+    const Vec3 r_t = c.wrench_S.tail<3>() - c_S.cross(f) - k;
+    stage_residual.col(i) << r_f, r_t;
+    scores.block<1, 3>(i, 0) = (c.R_BS * r_f).transpose();
+    scores.block<1, 3>(i, 3) = r_f.transpose();
+    scores.block<1, 3>(i, 6) = f.cross(r_t).transpose();
+    scores.block<1, 3>(i, 9) = r_t.transpose();
+  }
+  Eigen::MatrixXd bread_inv = Eigen::MatrixXd::Zero(12, 12);
+  bread_inv.topLeftCorner<6, 6>() = bread_f_inv;
+  bread_inv.bottomRightCorner<6, 6>() = qr_t.inverseGram();
+  const CovarianceReport hac = scoreCovariance(scores, stage_residual, bread_inv);
+  res.variance_inflation = hac.variance_inflation;
 
   // ---- Transforms (Eq. 21-23) and the delta method.
   res.gravity_force_B = L;
@@ -231,37 +260,36 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
   gravityToWeightAndTilt(L, &res.weight_N, &res.tilt_u_rad, &res.tilt_v_rad);
   res.mass_kg = m;
 
-  const Eigen::Matrix3d cov_L = cov_l.topLeftCorner<3, 3>();
-  const Eigen::Matrix3d cov_F0 = cov_l.bottomRightCorner<3, 3>();
-  // d(G, U, V)/dL
-  Eigen::Matrix3d Jg;
+  // Outputs y = [G, U, V, F0 (3), c (3), T0 (3), m c (3)] as functions of p = [L, F0, c, k]:
+  //   dG/dL = L^T / G;  U = asin(-L_y / G), V = atan2(L_x, -L_z);
+  //   T0 = k + c x F0: dT0/dF0 = skew(c), dT0/dc = -skew(F0), dT0/dk = I;
+  //   m c = (G / g) c: d/dL = c L^T / (g G), d/dc = m I.
+  Eigen::Matrix<double, 15, 12> Jy = Eigen::Matrix<double, 15, 12>::Zero();
   const double u_arg = -L.y() / G;
   const double du = 1.0 / std::sqrt(std::max(1.0 - u_arg * u_arg, 1e-300));
   const double rxz = L.x() * L.x() + L.z() * L.z();
-  Jg.row(0) = L.transpose() / G;
-  Jg.row(1) = du * (-Vec3::UnitY().transpose() / G + L.y() * L.transpose() / (G * G * G));
-  Jg.row(2) << -L.z() / rxz, 0.0, L.x() / rxz;
-  const Eigen::Matrix3d cov_guv = Jg * cov_L * Jg.transpose();
-  const Eigen::Matrix3d cov_c = cov_h.topLeftCorner<3, 3>();
-  // T0 = k + c x F0 = k - skew(F0) c = k + skew(c) F0 (stages treated as independent)
-  Eigen::Matrix<double, 3, 6> Jt;
-  Jt.leftCols<3>() = -skew(F0);
-  Jt.rightCols<3>() = Mat3::Identity();
-  const Eigen::Matrix3d cov_t0 = Jt * cov_h * Jt.transpose() + skew(c_S) * cov_F0 * skew(c_S).transpose();
-  // m c: d/dG = c/g, d/dc = m
-  const Eigen::Matrix3d cov_mc = c_S * c_S.transpose() * cov_guv(0, 0) / (kStandardGravity * kStandardGravity) +
-                                 m * m * cov_c;
-  auto sd = [](double var) { return std::sqrt(std::max(var, 0.0)); };
+  Jy.block<1, 3>(0, 0) = L.transpose() / G;
+  Jy.block<1, 3>(1, 0) = du * (-Vec3::UnitY().transpose() / G + L.y() * L.transpose() / (G * G * G));
+  Jy.block<1, 3>(2, 0) << -L.z() / rxz, 0.0, L.x() / rxz;
+  Jy.block<3, 3>(3, 3) = Mat3::Identity();
+  Jy.block<3, 3>(6, 6) = Mat3::Identity();
+  Jy.block<3, 3>(9, 3) = skew(c_S);
+  Jy.block<3, 3>(9, 6) = -skew(F0);
+  Jy.block<3, 3>(9, 9) = Mat3::Identity();
+  Jy.block<3, 3>(12, 0) = c_S * L.transpose() / (kStandardGravity * G);
+  Jy.block<3, 3>(12, 6) = m * Mat3::Identity();
+  const Eigen::Matrix<double, 15, 15> cov_y = Jy * hac.covariance * Jy.transpose();
+  auto sd = [&cov_y](int j) { return std::sqrt(std::max(cov_y(j, j), 0.0)); };
   const char* ax[3] = {"x", "y", "z"};
-  res.params.push_back({"mass", m, sd(cov_guv(0, 0)) / kStandardGravity, "kg"});
-  res.params.push_back({"weight", G, sd(cov_guv(0, 0)), "N"});
-  for (int i = 0; i < 3; ++i) res.params.push_back({std::string("com_") + ax[i], c_S(i), sd(cov_c(i, i)), "m"});
-  for (int i = 0; i < 3; ++i) res.params.push_back({std::string("f0_") + ax[i], F0(i), sd(cov_F0(i, i)), "N"});
-  for (int i = 0; i < 3; ++i) res.params.push_back({std::string("t0_") + ax[i], res.t0_S(i), sd(cov_t0(i, i)), "Nm"});
-  res.params.push_back({"tilt_u", res.tilt_u_rad, sd(cov_guv(1, 1)), "rad"});
-  res.params.push_back({"tilt_v", res.tilt_v_rad, sd(cov_guv(2, 2)), "rad"});
+  res.params.push_back({"mass", m, sd(0) / kStandardGravity, "kg"});
+  res.params.push_back({"weight", G, sd(0), "N"});
+  for (int i = 0; i < 3; ++i) res.params.push_back({std::string("com_") + ax[i], c_S(i), sd(6 + i), "m"});
+  for (int i = 0; i < 3; ++i) res.params.push_back({std::string("f0_") + ax[i], F0(i), sd(3 + i), "N"});
+  for (int i = 0; i < 3; ++i) res.params.push_back({std::string("t0_") + ax[i], res.t0_S(i), sd(9 + i), "Nm"});
+  res.params.push_back({"tilt_u", res.tilt_u_rad, sd(1), "rad"});
+  res.params.push_back({"tilt_v", res.tilt_v_rad, sd(2), "rad"});
   for (int i = 0; i < 3; ++i) {
-    res.params.push_back({std::string("mass_com_") + ax[i], m * c_S(i), sd(cov_mc(i, i)), "kg*m"});
+    res.params.push_back({std::string("mass_com_") + ax[i], m * c_S(i), sd(12 + i), "kg*m"});
   }
 
   // ---- Residual of the full modelled wrench (what compensation leaves).
@@ -301,6 +329,7 @@ ParameterSet PaperResult::toParameterSet() const {
   set.condition_number = std::max(condition_force, condition_torque);
   set.extras.push_back({"condition_number_force_stage", condition_force, 0.0, ""});
   set.extras.push_back({"condition_number_torque_stage", condition_torque, 0.0, ""});
+  set.extras.push_back({"standard_error_variance_inflation", variance_inflation, 0.0, ""});
   set.extras.push_back({"fixed_point_iterations", static_cast<double>(iterations), 0.0, ""});
   set.provenance.method = std::string("paper-") + toString(method);
   set.provenance.n_samples = n_samples;

@@ -545,6 +545,12 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   Model model = Model::fromName(options.model);
   const std::string miss = missingSignal(model, d.ctx);
   if (!miss.empty()) throw DataError("model '" + model.name() + "' cannot be fitted: " + miss);
+  if (d.static_data && model.estimatesDelay()) {
+    // As for the candidates below, and as identify::fitModel refuses: no number for a delay.
+    throw DataError("model '" + model.name() +
+                    "' cannot be fitted: static pose set: a delay shows only while the wrench changes (the time "
+                    "between poses is not motion); leave sensor_delay out");
+  }
   const std::string log_cmd = log_name + (validate != nullptr ? " --validate " + validate_name : "");
 
   say(options, "noise floor: " + nf.detail);

@@ -11,8 +11,9 @@
 // Each is first compressed exactly (thin QR of the per-sample data: same solution, residual norm,
 // singular values) and then factored once (column-scaled, column-pivoted QR); that one
 // factorisation gives the rank check, every fixed-point solve, the condition number and the
-// covariance (docs/identification.md, "Computation"). Standard errors by the delta method through
-// these transforms.
+// bread of the covariance (docs/identification.md, "Computation"). The covariance of [L, F0, c, k]
+// is one Newey-West sandwich over both stages (uncertainty.hpp: holds for autocorrelated noise and
+// includes the coupling of the stages); standard errors by the delta method through the transforms.
 #include <string>
 #include <vector>
 
@@ -53,6 +54,9 @@ struct PaperResult {
   double condition_force = 0.0;   ///< column-scaled condition number of the force stage
   double condition_torque = 0.0;  ///< ... of the torque stage
   int iterations = 0;             ///< dynamic fixed-point iterations used
+  /// Variance of the standard errors against the classical sigma^2 (A^T A)^-1 per stage, averaged
+  /// over [L, F0, c, k] (about 1 for white noise; 4 for noise with lag-1 correlation 0.6).
+  double variance_inflation = 1.0;
   int n_samples = 0;
 
   /// Parameter set in the names of the "paper" model (mass, mass_com_*, f0_*, t0_*, tilt).

@@ -28,7 +28,8 @@ namespace ftid::identify {
 
 struct CovarianceReport {
   Eigen::MatrixXd covariance;   ///< k x k
-  int lag = 0;                  ///< bandwidth L used
+  int lag = 0;                  ///< bandwidth L used (of the prewhitened scores when prewhitened)
+  Eigen::VectorXd score_ar1;    ///< prewhitening coefficients a_j per parameter (0: not prewhitened)
   Vec6 residual_ar1 = Vec6::Zero();  ///< lag-1 correlation of the residual per axis
   /// Ratio of the HAC variance to the classical sigma^2 G^-1 variance, averaged over the
   /// parameters (1 for white residuals; > 1 when correlated residuals make the fit less certain).
@@ -36,9 +37,26 @@ struct CovarianceReport {
 };
 
 /// J: 6n x k, r: 6n, inverse_gram = (J^T J)^-1. Throws std::invalid_argument on mismatched sizes.
-/// max_lag < 0: automatic bandwidth; >= 0: that L.
+/// max_lag >= 0: plain Newey-West with that L. max_lag < 0 (the default): prewhitened (Andrews and
+/// Monahan 1992) per score component j: a_j = the lag-1 regression coefficient of s_.j (clamped to
+/// [-0.9, 0.97]), e_i = s_i - a o s_(i-1), Omega_e = Newey-West of e with the bandwidth above
+/// computed from e's columns (each standardised), Omega = n/(n-1) D^-1 Omega_e D^-1,
+/// D = diag(1 - a_j); fewer than 16 samples: plain Newey-West with the residual's bandwidth.
+/// The Bartlett kernel alone underestimates the long-run variance of strongly correlated scores
+/// (by 20-35 % in variance at lag-1 correlation 0.6 and n ~ 1000); the filter takes out most of
+/// the correlation before the kernel sees it.
 CovarianceReport robustCovariance(const Eigen::Ref<const Eigen::MatrixXd>& J, const Eigen::Ref<const Eigen::VectorXd>& r,
                                   const Eigen::MatrixXd& inverse_gram, int max_lag = -1);
+
+/// The same Newey-West sandwich from the per-sample scores, for estimators that are not one
+/// stacked least-squares problem (the paper's two stages, a fixed point): scores (n x k, row i =
+/// s_i^T, time order), the per-axis residual (6 x n; it sets the bandwidth and the classical
+/// comparison) and the inverse bread B^-1 (k x k): B = -d(sum_i s_i)/d theta, which is J^T J for
+/// least squares. Cov = 6n / (6n - k) B^-1 Omega B^-T. Throws std::invalid_argument on mismatched
+/// sizes. robustCovariance() is this with s_i = sum_a J_(6i+a)^T r_(6i+a) and B^-1 = (J^T J)^-1.
+CovarianceReport scoreCovariance(const Eigen::Ref<const Eigen::MatrixXd>& scores,
+                                 const Eigen::Ref<const Eigen::Matrix<double, 6, Eigen::Dynamic>>& residual,
+                                 const Eigen::MatrixXd& bread_inverse, int max_lag = -1);
 
 /// The automatic bandwidth for per-axis residuals (6 x n, time along columns).
 int automaticBandwidth(const Eigen::Ref<const Eigen::Matrix<double, 6, Eigen::Dynamic>>& residual, Vec6* ar1 = nullptr);

@@ -21,10 +21,12 @@
 #include <memory>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "ftid/effects/effect.hpp"
+#include "ftid/logio/log.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
 namespace ftid::stats_test {
@@ -52,6 +54,32 @@ inline NoiseModel simulatorWhiteNoise(const sim::CellSimConfig& config) {
       r.wrench_S = c.wrench_S;
       simulator->addNoise(r, rng);
       c.wrench_S = r.wrench_S;
+    }
+  };
+}
+
+/// The simulator's own wrench noise of any kind (white, low-pass filtered, oversampled; on a time
+/// series or a static pose set; sim::NoiseConfig): each draw re-runs the simulator with a seed
+/// taken from rng and adds the difference of its wrench readings from those of the same run
+/// without noise (the noise is additive, so the result is exactly that run's readings). The
+/// config must have no IMU or temperature noise and no glitches (they would not be carried over).
+inline NoiseModel simulatorNoise(const sim::CellSimConfig& config) {
+  if (config.noise.acc_std != 0.0 || config.noise.gyro_std != 0.0 || config.noise.alpha_std != 0.0 ||
+      config.noise.temp_std != 0.0 || config.glitches.enabled) {
+    throw std::invalid_argument("simulatorNoise: only wrench noise is carried over");
+  }
+  sim::CellSimConfig clean_config = config;
+  clean_config.noise = sim::NoiseConfig{};
+  auto clean = std::make_shared<const logio::LogData>(sim::CellSim(clean_config).run());
+  return [config, clean](std::vector<SampleContext>& ctx, std::mt19937_64& rng) {
+    sim::CellSimConfig c = config;
+    c.seed = rng();
+    const logio::LogData noisy = sim::CellSim(c).run();
+    if (noisy.samples.size() != ctx.size() || clean->samples.size() != ctx.size()) {
+      throw std::invalid_argument("simulatorNoise: the contexts are not those of this simulator run");
+    }
+    for (std::size_t i = 0; i < ctx.size(); ++i) {
+      ctx[i].wrench_S += noisy.samples[i].wrench_S - clean->samples[i].wrench_S;
     }
   };
 }

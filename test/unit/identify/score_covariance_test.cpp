@@ -1,0 +1,69 @@
+// scoreCovariance (include/ftid/identify/uncertainty.hpp) against the closed form: for scores that
+// are an AR(1) series s_i = rho s_(i-1) + e_i (innovation variance q), the long-run variance of
+// their sum is n q / (1 - rho)^2, so with bread 1 the covariance must be about
+// 6n/(6n-1) n q / (1 - rho)^2. Also: robustCovariance is scoreCovariance of its own scores.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "ftid/identify/uncertainty.hpp"
+
+namespace ftid::identify {
+namespace {
+
+Eigen::MatrixXd ar1Scores(int n, double rho, double q, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::MatrixXd S(n, 1);
+  double x = std::sqrt(q / (1.0 - rho * rho)) * n01(rng);
+  for (int i = 0; i < n; ++i) {
+    x = rho * x + std::sqrt(q) * n01(rng);
+    S(i, 0) = x;
+  }
+  return S;
+}
+
+TEST(ScoreCovariance, LongRunVarianceOfAnAr1ScoreSeries) {
+  const int n = 20000;
+  const double q = 2.0;
+  const Eigen::MatrixXd bread = Eigen::MatrixXd::Identity(1, 1);
+  for (const double rho : {0.0, 0.6, 0.9}) {
+    SCOPED_TRACE(rho);
+    const Eigen::MatrixXd S = ar1Scores(n, rho, q, 77);
+    // The residual only sets the classical comparison here (and the fallback bandwidth).
+    const Eigen::Matrix<double, 6, Eigen::Dynamic> R = Eigen::Matrix<double, 6, Eigen::Dynamic>::Ones(6, n);
+    const CovarianceReport rep = scoreCovariance(S, R, bread);
+    const double truth = (6.0 * n / (6.0 * n - 1.0)) * n * q / std::pow(1.0 - rho, 2);
+    EXPECT_NEAR(rep.covariance(0, 0) / truth, 1.0, 0.1) << "lag " << rep.lag << " a " << rep.score_ar1(0);
+    EXPECT_NEAR(rep.score_ar1(0), rho, 0.03);
+    if (rho > 0.0) {
+      // Without the correlation (L = 0) the variance is (1 - rho) / (1 + rho) of the truth.
+      const CovarianceReport white = scoreCovariance(S, R, bread, 0);
+      EXPECT_NEAR(white.covariance(0, 0) / truth, (1.0 - rho) / (1.0 + rho), 0.05);
+    }
+  }
+}
+
+TEST(ScoreCovariance, RobustCovarianceIsTheSandwichOfItsScores) {
+  const int n = 300;
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::MatrixXd J(6 * n, 3);
+  Eigen::VectorXd r(6 * n);
+  for (int i = 0; i < 6 * n; ++i) {
+    for (int j = 0; j < 3; ++j) J(i, j) = n01(rng) + (j == 0 ? 1.0 : 0.0);
+    r(i) = n01(rng);
+  }
+  const Eigen::MatrixXd Ginv = (J.transpose() * J).inverse();
+  Eigen::MatrixXd S(n, 3);
+  for (int i = 0; i < n; ++i) S.row(i) = r.segment<6>(6 * i).transpose() * J.middleRows(6 * i, 6);
+  const Eigen::Map<const Eigen::Matrix<double, 6, Eigen::Dynamic>> R(r.data(), 6, n);
+  const CovarianceReport a = robustCovariance(J, r, Ginv);
+  const CovarianceReport b = scoreCovariance(S, R, Ginv);
+  EXPECT_LT((a.covariance - b.covariance).norm(), 1e-12 * b.covariance.norm());
+  EXPECT_THROW(scoreCovariance(S.topRows(n - 1), R, Ginv), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace ftid::identify

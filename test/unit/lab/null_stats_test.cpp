@@ -1,0 +1,132 @@
+// `ftid analyze`'s per-candidate significance holds under the null on coloured noise (issue 10 b):
+// no effect is hidden (the simulator's paper physics plus its own 1st-order low-pass filtered
+// sensor noise, 10 Hz at 125 Hz: lag-1 correlation 0.6), so every "significant" candidate is a
+// false alarm. Over 50 seeded noise draws, on a dense 10 s excitation run (1251 samples) and on a
+// static pose set (40 poses held 0.25 s):
+//  - pooled over the candidates, the fraction of p-values below 0.05 is 0.05 within a binomial
+//    tolerance (4 standard deviations of the pooled count, the variance taken from the spread of
+//    the per-seed counts, since candidates of one ranking share the noise);
+//  - the ranking's own reported level: with the held-out threshold switched off, so that the
+//    p-value alone decides, a ranking alarms (some candidate below family_alpha / candidates) in at
+//    most 8 of 50 seeds at family_alpha = 0.05 (9 or more: probability 0.003 if the level holds).
+// The white-noise counterpart is LabGuards.BonferroniAloneKeepsTheFamilyFalseAlarmRate
+// (lab_stats_test.cpp).
+// Known limit (measured, not a target; docs/analyze.md): on a 4 s run (501 samples) the noise's
+// AR(1) coefficient, fitted to the residual's spectrum above the motion's band in 64-sample Welch
+// segments, scatters between 0 and 0.99 per axis around the true 0.6, the prewhitening is then
+// wrong, and 120 of 600 p-values fall below 0.05 (16 of 50 rankings alarm at 0.05).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "../identify/seed_study.hpp"
+#include "ftid/common/error.hpp"
+#include "ftid/lab/analyze.hpp"
+#include "lab_sim.hpp"
+
+namespace ftid::lab {
+namespace {
+
+constexpr int kSeeds = 50;
+
+struct NullCounts {
+  int seeds = 0;
+  int p_values = 0;          ///< candidate p-values seen
+  int below_005 = 0;         ///< of them below 0.05
+  double per_seed_var = 0.0; ///< variance over seeds of the per-seed count below 0.05
+  int family_alarms = 0;     ///< rankings with a candidate below family_alpha / tested
+};
+
+NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
+  sim::CellSimConfig clean = noisy;
+  clean.noise = sim::NoiseConfig{};
+  const std::vector<SampleContext> ctx0 = labtest::contexts(clean).samples;
+  const auto noise = stats_test::simulatorNoise(noisy);
+  AnalyzeOptions o;
+  o.model = "paper";
+  o.family_alpha = 0.05;
+  o.min_relative_reduction = -std::numeric_limits<double>::infinity();
+  o.glitch_threshold = 0.0;  // nothing to find: the glitch filter is not under test
+  NullCounts out;
+  std::vector<int> per_seed;
+  for (int k = 0; k < kSeeds; ++k) {
+    std::vector<SampleContext> ctx = ctx0;
+    std::mt19937_64 rng(first_seed + static_cast<std::uint64_t>(k));
+    noise(ctx, rng);
+    const AnalysisResult r = analyze(ctx, nullptr, o, "sim.csv");
+    int tested = 0, below = 0;
+    for (const auto& c : r.candidates) {
+      if (c.skipped || c.added_params <= 0) continue;
+      ++tested;
+      if (c.p_value < 0.05) ++below;
+    }
+    bool alarm = false;
+    for (const auto& c : r.candidates) {
+      if (!c.skipped && c.added_params > 0 && c.p_value < o.family_alpha / std::max(1, tested)) alarm = true;
+    }
+    ++out.seeds;
+    out.p_values += tested;
+    out.below_005 += below;
+    per_seed.push_back(below);
+    if (alarm) ++out.family_alarms;
+  }
+  double mean = 0.0;
+  for (int b : per_seed) mean += static_cast<double>(b) / kSeeds;
+  for (int b : per_seed) out.per_seed_var += (b - mean) * (b - mean) / (kSeeds - 1);
+  return out;
+}
+
+void expectNullHolds(const NullCounts& c, const char* label) {
+  const double expected = 0.05 * c.p_values;
+  // Binomial variance if the p-values were independent; the per-seed spread if larger (candidates
+  // of one ranking share the noise draw).
+  const double var = std::max(0.05 * 0.95 * c.p_values, c.seeds * c.per_seed_var);
+  const double z = (c.below_005 - expected) / std::sqrt(var);
+  std::printf("  %s: %d p-values, %d below 0.05 (expected %.1f, z %.2f); %d of %d rankings alarm at 0.05\n", label,
+              c.p_values, c.below_005, expected, z, c.family_alarms, c.seeds);
+  EXPECT_GE(c.p_values, 8 * c.seeds) << label << ": too few candidates tested";
+  EXPECT_LT(std::abs(z), 4.0) << label << ": " << c.below_005 << " of " << c.p_values
+                              << " candidate p-values below 0.05 under the null";
+  EXPECT_LE(c.family_alarms, 8) << label << ": family-wise false alarms above family_alpha = 0.05";
+}
+
+TEST(LabNull, CandidatePValuesHoldOnFilteredNoise) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  cfg.noise.wrench_lowpass_hz = 10.0;
+  expectNullHolds(runNull(cfg, 15000), "filtered");
+}
+
+TEST(LabNull, CandidatePValuesHoldOnAStaticPoseSetWithFilteredNoise) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  cfg.noise.wrench_lowpass_hz = 10.0;
+  cfg.static_poses.enabled = true;
+  cfg.static_poses.poses = 40;
+  cfg.static_poses.hold_s = 0.25;
+  expectNullHolds(runNull(cfg, 16000), "static");
+}
+
+// Not a p-value, but the same rule of "no number that the data cannot support": a static pose set
+// shows no delay, and analyze refuses a starting model with sensor_delay there (as fitModel does).
+TEST(LabNull, DelayModelOnAStaticPoseSetIsRefused) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  cfg.static_poses.enabled = true;
+  cfg.static_poses.poses = 40;
+  cfg.static_poses.hold_s = 0.25;
+  cfg.sensor_delay.enabled = true;
+  AnalyzeOptions o;
+  o.model = "paper+sensor_delay";
+  try {
+    (void)analyze(labtest::contexts(cfg).samples, nullptr, o, "sim.csv");
+    ADD_FAILURE() << "analyze fitted a delay on a static pose set";
+  } catch (const DataError& e) {
+    EXPECT_NE(std::string(e.what()).find("static pose set"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace ftid::lab
