@@ -16,7 +16,7 @@
 #   3. The sensor simulator is stopped and started again (its socket closes and reappears).
 # Checks, all in one ftidd process (same PID, never restarted):
 #   - before: valid compensated wrenches (|contact| small), the watchdog fed;
-#   - link down: valid = false (cycle = -1) within 0.5 s and kept up at a steady rate (20 Hz, no
+#   - link down: valid = false (cycle = -1) within 0.5 s of the last cycle and kept up at a steady rate (20 Hz, no
 #     gap > 0.3 s) while ftidd reconnects; no valid wrench; the watchdog no longer fed after
 #     robot.watchdog_silence_s (1 s here) + 0.5 s; the log names the dead link (keepalive) within
 #     10 s and the failed reconnect attempts;
@@ -177,8 +177,8 @@ wait_log() {
 wait_log "running at" 30 || { fail "ftidd did not start"; cat "$WORK/ftidd.log"; exit 1; }
 sleep 1.5
 
-T_DOWN=$(now)
 nsenter -t "$RPID" -n ip link set vB down   # the controller is gone: no FIN, no RST
+T_DOWN=$(now)                                # (the link is certainly down from here on)
 echo "link down at $T_DOWN"
 wait_log "robot link to 10.77.0.2:30004 lost" 15 || fail "ftidd did not declare the link dead within 15 s"
 T_LOST=$(now)
@@ -229,27 +229,30 @@ if big: bad.append("contact force up to %s N before the link went down (not comp
 if len(notifies(0, t_down)) < 3: bad.append("ftidd did not feed the watchdog while the link was up")
 last_cycle_before = max(int(e[3]) for e in before if int(e[3]) >= 0) if before else -1
 
-# Link down until it is back: valid = false at a steady rate, nothing valid.
-down = wrenches(t_down, t_up)
+# Link down until it is back: valid = false at a steady rate, nothing valid. Times are measured
+# from the last loop cycle's message (the last state package that came through).
+cycles_to_down = [e for e in wrenches(0, t_down + 1.0) if int(e[3]) >= 0]
+t_last = float(cycles_to_down[-1][0]) if cycles_to_down else t_down
+down = wrenches(t_last, t_up)
 silent = [e for e in down if e[3] == "-1" and e[5] == "0"]
 if not silent:
     bad.append("no valid=false wrench (cycle -1) after the link went down")
 else:
-    first = float(silent[0][0]) - t_down
+    first = float(silent[0][0]) - t_last
     times = [float(e[0]) for e in silent]
     gap = max(b - a for a, b in zip(times, times[1:])) if len(times) > 1 else 0.0
     rate = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else 0.0
-    print("link down: first valid=false %.3f s after; %d messages, %.1f per s, largest gap %.3f s" %
+    print("link down: first valid=false %.3f s after the last cycle; %d messages, %.1f per s, largest gap %.3f s" %
           (first, len(silent), rate, gap))
-    if first > 0.5: bad.append("first valid=false only %.3f s after the link went down" % first)
+    if first > 0.5: bad.append("first valid=false only %.3f s after the last cycle" % first)
     if gap > 0.3: bad.append("valid=false not kept up while reconnecting (gap %.3f s)" % gap)
     if not (15.0 <= rate <= 25.0): bad.append("valid=false rate %.1f per s, expected 20" % rate)
 if valid([e for e in down if float(e[0]) > t_down + 0.2]):
     bad.append("valid wrenches while the link was down")
-wd = notifies(t_down, t_up)
-last_wd = max(wd) - t_down if wd else 0.0
-print("last watchdog ping %.3f s after the link went down" % last_wd)
-if last_wd > 1.0 + 0.5: bad.append("watchdog still fed %.3f s after the link went down" % last_wd)
+wd = notifies(t_last, t_up)
+last_wd = max(wd) - t_last if wd else 0.0
+print("last watchdog ping %.3f s after the last cycle" % last_wd)
+if last_wd > 1.0 + 0.5: bad.append("watchdog still fed %.3f s after the last cycle" % last_wd)
 
 # Link back: the same loop resumes (cycle numbers continue), valid and compensated.
 after = wrenches(t_up, t_sstop)
