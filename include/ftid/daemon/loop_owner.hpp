@@ -20,7 +20,8 @@
 //    connection for a session, and when a session ends it closes that connection and reconnects
 //    with exponential backoff (Backoff, robot.reconnect_backoff_*_s), each attempt validating the
 //    controller as at start (ArmConnector), then hands the new connection over: the same
-//    DaemonCycle resumes (parameters, tare, output filter, sensor history, cycle numbering). It
+//    DaemonCycle resumes (parameters, tare, sensor history, cycle numbering; the output low-pass
+//    restarts at the first valid wrench). It
 //    also reopens the sensor transport when it closed or failed (SensorLink), with the same backoff.
 //
 // The supervisor publishes valid = false while no cycle runs, answers commands, and feeds the

@@ -28,6 +28,7 @@
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/backoff.hpp"
 #include "ftid/daemon/loop_owner.hpp"
+#include "ftid/daemon/output_stage.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 
 namespace ftid::daemon {
@@ -101,7 +102,9 @@ class ScriptedArm : public ArmStateSource {
     }
     if (left_ > 0) --left_;
     std::this_thread::sleep_for(1ms);
-    *t_ += 0.001;
+    // The controller's clock: 1 ms per package, or (real_time) the host clock itself, so that the
+    // sensor pairing maps each state to about its receive time.
+    *t_ = real_time ? static_cast<double>(realtimeNowUs() - 1'700'000'000'000'000) * 1e-6 : *t_ + 0.001;
     out->valid = true;
     out->robot_time = *t_;
     out->recv_utime = realtimeNowUs();
@@ -111,6 +114,7 @@ class ScriptedArm : public ArmStateSource {
     return Status::kOk;
   }
   const char* lastError() const noexcept override { return "scripted: link cut"; }
+  bool real_time = false;
 
  private:
   int left_;
@@ -248,6 +252,36 @@ TEST(LoopOwner, WhileReconnectingTheLoopIsParkedButAliveAndStopIsPrompt) {
   EXPECT_EQ(std::count_if(rig.log.begin(), rig.log.end(),
                           [](const std::string& s) { return s.find("no route to host") != std::string::npos; }),
             1);
+}
+
+TEST(LoopOwner, ANewConnectionRestartsTheOutputLowPassAtTheFirstValidWrench) {
+  Rig rig;
+  OutputStageConfig oc;
+  oc.lowpass_hz = 5.0;
+  oc.sample_rate_hz = 1000.0;
+  OutputStage stage(oc);
+  rig.cycle.attachOutputStage(&stage);
+  ScriptedArm first(1'000'000, ScriptedArm::Then::kStream, &rig.robot_time);
+  ScriptedArm second(1'000'000, ScriptedArm::Then::kStream, &rig.robot_time);
+  first.real_time = second.real_time = true;
+  auto tick = [&] {
+    ASSERT_EQ(rig.cycle.waitForTick(5ms), Status::kOk);
+    rig.cycle.onTick();
+  };
+  rig.cycle.setArm(&first);
+  rig.sensor.sample.wrench_S << 0, 0, -10, 0, 0, 0;
+  for (int i = 0; i < 20; ++i) tick();
+  const double settled = rig.cycle.lastRecord().output(2);
+  EXPECT_NEAR(settled, -10.0, 1e-9);  // a primed filter starts at its first value
+  rig.sensor.sample.wrench_S << 0, 0, -30, 0, 0, 0;  // the contact changed during the outage
+  std::this_thread::sleep_for(5ms);
+  rig.cycle.setArm(&second);
+  tick();
+  // The first valid wrench of the new connection is output as it is (the filter restarted), not
+  // a filtered mix with the -10 N before the outage.
+  ASSERT_TRUE(rig.cycle.lastRecord().wrench_valid);
+  EXPECT_NEAR(rig.cycle.lastRecord().contact_S(2), -30.0, 1e-9);
+  EXPECT_NEAR(rig.cycle.lastRecord().output(2), rig.cycle.lastRecord().contact_S(2), 1e-9);
 }
 
 // --------------------------------------------------------------------------- CanSensorSource
