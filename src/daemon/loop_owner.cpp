@@ -26,6 +26,12 @@ std::string seconds(double s) {
 
 }  // namespace
 
+bool watchdogMayBeFed(bool loop_heartbeat_advanced, bool link_thread_alive, double robot_silent_s,
+                      double silence_limit_s) noexcept {
+  const bool link_ok = silence_limit_s <= 0.0 || robot_silent_s < silence_limit_s;
+  return loop_heartbeat_advanced && link_thread_alive && link_ok;
+}
+
 std::string describeSessionEnd(rt::LoopExit exit, const char* arm_error,
                                const rt::ExecutorConfig& exec) {
   const std::string why = arm_error != nullptr ? arm_error : "";

@@ -260,9 +260,8 @@ void Supervisor::trackRobotLink(std::uint64_t cycles_now) {
 void Supervisor::feedWatchdog() {
   if (watchdog_usec_ == 0 || Clock::now() < next_watchdog_) return;
   const std::uint64_t heartbeat = owner_.loopHeartbeat();
-  const double silence_limit_s = s_.cfg.robot.watchdog_silence_s;
-  const bool link_ok = silence_limit_s <= 0.0 || secondsSince(last_cycle_time_) < silence_limit_s;
-  if (heartbeat != last_heartbeat_ && owner_.linkThreadAlive(kLinkThreadStall) && link_ok) {
+  if (watchdogMayBeFed(heartbeat != last_heartbeat_, owner_.linkThreadAlive(kLinkThreadStall),
+                       secondsSince(last_cycle_time_), s_.cfg.robot.watchdog_silence_s)) {
     notifySystemd("WATCHDOG=1");
   }
   last_heartbeat_ = heartbeat;

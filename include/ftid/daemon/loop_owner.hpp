@@ -151,6 +151,13 @@ class LoopOwner {
   std::string sensor_last_error_;
 };
 
+/// The watchdog decision (docs/operations.md, "Link loss and reconnect"): feed systemd's watchdog
+/// only if the loop thread's heartbeat advanced since the last feeding, the link thread is alive,
+/// and - if silence_limit_s > 0 (robot.watchdog_silence_s) - the robot has been silent for less
+/// than that. silence_limit_s = 0: a healthy process renewing its robot link stays fed.
+bool watchdogMayBeFed(bool loop_heartbeat_advanced, bool link_thread_alive, double robot_silent_s,
+                      double silence_limit_s) noexcept;
+
 /// "the connection failed: <why>" / "no state package for N receive timeouts ..." for a session
 /// end (messages).
 std::string describeSessionEnd(rt::LoopExit exit, const char* arm_error,

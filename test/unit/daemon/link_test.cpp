@@ -284,6 +284,22 @@ TEST(LoopOwner, ANewConnectionRestartsTheOutputLowPassAtTheFirstValidWrench) {
   EXPECT_NEAR(rig.cycle.lastRecord().output(2), rig.cycle.lastRecord().contact_S(2), 1e-9);
 }
 
+// The watchdog decision: a wedged loop or link thread is never fed; a silent robot only if
+// robot.watchdog_silence_s says so.
+TEST(Watchdog, FedOnlyWhileEveryThreadProgressesAndTheSilenceLimitAllows) {
+  // Default (0 = never stop for the link): renewing the link for an hour stays fed.
+  EXPECT_TRUE(watchdogMayBeFed(true, true, 3600.0, 0.0));
+  EXPECT_TRUE(watchdogMayBeFed(true, true, 0.0, 0.0));
+  // A wedged loop thread (no cycle, no missed wait, no parked wake-up) or a stuck reconnect.
+  EXPECT_FALSE(watchdogMayBeFed(false, true, 0.0, 0.0));
+  EXPECT_FALSE(watchdogMayBeFed(true, false, 0.0, 0.0));
+  EXPECT_FALSE(watchdogMayBeFed(false, false, 0.0, 30.0));
+  // With a silence limit: fed below it, not at or beyond it.
+  EXPECT_TRUE(watchdogMayBeFed(true, true, 0.99, 1.0));
+  EXPECT_FALSE(watchdogMayBeFed(true, true, 1.0, 1.0));
+  EXPECT_FALSE(watchdogMayBeFed(true, true, 5.0, 1.0));
+}
+
 // --------------------------------------------------------------------------- CanSensorSource
 struct SensorBench {
   std::string path = ::testing::TempDir() + "ftid_link_sensor_" + std::to_string(::getpid()) + ".sock";
