@@ -249,6 +249,7 @@ else:
     if not (15.0 <= rate <= 25.0): bad.append("valid=false rate %.1f per s, expected 20" % rate)
 if valid([e for e in down if float(e[0]) > t_down + 0.2]):
     bad.append("valid wrenches while the link was down")
+print("link declared dead (log) %.1f s after it went down; restored (valid wrenches) see below" % (t_lost - t_down))
 wd = notifies(t_last, t_up)
 last_wd = max(wd) - t_last if wd else 0.0
 print("last watchdog ping %.3f s after the last cycle" % last_wd)
