@@ -35,7 +35,8 @@ void printHelp() {
       "  --check-config       load and validate the configuration, print it, exit 0 (or 2)\n"
       "  --record FILE        record every published message to an LCM log (strftime patterns\n"
       "                       allowed); convert it with `ftid lcm-to-csv FILE --out run.csv`\n"
-      "  --connect-timeout S  keep retrying the robot and sensor connections for S seconds (10)\n"
+      "  --connect-timeout S  at start, keep retrying the robot and sensor connections for S\n"
+      "                       seconds (10), with robot.reconnect_backoff_min_s/_max_s between tries\n"
       "  --version            print the version and exit\n"
       "  --help               this text\n"
       "\n"
@@ -44,9 +45,14 @@ void printHelp() {
       "commands (signed command_t on FTID_COMMAND): RELOAD_PARAMETERS, PING, and TARE, which\n"
       "re-estimates only the offsets at the current pose (robot at rest), keeps them in\n"
       "PARAMETERS.tare.yaml and is reverted by a reload (docs/daemon.md, \"Tare\"; `ftid tare`).\n"
-      "systemd: Type=notify; READY, WATCHDOG (only while the loop runs), RELOADING, STOPPING.\n"
-      "exit codes: 0 stopped by a signal, 1 runtime failure (robot connection lost, device or\n"
-      "real-time set-up error), 2 bad command line or configuration.\n",
+      "links: a lost robot connection (TCP keepalive, or no state package for\n"
+      "robot.reconnect_after_silence_s) or a closed sensor transport is renewed in-process with\n"
+      "backoff; meanwhile FTID_WRENCH carries valid = false at 20 Hz (docs/operations.md,\n"
+      "\"Link loss and reconnect\").\n"
+      "systemd: Type=notify; READY, WATCHDOG (only while the loop, link and supervisor threads\n"
+      "make progress, and robot.watchdog_silence_s if set), RELOADING, STOPPING, STATUS.\n"
+      "exit codes: 0 stopped by a signal, 1 runtime failure (robot or sensor unreachable at start,\n"
+      "device or real-time set-up error), 2 bad command line or configuration.\n",
       kDefaultConfig);
 }
 

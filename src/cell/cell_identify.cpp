@@ -12,7 +12,6 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
-#include <lcm/lcm-cpp.hpp>
 #include <sstream>
 #include <thread>
 
@@ -22,6 +21,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/client.hpp"
 #include "ftid/design/trajectory_check.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/context.hpp"
@@ -35,7 +35,6 @@
 #include "ftid/motion/robot_session.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
-#include "ftid/transport/command_auth.hpp"
 
 namespace fs = std::filesystem;
 
@@ -208,54 +207,6 @@ std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
 }
 
 }  // namespace
-
-std::string requestDaemonReload(const std::string& lcm_url, const std::string& command_channel,
-                                const std::string& ack_channel, const std::string& key_path,
-                                double timeout_s) {
-  transport::CommandKey key;
-  try {
-    key = transport::loadCommandKey(key_path);
-  } catch (const std::exception& e) {
-    return std::string("cannot sign the reload command: ") + e.what() +
-           " (run as root or as a member of the ftid group)";
-  }
-  lcm::LCM lc(lcm_url);
-  if (!lc.good()) return "LCM: cannot open '" + lcm_url + "'";
-  struct AckWaiter {
-    std::int64_t request_id = 0;
-    bool got = false;
-    ftid_lcm::ack_t ack;
-    void handle(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-      ftid_lcm::ack_t a;
-      if (a.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
-      if (a.request_id != request_id) return;
-      ack = a;
-      got = true;
-    }
-  } waiter;
-  waiter.request_id = static_cast<std::int64_t>(monotonicNowNs() ^ (static_cast<std::int64_t>(::getpid()) << 40));
-  lcm::Subscription* sub = lc.subscribe(ack_channel, &AckWaiter::handle, &waiter);
-  ftid_lcm::command_t cmd;
-  cmd.utime = static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::microseconds>(
-                                            std::chrono::system_clock::now().time_since_epoch())
-                                            .count());
-  cmd.request_id = waiter.request_id;
-  cmd.command = ftid_lcm::command_t::RELOAD_PARAMETERS;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  auto next_send = std::chrono::steady_clock::now();
-  while (!waiter.got && std::chrono::steady_clock::now() < deadline) {
-    if (std::chrono::steady_clock::now() >= next_send) {  // resend: the first may race the subscription
-      transport::signCommand(&cmd, key);  // a fresh sequence each time: a resend is no replay
-      lc.publish(command_channel, &cmd);
-      next_send += std::chrono::milliseconds(500);
-    }
-    lc.handleTimeout(50);
-  }
-  lc.unsubscribe(sub);
-  if (!waiter.got) return "ftidd did not acknowledge the reload within " + fmt(1, timeout_s) + " s (is it running?)";
-  if (!waiter.ack.ok) return "ftidd refused the reload: " + waiter.ack.message;
-  return "";
-}
 
 std::string defaultTrajectoryName(const std::string& urdf_path, bool paper) {
   const std::string robot = fs::path(urdf_path).stem().string();
@@ -595,8 +546,8 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   print("Parameters written to " + params_path + " (previous version: " + params_path + ".bak)");
 
   if (o.reload_daemon) {
-    const std::string err = requestDaemonReload(cfg.lcm.url, cfg.lcm.channels.command, cfg.lcm.channels.ack,
-                                                cfg.lcm.command_key_path, 3.0);
+    daemon::DaemonClient client(daemon::DaemonClientOptions::fromConfig(cfg));
+    const std::string err = client.sendCommand(daemon::DaemonCommand::kReloadParameters, 3.0).describe();
     if (err.empty()) {
       result.reloaded = true;
       print("ftidd reloaded the new parameters.");

@@ -189,8 +189,20 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.robot.silent_publish_after_ms >= 10.0 && c.robot.silent_publish_after_ms <= 10000.0)) {
     fail("robot.silent_publish_after_ms", "must be in 10..10000 ms");
   }
-  if (!(c.robot.watchdog_silence_s >= 0.1 && c.robot.watchdog_silence_s <= 3600.0)) {
-    fail("robot.watchdog_silence_s", "must be in 0.1..3600 s");
+  if (!(c.robot.watchdog_silence_s == 0.0 ||
+        (c.robot.watchdog_silence_s >= 0.1 && c.robot.watchdog_silence_s <= 3600.0))) {
+    fail("robot.watchdog_silence_s", "must be 0 (never) or in 0.1..3600 s");
+  }
+  if (!(c.robot.reconnect_after_silence_s == 0.0 ||
+        (c.robot.reconnect_after_silence_s >= 0.1 && c.robot.reconnect_after_silence_s <= 3600.0))) {
+    fail("robot.reconnect_after_silence_s", "must be 0 (only on a TCP failure) or in 0.1..3600 s");
+  }
+  if (!(c.robot.reconnect_backoff_min_s >= 0.01 && c.robot.reconnect_backoff_min_s <= 60.0)) {
+    fail("robot.reconnect_backoff_min_s", "must be in 0.01..60 s");
+  }
+  if (!(c.robot.reconnect_backoff_max_s >= c.robot.reconnect_backoff_min_s &&
+        c.robot.reconnect_backoff_max_s <= 300.0)) {
+    fail("robot.reconnect_backoff_max_s", "must be in robot.reconnect_backoff_min_s..300 s");
   }
   if (!fileReadable(c.robot.urdf_path)) {
     fail("robot.urdf_path", "cannot read '" + c.robot.urdf_path + "'");
@@ -422,6 +434,9 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
           {"receive_timeout_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.receive_timeout_ms = r.number(v, key); })},
           {"silent_publish_after_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.silent_publish_after_ms = r.number(v, key); })},
           {"watchdog_silence_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.watchdog_silence_s = r.number(v, key); })},
+          {"reconnect_after_silence_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.reconnect_after_silence_s = r.number(v, key); })},
+          {"reconnect_backoff_min_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.reconnect_backoff_min_s = r.number(v, key); })},
+          {"reconnect_backoff_max_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.reconnect_backoff_max_s = r.number(v, key); })},
         });
       }},
       {"sensor", [&](const YAML::Node& n, const std::string& k) {
@@ -544,6 +559,9 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << static_cast<double>(c.robot.receiveTimeout().count()) / 1000.0 << " ms)\n"
      << "robot.silent_publish_after_ms: " << c.robot.silent_publish_after_ms << "\n"
      << "robot.watchdog_silence_s: " << c.robot.watchdog_silence_s << "\n"
+     << "robot.reconnect_after_silence_s: " << c.robot.reconnect_after_silence_s << "\n"
+     << "robot.reconnect_backoff_min_s: " << c.robot.reconnect_backoff_min_s << "\n"
+     << "robot.reconnect_backoff_max_s: " << c.robot.reconnect_backoff_max_s << "\n"
      << "sensor.transport: " << c.sensor.transport << "\n"
      << "sensor.socket_path: " << c.sensor.socket_path << "\n"
      << "sensor.can_interface: " << c.sensor.can_interface << "\n"

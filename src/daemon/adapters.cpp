@@ -17,9 +17,19 @@ namespace ur = drivers::ur;
 
 // ---------------------------------------------------------------------------------------------
 RtdeArmSource::RtdeArmSource(const std::string& host, int port, double frequency_hz) {
+  const std::string where = "RTDE " + host + ":" + std::to_string(port);
   client_.connect(host, static_cast<std::uint16_t>(port));
-  client_.negotiateProtocolVersion();
-  client_.setupOutputs(frequency_hz, ur::RtdeClient::defaultOutputNames());
+  if (!client_.negotiateProtocolVersion(ur::rtde::kProtocolVersion2)) {
+    throw DriverError(where + ": the controller refused RTDE protocol version 2");
+  }
+  version_ = client_.controllerVersion();
+  const double max_hz = version_.major >= 5 ? 500.0 : 125.0;
+  if (frequency_hz > max_hz) {
+    throw DriverError(where + ": controller " + version_.toString() + " streams at most " +
+                      std::to_string(static_cast<int>(max_hz)) + " Hz, robot.rtde_frequency_hz is " +
+                      std::to_string(frequency_hz));
+  }
+  client_.setupOutputs(frequency_hz, ur::RtdeClient::defaultOutputNames());  // recipe and types
   client_.start();
 }
 
@@ -105,9 +115,15 @@ CanSensorSource::CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
 // counter-gap and error-frame flags such a read consumes belong to the interval since the
 // previous cycle: they are collected and reported with the newest sample by drain(), as one read
 // per cycle reports them.
+can::CanTransport& CanSensorSource::bus() noexcept {
+  if (replacement_.tryAcquire() != nullptr) transport_down_.store(false, std::memory_order_release);
+  can::CanTransport* r = replacement_.current();
+  return r != nullptr ? *r : sensor_->transport();
+}
+
 void CanSensorSource::pump(SensorHistory* history) noexcept {
   constexpr std::uint32_t kIntervalFlags = can::kSampleFlagCounterGap | can::kSampleFlagErrorFrame;
-  can::CanTransport& bus = sensor_->transport();
+  can::CanTransport& bus = this->bus();
   int total = 0;
   while (total < can::CanFtImuSensor::kMaxFramesPerRead) {
     can::IoResult status = can::IoResult::kOk;
@@ -122,6 +138,7 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
     total += n;
     if (status == can::IoResult::kClosed || status == can::IoResult::kError) {
       assembler_.noteTransportProblem();
+      transport_down_.store(true, std::memory_order_release);
       break;
     }
     if (n < static_cast<int>(batch_.size())) break;  // drained
@@ -148,7 +165,7 @@ bool CanSensorSource::waitForSample(std::int64_t t_utime, std::chrono::nanosecon
   clock_gettime(CLOCK_MONOTONIC, &ts);
   const std::int64_t deadline =
       static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec + timeout.count();
-  const int fd = sensor_->transport().fd();
+  const int fd = bus().fd();
   for (;;) {
     pump(history);
     if (have()) return true;

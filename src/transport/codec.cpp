@@ -89,6 +89,10 @@ void toLcm(const LoopStatsRecord& in, ftid_lcm::loop_stats_t* out) noexcept {
   out->tares_refused = in.tares_refused;
   out->fault_bits = static_cast<std::int32_t>(in.fault_bits);
   out->realtime = in.realtime ? 1 : 0;
+  out->robot_link_up = in.robot_link_up ? 1 : 0;
+  out->robot_reconnects = in.robot_reconnects;
+  out->robot_link_down_s = in.robot_link_down_s;
+  out->sensor_reconnects = in.sensor_reconnects;
 }
 
 void fromLcm(const ftid_lcm::robot_state_t& in, RobotStateRecord* out) noexcept {
@@ -166,6 +170,10 @@ void fromLcm(const ftid_lcm::loop_stats_t& in, LoopStatsRecord* out) noexcept {
   out->tares_refused = in.tares_refused;
   out->fault_bits = static_cast<std::uint32_t>(in.fault_bits);
   out->realtime = in.realtime != 0;
+  out->robot_link_up = in.robot_link_up != 0;
+  out->robot_reconnects = in.robot_reconnects;
+  out->robot_link_down_s = in.robot_link_down_s;
+  out->sensor_reconnects = in.sensor_reconnects;
 }
 
 void warmUpCodec() noexcept {

@@ -180,6 +180,51 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
   EXPECT_GT(sensor.health().samples_complete, 200u);
 }
 
+// The sensor link renewed (docs/operations.md, "Link loss and reconnect"): the drain that finds
+// the transport closed, the drain that takes a reopened transport (OwnedSwapSlot) and the drains
+// after it run under the counter; opening and offering the transport is the link thread's work.
+TEST(RtDaemon, CanSensorTransportReplacementDoesNotAllocate) {
+  const can::SensorLayout layout =
+      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  auto first = can::makeSeqpacketPair();
+  auto second = can::makeSeqpacketPair();
+  can::CanTransport* bus2 = second.a.get();
+  CanSensorSource sensor(std::make_unique<can::CanFtImuSensor>(std::move(first.b), layout),
+                         can::SensorHealthOptions{});
+  SensorHistory history;
+  transport::SensorSampleRecord latest;
+  std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
+  can::SensorValues values;
+  values.wrench_S[2] = -12.0;
+  first.a.reset();  // the peer goes away
+  sensor.drain(can::realtimeNowNs() / 1000, &history, &latest);  // warm-up outside the counter
+  std::size_t down_allocations = 0;
+  {
+    ftid::test::ScopedAllocationCounter counter;
+    sensor.drain(can::realtimeNowNs() / 1000, &history, &latest);
+    down_allocations = counter.count();
+  }
+  EXPECT_TRUE(sensor.transportDown());
+  sensor.offerTransport(std::move(second.b));  // non-RT: the link thread
+  std::size_t allocations = 0;
+  {
+    ftid::test::ScopedAllocationCounter counter;
+    for (std::uint32_t k = 1; k <= 20; ++k) {
+      const int n = can::encodeSample(layout, values, k, frames);
+      for (int i = 0; i < n; ++i) bus2->trySend(frames[static_cast<std::size_t>(i)]);
+      sensor.drain(can::realtimeNowNs() / 1000, &history, &latest);
+    }
+    allocations = counter.count();
+  }
+  sensor.collectRetired();
+  EXPECT_EQ(down_allocations, 0u);
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_EQ(sensor.reconnects(), 1u);
+  EXPECT_FALSE(sensor.transportDown());
+  EXPECT_TRUE(latest.valid);
+  EXPECT_NEAR(latest.wrench_S(2), -12.0, 0.01);
+}
+
 TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
   transport::warmUpCodec();
   transport::CycleRecord rec;

@@ -75,11 +75,4 @@ struct CellIdentifyResult {
 /// config/trajectory before anything moves.
 CellIdentifyResult runCellIdentify(const CellIdentifyOptions& options);
 
-/// Sends RELOAD_PARAMETERS (ftidd reloads its configured parameter file), signed with the command
-/// key read from key_path, over LCM and waits for the ack. Returns "" on success, else a one-line
-/// reason.
-std::string requestDaemonReload(const std::string& lcm_url, const std::string& command_channel,
-                                const std::string& ack_channel, const std::string& key_path,
-                                double timeout_s);
-
 }  // namespace ftid::cell

@@ -21,10 +21,19 @@ struct RobotConfig {
   std::string tip_link = "tool0";      ///< URDF flange link (frame F)
   /// A cycle is missed if no state packet arrives within this time; 0 = 1.5 RTDE periods.
   double receive_timeout_ms = 0.0;
-  /// Without a state package for this long ftidd publishes valid = false (about 20 Hz) [ms].
+  /// Without a state package for this long ftidd publishes valid = false (20 Hz) [ms].
   double silent_publish_after_ms = 50.0;
-  /// Without a state package for this long ftidd stops feeding the systemd watchdog [s].
-  double watchdog_silence_s = 2.0;
+  /// Without a robot link (no state package) for this long ftidd stops feeding the systemd
+  /// watchdog, so systemd restarts it [s]; 0 = never (ftidd reconnects in-process; the watchdog
+  /// still ends a wedged process). docs/operations.md, "Link loss and reconnect".
+  double watchdog_silence_s = 0.0;
+  /// Without a state package for this long while the TCP connection stays up, the link is
+  /// declared dead and ftidd reconnects [s]; 0 = only when TCP reports it dead (keepalive).
+  double reconnect_after_silence_s = 5.0;
+  /// Reconnect backoff: the first retry after reconnect_backoff_min_s, then doubling, never more
+  /// than reconnect_backoff_max_s between attempts [s] (also the connection attempts at start).
+  double reconnect_backoff_min_s = 0.2;
+  double reconnect_backoff_max_s = 5.0;
 
   /// The effective receive timeout.
   std::chrono::microseconds receiveTimeout() const {

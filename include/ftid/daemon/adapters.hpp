@@ -13,6 +13,7 @@
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/daemon/seams.hpp"
+#include "ftid/daemon/swap_slot.hpp"
 #include "ftid/identify/parameter_set.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/ur/rtde_client.hpp"
@@ -26,10 +27,16 @@ namespace ftid::daemon {
 /// lacks it, the difference quotient of actual_qd over the controller timestamps).
 class RtdeArmSource final : public ArmStateSource {
  public:
-  /// Connects, negotiates protocol v2, sets up the output recipe at frequency_hz and starts
-  /// streaming. Throws DriverError naming host:port.
+  /// Connects and validates the controller, the same checks at start and at every reconnect:
+  /// RTDE protocol version 2 accepted, the controller's software version read, frequency_hz not
+  /// above what that controller streams (CB3, major < 5: 125 Hz; e-Series: 500 Hz), the output
+  /// recipe accepted with the expected types (timestamp, actual_q, actual_qd among them); then
+  /// starts streaming. Throws DriverError naming host:port and the failed check.
   RtdeArmSource(const std::string& host, int port, double frequency_hz);
   ~RtdeArmSource() override;
+  const char* lastError() const noexcept override { return client_.lastError(); }
+  /// The controller's software version, read while connecting.
+  const drivers::ur::rtde::ControllerVersion& controllerVersion() const noexcept { return version_; }
   Status waitForState(std::chrono::nanoseconds timeout,
                       transport::RobotStateRecord* out) noexcept override;
   bool robotStopped() const noexcept override { return stopped_; }
@@ -40,6 +47,7 @@ class RtdeArmSource final : public ArmStateSource {
 
  private:
   drivers::ur::RtdeClient client_;
+  drivers::ur::rtde::ControllerVersion version_{};
   drivers::ur::RobotState state_;
   JointVector prev_qd_ = JointVector::Zero();
   double prev_time_ = 0.0;
@@ -56,11 +64,28 @@ void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* 
 /// drains the sensor's transport itself and assembles with its own can::SampleAssembler (same
 /// layout and health options, the same rules): the CanFtImuSensor's own assembler is not used,
 /// read health() here instead of sensor->health().
+///
+/// Reconnect (docs/operations.md, "Link loss and reconnect"): when the transport closes or fails
+/// (peer gone, interface error), the loop flags it (transportDown(), any thread) and keeps
+/// publishing the cycles with the sensor invalid (transport down, then stale). A non-RT thread
+/// opens a new transport and hands it over with offerTransport(); the loop takes it at its next
+/// drain (a pointer swap, OwnedSwapSlot: no allocation, no lock) and the old one is freed by
+/// collectRetired() off the loop. Samples resume with the next complete one.
 class CanSensorSource final : public SensorSource {
  public:
   /// `health` must be the options the sensor was opened with (CanSensorConfig::health).
   CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
                   const can::SensorHealthOptions& health);
+  /// Any thread: true if the transport in use closed or failed and no replacement is waiting.
+  bool transportDown() const noexcept {
+    return transport_down_.load(std::memory_order_acquire) && !replacement_.hasPending();
+  }
+  /// Non-RT: offers a freshly opened transport (same endpoint) to the loop.
+  void offerTransport(std::unique_ptr<can::CanTransport> transport) { replacement_.post(std::move(transport)); }
+  /// Non-RT: frees a transport the loop has replaced.
+  void collectRetired() { replacement_.collectRetired(); }
+  /// Any thread: replacement transports taken into use since start.
+  std::uint32_t reconnects() const noexcept { return replacement_.version(); }
   void drain(std::int64_t now_utime, SensorHistory* history,
              transport::SensorSampleRecord* latest) noexcept override;
   /// Drains, then ppoll()s the transport's descriptor until such a sample is complete or the
@@ -72,8 +97,12 @@ class CanSensorSource final : public SensorSource {
  private:
   /// Receives pending frames; every complete sample goes to the history (see adapters.cpp).
   void pump(SensorHistory* history) noexcept;
+  /// Loop thread: the transport in use (a replacement once one was taken, else the sensor's own).
+  can::CanTransport& bus() noexcept;
 
-  std::unique_ptr<can::CanFtImuSensor> sensor_;  // owns the transport
+  std::unique_ptr<can::CanFtImuSensor> sensor_;  // owns the first transport
+  OwnedSwapSlot<can::CanTransport> replacement_;  // transports opened after a failure
+  std::atomic<bool> transport_down_{false};
   can::SensorHealthOptions options_;
   can::SampleAssembler assembler_;
   std::array<can::ReceivedFrame, 64> batch_{};

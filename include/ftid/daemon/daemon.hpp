@@ -5,13 +5,19 @@
 //   Daemon d(config);        // nothing opened yet
 //   return d.run();          // opens everything, runs until SIGTERM/SIGINT, returns an exit code
 //
-// Threads: the loop thread (SCHED_FIFO if permitted; runs DaemonCycle under the device-clocked
-// executor), the LcmOutbox publisher thread, and the calling thread as supervisor: it waits for
-// signals (SIGHUP = reload parameters, SIGTERM/SIGINT = stop), handles LCM commands, publishes
-// loop statistics, and talks to systemd (READY, WATCHDOG only while the loop heartbeat advances,
-// RELOADING, STOPPING, STATUS). run() blocks SIGHUP/SIGTERM/SIGINT in the calling thread before
-// it starts any thread, so every thread inherits the mask and the supervisor takes them with
-// sigtimedwait().
+// run() is three parts (docs/architecture.md, "ftidd's structure"):
+//  - set-up (src/daemon/daemon_setup.*): kinematics, parameters, LCM outbox, command verifier,
+//    sensor and robot connections (retried for connect_timeout_s), the DaemonCycle; throws;
+//  - the loop owner (ftid/daemon/loop_owner.hpp): the real-time loop thread (SCHED_FIFO if
+//    permitted, DaemonCycle under the device-clocked executor) and the link thread that renews a
+//    lost robot connection or sensor transport in-process, with backoff;
+//  - the supervisor (src/daemon/supervisor.*), the calling thread: signals (SIGHUP = reload
+//    parameters, SIGTERM/SIGINT = stop), LCM commands, valid = false while no cycle runs, loop
+//    statistics, systemd (READY, WATCHDOG while every thread shows progress, RELOADING,
+//    STOPPING, STATUS).
+// run() blocks SIGHUP/SIGTERM/SIGINT in the calling thread before it starts any thread, so every
+// thread inherits the mask and the supervisor takes them with sigtimedwait(). The LcmOutbox
+// publisher thread encodes and publishes what the loop queues.
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -33,15 +39,17 @@ struct DaemonRunOptions {
   std::string record_path;
   /// Print a one-line status every this many seconds to stderr (0 = never).
   double status_period_s = 10.0;
-  /// How long to keep retrying to connect to the robot and the sensor at start [s].
+  /// How long to keep retrying to connect to the robot and the sensor at start [s] (with the
+  /// reconnect backoff, robot.reconnect_backoff_*_s).
   double connect_timeout_s = 10.0;
 };
 
 class Daemon {
  public:
   explicit Daemon(config::DaemonConfig config, DaemonRunOptions options = {});
-  /// Runs until SIGTERM/SIGINT (exit code 0) or a fatal loop error (robot connection lost,
-  /// real-time set-up failed with rt.require_rt: exit code 1). Set-up errors throw ftid::Error.
+  /// Runs until SIGTERM/SIGINT (exit code 0) or a fatal loop error (real-time set-up of the loop
+  /// thread failed with rt.require_rt: exit code 1). A lost robot link is renewed in-process.
+  /// Set-up errors (also: robot or sensor not reachable within connect_timeout_s) throw.
   int run();
 
  private:

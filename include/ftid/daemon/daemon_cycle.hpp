@@ -160,6 +160,16 @@ class DaemonCycle {
     tare_results_ = results;
   }
 
+  /// Replaces the robot state source (a new connection after a link loss). Only while no
+  /// executor runs this cycle (the loop owner calls it between two sessions, on the loop thread).
+  /// Parameters, tare, sensor history and cycle numbering carry over; the output low-pass
+  /// restarts at the first valid wrench (the contact may have changed while no package came).
+  void setArm(ArmStateSource* arm) noexcept {
+    arm_ = arm;
+    if (output_stage_ != nullptr) output_stage_->reset();
+  }
+  ArmStateSource* arm() const noexcept { return arm_; }
+
   const CycleCounters& counters() const noexcept { return counters_; }
   /// Fault bits raised since the supervisor last cleared them.
   FaultWord& faults() noexcept { return faults_; }

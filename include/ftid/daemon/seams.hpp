@@ -29,6 +29,9 @@ class ArmStateSource {
   /// State packets the source dropped since start because a newer one was already waiting
   /// (drain-to-latest: the loop fell behind). Any thread may read it.
   virtual std::uint64_t packetsSkipped() const noexcept { return 0; }
+  /// Why the last waitForState() failed (static text, for messages; "" if unknown). Non-RT
+  /// readers only, while the loop does not run on this source.
+  virtual const char* lastError() const noexcept { return ""; }
 };
 
 /// The F/T+IMU sensor, drained each cycle. The cycle pairs the robot state with the sample at

@@ -91,6 +91,10 @@ struct LoopStatsRecord {
   std::int32_t tares_refused = 0;
   std::uint32_t fault_bits = 0;
   bool realtime = false;
+  bool robot_link_up = false;
+  std::int32_t robot_reconnects = 0;
+  double robot_link_down_s = 0.0;
+  std::int32_t sensor_reconnects = 0;
 };
 
 }  // namespace ftid::transport

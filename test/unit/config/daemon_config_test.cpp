@@ -131,6 +131,30 @@ TEST_F(DaemonConfigTest, BadValuesNameKeyFileAndLine) {
               "/no/such/dir");
 }
 
+// Link loss and reconnect (docs/operations.md): defaults, every key read, the bounds named.
+TEST_F(DaemonConfigTest, ReconnectKeys) {
+  const DaemonConfig d = parse("");
+  EXPECT_EQ(d.robot.watchdog_silence_s, 0.0);  // never: the watchdog watches the threads
+  EXPECT_EQ(d.robot.reconnect_after_silence_s, 5.0);
+  EXPECT_EQ(d.robot.reconnect_backoff_min_s, 0.2);
+  EXPECT_EQ(d.robot.reconnect_backoff_max_s, 5.0);
+  const std::string robot = "robot:\n  urdf_path: robot.urdf\n";
+  const std::string sensor = "sensor:\n  dbc_path: sensor.dbc\n";
+  const DaemonConfig c = parseDaemonConfig(
+      robot + "  watchdog_silence_s: 30\n  reconnect_after_silence_s: 0\n"
+              "  reconnect_backoff_min_s: 0.5\n  reconnect_backoff_max_s: 8\n" + sensor,
+      "test.yaml", dir_);
+  EXPECT_EQ(c.robot.watchdog_silence_s, 30.0);
+  EXPECT_EQ(c.robot.reconnect_after_silence_s, 0.0);
+  EXPECT_EQ(c.robot.reconnect_backoff_min_s, 0.5);
+  EXPECT_EQ(c.robot.reconnect_backoff_max_s, 8.0);
+  expectError(robot + "  watchdog_silence_s: 0.05\n" + sensor, "robot.watchdog_silence_s", 3, "0 (never)");
+  expectError(robot + "  reconnect_after_silence_s: -1\n" + sensor, "robot.reconnect_after_silence_s", 3);
+  expectError(robot + "  reconnect_backoff_min_s: 0\n" + sensor, "robot.reconnect_backoff_min_s", 3, "0.01..60");
+  expectError(robot + "  reconnect_backoff_min_s: 2\n  reconnect_backoff_max_s: 1\n" + sensor,
+              "robot.reconnect_backoff_max_s", 4, "reconnect_backoff_min_s..300");
+}
+
 TEST_F(DaemonConfigTest, MissingFilesNameTheKey) {
   expectError("robot:\n  urdf_path: nope.urdf\nsensor:\n  dbc_path: sensor.dbc\n", "robot.urdf_path", 2,
               "nope.urdf");

@@ -108,6 +108,10 @@ TEST(Codec, LoopStatsRoundTripIsExact) {
   in.tares_refused = 12;
   in.fault_bits = 0x48;
   in.realtime = true;
+  in.robot_link_up = true;
+  in.robot_reconnects = 3;
+  in.robot_link_down_s = 12.5;
+  in.sensor_reconnects = 2;
   ftid_lcm::loop_stats_t msg{};
   toLcm(in, &msg);
   std::uint8_t buf[512];
@@ -137,6 +141,10 @@ TEST(Codec, LoopStatsRoundTripIsExact) {
   EXPECT_EQ(out.tares_refused, in.tares_refused);
   EXPECT_EQ(out.fault_bits, in.fault_bits);
   EXPECT_EQ(out.realtime, in.realtime);
+  EXPECT_EQ(out.robot_link_up, in.robot_link_up);
+  EXPECT_EQ(out.robot_reconnects, in.robot_reconnects);
+  EXPECT_EQ(out.robot_link_down_s, in.robot_link_down_s);
+  EXPECT_EQ(out.sensor_reconnects, in.sensor_reconnects);
 }
 
 TEST(Codec, EncodeIntoTooSmallBufferFails) {
