@@ -1,6 +1,7 @@
 // Identification and compensation timing (docs/performance.md, "Identification and compensation").
 //   - paper method (dynamic; static as a same-run baseline) on 1,251 and 10,001 samples
-//   - fitModel("paper") (variable projection on the tilt, per-axis weights) on the same data
+//   - fitModel("paper") and fitModel("paper+rigid_body") (variable projection on the tilt, per-axis
+//     weights) on the same data: the compressed tilt search vs the general path (baseline)
 //   - the stacked linear solve alone: Householder QR (what fitModel uses) vs normal equations
 //     (baseline)
 //   - Compensator::compute per sample
@@ -81,9 +82,20 @@ int main() {
     ratio("paper dynamic / static", dyn, sta);
 
     const effects::Model model = effects::Model::fromName("paper");
-    reps = small ? 40 : 8;
-    report("fitModel(paper), " + n, reps,
-           timeIt(reps, [&] { g_sink = identify::fitModel(model, s.samples).theta(0); }));
+    // fitModel: the compressed tilt search (the default) and the general path (the previous
+    // implementation, FitOptions::compressed_tilt_search = false) as the same-run baseline.
+    identify::FitOptions general;
+    general.compressed_tilt_search = false;
+    for (const char* name : {"paper", "paper+rigid_body"}) {
+      const effects::Model m = effects::Model::fromName(name);
+      reps = small ? 200 : 40;
+      const Stats fast = timeIt(reps, [&] { g_sink = identify::fitModel(m, s.samples).theta(0); });
+      report(std::string("fitModel(") + name + "), " + n, reps, fast);
+      const int greps = small ? 20 : 5;
+      const Stats slow = timeIt(greps, [&] { g_sink = identify::fitModel(m, s.samples, general).theta(0); });
+      report(std::string("fitModel(") + name + ") general path (baseline), " + n, greps, slow);
+      ratio("compressed / general", fast, slow);
+    }
 
     // The stacked linear problem alone (tilt known): QR vs normal equations.
     Eigen::MatrixXd A(6 * static_cast<Eigen::Index>(s.size()), model.numParams());

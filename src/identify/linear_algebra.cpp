@@ -1,9 +1,9 @@
-// Rank analysis, condition numbers and covariance helpers (fit_internal.hpp).
+// Rank analysis, condition numbers, exact row compression (linear_algebra.hpp).
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "fit_internal.hpp"
+#include "linear_algebra.hpp"
 
 namespace ftid::identify::internal {
 
@@ -166,6 +166,12 @@ Eigen::MatrixXd ScaledQR::inverseGramRankOneUpdate(const Eigen::VectorXd& qt_u, 
   Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(M);
   const Eigen::MatrixXd RM = qr.matrixQR().topRows(cols).triangularView<Eigen::Upper>();
   return unpivotUnscale(inverseGramOfR(RM));
+}
+
+Eigen::MatrixXd thinR(Eigen::MatrixXd& D) {
+  const Eigen::Index r = std::min(D.rows(), D.cols());
+  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(D);
+  return qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
 }
 
 std::string joinNames(const std::vector<std::string>& names) {

@@ -42,6 +42,11 @@ struct FitOptions {
   /// Relative threshold on the pivots / singular values of the column-scaled regressor below which
   /// a direction counts as not excited (rank deficiency).
   double rank_tolerance = 1e-9;
+  /// Models whose only nonlinear parameters are the tilt: solve the tilt search on the per-axis
+  /// QR-compressed regressor (its cost per step independent of the number of samples; same
+  /// minimiser and statistics up to rounding, docs/identification.md). false: the general path
+  /// (every step rebuilds and refactors the stacked regressor), kept as the reference.
+  bool compressed_tilt_search = true;
 };
 
 /// A parameter derived from the fitted ones (com_x = mass_com_x / mass, weight = m g, ...).

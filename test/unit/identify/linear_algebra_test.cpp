@@ -1,11 +1,11 @@
-// internal::ScaledQR (src/identify/fit_internal.hpp): each identity it documents, checked against
+// internal::ScaledQR (src/identify/linear_algebra.hpp): each identity it documents, checked against
 // an independent formulation (a full SVD of the original matrix, or of the updated matrix formed
 // explicitly), on seeded random matrices with badly scaled columns.
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "fit_internal.hpp"
+#include "linear_algebra.hpp"
 
 namespace ftid::identify::internal {
 namespace {
