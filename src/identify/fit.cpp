@@ -247,66 +247,136 @@ class GravityCompression {
     const int p = pb.p;
     p_ = p;
     const int m = 4 * p + 1;  // [A0 E0 E1 E2 y]
-    std::array<Eigen::MatrixXd, 6> F;
-    std::array<std::vector<char>, 6> used;
-    for (int a = 0; a < 6; ++a) {
-      F[static_cast<std::size_t>(a)].resize(n, m);  // columns are written from their first non-zero on
-      used[static_cast<std::size_t>(a)].assign(static_cast<std::size_t>(m), 0);
+    // The probe samples: the affine check and the first guess of the non-zero columns.
+    const int stride = std::max(1, n / 64);
+    // Effects whose contribution changes with g_S on a probe sample are evaluated four times per
+    // sample (g_S = 0 and the three base axes), the others once. A misclassified effect would show
+    // in the affine check of the full regressor below.
+    const auto& effect_list = pb.model.effectList();
+    std::vector<const effects::Effect*> fixed_effects, gravity_effects;
+    {
+      Eigen::Matrix<double, 6, Eigen::Dynamic> Z0(6, p), Zk(6, p);
+      SampleContext c;
+      for (const auto& e : effect_list) {
+        bool reads_g = false;
+        for (int i = 0; i < n && !reads_g; i += stride) {
+          c = pb.at(i);
+          c.wrench_model_S.setZero();
+          c.g_S.setZero();
+          Z0.setZero();
+          e->addRegressor(c, Z0);
+          for (int k = 0; k < 3 && !reads_g; ++k) {
+            c.g_S = kStandardGravity * c.R_BS.row(k).transpose();
+            Zk.setZero();
+            e->addRegressor(c, Zk);
+            reads_g = Zk != Z0;
+          }
+        }
+        (reads_g ? gravity_effects : fixed_effects).push_back(e.get());
+      }
     }
-    std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> Y;
+    std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> Y;  // Y0, E0, E1, E2
     for (auto& y : Y) y.resize(6, p);
     Eigen::Matrix<double, 6, Eigen::Dynamic> Yc(6, p);
-    const int check_stride = std::max(1, n / 64);
     SampleContext c;
-    for (int i = 0; i < n; ++i) {
+    // Y and E of sample i (and the affine check on probe samples); false if not affine.
+    auto sampleRegressors = [&](int i) {
       c = pb.at(i);
       c.wrench_model_S.setZero();
       c.g_S.setZero();
-      pb.model.computeRegressor(c, Y[0]);
+      Y[0].setZero();
+      for (const auto* e : fixed_effects) e->addRegressor(c, Y[0]);
+      Yc.setZero();
+      for (const auto* e : gravity_effects) e->addRegressor(c, Yc);
+      Y[0] += Yc;
       for (int k = 0; k < 3; ++k) {
+        auto& Ek = Y[static_cast<std::size_t>(k + 1)];
         c.g_S = kStandardGravity * c.R_BS.row(k).transpose();  // R_BS^T (s e_k)
-        pb.model.computeRegressor(c, Y[static_cast<std::size_t>(k + 1)]);
-        Y[static_cast<std::size_t>(k + 1)] -= Y[0];
+        Ek = -Yc;
+        for (const auto* e : gravity_effects) e->addRegressor(c, Ek);
       }
-      if (i % check_stride == 0) {
-        // Affine in g_S: the regressor at the start's gravity equals the combination.
-        c.g_S = c.R_BS.transpose() * g_check_B;
-        pb.model.computeRegressor(c, Yc);
-        Eigen::Matrix<double, 6, Eigen::Dynamic> comb = Y[0];
-        for (int k = 0; k < 3; ++k) comb += (g_check_B(k) / kStandardGravity) * Y[static_cast<std::size_t>(k + 1)];
-        const double scale = std::max(1.0, Yc.cwiseAbs().maxCoeff());
-        if (!((Yc - comb).cwiseAbs().maxCoeff() <= 1e-9 * scale)) return false;
-      }
-      const Wrench& w = pb.at(i).wrench_S;
+      if (i % stride != 0) return true;
+      // Affine in g_S: the full regressor at the start's gravity equals the combination.
+      c.g_S = c.R_BS.transpose() * g_check_B;
+      pb.model.computeRegressor(c, Yc);
+      Eigen::Matrix<double, 6, Eigen::Dynamic> comb = Y[0];
+      for (int k = 0; k < 3; ++k) comb += (g_check_B(k) / kStandardGravity) * Y[static_cast<std::size_t>(k + 1)];
+      const double scale = std::max(1.0, Yc.cwiseAbs().maxCoeff());
+      return (Yc - comb).cwiseAbs().maxCoeff() <= 1e-9 * scale;
+    };
+    // Non-zero columns per axis, first from the probe samples; a pass that meets another one adds
+    // it and runs again (the union after a full pass is exact).
+    std::array<std::vector<char>, 6> used;
+    for (auto& u : used) {
+      u.assign(static_cast<std::size_t>(m), 0);
+      u[static_cast<std::size_t>(m - 1)] = 1;  // y
+    }
+    auto markUsed = [&]() {
+      bool added = false;
       for (int a = 0; a < 6; ++a) {
-        Eigen::MatrixXd& Fa = F[static_cast<std::size_t>(a)];
-        std::vector<char>& ua = used[static_cast<std::size_t>(a)];
-        for (int col = 0; col < m; ++col) {
-          const double v = col == m - 1 ? w(a) : Y[static_cast<std::size_t>(col / p)](a, col % p);
-          if (!ua[static_cast<std::size_t>(col)]) {
-            if (v == 0.0) continue;
-            ua[static_cast<std::size_t>(col)] = 1;
-            Fa.col(col).head(i).setZero();
+        for (int k = 0; k < 4; ++k) {
+          for (int j = 0; j < p; ++j) {
+            char& u = used[static_cast<std::size_t>(a)][static_cast<std::size_t>(k * p + j)];
+            if (!u && Y[static_cast<std::size_t>(k)](a, j) != 0.0) {
+              u = 1;
+              added = true;
+            }
           }
-          Fa(i, col) = v;
         }
       }
+      return added;
+    };
+    for (int i = 0; i < n; i += stride) {
+      if (!sampleRegressors(i)) return false;
+      markUsed();
+    }
+    for (int pass = 0; pass < 2; ++pass) {
+      // Column maps and the mask of the columns left out (they must stay zero).
+      std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> out_mask;
+      for (auto& mk : out_mask) mk.setZero(6, p);
+      for (int a = 0; a < 6; ++a) {
+        std::vector<int>& map = col_[static_cast<std::size_t>(a)];
+        map.assign(static_cast<std::size_t>(m), -1);
+        int ca = 0;
+        for (int col = 0; col < m; ++col) {
+          if (used[static_cast<std::size_t>(a)][static_cast<std::size_t>(col)]) {
+            map[static_cast<std::size_t>(col)] = ca++;
+          } else {
+            out_mask[static_cast<std::size_t>(col / p)](a, col % p) = 1.0;
+          }
+        }
+        B_[static_cast<std::size_t>(a)].resize(n, ca);
+      }
+      bool complete = true;
+      for (int i = 0; i < n; ++i) {
+        if (!sampleRegressors(i)) return false;
+        const Wrench& w = pb.at(i).wrench_S;
+        for (int a = 0; a < 6; ++a) {
+          const std::vector<int>& map = col_[static_cast<std::size_t>(a)];
+          Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
+          for (int k = 0, col = 0; k < 4; ++k) {
+            for (int j = 0; j < p; ++j, ++col) {
+              const int bc = map[static_cast<std::size_t>(col)];
+              if (bc >= 0) Ba(i, bc) = Y[static_cast<std::size_t>(k)](a, j);
+            }
+          }
+          Ba(i, map[static_cast<std::size_t>(m - 1)]) = w(a);
+        }
+        bool clean = true;
+        for (int k = 0; k < 4; ++k) {
+          clean = clean && Y[static_cast<std::size_t>(k)].cwiseProduct(out_mask[static_cast<std::size_t>(k)]).cwiseAbs().maxCoeff() == 0.0;
+        }
+        if (!clean) {
+          markUsed();
+          complete = false;
+        }
+      }
+      if (complete) break;
+      if (pass == 1) return false;  // cannot happen: the first full pass found every column
     }
     rows_ = 0;
     for (int a = 0; a < 6; ++a) {
-      const auto& ua = used[static_cast<std::size_t>(a)];
-      std::vector<int>& map = col_[static_cast<std::size_t>(a)];
-      map.assign(static_cast<std::size_t>(m), -1);
-      int ca = 0;
-      for (int col = 0; col < m; ++col) {
-        if (ua[static_cast<std::size_t>(col)]) map[static_cast<std::size_t>(col)] = ca++;
-      }
-      Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
-      Ba.resize(n, ca);
-      for (int col = 0; col < m; ++col) {
-        if (map[static_cast<std::size_t>(col)] >= 0) Ba.col(map[static_cast<std::size_t>(col)]) = F[static_cast<std::size_t>(a)].col(col);
-      }
-      F[static_cast<std::size_t>(a)].resize(0, 0);
+      const Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
       Eigen::MatrixXd D = Ba;  // thinR factors in place; B_a stays for the per-sample rows
       R_[static_cast<std::size_t>(a)] = internal::thinR(D);
       const int ra = static_cast<int>(R_[static_cast<std::size_t>(a)].rows());
@@ -706,13 +776,17 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   st.fixed.tilt_v_rad = options.tilt_v_rad.value_or(0.0);
   if (estimate_tilt && !(options.tilt_u_rad && options.tilt_v_rad)) {
     // The paper's force stage (static): direction of the identified gravity vector in B.
+    bool all = indices.size() == contexts.size();  // all contexts in order: no copy
+    for (std::size_t k = 0; all && k < indices.size(); ++k) all = indices[k] == static_cast<int>(k);
     std::vector<SampleContext> subset;
-    subset.reserve(indices.size());
-    for (int idx : indices) subset.push_back(contexts[static_cast<std::size_t>(idx)]);
+    if (!all) {
+      subset.reserve(indices.size());
+      for (int idx : indices) subset.push_back(contexts[static_cast<std::size_t>(idx)]);
+    }
     try {
       PaperOptions po;
       po.method = PaperMethod::kStatic;
-      const PaperResult pr = identifyPaper(subset, po);
+      const PaperResult pr = identifyPaper(all ? contexts : subset, po);
       st.fixed.tilt_u_rad = pr.tilt_u_rad;
       st.fixed.tilt_v_rad = pr.tilt_v_rad;
     } catch (const Error&) {

@@ -11,7 +11,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "ftid/common/error.hpp"
 #include "ftid/identify/fit.hpp"
@@ -155,6 +157,33 @@ TEST(CompressedTilt, NotAffineInGravityFallsBackToTheGeneralPath) {
   EXPECT_EQ(fast.theta, ref.theta);
   EXPECT_EQ(fast.tilt_u_rad, ref.tilt_u_rad);
   EXPECT_EQ(fast.covariance, ref.covariance);
+}
+
+/// An offset on fx inside one short time window (3.97 s < t < 4.08 s: samples 497-510 at 125 Hz,
+/// none of them among the compression's probe samples, every 19th), zero elsewhere.
+class TestWindowOffset final : public effects::Effect {
+ public:
+  std::string name() const override { return "test_window_offset"; }
+  std::string description() const override { return "test only"; }
+  std::vector<effects::ParamInfo> params() const override { return {{"test_window_fx", "N", "window offset"}}; }
+  void bind(const effects::ParamIndex& index) override { col_ = effects::requireColumn(index, "test_window_fx", name()); }
+  void addRegressor(const SampleContext& ctx,
+                    Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept override {
+    if (ctx.t > 3.97 && ctx.t < 4.08) Y(0, col_) += 1.0;
+  }
+  std::unique_ptr<effects::Effect> clone() const override { return std::make_unique<TestWindowOffset>(*this); }
+
+ private:
+  int col_ = 0;
+};
+
+TEST(CompressedTilt, FindsAColumnTheProbeSamplesMiss) {
+  effects::registerEffect("test_window_offset", "test only",
+                          [](const std::string&) { return std::make_unique<TestWindowOffset>(); });
+  ASSERT_EQ(data().size(), 1251u);  // the probe stride (19) and the window above assume this
+  const Model model = Model::fromName("paper+test_window_offset");
+  expectSameFit(fitModel(model, data().samples), fitModel(model, data().samples, general()),
+                "window offset");
 }
 
 TEST(CompressedTilt, UndeterminedParametersGiveTheSameError) {
