@@ -621,6 +621,46 @@ std::vector<std::string> paramNames(const Model& model) { return model.paramInde
 
 }  // namespace
 
+Mat6X timeDerivative(const std::vector<double>& t, const Mat6X& w, const std::vector<int>& segment_start) {
+  const int n = static_cast<int>(w.cols());
+  Mat6X d = Mat6X::Zero(6, n);
+  std::vector<int> starts = segment_start;
+  if (starts.empty()) starts.push_back(0);
+  starts.push_back(n);
+  for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+    const int a0 = starts[s];
+    const int a1 = starts[s + 1];
+    for (int i = a0; i < a1; ++i) {
+      const int a = std::max(i - 1, a0);
+      const int b = std::min(i + 1, a1 - 1);
+      const double dt = t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)];
+      if (b > a && dt > 0.0) d.col(i) = (w.col(b) - w.col(a)) / dt;
+    }
+  }
+  return d;
+}
+
+bool initialTilt(const std::vector<SampleContext>& contexts, const std::vector<int>& indices, double* tilt_u_rad,
+                 double* tilt_v_rad) {
+  bool all = indices.size() == contexts.size();  // all contexts in order: no copy
+  for (std::size_t k = 0; all && k < indices.size(); ++k) all = indices[k] == static_cast<int>(k);
+  std::vector<SampleContext> subset;
+  if (!all) {
+    subset.reserve(indices.size());
+    for (int idx : indices) subset.push_back(contexts[static_cast<std::size_t>(idx)]);
+  }
+  try {
+    PaperOptions po;
+    po.method = PaperMethod::kStatic;
+    const PaperResult pr = identifyPaper(all ? contexts : subset, po);
+    *tilt_u_rad = pr.tilt_u_rad;
+    *tilt_v_rad = pr.tilt_v_rad;
+    return true;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
 double initialDelayEstimate(const std::vector<double>& t, const Mat6X& measured, const Mat6X& pred,
                             const Vec6& w, double max_delay_s) {
   const int n = static_cast<int>(t.size());
@@ -649,12 +689,9 @@ double initialDelayEstimate(const std::vector<double>& t, const Mat6X& measured,
   // First-order estimate: residual ~ -tau dw/dt (central differences).
   double num = 0.0;
   double den = 0.0;
+  const Mat6X dpred = timeDerivative(t, pred);
   for (int i = 0; i < n; ++i) {
-    const int a = std::max(i - 1, 0);
-    const int b = std::min(i + 1, n - 1);
-    const double dt = t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)];
-    if (!(dt > 0.0)) continue;
-    const Vec6 d = -w.cwiseProduct(pred.col(b) - pred.col(a)) / dt;
+    const Vec6 d = -w.cwiseProduct(dpred.col(i));
     const Vec6 r = w.cwiseProduct(measured.col(i) - pred.col(i));
     num += d.dot(r);
     den += d.squaredNorm();
@@ -775,23 +812,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   st.fixed.tilt_u_rad = options.tilt_u_rad.value_or(0.0);
   st.fixed.tilt_v_rad = options.tilt_v_rad.value_or(0.0);
   if (estimate_tilt && !(options.tilt_u_rad && options.tilt_v_rad)) {
-    // The paper's force stage (static): direction of the identified gravity vector in B.
-    bool all = indices.size() == contexts.size();  // all contexts in order: no copy
-    for (std::size_t k = 0; all && k < indices.size(); ++k) all = indices[k] == static_cast<int>(k);
-    std::vector<SampleContext> subset;
-    if (!all) {
-      subset.reserve(indices.size());
-      for (int idx : indices) subset.push_back(contexts[static_cast<std::size_t>(idx)]);
-    }
-    try {
-      PaperOptions po;
-      po.method = PaperMethod::kStatic;
-      const PaperResult pr = identifyPaper(all ? contexts : subset, po);
-      st.fixed.tilt_u_rad = pr.tilt_u_rad;
-      st.fixed.tilt_v_rad = pr.tilt_v_rad;
-    } catch (const Error&) {
-      // Not determinable by the paper's method: start level; the rank check below decides.
-    }
+    // Not determinable by the paper's method: start level; the rank check below decides.
+    (void)initialTilt(contexts, indices, &st.fixed.tilt_u_rad, &st.fixed.tilt_v_rad);
   }
   st.phi = L.vector(st.fixed);
 

@@ -114,6 +114,20 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const
                                                        const std::vector<SampleContext>& contexts,
                                                        const std::vector<int>& indices);
 
+/// Time derivative of a 6 x n series w sampled at times t: central differences, one-sided at the
+/// ends of each segment (segment_start: the first sample of each log, in order; empty: one log),
+/// zero where the two neighbours are not later than one another. The one implementation for the
+/// fit's first-order delay estimate and the lab's derived signals.
+Eigen::Matrix<double, 6, Eigen::Dynamic> timeDerivative(const std::vector<double>& t,
+                                                        const Eigen::Matrix<double, 6, Eigen::Dynamic>& w,
+                                                        const std::vector<int>& segment_start = {});
+
+/// Initial tilt (U, V) for a model with `tilt`, the fit's and the lab's start: the paper's static
+/// force stage on contexts[indices[k]] (direction of the identified gravity vector in B). False
+/// (and u, v untouched) if the paper's method cannot determine it.
+bool initialTilt(const std::vector<SampleContext>& contexts, const std::vector<int>& indices, double* tilt_u_rad,
+                 double* tilt_v_rad);
+
 /// Start for a delay (docs/identification.md): the prediction series `predicted` (6 x n, at times
 /// t, of a model without the delay) is shifted by each delay on a grid over [-max, max] (linear
 /// interpolation) and compared with `measured`; the first-order estimate (regression of the
