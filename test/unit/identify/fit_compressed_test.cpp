@@ -101,6 +101,17 @@ INSTANTIATE_TEST_SUITE_P(Models, CompressedTilt,
                          ::testing::Values("paper", "paper+rigid_body", "paper+rigid_body+cable",
                                            "paper+harmonic(q6,1)", "paper+poly(gz,1)"));
 
+TEST(CompressedTilt, UnweightedFromAGivenStartAgreesWithTheGeneralPath) {
+  FitOptions o;
+  o.axis_weights = false;
+  o.tilt_u_rad = 0.01;
+  o.tilt_v_rad = -0.02;
+  FitOptions g = o;
+  g.compressed_tilt_search = false;
+  const Model model = Model::fromName("paper+rigid_body");
+  expectSameFit(fitModel(model, data().samples, o), fitModel(model, data().samples, g), "unweighted, given start");
+}
+
 /// Weighted SSE and theta of the stacked problem at tilt (u, v), built here sample by sample.
 struct Direct {
   double sse = 0.0;
