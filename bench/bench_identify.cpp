@@ -1,16 +1,19 @@
 // Identification and compensation timing (docs/performance.md, "Identification and compensation").
 //   - paper method (dynamic; static as a same-run baseline) on 1,251 and 10,001 samples
-//   - fitModel("paper") (variable projection on the tilt, per-axis weights) on the same data
+//   - fitModel("paper") and fitModel("paper+rigid_body") (variable projection on the tilt, per-axis
+//     weights) on the same data: the compressed tilt search vs the general path (baseline)
 //   - the stacked linear solve alone: Householder QR (what fitModel uses) vs normal equations
 //     (baseline)
 //   - Compensator::compute per sample
-// Plain std::chrono, many repetitions, median and p99. Data: f1's simulator, paper cell, noisy.
+// Plain std::chrono (and the thread's CPU time), many repetitions, median and p99. Data: f1's simulator, paper cell, noisy.
 // Ratios are printed only against a baseline timed in the same run (never against recorded
-// figures of an earlier build or machine): earlier implementations are not kept in the binary, so
-// an old-vs-new comparison means running the old build's bench on the same machine.
+// figures of an earlier build or machine): earlier implementations are not kept in the binary
+// (except fitModel's general path, kept as the reference of the compressed tilt search), so other
+// old-vs-new comparisons mean running the old build's bench on the same machine.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <functional>
 #include <string>
 #include <vector>
@@ -29,24 +32,37 @@ using Clock = std::chrono::steady_clock;
 struct Stats {
   double median_us;
   double p99_us;
+  double cpu_median_us;  ///< this thread's CPU time (less sensitive to other processes' load)
 };
+
+double threadCpuUs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e6 + static_cast<double>(ts.tv_nsec) * 1e-3;
+}
 
 Stats timeIt(int reps, const std::function<void()>& f) {
   f();  // warm-up
   std::vector<double> us;
+  std::vector<double> cpu;
   us.reserve(static_cast<std::size_t>(reps));
+  cpu.reserve(static_cast<std::size_t>(reps));
   for (int r = 0; r < reps; ++r) {
+    const double c0 = threadCpuUs();
     const auto t0 = Clock::now();
     f();
     us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
+    cpu.push_back(threadCpuUs() - c0);
   }
   std::sort(us.begin(), us.end());
+  std::sort(cpu.begin(), cpu.end());
   const auto p99 = static_cast<std::size_t>(0.99 * static_cast<double>(us.size() - 1) + 0.5);
-  return {us[us.size() / 2], us[p99]};
+  return {us[us.size() / 2], us[p99], cpu[cpu.size() / 2]};
 }
 
 void report(const std::string& what, int reps, const Stats& s) {
-  std::printf("%-58s reps %5d  median %10.1f us  p99 %10.1f us\n", what.c_str(), reps, s.median_us, s.p99_us);
+  std::printf("%-58s reps %5d  median %10.1f us  p99 %10.1f us  (CPU median %10.1f us)\n", what.c_str(), reps,
+              s.median_us, s.p99_us, s.cpu_median_us);
 }
 
 /// Median ratio against a baseline measured in this run.
@@ -81,9 +97,20 @@ int main() {
     ratio("paper dynamic / static", dyn, sta);
 
     const effects::Model model = effects::Model::fromName("paper");
-    reps = small ? 40 : 8;
-    report("fitModel(paper), " + n, reps,
-           timeIt(reps, [&] { g_sink = identify::fitModel(model, s.samples).theta(0); }));
+    // fitModel: the compressed tilt search (the default) and the general path (the previous
+    // implementation, FitOptions::compressed_tilt_search = false) as the same-run baseline.
+    identify::FitOptions general;
+    general.compressed_tilt_search = false;
+    for (const char* name : {"paper", "paper+rigid_body"}) {
+      const effects::Model m = effects::Model::fromName(name);
+      reps = small ? 200 : 40;
+      const Stats fast = timeIt(reps, [&] { g_sink = identify::fitModel(m, s.samples).theta(0); });
+      report(std::string("fitModel(") + name + "), " + n, reps, fast);
+      const int greps = small ? 20 : 5;
+      const Stats slow = timeIt(greps, [&] { g_sink = identify::fitModel(m, s.samples, general).theta(0); });
+      report(std::string("fitModel(") + name + ") general path (baseline), " + n, greps, slow);
+      ratio("compressed / general", fast, slow);
+    }
 
     // The stacked linear problem alone (tilt known): QR vs normal equations.
     Eigen::MatrixXd A(6 * static_cast<Eigen::Index>(s.size()), model.numParams());

@@ -3,13 +3,14 @@
 #include "ftid/identify/fit.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
 
-#include "fit_internal.hpp"
+#include "linear_algebra.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/paper_method.hpp"
@@ -219,6 +220,286 @@ LinearSolution solveLinear(const Eigen::MatrixXd& A, const Eigen::VectorXd& yw) 
   return s;
 }
 
+/// The compressed tilt search (FitOptions::compressed_tilt_search; docs/identification.md).
+///
+/// For a model whose only nonlinear parameters are the tilt (no mounting, delay or effects that
+/// read the modelled wrench), the tilt enters only through g_S = R_BS^T g_B and the regressor is
+/// affine in g_S (checked on a sample of the data; e.g. harmonic(gx,1) is not, and then the general
+/// path runs). So per axis a, with s = standard gravity and e_k the base axes,
+///
+///   A_a(g_B) = A0_a + sum_k (g_B(k) / s) E_k,a      A0_a = A_a(g_S = 0), E_k,a = A_a(s R_BS^T e_k) - A0_a
+///
+/// is a fixed combination M_a(g_B) of the columns of B_a = [A0_a E_0,a E_1,a E_2,a y_a] (N x c_a,
+/// columns that are zero in every sample left out). One thin QR B_a = Q_a R_a per axis (the exact
+/// row compression of linear_algebra.hpp, internal::thinR), and for the per-axis weights w_a
+///
+///   sum_i |W (w_i - Y_i(g_B) theta)|^2 = sum_a w_a^2 |R_a (e_y - M_a(g_B) theta)|^2
+///
+/// exactly (Q_a has orthonormal columns and y_a is one of them), so every solve of the variable
+/// projection is a QR of the stacked [w_a R_a M_a(g_B)] (sum_a c_a rows, p columns), independent of
+/// N; the residual vector is Q^T of the stacked one (same norm, same Gauss-Newton steps). The same
+/// holds for the joint Jacobian [A(g_B), dA/dU theta, dA/dV theta] (its rank, condition number and
+/// (J^T J)^{-1}); only the Newey-West scores need the per-sample rows, one pass over B_a.
+class GravityCompression {
+ public:
+  /// Builds the compression; false if the regressor is not affine in g_S (at g_check_B).
+  bool build(const Problem& pb, const Vec3& g_check_B) {
+    const int n = pb.n;
+    const int p = pb.p;
+    p_ = p;
+    const int m = 4 * p + 1;  // [A0 E0 E1 E2 y]
+    // The probe samples: the affine check and the first guess of the non-zero columns.
+    const int stride = std::max(1, n / 64);
+    // Effects whose contribution changes with g_S on a probe sample are evaluated four times per
+    // sample (g_S = 0 and the three base axes), the others once. A misclassified effect would show
+    // in the affine check of the full regressor below.
+    const auto& effect_list = pb.model.effectList();
+    std::vector<const effects::Effect*> fixed_effects, gravity_effects;
+    {
+      Eigen::Matrix<double, 6, Eigen::Dynamic> Z0(6, p), Zk(6, p);
+      SampleContext c;
+      for (const auto& e : effect_list) {
+        bool reads_g = false;
+        for (int i = 0; i < n && !reads_g; i += stride) {
+          c = pb.at(i);
+          c.wrench_model_S.setZero();
+          c.g_S.setZero();
+          Z0.setZero();
+          e->addRegressor(c, Z0);
+          for (int k = 0; k < 3 && !reads_g; ++k) {
+            c.g_S = kStandardGravity * c.R_BS.row(k).transpose();
+            Zk.setZero();
+            e->addRegressor(c, Zk);
+            reads_g = Zk != Z0;
+          }
+        }
+        (reads_g ? gravity_effects : fixed_effects).push_back(e.get());
+      }
+    }
+    std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> Y;  // Y0, E0, E1, E2
+    for (auto& y : Y) y.resize(6, p);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Yc(6, p);
+    SampleContext c;
+    // Y and E of sample i (and the affine check on probe samples); false if not affine.
+    auto sampleRegressors = [&](int i) {
+      c = pb.at(i);
+      c.wrench_model_S.setZero();
+      c.g_S.setZero();
+      Y[0].setZero();
+      for (const auto* e : fixed_effects) e->addRegressor(c, Y[0]);
+      Yc.setZero();
+      for (const auto* e : gravity_effects) e->addRegressor(c, Yc);
+      Y[0] += Yc;
+      for (int k = 0; k < 3; ++k) {
+        auto& Ek = Y[static_cast<std::size_t>(k + 1)];
+        c.g_S = kStandardGravity * c.R_BS.row(k).transpose();  // R_BS^T (s e_k)
+        Ek = -Yc;
+        for (const auto* e : gravity_effects) e->addRegressor(c, Ek);
+      }
+      if (i % stride != 0) return true;
+      // Affine in g_S: the full regressor at the start's gravity equals the combination.
+      c.g_S = c.R_BS.transpose() * g_check_B;
+      pb.model.computeRegressor(c, Yc);
+      Eigen::Matrix<double, 6, Eigen::Dynamic> comb = Y[0];
+      for (int k = 0; k < 3; ++k) comb += (g_check_B(k) / kStandardGravity) * Y[static_cast<std::size_t>(k + 1)];
+      const double scale = std::max(1.0, Yc.cwiseAbs().maxCoeff());
+      return (Yc - comb).cwiseAbs().maxCoeff() <= 1e-9 * scale;
+    };
+    // Non-zero columns per axis, first from the probe samples; a pass that meets another one adds
+    // it and runs again (the union after a full pass is exact).
+    std::array<std::vector<char>, 6> used;
+    for (auto& u : used) {
+      u.assign(static_cast<std::size_t>(m), 0);
+      u[static_cast<std::size_t>(m - 1)] = 1;  // y
+    }
+    auto markUsed = [&]() {
+      bool added = false;
+      for (int a = 0; a < 6; ++a) {
+        for (int k = 0; k < 4; ++k) {
+          for (int j = 0; j < p; ++j) {
+            char& u = used[static_cast<std::size_t>(a)][static_cast<std::size_t>(k * p + j)];
+            if (!u && Y[static_cast<std::size_t>(k)](a, j) != 0.0) {
+              u = 1;
+              added = true;
+            }
+          }
+        }
+      }
+      return added;
+    };
+    for (int i = 0; i < n; i += stride) {
+      if (!sampleRegressors(i)) return false;
+      markUsed();
+    }
+    for (int pass = 0; pass < 2; ++pass) {
+      // Column maps and the mask of the columns left out (they must stay zero).
+      std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> out_mask;
+      for (auto& mk : out_mask) mk.setZero(6, p);
+      for (int a = 0; a < 6; ++a) {
+        std::vector<int>& map = col_[static_cast<std::size_t>(a)];
+        map.assign(static_cast<std::size_t>(m), -1);
+        int ca = 0;
+        for (int col = 0; col < m; ++col) {
+          if (used[static_cast<std::size_t>(a)][static_cast<std::size_t>(col)]) {
+            map[static_cast<std::size_t>(col)] = ca++;
+          } else {
+            out_mask[static_cast<std::size_t>(col / p)](a, col % p) = 1.0;
+          }
+        }
+        B_[static_cast<std::size_t>(a)].resize(n, ca);
+      }
+      bool complete = true;
+      for (int i = 0; i < n; ++i) {
+        if (!sampleRegressors(i)) return false;
+        const Wrench& w = pb.at(i).wrench_S;
+        for (int a = 0; a < 6; ++a) {
+          const std::vector<int>& map = col_[static_cast<std::size_t>(a)];
+          Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
+          for (int k = 0, col = 0; k < 4; ++k) {
+            for (int j = 0; j < p; ++j, ++col) {
+              const int bc = map[static_cast<std::size_t>(col)];
+              if (bc >= 0) Ba(i, bc) = Y[static_cast<std::size_t>(k)](a, j);
+            }
+          }
+          Ba(i, map[static_cast<std::size_t>(m - 1)]) = w(a);
+        }
+        bool clean = true;
+        for (int k = 0; k < 4; ++k) {
+          clean = clean && Y[static_cast<std::size_t>(k)].cwiseProduct(out_mask[static_cast<std::size_t>(k)]).cwiseAbs().maxCoeff() == 0.0;
+        }
+        if (!clean) {
+          markUsed();
+          complete = false;
+        }
+      }
+      if (complete) break;
+      if (pass == 1) return false;  // cannot happen: the first full pass found every column
+    }
+    rows_ = 0;
+    for (int a = 0; a < 6; ++a) {
+      const Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
+      Eigen::MatrixXd D = Ba;  // thinR factors in place; B_a stays for the per-sample rows
+      R_[static_cast<std::size_t>(a)] = internal::thinR(D);
+      const int ra = static_cast<int>(R_[static_cast<std::size_t>(a)].rows());
+      offset_[static_cast<std::size_t>(a)] = rows_;
+      rows_ += ra;
+    }
+    // Stacked column blocks P_k (rows x p): P_k's column j is R_a's column of (k, j) (zero if absent).
+    for (auto& P : P_) P = Eigen::MatrixXd::Zero(rows_, p);
+    Py_ = Eigen::VectorXd::Zero(rows_);
+    axis_of_row_.resize(rows_);
+    for (int a = 0; a < 6; ++a) {
+      const auto& Ra = R_[static_cast<std::size_t>(a)];
+      const int o = offset_[static_cast<std::size_t>(a)];
+      const int ra = static_cast<int>(Ra.rows());
+      axis_of_row_.segment(o, ra).setConstant(a);
+      for (int k = 0; k < 4; ++k) {
+        for (int j = 0; j < p; ++j) {
+          const int bc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(k * p + j)];
+          if (bc >= 0) P_[static_cast<std::size_t>(k)].block(o, j, ra, 1) = Ra.col(bc);
+        }
+      }
+      const int yc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(4 * p)];
+      if (yc >= 0) Py_.segment(o, ra) = Ra.col(yc);
+    }
+    return true;
+  }
+
+  /// Weighted compressed regressor [w_a R_a M_a(g_B)] (rows() x p) and measurement.
+  void compressed(const Vec3& g_B, const Vec6& w, Eigen::MatrixXd* C, Eigen::VectorXd* z) const {
+    *C = P_[0];
+    for (int k = 0; k < 3; ++k) *C += (g_B(k) / kStandardGravity) * P_[static_cast<std::size_t>(k + 1)];
+    *z = Py_;
+    for (Eigen::Index r = 0; r < rows_; ++r) {
+      const double wa = w(axis_of_row_(r));
+      C->row(r) *= wa;
+      (*z)(r) *= wa;
+    }
+  }
+
+  /// The projected residual (compressed: Q^T of the stacked one) and theta for the tilt in nl.
+  LinearSolution solve(const NonlinearParams& nl, const Vec6& w) const {
+    Eigen::MatrixXd C;
+    Eigen::VectorXd z;
+    compressed(model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad), w, &C, &z);
+    return solveLinear(C, z);
+  }
+
+  /// Sum of squares per axis of a compressed residual (the axes' rows are their own).
+  Vec6 axisSquaredNorms(const Eigen::VectorXd& r) const {
+    Vec6 out;
+    for (int a = 0; a < 6; ++a) {
+      out(a) = r.segment(offset_[static_cast<std::size_t>(a)], R_[static_cast<std::size_t>(a)].rows()).squaredNorm();
+    }
+    return out;
+  }
+
+  /// Mixing matrices of the joint Jacobian of axis a: B_a * mix = [A_a(g_B), dA_a theta(dg_u), dA_a theta(dg_v)]
+  /// (unweighted), and the measurement's column e_y. dg_u, dg_v are the derivatives of g_B.
+  Eigen::MatrixXd jacobianMix(int a, const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v,
+                              const Eigen::VectorXd& theta) const {
+    const auto& map = col_[static_cast<std::size_t>(a)];
+    const int ca = static_cast<int>(B_[static_cast<std::size_t>(a)].cols());
+    Eigen::MatrixXd mix = Eigen::MatrixXd::Zero(ca, p_ + 2);
+    for (int j = 0; j < p_; ++j) {
+      const int c0 = map[static_cast<std::size_t>(j)];
+      if (c0 >= 0) mix(c0, j) += 1.0;
+      for (int k = 0; k < 3; ++k) {
+        const int ck = map[static_cast<std::size_t>((k + 1) * p_ + j)];
+        if (ck < 0) continue;
+        mix(ck, j) += g_B(k) / kStandardGravity;
+        mix(ck, p_) += dg_u(k) / kStandardGravity * theta(j);
+        mix(ck, p_ + 1) += dg_v(k) / kStandardGravity * theta(j);
+      }
+    }
+    return mix;
+  }
+
+  /// Weighted joint Jacobian, compressed (rows() x (p + 2)): same column norms, singular values and
+  /// (J^T J)^{-1} as the stacked one.
+  Eigen::MatrixXd compressedJacobian(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v,
+                                     const Eigen::VectorXd& theta, const Vec6& w) const {
+    Eigen::MatrixXd J(rows_, p_ + 2);
+    for (int a = 0; a < 6; ++a) {
+      const auto& Ra = R_[static_cast<std::size_t>(a)];
+      J.middleRows(offset_[static_cast<std::size_t>(a)], Ra.rows()) = w(a) * Ra * jacobianMix(a, g_B, dg_u, dg_v, theta);
+    }
+    return J;
+  }
+
+  /// The stacked weighted Jacobian (6N x (p + 2), rows 6 i + a) and residual (6N) per sample.
+  void fullJacobian(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v, const Eigen::VectorXd& theta,
+                    const Vec6& w, Eigen::MatrixXd* J, Eigen::VectorXd* r) const {
+    const Eigen::Index n = B_[0].rows();
+    J->resize(6 * n, p_ + 2);
+    r->resize(6 * n);
+    for (int a = 0; a < 6; ++a) {
+      const auto& Ba = B_[static_cast<std::size_t>(a)];
+      const Eigen::MatrixXd Ja = Ba * jacobianMix(a, g_B, dg_u, dg_v, theta);
+      const int yc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(4 * p_)];
+      Eigen::VectorXd ra = -(Ja.leftCols(p_) * theta);
+      if (yc >= 0) ra += Ba.col(yc);
+      for (Eigen::Index i = 0; i < n; ++i) {
+        J->row(6 * i + a) = w(a) * Ja.row(i);
+        (*r)(6 * i + a) = w(a) * ra(i);
+      }
+    }
+  }
+
+  Eigen::Index rows() const { return rows_; }
+
+ private:
+  int p_ = 0;
+  std::array<Eigen::MatrixXd, 6> B_;         ///< per axis, N x c_a
+  std::array<Eigen::MatrixXd, 6> R_;         ///< per axis, min(N, c_a) x c_a
+  std::array<std::vector<int>, 6> col_;      ///< (k p + j) or 4p (y) -> column of B_a, or -1
+  std::array<int, 6> offset_{};              ///< first stacked row of each axis
+  Eigen::Index rows_ = 0;
+  std::array<Eigen::MatrixXd, 4> P_;         ///< stacked R columns of A0, E0, E1, E2
+  Eigen::VectorXd Py_;                       ///< stacked R column of y
+  Eigen::VectorXi axis_of_row_;
+};
+
 /// Variable-projection residual for the nonlinear parameters.
 LinearSolution projectedResidual(const Problem& pb, const NonlinearParams& nl, const Vec6& w,
                                  const Eigen::VectorXd& yw, Eigen::MatrixXd* A) {
@@ -251,10 +532,14 @@ struct PhiState {
 /// Levenberg-damped Gauss-Newton on phi minimising the projected residual. With a delay, steps
 /// stay inside [delay_lo, delay_hi] (the window the active samples were chosen for).
 LinearSolution fitNonlinear(const Problem& pb, const PhiLayout& L, const Vec6& w, int max_iterations,
-                            PhiState* st, double delay_lo = -1e300, double delay_hi = 1e300) {
-  const Eigen::VectorXd yw = pb.weightedMeasurement(w);
+                            PhiState* st, double delay_lo = -1e300, double delay_hi = 1e300,
+                            const GravityCompression* gc = nullptr) {
+  const Eigen::VectorXd yw = gc != nullptr ? Eigen::VectorXd() : pb.weightedMeasurement(w);
   Eigen::MatrixXd A;
-  LinearSolution cur = projectedResidual(pb, st->params(L), w, yw, &A);
+  auto project = [&](const NonlinearParams& nl) {
+    return gc != nullptr ? gc->solve(nl, w) : projectedResidual(pb, nl, w, yw, &A);
+  };
+  LinearSolution cur = project(st->params(L));
   const int k = L.size;
   if (k == 0) return cur;
   double cost = cur.residual.squaredNorm();
@@ -265,7 +550,7 @@ LinearSolution fitNonlinear(const Problem& pb, const PhiLayout& L, const Vec6& w
     for (int j = 0; j < k; ++j) {
       PhiState t = *st;
       t.phi(j) += L.step(j);
-      J.col(j) = (projectedResidual(pb, t.params(L), w, yw, &A).residual - cur.residual) / L.step(j);
+      J.col(j) = (project(t.params(L)).residual - cur.residual) / L.step(j);
     }
     const Eigen::VectorXd jn = J.colwise().norm();
     if (!(jn.minCoeff() > 0.0)) break;
@@ -282,7 +567,7 @@ LinearSolution fitNonlinear(const Problem& pb, const PhiLayout& L, const Vec6& w
       trial_state.phi += step;
       if (L.delay >= 0) trial_state.phi(L.delay) = std::clamp(trial_state.phi(L.delay), delay_lo, delay_hi);
       step = trial_state.phi - st->phi;
-      LinearSolution trial = projectedResidual(pb, trial_state.params(L), w, yw, &A);
+      LinearSolution trial = project(trial_state.params(L));
       const double trial_cost = trial.residual.squaredNorm();
       if (trial_cost <= cost) {
         st->phi = trial_state.phi;
@@ -354,6 +639,46 @@ std::vector<std::string> paramNames(const Model& model) { return model.paramInde
 
 }  // namespace
 
+Mat6X timeDerivative(const std::vector<double>& t, const Mat6X& w, const std::vector<int>& segment_start) {
+  const int n = static_cast<int>(w.cols());
+  Mat6X d = Mat6X::Zero(6, n);
+  std::vector<int> starts = segment_start;
+  if (starts.empty()) starts.push_back(0);
+  starts.push_back(n);
+  for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
+    const int a0 = starts[s];
+    const int a1 = starts[s + 1];
+    for (int i = a0; i < a1; ++i) {
+      const int a = std::max(i - 1, a0);
+      const int b = std::min(i + 1, a1 - 1);
+      const double dt = t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)];
+      if (b > a && dt > 0.0) d.col(i) = (w.col(b) - w.col(a)) / dt;
+    }
+  }
+  return d;
+}
+
+bool initialTilt(const std::vector<SampleContext>& contexts, const std::vector<int>& indices, double* tilt_u_rad,
+                 double* tilt_v_rad) {
+  bool all = indices.size() == contexts.size();  // all contexts in order: no copy
+  for (std::size_t k = 0; all && k < indices.size(); ++k) all = indices[k] == static_cast<int>(k);
+  std::vector<SampleContext> subset;
+  if (!all) {
+    subset.reserve(indices.size());
+    for (int idx : indices) subset.push_back(contexts[static_cast<std::size_t>(idx)]);
+  }
+  try {
+    PaperOptions po;
+    po.method = PaperMethod::kStatic;
+    const PaperResult pr = identifyPaper(all ? contexts : subset, po);
+    *tilt_u_rad = pr.tilt_u_rad;
+    *tilt_v_rad = pr.tilt_v_rad;
+    return true;
+  } catch (const Error&) {
+    return false;
+  }
+}
+
 double initialDelayEstimate(const std::vector<double>& t, const Mat6X& measured, const Mat6X& pred,
                             const Vec6& w, double max_delay_s) {
   const int n = static_cast<int>(t.size());
@@ -382,12 +707,9 @@ double initialDelayEstimate(const std::vector<double>& t, const Mat6X& measured,
   // First-order estimate: residual ~ -tau dw/dt (central differences).
   double num = 0.0;
   double den = 0.0;
+  const Mat6X dpred = timeDerivative(t, pred);
   for (int i = 0; i < n; ++i) {
-    const int a = std::max(i - 1, 0);
-    const int b = std::min(i + 1, n - 1);
-    const double dt = t[static_cast<std::size_t>(b)] - t[static_cast<std::size_t>(a)];
-    if (!(dt > 0.0)) continue;
-    const Vec6 d = -w.cwiseProduct(pred.col(b) - pred.col(a)) / dt;
+    const Vec6 d = -w.cwiseProduct(dpred.col(i));
     const Vec6 r = w.cwiseProduct(measured.col(i) - pred.col(i));
     num += d.dot(r);
     den += d.squaredNorm();
@@ -509,21 +831,17 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   st.fixed.tilt_u_rad = options.tilt_u_rad.value_or(0.0);
   st.fixed.tilt_v_rad = options.tilt_v_rad.value_or(0.0);
   if (estimate_tilt && !(options.tilt_u_rad && options.tilt_v_rad)) {
-    // The paper's force stage (static): direction of the identified gravity vector in B.
-    std::vector<SampleContext> subset;
-    subset.reserve(indices.size());
-    for (int idx : indices) subset.push_back(contexts[static_cast<std::size_t>(idx)]);
-    try {
-      PaperOptions po;
-      po.method = PaperMethod::kStatic;
-      const PaperResult pr = identifyPaper(subset, po);
-      st.fixed.tilt_u_rad = pr.tilt_u_rad;
-      st.fixed.tilt_v_rad = pr.tilt_v_rad;
-    } catch (const Error&) {
-      // Not determinable by the paper's method: start level; the rank check below decides.
-    }
+    // Not determinable by the paper's method: start level; the rank check below decides.
+    (void)initialTilt(contexts, indices, &st.fixed.tilt_u_rad, &st.fixed.tilt_v_rad);
   }
   st.phi = L.vector(st.fixed);
+
+  // Tilt-only models: the compressed tilt search (GravityCompression), unless the regressor turns
+  // out not to be affine in gravity.
+  GravityCompression gc;
+  const bool compressed = options.compressed_tilt_search && L.tilt >= 0 && L.size == 2 && !pb.reads_wmodel &&
+                          gc.build(pb, model::gravityInBase(st.fixed.tilt_u_rad, st.fixed.tilt_v_rad));
+  const GravityCompression* gcp = compressed ? &gc : nullptr;
 
   const std::vector<std::string> names = paramNames(model);
   // Rank of the linear part at the initial point (the measured wrench stands in for the modelled
@@ -533,7 +851,14 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
       for (int i = 0; i < pb.n; ++i) pb.wmodel[static_cast<std::size_t>(i)] = measured.col(i);
     }
     Eigen::MatrixXd A;
-    pb.buildRegressor(st.params(L), Vec6::Ones(), &A);
+    if (compressed) {
+      // Same column norms and singular values as the stacked regressor.
+      Eigen::VectorXd z;
+      const NonlinearParams nl0 = st.params(L);
+      gc.compressed(model::gravityInBase(nl0.tilt_u_rad, nl0.tilt_v_rad), Vec6::Ones(), &A, &z);
+    } else {
+      pb.buildRegressor(st.params(L), Vec6::Ones(), &A);
+    }
     const internal::RankReport rr = internal::analyzeRank(A, options.rank_tolerance);
     if (rr.rank < pb.p) {
       std::vector<std::string> bad;
@@ -573,7 +898,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   };
   auto runFit = [&](int derivative_passes, int iterations) {
     pb.gn_lambda = 0.0;
-    sol = fitNonlinear(pb, L, weights, iterations, &st, delay_lo, delay_hi);
+    sol = fitNonlinear(pb, L, weights, iterations, &st, delay_lo, delay_hi, gcp);
     if (derivative_passes == 0) return;
     // Levenberg-damped Gauss-Newton passes on the modelled-wrench effects (Problem::gn_theta),
     // each accepted only if the true (bilinear) model's cost falls.
@@ -635,8 +960,9 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   runFit(pb.reads_wmodel ? options.derivative_iterations : 0,
          options.axis_weights ? std::min(options.max_tilt_iterations, 4) : options.max_tilt_iterations);
   if (options.axis_weights) {
-    const Mat6X r = unstack(sol.residual, pb.n);
-    const Vec6 rms = (r.rowwise().squaredNorm() / std::max(1, pb.n_active)).cwiseSqrt();
+    const Vec6 ss = compressed ? gc.axisSquaredNorms(sol.residual)
+                               : Vec6(unstack(sol.residual, pb.n).rowwise().squaredNorm());
+    const Vec6 rms = (ss / std::max(1, pb.n_active)).cwiseSqrt();
     const double floor = std::max(1e-3 * rms.maxCoeff(), 1e-12);
     for (int a = 0; a < 6; ++a) weights(a) = 1.0 / std::max(rms(a), floor);
     runFit(pb.reads_wmodel ? 2 : 0, options.max_tilt_iterations);
@@ -669,9 +995,24 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   res.axis_weights = weights;
   res.n_samples = pb.n_active;
 
-  // Joint Jacobian of the weighted model wrt [theta, phi] at the solution.
-  Eigen::MatrixXd J(6 * pb.n, n_unknowns);
-  {
+  // Joint Jacobian of the weighted model wrt [theta, phi] at the solution (and the weighted
+  // residual per sample, for the Newey-West scores).
+  Eigen::MatrixXd J;
+  Eigen::MatrixXd J_weighted;
+  Eigen::VectorXd r_weighted;
+  if (compressed) {
+    // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
+    // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
+    const double h = 1e-5;
+    const double u = nl.tilt_u_rad;
+    const double v = nl.tilt_v_rad;
+    const Vec3 g_B = model::gravityInBase(u, v);
+    const Vec3 dg_u = (model::gravityInBase(u + h, v) - model::gravityInBase(u - h, v)) / (2.0 * h);
+    const Vec3 dg_v = (model::gravityInBase(u, v + h) - model::gravityInBase(u, v - h)) / (2.0 * h);
+    J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
+    gc.fullJacobian(g_B, dg_u, dg_v, sol.theta, weights, &J_weighted, &r_weighted);
+  } else {
+    J.resize(6 * pb.n, n_unknowns);
     Eigen::MatrixXd A;
     pb.buildRegressor(nl, weights, &A);
     J.leftCols(pb.p) = A;
@@ -686,6 +1027,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
       pb.buildRegressor(sm.params(L), weights, &Am);
       J.col(pb.p + j) = (Ap - Am) * sol.theta / (2.0 * h);
     }
+    J_weighted = J;  // the QR factors J in place; the covariance needs it
+    r_weighted = sol.residual;
   }
   std::vector<std::string> all_names = names;
   if (L.tilt >= 0) {
@@ -697,7 +1040,6 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   if (L.delay >= 0) all_names.push_back(effects::kDelayParamName);
   // One factorisation of J for the rank check, the condition number and the covariance.
-  const Eigen::MatrixXd J_weighted = J;  // the QR factors J in place; the covariance needs it
   const internal::ScaledQR qr_j(J, options.rank_tolerance);
   const internal::RankReport& rr = qr_j.rank();
   if (rr.rank < n_unknowns) {
@@ -712,7 +1054,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   const int dof = 6 * pb.n_active - n_unknowns;
   res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
   // Autocorrelation-robust (Newey-West) covariance: holds for filtered noise (uncertainty.hpp).
-  res.covariance = robustCovariance(J_weighted, sol.residual, qr_j.inverseGram()).covariance;
+  res.covariance = robustCovariance(J_weighted, r_weighted, qr_j.inverseGram()).covariance;
   res.theta_std = res.covariance.diagonal().head(pb.p).cwiseMax(0.0).cwiseSqrt();
   auto sd = [&](int j) { return std::sqrt(std::max(res.covariance(pb.p + j, pb.p + j), 0.0)); };
   if (L.tilt >= 0) {

@@ -1,9 +1,13 @@
-// Rank analysis, condition numbers and covariance helpers (fit_internal.hpp).
+// Rank analysis, condition numbers, exact row compression (linear_algebra.hpp) and the Gram solve
+// for screening (ftid/identify/normal_equations.hpp).
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-#include "fit_internal.hpp"
+#include <Eigen/Eigenvalues>
+
+#include "linear_algebra.hpp"
+#include "ftid/identify/normal_equations.hpp"
 
 namespace ftid::identify::internal {
 
@@ -168,6 +172,12 @@ Eigen::MatrixXd ScaledQR::inverseGramRankOneUpdate(const Eigen::VectorXd& qt_u, 
   return unpivotUnscale(inverseGramOfR(RM));
 }
 
+Eigen::MatrixXd thinR(Eigen::MatrixXd& D) {
+  const Eigen::Index r = std::min(D.rows(), D.cols());
+  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(D);
+  return qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
+}
+
 std::string joinNames(const std::vector<std::string>& names) {
   std::string out;
   for (std::size_t i = 0; i < names.size(); ++i) {
@@ -180,3 +190,43 @@ std::string joinNames(const std::vector<std::string>& names) {
 bool allFinite(const Eigen::Ref<const Eigen::MatrixXd>& m) { return m.allFinite(); }
 
 }  // namespace ftid::identify::internal
+
+namespace ftid::identify {
+
+GramSolution solveGram(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, bool want_inverse,
+                       double relative_tolerance) {
+  const Eigen::Index p = G.rows();
+  GramSolution out;
+  out.x = Eigen::VectorXd::Zero(p);
+  if (p == 0) return out;
+  Eigen::VectorXd d(p);
+  for (Eigen::Index k = 0; k < p; ++k) d(k) = G(k, k) > 0.0 ? 1.0 / std::sqrt(G(k, k)) : 0.0;
+  const Eigen::MatrixXd Gs = d.asDiagonal() * G * d.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Gs);
+  const Eigen::VectorXd& l = eig.eigenvalues();
+  const double lmax = l.maxCoeff();
+  Eigen::VectorXd linv = Eigen::VectorXd::Zero(p);
+  double lmin_kept = lmax;
+  for (Eigen::Index k = 0; k < p; ++k) {
+    if (lmax > 0.0 && l(k) > relative_tolerance * lmax) {
+      linv(k) = 1.0 / l(k);
+      ++out.rank;
+      lmin_kept = std::min(lmin_kept, l(k));
+    }
+  }
+  out.condition = lmax > 0.0 ? std::sqrt(lmax / lmin_kept) : 0.0;
+  const Eigen::MatrixXd& V = eig.eigenvectors();
+  if (want_inverse && out.rank < p) {
+    out.null_space.resize(p, p - out.rank);
+    int c = 0;
+    for (Eigen::Index k = 0; k < p; ++k) {
+      if (linv(k) == 0.0) out.null_space.col(c++) = V.col(k);
+    }
+  }
+  const Eigen::VectorXd hs = d.asDiagonal() * h;
+  out.x = d.asDiagonal() * (V * (linv.asDiagonal() * (V.transpose() * hs)));
+  if (want_inverse) out.inverse = d.asDiagonal() * V * linv.asDiagonal() * V.transpose() * d.asDiagonal();
+  return out;
+}
+
+}  // namespace ftid::identify

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "fit_internal.hpp"
+#include "linear_algebra.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/identify/uncertainty.hpp"
 
@@ -40,19 +40,9 @@ std::string torqueStageNames(const std::vector<int>& cols) {
   return internal::joinNames(names);
 }
 
-// Exact row compression. A stage's stacked rows for axis a are D_a C_a: D_a holds one row of
-// data per sample (n x d), C_a is a constant d x k map. With the thin QR D_a = Q_a R_a the rows are
-// Q_a (R_a C_a), and Q_a has orthonormal columns, so the 3n-row problem and the compressed
-// [R_0 C_0; R_1 C_1; R_2 C_2] (3 min(n, d) rows) have the same column norms, Gram matrix, singular
-// values, least-squares solutions and residual norms. One thin QR of n x d data replaces the QR of
-// the 3n x 6 regressor and the application of its Q to the right-hand sides.
-
-/// R of the thin QR of D (min(n, d) x d, upper trapezoidal). D is overwritten.
-Eigen::MatrixXd thinR(Eigen::MatrixXd& D) {
-  const Eigen::Index r = std::min(D.rows(), D.cols());
-  const Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(D);
-  return qr.matrixQR().topRows(r).triangularView<Eigen::Upper>();
-}
+// Exact row compression (internal::thinR, linear_algebra.hpp): a stage's stacked rows for axis a
+// are D_a C_a with data D_a (one row per sample) and a constant map C_a; the compressed
+// [R_0 C_0; R_1 C_1; R_2 C_2] replaces the 3n-row problem.
 
 /// Force stage, axis a: row [R_i(:, a)^T, 1, f_i(a), a_i(a)] D -> [R_i^T row a, e_a^T | f_i(a) | a_i(a)].
 Eigen::MatrixXd forceRowMap(int a) {
@@ -75,7 +65,7 @@ Eigen::MatrixXd torqueRowMap(int a, bool with_rhs) {
 
 /// Compressed torque-stage problem from the shared data D = [f_i^T, 1 (, t_i^T)] (overwritten).
 Eigen::MatrixXd compressTorqueStage(Eigen::MatrixXd& D, bool with_rhs) {
-  const Eigen::MatrixXd R = thinR(D);
+  const Eigen::MatrixXd R = internal::thinR(D);
   const Eigen::Index r = R.rows();
   Eigen::MatrixXd K(3 * r, with_rhs ? 7 : 6);
   for (int a = 0; a < 3; ++a) K.middleRows(a * r, r).noalias() = R * torqueRowMap(a, with_rhs);
@@ -136,7 +126,7 @@ PaperResult identifyPaper(const std::vector<SampleContext>& contexts, const Pape
       }
     }
     for (int a = 0; a < 3; ++a) {
-      const Eigen::MatrixXd R = thinR(D[static_cast<std::size_t>(a)]);
+      const Eigen::MatrixXd R = internal::thinR(D[static_cast<std::size_t>(a)]);
       K_f.middleRows(6 * a, R.rows()).noalias() = R * forceRowMap(a);
     }
   }

@@ -9,6 +9,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/fit.hpp"
+#include "ftid/identify/normal_equations.hpp"
 #include "ftid/model/frames.hpp"
 
 namespace ftid::lab::detail {
@@ -17,7 +18,6 @@ namespace {
 
 using effects::Model;
 
-constexpr double kEigenTolerance = 1e-12;  // relative, on the scaled normal matrix
 
 /// d g_B / dU and d g_B / dV (docs/conventions.md: g_B = g (cosU sinV, -sinU, -cosU cosV)).
 Vec3 gravityDerivativeU(double u, double v) {
@@ -27,53 +27,11 @@ Vec3 gravityDerivativeV(double u, double v) {
   return kStandardGravity * Vec3(std::cos(u) * std::cos(v), 0.0, std::cos(u) * std::sin(v));
 }
 
-struct PinvSolve {
-  Eigen::VectorXd x;
-  Eigen::MatrixXd inverse;  ///< pseudo-inverse of G
-  int rank = 0;
-  double condition = 0.0;   ///< of the column-scaled regressor (sqrt of the Gram's)
-  Eigen::MatrixXd null_space;  ///< dropped directions (columns, in column-scaled coordinates)
-};
-
-/// Pseudo-inverse solve of G x = h on the column-equilibrated G.
-PinvSolve solveNormal(const Eigen::MatrixXd& G, const Eigen::VectorXd& h, bool want_inverse) {
-  const Eigen::Index p = G.rows();
-  PinvSolve out;
-  out.x = Eigen::VectorXd::Zero(p);
-  if (p == 0) return out;
-  Eigen::VectorXd d(p);
-  for (Eigen::Index k = 0; k < p; ++k) d(k) = G(k, k) > 0.0 ? 1.0 / std::sqrt(G(k, k)) : 0.0;
-  const Eigen::MatrixXd Gs = d.asDiagonal() * G * d.asDiagonal();
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Gs);
-  const Eigen::VectorXd& l = eig.eigenvalues();
-  const double lmax = l.maxCoeff();
-  Eigen::VectorXd linv = Eigen::VectorXd::Zero(p);
-  double lmin_kept = lmax;
-  for (Eigen::Index k = 0; k < p; ++k) {
-    if (lmax > 0.0 && l(k) > kEigenTolerance * lmax) {
-      linv(k) = 1.0 / l(k);
-      ++out.rank;
-      lmin_kept = std::min(lmin_kept, l(k));
-    }
-  }
-  out.condition = lmax > 0.0 ? std::sqrt(lmax / lmin_kept) : 0.0;
-  const Eigen::MatrixXd& V = eig.eigenvectors();
-  if (want_inverse && out.rank < p) {
-    out.null_space.resize(p, p - out.rank);
-    int c = 0;
-    for (Eigen::Index k = 0; k < p; ++k) {
-      if (linv(k) == 0.0) out.null_space.col(c++) = V.col(k);
-    }
-  }
-  const Eigen::VectorXd hs = d.asDiagonal() * h;
-  out.x = d.asDiagonal() * (V * (linv.asDiagonal() * (V.transpose() * hs)));
-  if (want_inverse) out.inverse = d.asDiagonal() * V * linv.asDiagonal() * V.transpose() * d.asDiagonal();
-  return out;
-}
-
 }  // namespace
 
 Engine::Engine(Dataset data) : data_(std::move(data)) {
+  times_.reserve(data_.ctx.size());
+  for (const auto& c : data_.ctx) times_.push_back(c.t);
   block_of_.assign(static_cast<std::size_t>(data_.size()), 0);
   for (std::size_t b = 0; b < data_.blocks.size(); ++b) {
     for (int i = data_.blocks[b].begin; i < data_.blocks[b].end; ++i) block_of_[static_cast<std::size_t>(i)] = static_cast<int>(b);
@@ -301,7 +259,7 @@ Solution Engine::solve(const Design& X, bool with_folds, const Design* raw) cons
   for (std::size_t b = 0; b < nb; ++b) {
     if (data_.blocks[b].fit) Gf += Gb[b];
   }
-  const PinvSolve full = solveNormal(Gf.topLeftCorner(p, p), Gf.col(p).head(p), true);
+  const identify::GramSolution full = identify::solveGram(Gf.topLeftCorner(p, p), Gf.col(p).head(p), true);
   sol.theta = full.x;
   sol.rank = full.rank;
   sol.null_space = full.null_space;
@@ -331,7 +289,7 @@ Solution Engine::solve(const Design& X, bool with_folds, const Design* raw) cons
     for (std::size_t b = 0; b < nb; ++b) {
       if (data_.trains(f, static_cast<int>(b))) Gt += Gb[b];
     }
-    const PinvSolve fold = solveNormal(Gt.topLeftCorner(p, p), Gt.col(p).head(p), false);
+    const identify::GramSolution fold = identify::solveGram(Gt.topLeftCorner(p, p), Gt.col(p).head(p), false);
     const int tb = data_.testBlock(f);
     const Block& blk = data_.blocks[static_cast<std::size_t>(tb)];
     const int nbk = blk.end - blk.begin;
@@ -378,21 +336,7 @@ Mat6X Engine::predict(const Model& model, const Linearization& lin, const Eigen:
 }
 
 Mat6X Engine::timeDerivative(const Mat6X& w) const {
-  const int n = data_.size();
-  Mat6X d = Mat6X::Zero(6, n);
-  std::vector<int> starts = data_.segment_start;
-  starts.push_back(n);
-  for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
-    const int a0 = starts[s];
-    const int a1 = starts[s + 1];
-    for (int i = a0; i < a1; ++i) {
-      const int a = std::max(i - 1, a0);
-      const int b = std::min(i + 1, a1 - 1);
-      const double dt = data_.ctx[static_cast<std::size_t>(b)].t - data_.ctx[static_cast<std::size_t>(a)].t;
-      if (b > a && dt > 0.0) d.col(i) = (w.col(b) - w.col(a)) / dt;
-    }
-  }
-  return d;
+  return identify::timeDerivative(times_, w, data_.segment_start);
 }
 
 void Engine::tiltColumns(const Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
@@ -438,21 +382,10 @@ void Engine::delayColumn(const Model& model, Linearization& lin, const Eigen::Ve
 Linearization Engine::initial(const Model& model) const {
   Linearization lin;
   if (model.estimatesTilt()) {
-    // Force stage: f = R_BS^T G_B - m a_S + F0, linear in (G_B, m, F0); tilt from G_B's direction.
-    Eigen::MatrixXd A(3 * data_.n_fit, 7);
-    Eigen::VectorXd y(3 * data_.n_fit);
-    for (int i = 0; i < data_.n_fit; ++i) {
-      const SampleContext& c = data_.ctx[static_cast<std::size_t>(i)];
-      A.block(3 * i, 0, 3, 3) = c.R_BS.transpose();
-      A.block(3 * i, 3, 3, 1) = -c.a_S;
-      A.block(3 * i, 4, 3, 3) = Mat3::Identity();
-      y.segment<3>(3 * i) = c.wrench_S.head<3>();
-    }
-    const Eigen::VectorXd x = A.colPivHouseholderQr().solve(y);
-    const Vec3 G = x.head<3>();
-    if (G.norm() > 0.0 && G.allFinite()) {
-      lin.u = std::asin(std::clamp(-G.y() / G.norm(), -1.0, 1.0));
-      lin.v = std::atan2(G.x(), -G.z());
+    // The fit's start (identify::initialTilt) on the fitting samples.
+    std::vector<int> fit_samples(static_cast<std::size_t>(data_.n_fit));
+    for (int i = 0; i < data_.n_fit; ++i) fit_samples[static_cast<std::size_t>(i)] = i;
+    if (identify::initialTilt(data_.ctx, fit_samples, &lin.u, &lin.v)) {
       if (std::abs(lin.u) > 0.5 || std::abs(lin.v) > 0.5) lin.u = lin.v = 0.0;  // implausible: start level
     }
   }

@@ -4,9 +4,11 @@
 // All fits are weighted linear least squares on the stacked regressor, rows scaled by the axis
 // weights 1 / noise floor. The data are cut into blocks; the normal matrices of the blocks are
 // formed once per design, so the fit of every fold is a sum of block matrices and costs P^3, not
-// N P^2 (10 s at 1 kHz: 60,000 rows). Solves are on the column-equilibrated normal matrix with an
-// eigen-decomposition (pseudo-inverse: directions below 1e-12 of the largest eigenvalue, i.e. a
-// condition number of 1e6 of the scaled regressor, count as not determined).
+// N P^2 (10 s at 1 kHz: 60,000 rows). Solves are identify::solveGram (ftid/identify/normal_equations.hpp):
+// the column-equilibrated normal matrix with an eigen-decomposition (pseudo-inverse: directions
+// below 1e-12 of the largest eigenvalue, i.e. a condition number of 1e6 of the scaled regressor,
+// count as not determined). Time derivatives and the initial tilt are identify's as well
+// (identify::timeDerivative, identify::initialTilt).
 //
 // Two quantities are not linear: the base tilt (U, V) and the signals derived from the modelled
 // wrench (its time derivative for sensor_delay, the wrench itself for crosstalk). fitFully() finds
@@ -127,14 +129,14 @@ class Engine {
   /// Returns the converged linearisation (tilt columns for the fitted theta) and its solution.
   std::pair<Linearization, Solution> fitFully(const effects::Model& model, const Linearization& start) const;
 
-  /// Initial linearisation: tilt from the force-stage gravity direction (if the model estimates
-  /// tilt), derived signals from the measured wrench.
+  /// Initial linearisation: the fit's initial tilt (identify::initialTilt, if the model estimates
+  /// tilt), derived signals zero.
   Linearization initial(const effects::Model& model) const;
 
   /// Modelled wrench (unweighted, 6 x N) of theta (first P entries) at the linearisation.
   Mat6X predict(const effects::Model& model, const Linearization& lin, const Eigen::VectorXd& theta,
                 bool exclude_derived) const;
-  /// Central differences along time, within each log segment.
+  /// Central differences along time, within each log segment (identify::timeDerivative).
   Mat6X timeDerivative(const Mat6X& w) const;
   /// Tilt Jacobian columns J_U, J_V (6 x N) of the model with theta.
   void tiltColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
@@ -161,6 +163,7 @@ class Engine {
   Dataset data_;
   std::vector<int> test_samples_;
   std::vector<int> block_of_;  ///< block index of every sample
+  std::vector<double> times_;  ///< t of every sample
 };
 
 }  // namespace ftid::lab::detail

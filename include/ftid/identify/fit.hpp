@@ -42,6 +42,11 @@ struct FitOptions {
   /// Relative threshold on the pivots / singular values of the column-scaled regressor below which
   /// a direction counts as not excited (rank deficiency).
   double rank_tolerance = 1e-9;
+  /// Models whose only nonlinear parameters are the tilt: solve the tilt search on the per-axis
+  /// QR-compressed regressor (its cost per step independent of the number of samples; same
+  /// minimiser and statistics up to rounding, docs/identification.md). false: the general path
+  /// (every step rebuilds and refactors the stacked regressor), kept as the reference.
+  bool compressed_tilt_search = true;
 };
 
 /// A parameter derived from the fitted ones (com_x = mass_com_x / mass, weight = m g, ...).
@@ -108,6 +113,20 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const
 Eigen::Matrix<double, 6, Eigen::Dynamic> predictWrench(const Model& model, const FitResult& fit,
                                                        const std::vector<SampleContext>& contexts,
                                                        const std::vector<int>& indices);
+
+/// Time derivative of a 6 x n series w sampled at times t: central differences, one-sided at the
+/// ends of each segment (segment_start: the first sample of each log, in order; empty: one log),
+/// zero where the two neighbours are not later than one another. The one implementation for the
+/// fit's first-order delay estimate and the lab's derived signals.
+Eigen::Matrix<double, 6, Eigen::Dynamic> timeDerivative(const std::vector<double>& t,
+                                                        const Eigen::Matrix<double, 6, Eigen::Dynamic>& w,
+                                                        const std::vector<int>& segment_start = {});
+
+/// Initial tilt (U, V) for a model with `tilt`, the fit's and the lab's start: the paper's static
+/// force stage on contexts[indices[k]] (direction of the identified gravity vector in B). False
+/// (and u, v untouched) if the paper's method cannot determine it.
+bool initialTilt(const std::vector<SampleContext>& contexts, const std::vector<int>& indices, double* tilt_u_rad,
+                 double* tilt_v_rad);
 
 /// Start for a delay (docs/identification.md): the prediction series `predicted` (6 x n, at times
 /// t, of a model without the delay) is shifted by each delay on a grid over [-max, max] (linear

@@ -1,11 +1,13 @@
-// internal::ScaledQR (src/identify/fit_internal.hpp): each identity it documents, checked against
+// internal::ScaledQR (src/identify/linear_algebra.hpp) and identify::solveGram: each identity they
+// document, checked against
 // an independent formulation (a full SVD of the original matrix, or of the updated matrix formed
 // explicitly), on seeded random matrices with badly scaled columns.
 #include <gtest/gtest.h>
 
 #include <random>
 
-#include "fit_internal.hpp"
+#include "linear_algebra.hpp"
+#include "ftid/identify/normal_equations.hpp"
 
 namespace ftid::identify::internal {
 namespace {
@@ -93,6 +95,43 @@ TEST(ScaledQR, RankDeficiencyNamesTheColumnsOfTheNullSpace) {
   const RankReport plain = analyzeRank(A, 1e-9);
   EXPECT_EQ(plain.rank, 3);
   EXPECT_EQ(plain.unexcited_columns, qr.rank().unexcited_columns);
+}
+
+// identify::solveGram (ftid/identify/normal_equations.hpp) against the SVD pseudo-inverse of the
+// regressor itself: full rank (solution, inverse, condition number of the column-scaled matrix)
+// and rank deficient (minimum-norm solution in scaled coordinates, null space).
+TEST(SolveGram, MatchesTheSvdOfTheRegressor) {
+  const Eigen::MatrixXd A = randomTall(200, 6, 21);
+  const Eigen::VectorXd y = randomVector(200, 22);
+  const GramSolution g = solveGram(A.transpose() * A, A.transpose() * y, true);
+  EXPECT_EQ(g.rank, 6);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  EXPECT_LT(relDiff(g.x, svd.solve(y)), 1e-10);
+  EXPECT_LT(relDiff(g.inverse, (A.transpose() * A).inverse()), 1e-9);
+  const Eigen::VectorXd d = A.colwise().norm().transpose().cwiseInverse();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> scaled(A * d.asDiagonal());
+  const Eigen::VectorXd s = scaled.singularValues();
+  EXPECT_NEAR(g.condition, s(0) / s(s.size() - 1), 1e-6 * g.condition);
+  EXPECT_EQ(g.null_space.cols(), 0);
+}
+
+TEST(SolveGram, RankDeficientGivesTheScaledMinimumNormSolution) {
+  Eigen::MatrixXd A = randomTall(150, 5, 23);
+  A.col(4) = 3.0 * A.col(2);  // one direction not determined
+  const Eigen::VectorXd y = randomVector(150, 24);
+  const GramSolution g = solveGram(A.transpose() * A, A.transpose() * y, true);
+  EXPECT_EQ(g.rank, 4);
+  ASSERT_EQ(g.null_space.cols(), 1);
+  // Column-scaled coordinates: x = D z with z the minimum-norm solution of (A D) z = y.
+  const Eigen::VectorXd d = A.colwise().norm().transpose().cwiseInverse();
+  const Eigen::MatrixXd As = A * d.asDiagonal();
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(As, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  svd.setThreshold(1e-9);
+  const Eigen::VectorXd x = d.asDiagonal() * svd.solve(y);
+  EXPECT_LT(relDiff(g.x, x), 1e-8);
+  // The null-space direction: A D v = 0, between columns 2 and 4 only.
+  EXPECT_LT((As * g.null_space.col(0)).norm(), 1e-8);
+  EXPECT_LT(std::abs(g.null_space(0, 0)) + std::abs(g.null_space(1, 0)) + std::abs(g.null_space(3, 0)), 1e-8);
 }
 
 }  // namespace

@@ -1,5 +1,8 @@
 #pragma once
-// Helpers shared by the general fit and the paper method (private to ftid_identify).
+// The identify module's linear algebra (implemented in linear_algebra.cpp; private to
+// ftid_identify): rank reports and the column-scaled QR that the general fit (fit.cpp) and the
+// paper method (paper_method.cpp) both solve with. It depends on nothing else in the module, so
+// either may include it (it sits below both).
 #include <string>
 #include <vector>
 
@@ -64,6 +67,16 @@ class ScaledQR {
   Eigen::ColPivHouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr_;
   RankReport report_;
 };
+
+/// Exact row compression. A least-squares problem whose stacked rows for axis a are D_a C_a (data
+/// D_a: one row per sample, n x d; C_a: a constant d x k map) has, with the thin QR D_a = Q_a R_a,
+/// the rows Q_a (R_a C_a); Q_a has orthonormal columns, so the stacked problem and the compressed
+/// [R_0 C_0; R_1 C_1; ...] (min(n, d) rows per axis) have the same column norms, Gram matrix,
+/// singular values, least-squares solutions and residual norms (a right-hand side is a column of
+/// D_a, picked by C_a). Used by the paper method's stages and the fit's compressed tilt search.
+///
+/// R of the thin QR of D (min(n, d) x d, upper trapezoidal). D is overwritten.
+Eigen::MatrixXd thinR(Eigen::MatrixXd& D);
 
 /// Formats "a, b and c".
 std::string joinNames(const std::vector<std::string>& names);
