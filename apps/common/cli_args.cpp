@@ -30,8 +30,11 @@ template <typename T>
 bool readWhole(const std::string& text, T& out) {
   const char* first = text.c_str();
   const char* last = first + text.size();
-  if (first != last && *first == '+') ++first;  // "+5" as strtol reads it; "+-5" stays an error
-  if (first == last || *first == '+') return false;
+  if (first != last && *first == '+') {  // "+5" as strtol reads it; "+-5" stays an error
+    ++first;
+    if (first == last || *first == '-' || *first == '+') return false;
+  }
+  if (first == last) return false;
   const auto [ptr, ec] = std::from_chars(first, last, out, 10);
   return ec == std::errc() && ptr == last;
 }
@@ -103,7 +106,8 @@ std::vector<double> parseReals(const std::string& text, const std::string& what,
 }
 
 // A validator's function returns the error message (empty: accepted) and may rewrite the text;
-// CLI11 prefixes the message with the option's name.
+// CLI11 prefixes the message with the option's name. Options take them with ->transform(), not
+// ->check(): CLI11 runs a check() on a copy of the text, so the canonical text would be lost.
 CLI::Validator real(const Interval& range) {
   return CLI::Validator(
       [range](std::string& text) -> std::string {
@@ -156,7 +160,7 @@ CLI::Option* addReals(CLI::App& app, const std::string& name, std::vector<double
       ->delimiter(',')
       ->expected(static_cast<int>(n))
       ->allow_extra_args(false)
-      ->check(real(range));
+      ->transform(real(range));
 }
 
 CLI::Option* addRepeatable(CLI::App& app, const std::string& name, std::vector<std::string>& out) {

@@ -42,9 +42,11 @@ std::uint64_t parseCount(const std::string& text, const std::string& what);  ///
 std::vector<double> parseReals(const std::string& text, const std::string& what, std::size_t n = 0,
                                const Interval& range = {}, char sep = ',');
 
-/// CLI11 validators with the checks above (CLI::Option::check). They also rewrite the text into a
-/// canonical form so that CLI11's own conversion yields exactly the checked value (by itself CLI11
-/// 2.1 reads "010" as octal and "-1" as 2^64-1 for an unsigned target).
+/// CLI11 validators with the checks above. They rewrite the text into a canonical form so that
+/// CLI11's own conversion yields exactly the checked value (by itself CLI11 2.1 reads "010" as octal
+/// and "-1" as 2^64-1 for an unsigned target), so give them with CLI::Option::transform(), not
+/// check() (CLI11 runs a check on a copy of the text):
+///   app.add_option("--script-port", port)->transform(ftid::cli::integer(1, 65535));
 CLI::Validator real(const Interval& range = {});
 CLI::Validator integer(long long lo, long long hi);
 CLI::Validator count();  ///< a non-negative whole number (seeds)

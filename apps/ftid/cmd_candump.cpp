@@ -36,7 +36,7 @@ int runDecodeCandump(const std::vector<std::string>& argv) {
   CLI::App app{"ftid decode-candump"};
   app.add_option("--dbc", dbc);
   app.add_option("--interface", iface);
-  app.add_option("--stale-ms", stale_ms)->check(ftid::cli::real(ftid::cli::positive()));
+  app.add_option("--stale-ms", stale_ms)->transform(ftid::cli::real(ftid::cli::positive()));
   app.add_option("--output", output);
   app.add_option("LOG", log);
   ftid::cli::parse(app, argv);

@@ -62,8 +62,8 @@ int run(const std::vector<std::string>& argv) {
   app.add_flag("--paper", o.paper);
   app.add_option("--params", o.params_path);
   app.add_option("--runs-dir", o.runs_dir);
-  app.add_option("--script-port", o.script_port)->check(ftid::cli::integer(1, 65535));
-  app.add_option("--register-offset", o.register_offset)->check(ftid::cli::integer(0, 24));
+  app.add_option("--script-port", o.script_port)->transform(ftid::cli::integer(1, 65535));
+  app.add_option("--register-offset", o.register_offset)->transform(ftid::cli::integer(0, 24));
   bool no_reload = false, no_analyze = false;
   app.add_flag("--no-reload", no_reload);
   app.add_flag("--no-analyze", no_analyze);

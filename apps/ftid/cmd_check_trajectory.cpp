@@ -41,7 +41,7 @@ int runCheck(const std::vector<std::string>& argv) {
   CLI::App app{"ftid check-trajectory"};
   app.add_option("--robot", robot);
   app.add_option("--config", config);
-  app.add_option("--dt", dt)->check(cli::real(cli::positive()));
+  app.add_option("--dt", dt)->transform(cli::real(cli::positive()));
   app.add_option("TRAJ", traj);
   cli::parse(app, argv);
   if (traj.empty()) throw cli::UsageError("expected exactly one trajectory file");

@@ -32,7 +32,7 @@ int runCompensate(const std::vector<std::string>& argv) {
   app.add_option("--params", req.params_path);
   app.add_option("--out", req.out_csv);
   app.add_option("--robot", req.robot_urdf);
-  app.add_option("--wrench-frame", wrench_frame)->check(ftid::cli::oneOf({"sensor", "base"}));
+  app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
   ftid::cli::parse(app, argv);
   req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {

@@ -45,7 +45,7 @@ int runDemo(const std::vector<std::string>& argv) {
   CLI::Option* workdir = app.add_option("--workdir", cell.workdir);
   CLI::Option* hidden = app.add_option("--hidden-effect", cell.hidden_effect);
   CLI::Option* netns = app.add_flag("--no-netns", no_netns);
-  app.add_option("--seed", opt.seed)->check(cli::integer(0, 2147483647));
+  app.add_option("--seed", opt.seed)->transform(cli::integer(0, 2147483647));
   CLI::Option* robot = app.add_option("--robot", opt.robot_urdf);
   CLI::Option* physics = app.add_flag("--full-physics", opt.full_physics);
   cli::parse(app, argv);

@@ -52,15 +52,15 @@ int runIdentify(const std::vector<std::string>& argv) {
   bool json = false;
   CLI::App app{"ftid identify"};
   app.add_option("--log", req.log_path);
-  app.add_option("--method", req.method)->check(ftid::cli::oneOf({"static", "dynamic"}));
+  app.add_option("--method", req.method)->transform(ftid::cli::oneOf({"static", "dynamic"}));
   app.add_option("--model", req.model);
   app.add_option("--robot", req.robot_urdf);
-  app.add_option("--wrench-frame", wrench_frame)->check(ftid::cli::oneOf({"sensor", "base"}));
+  app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
   app.add_option("--out", out);
   app.add_option("--config", config);
   app.add_flag("--json", json);
   app.add_option("--noise", noise);
-  app.add_option("--max-delay", req.max_delay_s)->check(ftid::cli::real({0.0, 10.0, true, false}));
+  app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
   ftid::cli::parse(app, argv);
   req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
   if (!noise.empty()) {

@@ -45,9 +45,9 @@ int runSimRobot(const std::vector<std::string>& argv) {
   app.add_option("--model", model);
   app.add_option("--host", cfg.host);
   // Port 0: the simulator picks a free port (and prints it).
-  app.add_option("--rtde-port", rtde_port)->check(cli::integer(0, 65535));
-  app.add_option("--dashboard-port", dashboard_port)->check(cli::integer(0, 65535));
-  app.add_option("--script-port", script_port)->check(cli::integer(0, 65535));
+  app.add_option("--rtde-port", rtde_port)->transform(cli::integer(0, 65535));
+  app.add_option("--dashboard-port", dashboard_port)->transform(cli::integer(0, 65535));
+  app.add_option("--script-port", script_port)->transform(cli::integer(0, 65535));
   cli::addReals(app, "--q0", q0, 6);
   cli::addRepeatable(app, "--fault-after", faults);
   app.add_flag("--verbose", cfg.verbose);

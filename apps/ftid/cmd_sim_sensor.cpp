@@ -69,13 +69,13 @@ int runSimSensor(const std::vector<std::string>& argv) {
   CLI::App app{"ftid sim-sensor"};
   app.add_option("--config", config_path);
   CLI::Option* o_host = app.add_option("--robot-host", robot_host);
-  CLI::Option* o_port = app.add_option("--rtde-port", rtde_port)->check(cli::integer(1, 65535));
-  CLI::Option* o_freq = app.add_option("--rtde-frequency", rtde_frequency)->check(cli::real(cli::nonNegative()));
+  CLI::Option* o_port = app.add_option("--rtde-port", rtde_port)->transform(cli::integer(1, 65535));
+  CLI::Option* o_freq = app.add_option("--rtde-frequency", rtde_frequency)->transform(cli::real(cli::nonNegative()));
   CLI::Option* o_urdf = app.add_option("--urdf", urdf);
   CLI::Option* o_socket = app.add_option("--socket", socket);
-  CLI::Option* o_rate = app.add_option("--rate", rate)->check(cli::real(cli::positive()));
-  CLI::Option* o_duration = app.add_option("--duration", duration)->check(cli::real(cli::nonNegative()));
-  CLI::Option* o_seed = app.add_option("--seed", seed)->check(cli::count());
+  CLI::Option* o_rate = app.add_option("--rate", rate)->transform(cli::real(cli::positive()));
+  CLI::Option* o_duration = app.add_option("--duration", duration)->transform(cli::real(cli::nonNegative()));
+  CLI::Option* o_seed = app.add_option("--seed", seed)->transform(cli::count());
   CLI::Option* o_can = app.add_option("--can-interface", can_interface);
   CLI::Option* o_candump = app.add_option("--candump-log", candump_log);
   CLI::Option* o_dbc = app.add_option("--dbc", dbc);
@@ -83,6 +83,19 @@ int runSimSensor(const std::vector<std::string>& argv) {
   cli::addRepeatable(app, "--fault", faults);
   app.add_flag("--verbose", verbose);
   cli::parse(app, argv);
+  std::vector<ScheduledSensorFault> cli_faults;  // checked before any file is read
+  for (const auto& f : faults) {  // SECONDS:KIND[:COUNT]
+    std::stringstream ss(f);
+    std::string when, kind, n;
+    std::getline(ss, when, ':');
+    std::getline(ss, kind, ':');
+    std::getline(ss, n, ':');
+    ScheduledSensorFault sf;
+    sf.at_s = cli::parseReal(when, "--fault " + f + ": SECONDS", cli::nonNegative());
+    sf.kind = parseSensorFault(kind);
+    if (!n.empty()) sf.count = static_cast<int>(cli::parseInteger(n, "--fault " + f + ": COUNT", 1, 1000000000));
+    cli_faults.push_back(sf);
+  }
   // The configuration file first; options given on the command line override it.
   if (!config_path.empty()) loadSimSensorYaml(config_path, cfg);
   if (o_host->count() > 0) cfg.robot_host = robot_host;
@@ -99,18 +112,7 @@ int runSimSensor(const std::vector<std::string>& argv) {
   if (cfg.urdf_path.empty()) cfg.urdf_path = ftid::findDefaultFile("ur10.urdf");
   if (cfg.dbc_path.empty()) cfg.dbc_path = ftid::findDefaultFile("ftsensor.dbc");
   for (const auto& e : effects) enableEffect(e, cfg);
-  for (const auto& f : faults) {  // SECONDS:KIND[:COUNT]
-    std::stringstream ss(f);
-    std::string when, kind, n;
-    std::getline(ss, when, ':');
-    std::getline(ss, kind, ':');
-    std::getline(ss, n, ':');
-    ScheduledSensorFault sf;
-    sf.at_s = cli::parseReal(when, "--fault " + f + ": SECONDS", cli::nonNegative());
-    sf.kind = parseSensorFault(kind);
-    if (!n.empty()) sf.count = static_cast<int>(cli::parseInteger(n, "--fault " + f + ": COUNT", 1, 1000000000));
-    cfg.faults.push_back(sf);
-  }
+  cfg.faults.insert(cfg.faults.end(), cli_faults.begin(), cli_faults.end());
   cfg.verbose = verbose;
 
   // Signals go to the waiter thread only (blocked before any thread starts).

@@ -96,33 +96,44 @@ int runSimulate(const std::vector<std::string>& argv) {
   app.add_option("--truth", truth);
   app.add_option("--robot", robot_path);
   app.add_option("--trajectory", traj_path);
-  CLI::Option* duration_opt = app.add_option("--duration", duration)->check(cli::real(cli::positive()));
-  app.add_option("--rate", rate)->check(cli::real(cli::positive()));
-  app.add_option("--seed", seed)->check(cli::count());
-  app.add_option("--noise-force", noise_f)->check(cli::real(cli::nonNegative()));
-  app.add_option("--noise-torque", noise_t)->check(cli::real(cli::nonNegative()));
-  app.add_option("--noise-lowpass", noise_lowpass)->check(cli::real(cli::nonNegative()));
-  app.add_option("--noise-oversample", noise_oversample)->check(cli::integer(1, 1000));
-  app.add_option("--noise-acc", noise_acc)->check(cli::real(cli::nonNegative()));
-  app.add_option("--noise-gyro", noise_gyro)->check(cli::real(cli::nonNegative()));
-  app.add_option("--noise-alpha", noise_alpha)->check(cli::real(cli::nonNegative()));
-  app.add_option("--noise-temp", noise_temp)->check(cli::real(cli::nonNegative()));
-  CLI::Option* mass_opt = app.add_option("--mass", mass)->check(cli::real());
+  CLI::Option* duration_opt = app.add_option("--duration", duration)->transform(cli::real(cli::positive()));
+  app.add_option("--rate", rate)->transform(cli::real(cli::positive()));
+  app.add_option("--seed", seed)->transform(cli::count());
+  app.add_option("--noise-force", noise_f)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-torque", noise_t)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-lowpass", noise_lowpass)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-oversample", noise_oversample)->transform(cli::integer(1, 1000));
+  app.add_option("--noise-acc", noise_acc)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-gyro", noise_gyro)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-alpha", noise_alpha)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-temp", noise_temp)->transform(cli::real(cli::nonNegative()));
+  CLI::Option* mass_opt = app.add_option("--mass", mass)->transform(cli::real());
   cli::addReals(app, "--com", com, 3);
   cli::addReals(app, "--inertia", inertia, 6);
   cli::addReals(app, "--f0", f0, 3);
   cli::addReals(app, "--t0", t0, 3);
-  CLI::Option* tilt_u_opt = app.add_option("--tilt-u-deg", tilt_u_deg)->check(cli::real());
-  CLI::Option* tilt_v_opt = app.add_option("--tilt-v-deg", tilt_v_deg)->check(cli::real());
+  CLI::Option* tilt_u_opt = app.add_option("--tilt-u-deg", tilt_u_deg)->transform(cli::real());
+  CLI::Option* tilt_v_opt = app.add_option("--tilt-v-deg", tilt_v_deg)->transform(cli::real());
   cli::addReals(app, "--mount-xyz", mount_xyz, 3);
   cli::addReals(app, "--mount-rpy", mount_rpy, 3);
-  CLI::Option* poses_opt = app.add_option("--static-poses", static_poses)->check(cli::integer(1, 1000000));
-  app.add_option("--hold", hold)->check(cli::real(cli::positive()));
+  CLI::Option* poses_opt = app.add_option("--static-poses", static_poses)->transform(cli::integer(1, 1000000));
+  app.add_option("--hold", hold)->transform(cli::real(cli::positive()));
   app.add_flag("--average", average);
   app.add_flag("--paper-model", paper_model);
   cli::addRepeatable(app, "--effect", effects);
   cli::parse(app, argv);
   if (out.empty()) throw UsageError("--out is required");
+  {
+    // Command-line mistakes before any file is read: try every --effect on a scratch configuration.
+    sim::CellSimConfig scratch;
+    for (const auto& e : effects) {
+      try {
+        sim::applyEffectSpec(e, scratch);
+      } catch (const ConfigError& err) {
+        throw UsageError(err.what());
+      }
+    }
+  }
   checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!truth.empty()) checkOutputPath(truth);
 
@@ -170,13 +181,7 @@ int runSimulate(const std::vector<std::string>& argv) {
                  .toRotationMatrix();
   }
   if (paper_model) c.full_rigid_body = false;
-  for (const auto& e : effects) {
-    try {
-      sim::applyEffectSpec(e, c);
-    } catch (const ConfigError& err) {
-      throw UsageError(err.what());
-    }
-  }
+  for (const auto& e : effects) sim::applyEffectSpec(e, c);  // checked above
 
   const sim::CellSim simulator(c);
   logio::LogData log = simulator.run();

@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
   app.add_option("--config", config_path);
   app.add_flag("--check-config", check_only);
   app.add_option("--record", options.record_path);
-  app.add_option("--connect-timeout", options.connect_timeout_s)->check(ftid::cli::real(ftid::cli::nonNegative()));
+  app.add_option("--connect-timeout", options.connect_timeout_s)->transform(ftid::cli::real(ftid::cli::nonNegative()));
   app.add_flag("--version", version);
   try {
     ftid::cli::parse(app, args);

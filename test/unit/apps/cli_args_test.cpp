@@ -29,9 +29,9 @@ TEST(CliArgs, ValidatedOptionsGetExactlyTheCheckedValue) {
   double rate = 0.0;
   std::vector<double> com;
   CLI::App app{"t"};
-  app.add_option("--port", port)->check(integer(1, 65535));
-  app.add_option("--seed", seed)->check(count());
-  app.add_option("--rate", rate)->check(real(positive()));
+  app.add_option("--port", port)->transform(integer(1, 65535));
+  app.add_option("--seed", seed)->transform(count());
+  app.add_option("--rate", rate)->transform(real(positive()));
   addReals(app, "--com", com, 3);
   parse(app, {"--port", "010", "--seed=18446744073709551615", "--rate", "0.1", "--com", "-1e-3,+2,0.30000000000000004"});
   EXPECT_EQ(port, 10);  // decimal, not octal
@@ -51,10 +51,10 @@ TEST(CliArgs, BadNumbersAreUsageErrorsNamingTheOption) {
       double rate = 0.0, tilt = 0.0;
       std::vector<double> com;
       CLI::App app{"t"};
-      app.add_option("--port", port)->check(integer(1, 65535));
-      app.add_option("--seed", seed)->check(count());
-      app.add_option("--rate", rate)->check(real(positive()));
-      app.add_option("--tilt", tilt)->check(real());
+      app.add_option("--port", port)->transform(integer(1, 65535));
+      app.add_option("--seed", seed)->transform(count());
+      app.add_option("--rate", rate)->transform(real(positive()));
+      app.add_option("--tilt", tilt)->transform(real());
       addReals(app, "--com", com, 3);
       parse(app, args);
     });
@@ -106,7 +106,7 @@ TEST(CliArgs, RepeatableOptionsTakeOneValueEach) {
 TEST(CliArgs, WordsFromAList) {
   std::string method;
   CLI::App app{"t"};
-  app.add_option("--method", method)->check(oneOf({"static", "dynamic"}));
+  app.add_option("--method", method)->transform(oneOf({"static", "dynamic"}));
   EXPECT_NE(usageError([&] { parse(app, {"--method", "fast"}); }).find("'fast' is not one of: static, dynamic"),
             std::string::npos);
 }
