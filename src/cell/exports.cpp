@@ -150,11 +150,12 @@ std::string ros2BroadcasterYaml(const PayloadExport& e, const Ros2Names& n) {
   auto list = [](YAML::Emitter& o, const Vec3& v) {
     o << YAML::Flow << YAML::BeginSeq << YamlNumber{v.x()} << YamlNumber{v.y()} << YamlNumber{v.z()} << YAML::EndSeq;
   };
+  // Names are always quoted: a frame called `true` or `1` must stay a string for ROS 2's parser.
   YAML::Emitter o;
   o << YAML::BeginMap << YAML::Key << n.controller << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "ros__parameters" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "sensor_name" << YAML::Value << n.sensor_name;
-  o << YAML::Key << "frame_id" << YAML::Value << n.sensor_frame;
+  o << YAML::Key << "sensor_name" << YAML::Value << YAML::DoubleQuoted << n.sensor_name;
+  o << YAML::Key << "frame_id" << YAML::Value << YAML::DoubleQuoted << n.sensor_frame;
   o << YAML::Key << "offset" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "force" << YAML::Value;
   xyz(o, -e.f0_S);
@@ -166,8 +167,8 @@ std::string ros2BroadcasterYaml(const PayloadExport& e, const Ros2Names& n) {
   o << YAML::Key << "type" << YAML::Value << "control_filters/GravityCompensationWrench";
   o << YAML::Key << "name" << YAML::Value << "gravity_compensation";
   o << YAML::Key << "params" << YAML::Value << YAML::BeginMap;
-  o << YAML::Key << "world_frame" << YAML::Value << n.world_frame;
-  o << YAML::Key << "sensor_frame" << YAML::Value << n.sensor_frame;
+  o << YAML::Key << "world_frame" << YAML::Value << YAML::DoubleQuoted << n.world_frame;
+  o << YAML::Key << "sensor_frame" << YAML::Value << YAML::DoubleQuoted << n.sensor_frame;
   o << YAML::Key << "tool" << YAML::Value << YAML::BeginMap;
   o << YAML::Key << "CoG" << YAML::Value;
   list(o, e.com_S);
