@@ -29,7 +29,7 @@ root="$(dirname "$here")"
 build="$(cd "${1:-${FTID_BUILD_DIR:-$root/build}}" 2>/dev/null && pwd)" || {
   echo "kernel-rig: build directory '${1:-${FTID_BUILD_DIR:-$root/build}}' does not exist" >&2
   echo "kernel-rig: 0 passed, 1 failed"; exit 1; }
-timeout_s="${FTID_KERNEL_RIG_TIMEOUT:-240}"   # whole VM run, wall clock
+timeout_s="${FTID_KERNEL_RIG_TIMEOUT:-480}"   # whole VM run, wall clock (both stages)
 accel="${FTID_KERNEL_RIG_ACCEL:-tcg}"          # tcg (default) or kvm
 latency_s="${FTID_KERNEL_RIG_LATENCY_S:-0}"    # > 0: latency mode, seconds per measurement
 case "$accel" in tcg|kvm) ;; *) echo "kernel-rig: FTID_KERNEL_RIG_ACCEL must be tcg or kvm" >&2; exit 2 ;; esac
@@ -175,16 +175,75 @@ done
 mkdir -p "$stage/rig"
 cp "$root/test/kernel/rig_init.sh" "$stage/init"
 chmod 755 "$stage/init"
+# Stage 2 (not in latency mode): after the tests above, /init switches to a tmpfs root and execs
+# systemd as PID 1, which runs the packaged ftidd.service unchanged (the UnderSystemd.* tests).
+# Laid out as the .deb installs it: /usr/sbin/ftidd, /lib/systemd/system/ftidd.service,
+# /usr/lib/sysusers.d/ftid.conf, /usr/share/ftid/config/; the postinst runs there.
+systemd_stage=0
+if [ "$latency_s" -eq 0 ]; then
+  systemd_stage=1
+  for f in /lib/systemd/systemd /lib/systemd/systemd-journald /bin/systemctl /bin/journalctl \
+           /bin/systemd-sysusers; do
+    [ -x "$f" ] || fail "$f not found (Debian package systemd)"
+    copy_with_libs "$f" "$stage" strip
+  done
+  mkdir -p "$stage/etc/systemd/system" "$stage/lib/systemd/system" "$stage/usr/lib/sysusers.d" \
+           "$stage/usr/sbin" "$stage/usr/share/ftid/config" "$stage/etc/ftid"
+  cp /usr/lib/os-release "$stage/usr/lib/os-release"
+  ln -sf ../usr/lib/os-release "$stage/etc/os-release"
+  printf 'root:x:0:0:root:/root:/bin/sh\n' > "$stage/etc/passwd"
+  printf 'root:x:0:\n' > "$stage/etc/group"
+  : > "$stage/etc/shadow"; : > "$stage/etc/gshadow"; chmod 600 "$stage/etc/shadow" "$stage/etc/gshadow"
+  # systemd's own targets (sysinit, basic, network-online ...: ftidd.service's default and
+  # explicit dependencies), the system slice and journald; nothing else is installed.
+  for u in /lib/systemd/system/*.target system.slice systemd-journald.service \
+           systemd-journald.socket systemd-journald-dev-log.socket; do
+    case "$u" in /*) ;; *) u="/lib/systemd/system/$u" ;; esac
+    [ -f "$u" ] && [ ! -L "$u" ] && cp "$u" "$stage/lib/systemd/system/"
+  done
+  cp "$root/debian/ftid.ftidd.service" "$stage/lib/systemd/system/ftidd.service"
+  cp "$root/debian/ftid.sysusers" "$stage/usr/lib/sysusers.d/ftid.conf"
+  strip --strip-debug -o "$stage/usr/sbin/ftidd" "$ftidd"
+  cp "$root/config/ur10.urdf" "$root/config/ftsensor.dbc" "$stage/usr/share/ftid/config/"
+  cp "$root/debian/ftid.postinst" "$stage/rig/ftid.postinst"
+  cp "$root/test/kernel/rig_systemd_checks.sh" "$stage/rig/systemd_checks.sh"
+  chmod 755 "$stage/rig/ftid.postinst" "$stage/rig/systemd_checks.sh"
+  cat > "$stage/etc/systemd/system/ftid-rig.target" <<'EOF'
+[Unit]
+Description=ftid kernel rig, stage 2
+Requires=ftid-rig.service systemd-journald.socket
+AllowIsolate=yes
+EOF
+  cat > "$stage/etc/systemd/system/ftid-rig.service" <<'EOF'
+[Unit]
+Description=ftid kernel rig checks under systemd
+After=systemd-journald.socket
+
+[Service]
+Type=oneshot
+ExecStart=/rig/systemd_checks.sh
+StandardOutput=tty
+StandardError=tty
+TTYPath=/dev/ttyS0
+TTYReset=no
+TTYVHangup=no
+EOF
+  ln -sf ftid-rig.target "$stage/etc/systemd/system/default.target"
+fi
 # The SocketCAN unit tests, all of them: ConstructorExplainsMissingSupport checks the error on a
 # kernel WITHOUT AF_CAN and is excluded here (it runs, and passes, on the build machines).
-gtests="socketcan_unit=$cantest:SocketCan.*:-SocketCan.ConstructorExplainsMissingSupport kernel=$ktest"
+# UnderSystemd.* runs in stage 2 only.
+gtests="socketcan_unit=$cantest:SocketCan.*:-SocketCan.ConstructorExplainsMissingSupport kernel=$ktest:-UnderSystemd.*"
 gtest_names="socketcan_unit kernel"
+[ "$systemd_stage" = 1 ] && gtest_names="$gtest_names systemd"
 if [ "$latency_s" -gt 0 ]; then gtests=""; gtest_names=""; fi  # measure on a quiet VM
 cat > "$stage/rig/env" <<EOF
 RIG_MODULES="$modules"
 RIG_GTESTS="$gtests"
 RIG_LATENCY_S=$latency_s
 RIG_BENCH="$bench"
+RIG_SYSTEMD=$( [ "$systemd_stage" = 1 ] && echo 1 )
+RIG_KTEST="$ktest"
 EOF
 initrd="$work/initrd.cpio.gz"
 cp "$base" "$initrd"

@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
 """Generate config/ur10.urdf and config/ur10e.urdf from UR's published standard-DH parameters.
 
+The parameters come from config/ur_dh.json, the one UR DH table of the project (the C++ UR
+simulator compiles its forward kinematics from the same file).
+
 Conventions: docs/conventions.md. Each DH step is T_i = Rz(q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
 In the URDF, joint i rotates about z of the previous DH frame (origin identity for joint 1), and the
 constant part Tz(d_i) Tx(a_i) Rx(alpha_i) = Trans(a_i, 0, d_i) Rx(alpha_i) becomes the <origin> of
@@ -8,39 +11,36 @@ the next joint (xyz = "a_i 0 d_i", rpy = "alpha_i 0 0"; URDF applies the transla
 rotation). The last step goes into the fixed joint wrist_3_link -> tool0, so `base` is the UR
 controller Base frame and `tool0` is DH frame 6 (the flange, z out of the flange).
 
-Usage: python3 tools/gen_ur_urdf.py [--out-dir config]     (python3 standard library only)
+Usage: python3 tools/gen_ur_urdf.py [--table config/ur_dh.json] [--out-dir config]     (python3 standard library only)
 """
 import argparse
-import math
+import json
 import os
 import sys
 import tempfile
 
-ALPHA = [math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0]
+# The one UR DH table (docs/architecture.md, "simrobot"): the C++ simulator's forward kinematics
+# is generated from the same file at build time.
+DH_TABLE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "ur_dh.json")
 
-ROBOTS = {
-    # name: (d, a, masses [kg] (nominal, from UR's published dynamics), effort limits [Nm])
-    "ur10": {
-        "d": [0.1273, 0.0, 0.0, 0.163941, 0.1157, 0.0922],
-        "a": [0.0, -0.612, -0.5723, 0.0, 0.0, 0.0],
-        "mass": [7.1, 12.7, 4.27, 2.0, 2.0, 0.365],
-        "effort": [330.0, 330.0, 150.0, 56.0, 56.0, 56.0],
-    },
-    "ur10e": {
-        "d": [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655],
-        "a": [0.0, -0.6127, -0.57155, 0.0, 0.0, 0.0],
-        "mass": [7.369, 13.051, 3.989, 2.1, 1.98, 0.615],
-        "effort": [330.0, 330.0, 150.0, 54.0, 54.0, 54.0],
-    },
-}
+
+def load_robots(path):
+    """{name: {"d", "a", "alpha", "mass", "effort", "velocity", "position_limit"}} from the table."""
+    with open(path) as f:
+        robots = json.load(f)["robots"]
+    for name, p in robots.items():
+        for key in ("d", "a", "alpha", "mass", "effort", "velocity"):
+            if len(p.get(key, [])) != 6:
+                raise SystemExit("%s: robots.%s.%s must have 6 entries" % (path, name, key))
+        if "position_limit" not in p:
+            raise SystemExit("%s: robots.%s.position_limit missing" % (path, name))
+    return robots
+
 
 JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
           "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
 LINKS = ["base", "shoulder_link", "upper_arm_link", "forearm_link",
          "wrist_1_link", "wrist_2_link", "wrist_3_link"]
-# Maximum joint speeds [rad/s] (UR10 and UR10e: 120 deg/s base+shoulder, 180 deg/s the others).
-VELOCITY = [2.094, 2.094, 3.142, 3.142, 3.142, 3.142]
-POSITION_LIMIT = 2.0 * math.pi
 
 
 def fmt(x):
@@ -50,7 +50,7 @@ def fmt(x):
 
 def origin_of_step(i, p):
     """<origin> for the constant part of DH step i: Trans(a_i, 0, d_i) * Rx(alpha_i)."""
-    return '<origin xyz="%s 0 %s" rpy="%s 0 0"/>' % (fmt(p["a"][i]), fmt(p["d"][i]), fmt(ALPHA[i]))
+    return '<origin xyz="%s 0 %s" rpy="%s 0 0"/>' % (fmt(p["a"][i]), fmt(p["d"][i]), fmt(p["alpha"][i]))
 
 
 def inertial(mass):
@@ -81,8 +81,8 @@ def generate(name, p):
                    '    <parent link="%s"/>\n    <child link="%s"/>\n    %s\n'
                    '    <axis xyz="0 0 1"/>\n'
                    '    <limit lower="%s" upper="%s" effort="%s" velocity="%s"/>\n  </joint>\n'
-                   % (JOINTS[k], LINKS[k], LINKS[k + 1], origin, fmt(-POSITION_LIMIT),
-                      fmt(POSITION_LIMIT), fmt(p["effort"][k]), fmt(VELOCITY[k])))
+                   % (JOINTS[k], LINKS[k], LINKS[k + 1], origin, fmt(-p["position_limit"]),
+                      fmt(p["position_limit"]), fmt(p["effort"][k]), fmt(p["velocity"][k])))
     out.append('  <joint name="wrist_3_link-tool0_fixed_joint" type="fixed">\n'
                '    <parent link="wrist_3_link"/>\n    <child link="tool0"/>\n    %s\n  </joint>\n'
                % origin_of_step(5, p))
@@ -107,12 +107,14 @@ def write_atomic(path, text):
 
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--table", default=DH_TABLE,
+                        help="the UR DH table to read (default: config/ur_dh.json)")
     parser.add_argument("--out-dir", default=os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                                           "..", "config"),
                         help="directory to write ur10.urdf and ur10e.urdf into (default: config/)")
     args = parser.parse_args(argv)
     os.makedirs(args.out_dir, exist_ok=True)
-    for name, p in ROBOTS.items():
+    for name, p in load_robots(args.table).items():
         path = os.path.join(args.out_dir, name + ".urdf")
         write_atomic(path, generate(name, p))
         print("wrote", os.path.normpath(path))

@@ -44,7 +44,7 @@ void printHelp() {
       "rejected and the current parameters stay); SIGTERM/SIGINT stop cleanly.\n"
       "commands (signed command_t on FTID_COMMAND): RELOAD_PARAMETERS, PING, and TARE, which\n"
       "re-estimates only the offsets at the current pose (robot at rest), keeps them in\n"
-      "PARAMETERS.tare.yaml and is reverted by a reload (docs/daemon.md, \"Tare\").\n"
+      "PARAMETERS.tare.yaml and is reverted by a reload (docs/daemon.md, \"Tare\"; `ftid tare`).\n"
       "systemd: Type=notify; READY, WATCHDOG (only while the loop runs), RELOADING, STOPPING.\n"
       "exit codes: 0 stopped by a signal, 1 runtime failure (robot connection lost, device or\n"
       "real-time set-up error), 2 bad command line or configuration.\n",

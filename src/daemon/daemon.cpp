@@ -384,7 +384,15 @@ int Daemon::run() {
   struct TareAnswer {
     bool ok = false;
     std::string message;
+    Wrench offsets = Wrench::Zero();  ///< in use after an ok tare (ack_t.offsets)
   };
+  std::int32_t tares_done = 0;     // loop_stats_t.tares_done / tares_refused
+  std::int32_t tares_refused = 0;
+  // The answer to the last authenticated command: a resend of it (same request_id and command,
+  // signed afresh by a client that missed the ack) is answered again, not executed twice (a
+  // second TARE would average a new window and count twice).
+  bool have_last_ack = false;
+  ftid_lcm::ack_t last_ack{};
   auto doTare = [&]() -> TareAnswer {
     if (!have_active) return {false, "tare refused: no payload parameters loaded"};
     TareRequest req;
@@ -455,7 +463,7 @@ int Daemon::run() {
                   res.mean_contact_S(5));
     const std::string msg = buf + state_path + (r.applied ? "" : " (" + r.message + ")");
     logLine(msg);
-    return {r.applied, msg};
+    return {r.applied, msg, r.applied ? new_offsets : Wrench::Zero()};
   };
 
   for (;;) {
@@ -477,6 +485,7 @@ int Daemon::run() {
       if (!refusal.empty()) {
         ack.ok = false;
         ack.message = refusal;
+        if (cmd.command == ftid_lcm::command_t::TARE) ++tares_refused;
         // At most one line per second: a flood of bad commands must not flood the journal.
         if (Clock::now() >= next_refusal_log) {
           logLine(refusal + (refusals_unlogged > 0 ? " (" + std::to_string(refusals_unlogged) +
@@ -487,6 +496,8 @@ int Daemon::run() {
         } else {
           ++refusals_unlogged;
         }
+      } else if (have_last_ack && cmd.request_id == last_ack.request_id && cmd.command == last_ack.command) {
+        ack = last_ack;  // a resend of the request just answered
       } else if (cmd.command == ftid_lcm::command_t::RELOAD_PARAMETERS) {
         const ReloadResult r = doReload(cfg.parameters.path);  // never a path from the network
         ack.ok = r.ok && r.applied;
@@ -495,6 +506,8 @@ int Daemon::run() {
         const TareAnswer a = doTare();
         ack.ok = a.ok;
         ack.message = a.message;
+        for (int i = 0; i < 6; ++i) ack.offsets[i] = a.offsets(i);
+        ++(a.ok ? tares_done : tares_refused);
       } else if (cmd.command == ftid_lcm::command_t::PING) {
         ack.ok = true;
       } else {
@@ -503,6 +516,10 @@ int Daemon::run() {
       }
       ack.param_version = static_cast<std::int32_t>(params.version());
       ack.utime = realtimeNowUs();
+      if (refusal.empty()) {
+        last_ack = ack;
+        have_last_ack = true;
+      }
       outbox.publishAck(ack);
     }
     reloader.collect();
@@ -590,6 +607,8 @@ int Daemon::run() {
       s.commands_refused_stale = refused.stale;
       s.commands_refused_replay = refused.replay;
       s.commands_refused_malformed = refused.malformed;
+      s.tares_done = tares_done;
+      s.tares_refused = tares_refused;
       s.fault_bits = faults_since_report;
       s.realtime = loop_fifo.load() && (rt_report.memory_locked || !cfg.rt.lock_memory);
       outbox.publishStats(s);

@@ -113,16 +113,20 @@ void warnOnce(const RealtimeReport& report) {
   for (const auto& p : report.problems) std::fprintf(stderr, "  - %s\n", p.c_str());
 }
 
-bool DmaLatencyRequest::acquire(std::string* problem) {
+bool DmaLatencyRequest::acquire(std::string* problem, const std::string& path) {
   if (fd_ >= 0) return true;
-  const int fd = ::open("/dev/cpu_dma_latency", O_WRONLY | O_CLOEXEC);
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) {
-    if (problem) *problem = std::string("/dev/cpu_dma_latency: ") + std::strerror(errno);
+    if (problem) {
+      *problem = path + ": " + std::strerror(errno) +
+                 " (power management only; root, or a udev rule for group ftid, and a unit "
+                 "without PrivateDevices, can hold it at 0)";
+    }
     return false;
   }
   const std::int32_t zero = 0;
   if (::write(fd, &zero, sizeof zero) != static_cast<ssize_t>(sizeof zero)) {
-    if (problem) *problem = std::string("/dev/cpu_dma_latency write: ") + std::strerror(errno);
+    if (problem) *problem = path + " write: " + std::strerror(errno);
     ::close(fd);
     return false;
   }

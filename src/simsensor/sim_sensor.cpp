@@ -1,11 +1,10 @@
 // ftid sim-sensor: robot state over RTDE -> cell physics -> CAN frames on the stand-in socket.
 #include "ftid/simsensor/sim_sensor.hpp"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -15,6 +14,7 @@
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
 #include "ftid/drivers/ur/rtde_client.hpp"
+#include "ftid/rt/cyclic_executor.hpp"
 
 namespace ftid::simsensor {
 
@@ -24,11 +24,9 @@ constexpr const char* kFaultNames[] = {"silent",        "counter_gap",   "out_of
                                        "error_frame",   "bus_off",       "stuck_counter",
                                        "status_fault"};
 
-std::int64_t monotonicNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+/// A host stall of up to this many sample periods is caught up (late samples); a longer one
+/// re-anchors the sample clock and shows as a counter gap.
+constexpr std::uint32_t kCatchUpPeriods = 50;
 
 JointVector toJoint(const drivers::ur::Joint6& a) {
   JointVector v;
@@ -413,90 +411,125 @@ void SimSensor::run(const std::atomic<bool>& stop,
   // Physics time = controller time - t_robot0; kept continuous across controller restarts.
   double t_robot0 = im.history.oldestTime();
   std::uint64_t generation = im.history.generation();
-  double t_phys_last = 0.0;
   say("emitting " + std::to_string(static_cast<int>(config_.rate_hz)) + " Hz samples on " +
       config_.socket_path + (config_.can_interface.empty() ? "" : " and " + config_.can_interface));
 
-  const auto period_ns = static_cast<std::int64_t>(std::llround(1e9 / config_.rate_hz));
-  std::int64_t next_ns = monotonicNs();
-  std::int64_t last_report_ns = next_ns;
-  std::uint64_t samples = 0, sent = 0, late = 0, skipped = 0;
-  std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
-  std::size_t next_fault = 0;
-  std::vector<ScheduledSensorFault> schedule = config_.faults;
-  std::sort(schedule.begin(), schedule.end(),
-            [](const auto& a, const auto& b) { return a.at_s < b.at_s; });
+  // The sample clock: rt::runTimerClocked (absolute CLOCK_MONOTONIC deadlines). A stall of up to
+  // kCatchUpPeriods is caught up (late samples, sent back to back); after a longer one the clock
+  // re-anchors and the lost samples become a counter gap on the bus.
+  struct SampleCycle {
+    SampleCycle(const SimSensor& s, Impl& i, const std::function<void(const std::string&)>& p)
+        : self(s), im(i), progress(p) {}
+    const SimSensor& self;
+    Impl& im;
+    const std::function<void(const std::string&)>& progress;
+    std::int64_t period_ns = 0;
+    double t_robot0 = 0.0;
+    std::uint64_t generation = 0;
+    double t_phys_last = 0.0;
+    std::int64_t last_report_ns = 0;
+    std::int64_t prev_deadline_ns = 0;
+    std::uint64_t samples = 0, sent = 0, late = 0, skipped = 0;
+    std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
+    std::size_t next_fault = 0;
+    std::vector<ScheduledSensorFault> schedule;
+    std::exception_ptr error;
 
-  while (!stop.load()) {
-    timespec ts{};
-    ts.tv_sec = static_cast<time_t>(next_ns / 1'000'000'000);
-    ts.tv_nsec = static_cast<long>(next_ns % 1'000'000'000);
-    clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr);
-    const std::int64_t now = monotonicNs();
-    if (now - next_ns > 50 * period_ns) {  // long stall: resynchronise, lost samples become a gap
-      const std::int64_t missed = (now - next_ns) / period_ns;
-      skipped += static_cast<std::uint64_t>(missed);
-      im.source->inject(SensorFault::kCounterGap, static_cast<int>(missed));
-      next_ns += missed * period_ns;
-    } else if (now - next_ns > period_ns) {
-      ++late;
-    }
-    if (im.history.generation() != generation) {
-      generation = im.history.generation();
-      t_robot0 = im.history.oldestTime() - t_phys_last;
-    }
-    // The sample's instant in controller time.
-    const double t_robot = static_cast<double>(next_ns) * 1e-9 - im.offset();
-    const double t_phys = t_robot - t_robot0;
-    t_phys_last = t_phys;
-    while (next_fault < schedule.size() && schedule[next_fault].at_s <= t_phys) {
-      im.source->inject(schedule[next_fault].kind, schedule[next_fault].count);
-      say(std::string("injecting fault ") + sensorFaultName(schedule[next_fault].kind) + " x" +
-          std::to_string(schedule[next_fault].count) + " at t=" + std::to_string(t_phys));
-      ++next_fault;
-    }
-    const int n = im.source->nextSample(im.history, t_robot, t_phys, frames);
-    const std::int64_t rx_ns = can::realtimeNowNs();
-    for (int i = 0; i < n; ++i) {
-      const can_frame& f = frames[static_cast<std::size_t>(i)];
-      im.server->trySend(f);
-      if (im.socketcan) im.socketcan->trySend(f);
-      if (im.candump) {
-        can::ReceivedFrame rf;
-        rf.frame = f;
-        rf.rx_time_ns = rx_ns;
-        *im.candump << can::formatCandumpLine(rf, "can0") << '\n';
+    rt::CycleAction onTimer(std::int64_t deadline_ns) noexcept {
+      try {
+        return sample(deadline_ns);
+      } catch (...) {  // progress or the candump stream threw: end the loop, rethrown by run()
+        error = std::current_exception();
+        return rt::CycleAction::kStop;
       }
     }
-    sent += static_cast<std::uint64_t>(n);
-    ++samples;
-    next_ns += period_ns;
-    {
-      std::lock_guard<std::mutex> lock(im.stats_mutex);
-      im.stats.samples = samples;
-      im.stats.frames_sent = sent;
-      im.stats.frames_dropped = im.server->framesDropped();
-      im.stats.late_samples = late;
-      im.stats.skipped_samples = skipped;
-      im.stats.clients = im.server->clientCount();
-      im.stats.t_phys = t_phys;
+
+    void say(const std::string& s) const {
+      if (progress) progress(s);
     }
-    if (now - last_report_ns >= 5'000'000'000 || (config_.verbose && now - last_report_ns >= 1'000'000'000)) {
-      last_report_ns = now;
-      std::ostringstream os;
-      os << "t=" << std::fixed;
-      os.precision(1);
-      os << t_phys << " s  samples=" << samples << "  frames=" << sent
-         << "  clients=" << im.server->clientCount() << "  robot_ticks=" << im.robot_ticks.load()
-         << (im.robot_connected.load() ? "" : " (robot disconnected)")
-         << "  dropped=" << im.server->framesDropped() << "  late=" << late;
-      say(os.str());
+
+    rt::CycleAction sample(std::int64_t deadline_ns) {
+      const SimSensorConfig& config = self.config();
+      const std::int64_t now = rt::monotonicNs();
+      if (last_report_ns == 0) last_report_ns = now;
+      if (prev_deadline_ns != 0 && deadline_ns - prev_deadline_ns > period_ns) {
+        const std::int64_t missed = (deadline_ns - prev_deadline_ns) / period_ns - 1;
+        skipped += static_cast<std::uint64_t>(missed);
+        im.source->inject(SensorFault::kCounterGap, static_cast<int>(missed));
+      } else if (now - deadline_ns > period_ns) {
+        ++late;
+      }
+      prev_deadline_ns = deadline_ns;
+      if (im.history.generation() != generation) {
+        generation = im.history.generation();
+        t_robot0 = im.history.oldestTime() - t_phys_last;
+      }
+      // The sample's instant in controller time.
+      const double t_robot = static_cast<double>(deadline_ns) * 1e-9 - im.offset();
+      const double t_phys = t_robot - t_robot0;
+      t_phys_last = t_phys;
+      while (next_fault < schedule.size() && schedule[next_fault].at_s <= t_phys) {
+        im.source->inject(schedule[next_fault].kind, schedule[next_fault].count);
+        say(std::string("injecting fault ") + sensorFaultName(schedule[next_fault].kind) + " x" +
+            std::to_string(schedule[next_fault].count) + " at t=" + std::to_string(t_phys));
+        ++next_fault;
+      }
+      const int n = im.source->nextSample(im.history, t_robot, t_phys, frames);
+      const std::int64_t rx_ns = can::realtimeNowNs();
+      for (int i = 0; i < n; ++i) {
+        const can_frame& f = frames[static_cast<std::size_t>(i)];
+        im.server->trySend(f);
+        if (im.socketcan) im.socketcan->trySend(f);
+        if (im.candump) {
+          can::ReceivedFrame rf;
+          rf.frame = f;
+          rf.rx_time_ns = rx_ns;
+          *im.candump << can::formatCandumpLine(rf, "can0") << '\n';
+        }
+      }
+      sent += static_cast<std::uint64_t>(n);
+      ++samples;
+      {
+        std::lock_guard<std::mutex> lock(im.stats_mutex);
+        im.stats.samples = samples;
+        im.stats.frames_sent = sent;
+        im.stats.frames_dropped = im.server->framesDropped();
+        im.stats.late_samples = late;
+        im.stats.skipped_samples = skipped;
+        im.stats.clients = im.server->clientCount();
+        im.stats.t_phys = t_phys;
+      }
+      if (now - last_report_ns >= 5'000'000'000 || (config.verbose && now - last_report_ns >= 1'000'000'000)) {
+        last_report_ns = now;
+        std::ostringstream os;
+        os << "t=" << std::fixed;
+        os.precision(1);
+        os << t_phys << " s  samples=" << samples << "  frames=" << sent
+           << "  clients=" << im.server->clientCount() << "  robot_ticks=" << im.robot_ticks.load()
+           << (im.robot_connected.load() ? "" : " (robot disconnected)")
+           << "  dropped=" << im.server->framesDropped() << "  late=" << late;
+        say(os.str());
+      }
+      if (config.duration_s > 0.0 && t_phys >= config.duration_s) return rt::CycleAction::kStop;
+      return rt::CycleAction::kContinue;
     }
-    if (config_.duration_s > 0.0 && t_phys >= config_.duration_s) break;
-  }
+  };
+  SampleCycle cycle(*this, im, progress);
+  cycle.period_ns = static_cast<std::int64_t>(std::llround(1e9 / config_.rate_hz));
+  cycle.t_robot0 = t_robot0;
+  cycle.generation = generation;
+  cycle.schedule = config_.faults;
+  std::sort(cycle.schedule.begin(), cycle.schedule.end(),
+            [](const auto& a, const auto& b) { return a.at_s < b.at_s; });
+  rt::ExecutorConfig ec;
+  ec.period = std::chrono::nanoseconds(cycle.period_ns);
+  ec.catch_up_periods = kCatchUpPeriods;
+  rt::LoopStats loop_stats;
+  rt::runTimerClocked(cycle, ec, &loop_stats, &stop);
   if (im.candump) im.candump->flush();
   reader_stop = true;
   reader.join();
+  if (cycle.error) std::rethrow_exception(cycle.error);
 }
 
 }  // namespace ftid::simsensor

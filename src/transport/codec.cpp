@@ -85,6 +85,8 @@ void toLcm(const LoopStatsRecord& in, ftid_lcm::loop_stats_t* out) noexcept {
   out->commands_refused_stale = in.commands_refused_stale;
   out->commands_refused_replay = in.commands_refused_replay;
   out->commands_refused_malformed = in.commands_refused_malformed;
+  out->tares_done = in.tares_done;
+  out->tares_refused = in.tares_refused;
   out->fault_bits = static_cast<std::int32_t>(in.fault_bits);
   out->realtime = in.realtime ? 1 : 0;
 }
@@ -160,6 +162,8 @@ void fromLcm(const ftid_lcm::loop_stats_t& in, LoopStatsRecord* out) noexcept {
   out->commands_refused_stale = in.commands_refused_stale;
   out->commands_refused_replay = in.commands_refused_replay;
   out->commands_refused_malformed = in.commands_refused_malformed;
+  out->tares_done = in.tares_done;
+  out->tares_refused = in.tares_refused;
   out->fault_bits = static_cast<std::uint32_t>(in.fault_bits);
   out->realtime = in.realtime != 0;
 }

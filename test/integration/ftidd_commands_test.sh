@@ -11,6 +11,11 @@
 #   - a correctly signed PING and RELOAD are accepted (Python's HMAC = ftid's);
 #   - a signed TARE (robot at rest) is acknowledged with the new offsets, saves
 #     parameters.yaml.tare.yaml with the parameter file's SHA-256, and RELOAD removes it;
+#   - `ftid tare` (the command-line sender): prints the offsets of the ack, the same as in the
+#     saved tare state (--json parsed by Python); with a wrong key, with the sensor stopped (no
+#     valid wrench in the window) it exits 3 with ftidd's reason and nothing changes; an unreadable
+#     key exits 1 naming the file; no ftidd on the channel exits 4 naming it; loop_stats_t counts
+#     tares done and refused;
 #   - unsigned, wrong-key, replayed, stale commands and a signed RELOAD naming a file
 #     (parameters.yaml.bak) are refused with the reason, not executed, and counted in loop_stats_t;
 #   - a correctly signed RELOAD sent by unicast from namespace B gets no answer and reloads nothing
@@ -99,7 +104,7 @@ YAML
 PIDS="$PIDS $!"
 "$FTID" sim-sensor --socket "$WORK/ft.sock" --urdf "$SRC/config/ur10.urdf" \
   --dbc "$SRC/config/ftsensor.dbc" > "$WORK/sensor.log" 2>&1 &
-PIDS="$PIDS $!"
+SENSOR=$!; PIDS="$PIDS $SENSOR"
 "$FTIDD" --config "$WORK/ftidd.yaml" --connect-timeout 30 > "$WORK/ftidd.log" 2>&1 &
 DAEMON=$!; PIDS="$PIDS $DAEMON"
 i=0
@@ -161,9 +166,37 @@ def receive(channel, timeout):
 if mode == "stats":
     data = receive(b"FTID_STATS", 2.0)
     s = loop_stats_t.decode(data)
-    print("stats auth %d stale %d replay %d malformed %d applied %d" % (
+    print("stats auth %d stale %d replay %d malformed %d applied %d tares_done %d tares_refused %d version %d" % (
         s.commands_refused_auth, s.commands_refused_stale, s.commands_refused_replay,
-        s.commands_refused_malformed, s.reloads_applied))
+        s.commands_refused_malformed, s.reloads_applied, s.tares_done, s.tares_refused, s.param_version))
+    sys.exit(0)
+
+if mode == "taretwice":
+    # A client that missed the ack sends the same request again, signed afresh (new sequence):
+    # ftidd must answer it again, not tare twice.
+    c = command_t()
+    c.utime = now_us()
+    c.request_id = int.from_bytes(os.urandom(6), "big")
+    c.command = command_t.TARE
+    c.argument = ""
+    answers = []
+    for attempt in range(2):
+        c.sequence = now_us()
+        sign(c, key)
+        tx.sendto(packet(b"FTID_COMMAND", c.encode(), 3 + attempt), (dest, 7667))
+        deadline = time.monotonic() + 3.0
+        while time.monotonic() < deadline:
+            a = receive(b"FTID_ACK", deadline - time.monotonic())
+            if a is None:
+                break
+            ack = ack_t.decode(a)
+            if ack.request_id == c.request_id:
+                answers.append(ack)
+                break
+    same = len(answers) == 2 and answers[0].message == answers[1].message and \
+        list(answers[0].offsets) == list(answers[1].offsets) and answers[0].ok == answers[1].ok
+    print("taretwice %d answers, %s, %s" % (len(answers), "same" if same else "different",
+                                            "ok" if answers and answers[0].ok else "refused"))
     sys.exit(0)
 
 c = command_t()
@@ -236,8 +269,101 @@ expect reload "^ack ok"
 grep -q "reloaded from .*\.bak" "$WORK/ftidd.log" && fail "ftidd loaded the .bak file"
 stats=$(send stats)
 echo "$stats"
-echo "$stats" | awk '{ exit !($3 >= 2 && $5 >= 1 && $7 >= 1 && $9 >= 1 && $11 == 2) }' ||
-  fail "refused commands not counted as expected (auth>=2 stale>=1 replay>=1 malformed>=1, 2 reloads applied: the replayed one and the last): $stats"
+echo "$stats" | awk '{ exit !($3 >= 2 && $5 >= 1 && $7 >= 1 && $9 >= 1 && $11 == 2 && $13 == 1 && $15 == 0) }' ||
+  fail "refused commands not counted as expected (auth>=2 stale>=1 replay>=1 malformed>=1, 2 reloads applied: the replayed one and the last, 1 tare done, none refused): $stats"
+
+# ---- `ftid tare`, the command-line sender (after the RELOAD above: no tare state now).
+# On a loaded host a window may hold a stale sensor sample: ftidd then rightly refuses ("a cycle
+# without a valid compensated wrench"); tare_ok tries up to 3 times. The counters are checked
+# against the outcomes ftid tare reported (exit 0 = done, 3 = refused).
+DONE=1; REFUSED=0   # the signed TARE sent by Python above
+tare_ok() {  # tare_ok OUT [ARGS...]: ftid tare until it exits 0 (3 tries); returns its last status
+  local out=$1 rc=0 try; shift
+  for try in 1 2 3; do
+    "$FTID" tare --config "$WORK/ftidd.yaml" "$@" > "$out" 2> "$WORK/tare.err"; rc=$?
+    echo "ftid tare $*: exit $rc: $(cat "$WORK/tare.err")"
+    case $rc in 0) DONE=$((DONE + 1)); return 0 ;; 3) REFUSED=$((REFUSED + 1)) ;; esac
+    grep -q "without a valid compensated wrench" "$WORK/tare.err" || return $rc
+  done
+  return $rc
+}
+tare_ok "$WORK/tare.out"; rc=$?
+cat "$WORK/tare.out"
+[ $rc -eq 0 ] || fail "ftid tare exited $rc, expected 0"
+grep -Eq "^tared: f0 = \(.*\) N, t0 = \(.*\) Nm" "$WORK/tare.out" || fail "ftid tare printed no offsets"
+[ -f "$PARAMS.tare.yaml" ] || fail "ftid tare: no $PARAMS.tare.yaml saved"
+tare_ok "$WORK/tare.json" --json; rc=$?
+[ $rc -eq 0 ] || fail "ftid tare --json exited $rc"
+cp "$PARAMS.tare.yaml" "$WORK/tare_state_ok.yaml" 2>/dev/null
+sleep 0.5
+version_tared=$(send stats | awk '{ print $17 }')
+# The offsets of the ack are those ftidd saved (full precision in both) and those it now applies.
+python3 - "$WORK/tare.json" "$PARAMS.tare.yaml" <<'PY' || fail "ftid tare --json does not match the saved tare state"
+import json, sys
+ack = json.load(open(sys.argv[1]))
+assert ack["ok"] is True, ack
+state = {}
+for line in open(sys.argv[2]):
+    k, _, v = line.split("#")[0].strip().partition(":")
+    if k in ("f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"):
+        state[k] = float(v)
+assert len(state) == 6, state
+for k, v in state.items():
+    assert ack["offsets"][k] == v, (k, ack["offsets"][k], v)
+# Taring at rest against the identified model moves the offsets off the file's (0.1, 0.2, 0.3)
+# towards what the sensor reads with this (wrong) payload model: they must have changed.
+assert abs(ack["offsets"]["f0_z"] - 0.3) > 1e-3, ack
+print("json ok:", ack["offsets"])
+PY
+# A wrong key: refused by ftidd (exit 3, its reason), counted, and the offsets unchanged.
+head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/wrong.key"; chmod 0600 "$WORK/wrong.key"
+"$FTID" tare --config "$WORK/ftidd.yaml" --key "$WORK/wrong.key" > "$WORK/tare.out" 2> "$WORK/tare.err"; rc=$?
+echo "ftid tare (wrong key): exit $rc: $(cat "$WORK/tare.err")"
+[ $rc -eq 3 ] && REFUSED=$((REFUSED + 1)) || fail "ftid tare with a wrong key exited $rc, expected 3"
+grep -q "refused the tare: .*bad authenticator" "$WORK/tare.err" || fail "ftid tare with a wrong key did not print ftidd's reason"
+cmp -s "$PARAMS.tare.yaml" "$WORK/tare_state_ok.yaml" || fail "a refused tare changed the tare state"
+# The sensor stopped: no valid wrench in the window -> refused with ftidd's reason.
+kill -STOP "$SENSOR"
+sleep 0.3
+"$FTID" tare --config "$WORK/ftidd.yaml" > "$WORK/tare.out" 2> "$WORK/tare.err"; rc=$?
+kill -CONT "$SENSOR"
+echo "ftid tare (sensor stopped): exit $rc: $(cat "$WORK/tare.err")"
+[ $rc -eq 3 ] && REFUSED=$((REFUSED + 1)) || fail "ftid tare with the sensor stopped exited $rc, expected 3"
+grep -q "refused the tare: tare refused: a cycle without a valid compensated wrench" "$WORK/tare.err" ||
+  fail "ftid tare with the sensor stopped did not print ftidd's reason"
+cmp -s "$PARAMS.tare.yaml" "$WORK/tare_state_ok.yaml" || fail "a refused tare changed the tare state"
+# An unreadable key: nothing sent, exit 1, the file named.
+"$FTID" tare --config "$WORK/ftidd.yaml" --key "$WORK/no-such.key" > /dev/null 2> "$WORK/tare.err"; rc=$?
+echo "ftid tare (no key): exit $rc: $(cat "$WORK/tare.err")"
+[ $rc -eq 1 ] || fail "ftid tare with a missing key exited $rc, expected 1"
+grep -q "no-such.key" "$WORK/tare.err" || fail "ftid tare with a missing key did not name the file"
+# Nobody on the command channel: exit 4 within the timeout, the channels named.
+sed 's/^  stats_period_s: 0.2$/  stats_period_s: 0.2\n  channels: {command: NOBODY_COMMAND, ack: NOBODY_ACK}/' \
+  "$WORK/ftidd.yaml" > "$WORK/nobody.yaml"
+"$FTID" tare --config "$WORK/nobody.yaml" --timeout 0.5 > /dev/null 2> "$WORK/tare.err"; rc=$?
+echo "ftid tare (nobody): exit $rc: $(cat "$WORK/tare.err")"
+[ $rc -eq 4 ] || fail "ftid tare without ftidd exited $rc, expected 4"
+grep -q "no answer from ftidd on NOBODY_ACK .*TARE sent on NOBODY_COMMAND" "$WORK/tare.err" ||
+  fail "ftid tare without ftidd did not name the channels"
+sleep 0.5
+stats=$(send stats)
+echo "$stats"
+echo "$stats" | awk -v d=$DONE -v r=$REFUSED '{ exit !($13 == d && $15 == r) }' ||
+  fail "tares not counted ($DONE done, $REFUSED refused as ftid tare saw them, the wrong key and the stopped sensor among them): $stats"
+echo "$stats" | awk -v v="$version_tared" '{ exit !($17 == v) }' ||
+  fail "a refused tare changed ftidd's parameters (version $version_tared after the last tare): $stats"
+# The same TARE request sent twice (a client that missed the ack resends it, signed afresh): one
+# tare, the same answer twice.
+# (Refused on a loaded host for a stale sample: then refused once, counted once, nothing changes.)
+out=$(send taretwice)
+echo "taretwice: $out"
+echo "$out" | grep -Eq "^taretwice 2 answers, same" || fail "a resent TARE request was not answered the same: $out"
+if echo "$out" | grep -q ", ok$"; then DONE=$((DONE + 1)); version_tared=$((version_tared + 1)); else REFUSED=$((REFUSED + 1)); fi
+sleep 0.5
+stats=$(send stats)
+echo "$stats"
+echo "$stats" | awk -v d=$DONE -v r=$REFUSED -v v="$version_tared" '{ exit !($13 == d && $15 == r && $17 == v) }' ||
+  fail "a resent TARE request was executed twice (expected $DONE done, $REFUSED refused, version $version_tared): $stats"
 
 # The parameter file becomes a FIFO: SIGHUP must not wedge ftidd, SIGTERM must still work.
 mv "$PARAMS" "$WORK/saved.yaml" && mkfifo "$PARAMS"

@@ -6,6 +6,8 @@
 #   @@RIG check NAME PASS|FAIL [why]   one check of the rig itself (counted as a test)
 #   @@RIG gtest NAME                   the output of a GoogleTest run follows
 #   @@RIG done                         the end (missing = the VM crashed or timed out)
+# With RIG_SYSTEMD set (/rig/env), the end is stage 2: systemd as PID 1 runs the packaged unit
+# (see the end of this file and /rig/systemd_checks.sh).
 # A GoogleTest run's "[       OK ]", "[  FAILED  ]" and "[  SKIPPED ]" lines are counted by the
 # host: a skip is a failure here.
 export PATH=/bin:/sbin:/usr/bin:/usr/sbin
@@ -76,6 +78,25 @@ if [ "${RIG_LATENCY_S:-0}" -gt 0 ]; then
   wait $ctpid
   echo "@@RIG latency cyclictest beside bench_rt_loop"
   cat /tmp/ct2.txt
+fi
+if [ -n "${RIG_SYSTEMD:-}" ] && [ -x /lib/systemd/systemd ]; then
+  # Stage 2: the packaged unit under a real systemd as PID 1 (docs/kernel-rig.md). systemd wants
+  # a real root file system, not the initramfs: copy this tree to a tmpfs and switch_root into it.
+  # vcan0, lo's multicast route and the loaded modules stay (they belong to the kernel).
+  # /rig/systemd_checks.sh (a oneshot unit) prints the markers, "@@RIG done" and powers off.
+  echo "@@RIG phase systemd"
+  mkdir -p /newroot
+  mount -t tmpfs -o mode=755 newroot /newroot
+  set +f
+  for d in /*; do
+    case "$d" in /proc|/sys|/dev|/run|/tmp|/newroot|/init) ;; *) cp -a "$d" /newroot/ ;; esac
+  done
+  mkdir -p /newroot/proc /newroot/sys /newroot/dev /newroot/run /newroot/tmp
+  chmod 1777 /newroot/tmp
+  cd /
+  umount /dev/shm /dev /sys /proc /tmp /run 2>/dev/null
+  exec switch_root /newroot /lib/systemd/systemd --log-level=warning --show-status=false \
+    --crash-reboot=yes
 fi
 echo "@@RIG done"
 sync

@@ -1,10 +1,12 @@
 #pragma once
 // The demo cell (the README's main command): on loopback, inside a private network namespace,
-// it starts the UR10 controller simulator, the CAN F/T+IMU sensor simulator carrying a payload
-// with a hidden effect the paper's model lacks, and ftidd; runs `ftid --identify` with the paper
-// model; lets the model laboratory name the missing effect; identifies again with it added and
-// shows the held-out error fall; then streams a few seconds of live compensated wrench while the
-// simulated sensor sees a push on the tool, which shows up as the only non-zero force.
+// it starts the UR10 controller simulator, the CAN F/T+IMU sensor simulator (the paper's payload,
+// full rigid-body physics, noise and one hidden effect the default model lacks) and ftidd; runs
+// `ftid --identify` as shipped (paper+rigid_body, the 3 s trajectory) and compares the payload
+// with the simulator's truth; streams live compensated wrench while the simulated sensor sees a
+// push on the tool (the push is the only force left); lets the model laboratory name the hidden
+// effect from the default model's residual; identifies again with it added, shows the held-out
+// error fall and the live residual again.
 #include <cstdint>
 #include <string>
 
@@ -12,7 +14,7 @@ namespace ftid::cell {
 
 struct DemoOptions {
   std::string workdir = "out/demo";  ///< configs, logs, runs, parameters, report
-  std::string hidden_effect = "temperature_drift";  ///< simulator switch the paper model lacks
+  std::string hidden_effect = "temperature_drift";  ///< simulator switch the default model lacks
   bool private_netns = true;         ///< run inside a new network namespace (LCM multicast on lo)
   int seed = 1;
 };

@@ -14,11 +14,16 @@
 // Timer-clocked (no device clock): absolute-deadline clock_nanosleep(CLOCK_MONOTONIC,
 // TIMER_ABSTIME); the Cycle provides  CycleAction onTimer(std::int64_t deadline_ns) noexcept;
 // Wake-up latency is wake time minus the deadline. On an overrun the skipped periods are counted
-// as missed and the schedule re-anchors instead of bursting.
+// as missed and the schedule re-anchors instead of bursting, unless the loop is at most
+// catch_up_periods behind: then the late cycles run back to back, each with its own deadline (a
+// simulated device clock that must not lose ticks to a short host hiccup). The deadlines are
+// always whole periods apart, so a cycle sees skipped periods as a jump of its deadline. A zero
+// period runs the cycles back to back without sleeping (a simulation faster than real time).
 #include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <ctime>
+#include <limits>
 
 #include "ftid/common/status.hpp"
 #include "ftid/rt/loop_stats.hpp"
@@ -39,6 +44,9 @@ struct ExecutorConfig {
   std::chrono::nanoseconds period{8'000'000};
   double timeout_periods = 1.5;               ///< device wait timeout in periods
   std::uint32_t max_consecutive_missed = 3;   ///< device-clocked: give up after this many
+  /// Timer-clocked: an overrun of at most this many periods is caught up (the late cycles run at
+  /// once) instead of skipped. 0: always skip.
+  std::uint32_t catch_up_periods = 0;
 };
 
 /// CLOCK_MONOTONIC in ns.
@@ -90,17 +98,24 @@ LoopExit runTimerClocked(Cycle& cycle, const ExecutorConfig& cfg, LoopStats* sta
   std::int64_t next = monotonicNs() + period_ns;
   for (;;) {
     if (stop_requested && stop_requested->load(std::memory_order_relaxed)) return LoopExit::kStopRequested;
-    sleepUntilNs(next);
+    if (period_ns > 0) sleepUntilNs(next);
     const std::int64_t wake = monotonicNs();
     const CycleAction action = cycle.onTimer(next);
     const std::int64_t end = monotonicNs();
-    stats->recordCycle(wake - next, end - wake, period_ns);
+    stats->recordCycle(period_ns > 0 ? wake - next : 0, end - wake,
+                      period_ns > 0 ? period_ns : std::numeric_limits<std::int64_t>::max());
     if (action == CycleAction::kStop) return LoopExit::kCycleStopped;
+    if (period_ns <= 0) {  // free-running
+      next = end;
+      continue;
+    }
     next += period_ns;
-    if (end > next) {  // overran one or more deadlines: skip them, do not burst
-      const std::int64_t skipped = (end - next) / period_ns + 1;
-      stats->missed += static_cast<std::uint64_t>(skipped);
-      next += skipped * period_ns;
+    if (end > next) {  // overran one or more deadlines
+      const std::int64_t behind = (end - next) / period_ns + 1;  // deadlines already past
+      if (behind > static_cast<std::int64_t>(cfg.catch_up_periods)) {  // skip them, do not burst
+        stats->missed += static_cast<std::uint64_t>(behind);
+        next += behind * period_ns;
+      }
     }
   }
 }

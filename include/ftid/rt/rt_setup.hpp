@@ -15,11 +15,16 @@ namespace ftid::rt {
 
 struct RealtimeConfig {
   bool enable = true;           ///< false: skip everything (plain thread)
-  bool require = false;         ///< true: any failure throws RealtimeSetupError
+  bool require = false;         ///< true: a failure of SCHED_FIFO, mlockall or pinning throws
+                                ///< RealtimeSetupError (the DMA latency request never does)
   int priority = 80;            ///< SCHED_FIFO priority of the loop thread (1..99)
   int cpu = -1;                 ///< pin the loop thread to this CPU (-1: no pinning)
   bool lock_memory = true;      ///< mlockall + mallopt
-  bool dma_latency = true;      ///< hold /dev/cpu_dma_latency at 0 us
+  /// Hold the PM QoS device at 0 us while the loop runs. Best effort even with `require`: it is
+  /// power management, not a scheduling guarantee, the device is root-only unless a udev rule
+  /// opens it, and a hardened unit (PrivateDevices=yes) hides it; a failure is a warning.
+  bool dma_latency = true;
+  std::string dma_latency_path = "/dev/cpu_dma_latency";  ///< the PM QoS device (tests use another)
   std::size_t stack_size = 1024 * 1024;          ///< loop thread stack [bytes]
   std::size_t stack_prefault_bytes = 512 * 1024;  ///< touched at thread start
 };
@@ -51,8 +56,9 @@ void warnOnce(const RealtimeReport& report);
 class DmaLatencyRequest {
  public:
   DmaLatencyRequest() = default;
-  /// Opens /dev/cpu_dma_latency and writes 0. Returns false (with a problem text) if impossible.
-  bool acquire(std::string* problem);
+  /// Opens `path` (/dev/cpu_dma_latency) and writes 0. Returns false (with a problem text) if
+  /// impossible.
+  bool acquire(std::string* problem, const std::string& path = "/dev/cpu_dma_latency");
   ~DmaLatencyRequest();
   DmaLatencyRequest(const DmaLatencyRequest&) = delete;
   DmaLatencyRequest& operator=(const DmaLatencyRequest&) = delete;

@@ -87,6 +87,8 @@ struct LoopStatsRecord {
   std::int32_t commands_refused_stale = 0;
   std::int32_t commands_refused_replay = 0;
   std::int32_t commands_refused_malformed = 0;
+  std::int32_t tares_done = 0;
+  std::int32_t tares_refused = 0;
   std::uint32_t fault_bits = 0;
   bool realtime = false;
 };

@@ -100,6 +100,12 @@ TEST(Codec, LoopStatsRoundTripIsExact) {
   in.reloads_applied = 5;
   in.reloads_failed = 1;
   in.param_version = 6;
+  in.commands_refused_auth = 7;
+  in.commands_refused_stale = 8;
+  in.commands_refused_replay = 9;
+  in.commands_refused_malformed = 10;
+  in.tares_done = 11;
+  in.tares_refused = 12;
   in.fault_bits = 0x48;
   in.realtime = true;
   ftid_lcm::loop_stats_t msg{};
@@ -123,6 +129,12 @@ TEST(Codec, LoopStatsRoundTripIsExact) {
   EXPECT_EQ(out.reloads_applied, in.reloads_applied);
   EXPECT_EQ(out.reloads_failed, in.reloads_failed);
   EXPECT_EQ(out.param_version, in.param_version);
+  EXPECT_EQ(out.commands_refused_auth, in.commands_refused_auth);
+  EXPECT_EQ(out.commands_refused_stale, in.commands_refused_stale);
+  EXPECT_EQ(out.commands_refused_replay, in.commands_refused_replay);
+  EXPECT_EQ(out.commands_refused_malformed, in.commands_refused_malformed);
+  EXPECT_EQ(out.tares_done, in.tares_done);
+  EXPECT_EQ(out.tares_refused, in.tares_refused);
   EXPECT_EQ(out.fault_bits, in.fault_bits);
   EXPECT_EQ(out.realtime, in.realtime);
 }
