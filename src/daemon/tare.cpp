@@ -67,7 +67,7 @@ std::string tareStatePath(const std::string& parameter_path) { return parameter_
 void writeTareState(const std::string& path, const TareState& state) {
   YAML::Emitter out;
   out << YAML::BeginMap;
-  out << YAML::Key << "parameter_sha256" << YAML::Value << YAML::DoubleQuoted << state.parameter_sha256;
+  out << YAML::Key << "parameter_sha256" << YAML::Value << state.parameter_sha256;
   out << YAML::Key << "utime" << YAML::Value << state.utime;
   out << YAML::Key << "cycles" << YAML::Value << state.cycles;
   out << YAML::Key << "offsets" << YAML::Value << YAML::Comment("N (f0) and Nm (t0), in the sensor frame S")
