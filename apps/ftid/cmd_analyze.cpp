@@ -64,43 +64,33 @@ std::vector<std::string> splitList(const std::string& s) {
 }
 
 int runAnalyze(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
+  namespace cli = ftid::cli;
   ftid::lab::AnalyzeFilesRequest req;
-  req.options.model = args.value("--model", "paper");
-  req.validate_path = args.value("--validate");
-  const std::string folds = args.value("--folds", "5");
-  req.options.explain = args.flag("--explain");
-  const std::string candidates = args.value("--candidates");
-  const std::string alpha = args.value("--alpha", "0.001");
-  const std::string noise = args.value("--noise");
-  const std::string glitch = args.value("--glitch-sigma", "6");
-  const std::string max_delay = args.value("--max-delay", "1");
-  const std::string report = args.value("--report");
-  const bool json = args.flag("--json");
-  req.robot_urdf = args.value("--robot");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
-  const auto pos = args.positionals();
-  args.finish();
-  if (pos.size() != 1) throw ftid::cli::UsageError("exactly one LOG is required");
-  req.log_path = pos[0];
-  try {
-    std::size_t used = 0;
-    const int k = std::stoi(folds, &used);
-    if (used != folds.size() || k < 2 || k > 50) throw std::invalid_argument("range");
-    req.options.folds = k;
-    const double a = std::stod(alpha, &used);
-    if (used != alpha.size() || !(a > 0.0 && a < 1.0)) throw std::invalid_argument("range");
-    req.options.family_alpha = a;
-    const double g = std::stod(glitch, &used);
-    if (used != glitch.size() || !(g >= 0.0 && g < 1e6)) throw std::invalid_argument("range");
-    req.options.glitch_threshold = g;
-    const double d = std::stod(max_delay, &used);
-    if (used != max_delay.size() || !(d > 0.0 && d <= 10.0)) throw std::invalid_argument("range");
-    req.options.max_delay_s = d;
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError(
-        "--folds must be an integer 2..50, --alpha a number in (0, 1), --glitch-sigma >= 0 and --max-delay in (0, 10] s");
-  }
+  req.options.model = "paper";
+  req.options.folds = 5;
+  req.options.family_alpha = 0.001;
+  req.options.glitch_threshold = 6.0;
+  req.options.max_delay_s = 1.0;
+  std::string candidates, noise, report, wrench_frame;
+  bool json = false;
+  CLI::App app{"ftid analyze"};
+  app.add_option("--model", req.options.model);
+  app.add_option("--validate", req.validate_path);
+  app.add_option("--folds", req.options.folds)->transform(cli::integer(2, 50));
+  app.add_flag("--explain", req.options.explain);
+  app.add_option("--candidates", candidates);
+  app.add_option("--alpha", req.options.family_alpha)->transform(cli::real({0.0, 1.0, true, true}));
+  app.add_option("--noise", noise);
+  app.add_option("--glitch-sigma", req.options.glitch_threshold)->transform(cli::real({0.0, 1e6, false, true}));
+  app.add_option("--max-delay", req.options.max_delay_s)->transform(cli::real({0.0, 10.0, true, false}));
+  app.add_option("--report", report);
+  app.add_flag("--json", json);
+  app.add_option("--robot", req.robot_urdf);
+  app.add_option("--wrench-frame", wrench_frame)->transform(cli::oneOf({"sensor", "base"}));
+  app.add_option("LOG", req.log_path);
+  cli::parse(app, argv);
+  if (req.log_path.empty()) throw cli::UsageError("exactly one LOG is required");
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
   if (!noise.empty()) {
     try {
       req.options.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");

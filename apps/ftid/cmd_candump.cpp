@@ -31,21 +31,20 @@ const char* kUsage =
 
 int runDecodeCandump(const std::vector<std::string>& argv) {
   using namespace ftid::can;
-  ftid::cli::Args args(argv, kUsage);
-  std::string dbc = args.value("--dbc", "");
+  std::string dbc, iface, output, log;
+  double stale_ms = 20.0;
+  CLI::App app{"ftid decode-candump"};
+  app.add_option("--dbc", dbc);
+  app.add_option("--interface", iface);
+  app.add_option("--stale-ms", stale_ms)->transform(ftid::cli::real(ftid::cli::positive()));
+  app.add_option("--output", output);
+  app.add_option("LOG", log);
+  ftid::cli::parse(app, argv);
+  if (log.empty()) throw ftid::cli::UsageError("expected exactly one candump log FILE");
   if (dbc.empty()) dbc = ftid::findDefaultFile("ftsensor.dbc");
-  const std::string iface = args.value("--interface");
-  const std::string stale = args.value("--stale-ms", "20");
-  const std::string output = args.value("--output");
-  const auto pos = args.positionals();
-  args.finish();
-  if (pos.size() != 1) throw ftid::cli::UsageError("expected exactly one candump log FILE");
+  const std::vector<std::string> pos{log};
   SensorHealthOptions health;
-  try {
-    health.stale_timeout_ns = static_cast<std::int64_t>(std::stod(stale) * 1e6);
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError("--stale-ms: not a number: '" + stale + "'");
-  }
+  health.stale_timeout_ns = static_cast<std::int64_t>(stale_ms * 1e6);
   const SensorLayout layout = SensorLayout::fromDbc(loadDbc(dbc));
   SampleAssembler assembler(layout, health);
   // Rows go to stdout, or with --output through the atomic writer (never over a symlink/device).

@@ -3,10 +3,8 @@
 #include <unistd.h>
 
 #include <atomic>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <string>
 
@@ -55,35 +53,26 @@ const char* kUsage =
     "exit status: 0 identified and written, 1 aborted or failed (the message says why; the arm is\n"
     "stopped and recorded data kept), 2 usage error.";
 
-/// A whole number in [lo, hi], or a UsageError (exit 2) naming the option.
-int integer(const std::string& option, const std::string& text, long lo, long hi) {
-  char* end = nullptr;
-  errno = 0;
-  const long v = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || errno != 0 || v < lo || v > hi) {
-    throw ftid::cli::UsageError(option + ": '" + text + "' is not a whole number in " + std::to_string(lo) + ".." +
-                                std::to_string(hi));
-  }
-  return static_cast<int>(v);
-}
-
 int run(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
   ftid::cell::CellIdentifyOptions o;
-  o.config_path = args.value("--config", o.config_path);
-  o.trajectory_path = args.value("--trajectory");
-  o.paper = args.flag("--paper");
-  if (o.paper) o.model = "paper";
-  o.model = args.value("--model", o.model);
-  o.params_path = args.value("--params");
-  o.runs_dir = args.value("--runs-dir");
-  o.script_port = integer("--script-port", args.value("--script-port", "30003"), 1, 65535);
-  o.register_offset = integer("--register-offset", args.value("--register-offset", "0"), 0, 24);
-  o.reload_daemon = !args.flag("--no-reload");
-  o.analyze = !args.flag("--no-analyze");
-  o.require_realtime = args.flag("--require-rt");
-  o.assume_yes = args.flag("--yes");
-  args.finish();
+  CLI::App app{"ftid --identify"};
+  app.add_option("--config", o.config_path);
+  app.add_option("--trajectory", o.trajectory_path);
+  app.add_option("--model", o.model);
+  app.add_flag("--paper", o.paper);
+  app.add_option("--params", o.params_path);
+  app.add_option("--runs-dir", o.runs_dir);
+  app.add_option("--script-port", o.script_port)->transform(ftid::cli::integer(1, 65535));
+  app.add_option("--register-offset", o.register_offset)->transform(ftid::cli::integer(0, 24));
+  bool no_reload = false, no_analyze = false;
+  app.add_flag("--no-reload", no_reload);
+  app.add_flag("--no-analyze", no_analyze);
+  app.add_flag("--require-rt", o.require_realtime);
+  app.add_flag("--yes", o.assume_yes);
+  ftid::cli::parse(app, argv);
+  if (o.paper && app.count("--model") == 0) o.model = "paper";
+  o.reload_daemon = !no_reload;
+  o.analyze = !no_analyze;
   if (o.register_offset != 0 && o.register_offset != 24) throw ftid::cli::UsageError("--register-offset must be 0 or 24");
 
   struct sigaction sa {};

@@ -36,20 +36,16 @@ const char* kUsage =
 
 int runCheck(const std::vector<std::string>& argv) {
   using namespace ftid;
-  cli::Args args(argv, kUsage);
-  std::string robot = args.value("--robot", "");
-  const std::string config = args.value("--config", "");
-  const std::string dt_text = args.value("--dt", "0.001");
-  const auto pos = args.positionals();
-  args.finish();
-  if (pos.size() != 1) throw cli::UsageError("expected exactly one trajectory file");
-  double dt = 0.0;
-  try {
-    dt = std::stod(dt_text);
-  } catch (const std::exception&) {
-    throw cli::UsageError("--dt: '" + dt_text + "' is not a number");
-  }
-  if (!(dt > 0.0) || !std::isfinite(dt)) throw cli::UsageError("--dt must be positive");
+  std::string robot, config, traj;
+  double dt = 0.001;
+  CLI::App app{"ftid check-trajectory"};
+  app.add_option("--robot", robot);
+  app.add_option("--config", config);
+  app.add_option("--dt", dt)->transform(cli::real(cli::positive()));
+  app.add_option("TRAJ", traj);
+  cli::parse(app, argv);
+  if (traj.empty()) throw cli::UsageError("expected exactly one trajectory file");
+  const std::vector<std::string> pos{traj};
 
   const trajectory::TrajectoryFile file = trajectory::readTrajectoryFile(pos[0]);
   if (robot.empty()) robot = file.robot;

@@ -25,14 +25,16 @@ const char* const kUsage =
     "or parameter file (the message names the file, line or key), 2 usage error.";
 
 int runCompensate(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
   ftid::identify::CompensateRequest req;
-  req.log_path = args.value("--log");
-  req.params_path = args.value("--params");
-  req.out_csv = args.value("--out");
-  req.robot_urdf = args.value("--robot");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
-  args.finish();
+  std::string wrench_frame;
+  CLI::App app{"ftid compensate"};
+  app.add_option("--log", req.log_path);
+  app.add_option("--params", req.params_path);
+  app.add_option("--out", req.out_csv);
+  app.add_option("--robot", req.robot_urdf);
+  app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
+  ftid::cli::parse(app, argv);
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }

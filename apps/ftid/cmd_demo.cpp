@@ -1,21 +1,11 @@
 // `ftid demo`: the whole cell against the simulators (ftid::cell::runDemo), or with --offline the
 // paper-only demo: simulate the paper's cell, identify the 12 parameters, compare with the truth
 // and show the compensated residual.
-#include <cmath>
-#include <cstdint>
-#include <cstdio>
-#include <iostream>
 #include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "ftid/cell/demo.hpp"
-#include "ftid/common/error.hpp"
-#include "ftid/compensate/compensator.hpp"
-#include "ftid/identify/context.hpp"
-#include "ftid/identify/offline.hpp"
-#include "ftid/identify/paper_method.hpp"
-#include "ftid/model/kinematics.hpp"
-#include "ftid/sim/cell_sim.hpp"
 
 namespace {
 
@@ -53,109 +43,37 @@ const char* const kUsage =
     "exit status: 0 the demo showed what it says, 1 a step failed or a figure was not as expected\n"
     "(the output says which), 2 usage error.";
 
-struct DemoOptions {
-  std::uint64_t seed = 1;
-  std::string robot_urdf;
-  bool full_physics = false;
-};
-
-double truthOf(const std::string& name) {
-  using P = ftid::sim::PaperPayload;
-  constexpr double kDeg = 3.141592653589793 / 180.0;
-  const char* ax = "xyz";
-  for (int i = 0; i < 3; ++i) {
-    if (name == std::string("com_") + ax[i]) return P::centreOfMass()(i);
-    if (name == std::string("f0_") + ax[i]) return P::forceOffset()(i);
-    if (name == std::string("t0_") + ax[i]) return P::torqueOffset()(i);
-  }
-  if (name == "mass") return P::kMass_kg;
-  if (name == "weight") return P::kWeight_N;
-  if (name == "tilt_u") return P::kTiltU_deg * kDeg;
-  if (name == "tilt_v") return P::kTiltV_deg * kDeg;
-  return std::nan("");
-}
-
-int runPaperDemo(const DemoOptions& opt) {
-  using namespace ftid;
-  const std::string urdf = opt.robot_urdf.empty() ? identify::defaultRobotUrdf() : opt.robot_urdf;
-  std::cerr << "demo: robot " << urdf << "\n";
-  sim::CellSimConfig cfg = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(urdf));
-  cfg.full_rigid_body = opt.full_physics;
-  cfg.seed = opt.seed;
-  cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-  std::cerr << "demo: simulating 10 s excitation at 125 Hz (" << (opt.full_physics ? "full rigid-body" : "paper")
-            << " physics, noise 0.05 N / 0.01 Nm, seed " << opt.seed << ")\n";
-  const logio::LogData log = sim::CellSim(cfg).run();
-  const identify::ContextSet contexts = identify::buildContexts(log, *cfg.robot);
-  std::cerr << "demo: identifying (paper, dynamic method) from " << contexts.size() << " samples\n";
-  const identify::PaperResult r = identify::identifyPaper(contexts.samples);
-
-  std::printf("%-8s %12s %12s %10s %8s  %s\n", "param", "truth", "identified", "std", "err/std", "unit");
-  for (const char* name : {"weight", "mass", "com_x", "com_y", "com_z", "f0_x", "f0_y", "f0_z", "t0_x", "t0_y",
-                           "t0_z", "tilt_u", "tilt_v"}) {
-    for (const auto& p : r.params) {
-      if (p.name != name) continue;
-      const double truth = truthOf(name);
-      std::printf("%-8s %12.6f %12.6f %10.2g %8.2f  %s\n", name, truth, p.value, p.std,
-                  p.std > 0 ? (p.value - truth) / p.std : 0.0, p.unit.c_str());
+int runDemo(const std::vector<std::string>& argv) {
+  namespace cli = ftid::cli;
+  ftid::cell::DemoOptions cell;
+  ftid::cell::OfflineDemoOptions opt;
+  bool offline = false, no_netns = false;
+  CLI::App app{"ftid demo"};
+  app.add_flag("--offline", offline);
+  CLI::Option* workdir = app.add_option("--workdir", cell.workdir);
+  CLI::Option* hidden = app.add_option("--hidden-effect", cell.hidden_effect);
+  CLI::Option* netns = app.add_flag("--no-netns", no_netns);
+  app.add_option("--seed", opt.seed)->transform(cli::count());
+  CLI::Option* robot = app.add_option("--robot", opt.robot_urdf);
+  CLI::Option* physics = app.add_flag("--full-physics", opt.full_physics);
+  cli::parse(app, argv);
+  // Each mode takes only its own options.
+  for (const CLI::Option* o : offline ? std::vector<const CLI::Option*>{workdir, hidden, netns}
+                                      : std::vector<const CLI::Option*>{robot, physics}) {
+    if (o->count() > 0) {
+      throw cli::UsageError(o->get_name() + (offline ? " is not an option of the offline demo"
+                                                     : " needs --offline"));
     }
   }
-  std::printf("condition numbers: force stage %.3g, torque stage %.3g\n", r.condition_force, r.condition_torque);
-
-  // Compensate an independent run (new noise) with the identified parameters.
-  cfg.seed = opt.seed + 1000;
-  std::cerr << "demo: compensating an independent run (seed " << cfg.seed << ")\n";
-  const identify::ContextSet check = identify::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
-  const identify::ParameterSet set = r.toParameterSet();
-  const effects::Model model = effects::Model::fromName(set.model);
-  compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
-  Vec6 raw = Vec6::Zero(), residual = Vec6::Zero();
-  for (const auto& ctx : check.samples) {
-    Wrench contact;
-    if (comp.compute(ctx, &contact, nullptr) != Status::kOk) throw Error("compensation rejected a sample");
-    raw += ctx.wrench_S.cwiseAbs2();
-    residual += contact.cwiseAbs2();
-  }
-  const double n = static_cast<double>(check.size());
-  raw = (raw / n).cwiseSqrt();
-  residual = (residual / n).cwiseSqrt();
-  std::printf("%-6s %12s %14s %12s\n", "axis", "raw RMS", "compensated", "noise");
-  for (int a = 0; a < 6; ++a) {
-    std::printf("%-6s %12.4f %14.4f %12.4f\n", kWrenchAxisNames[a], raw(a), residual(a), cfg.noise.wrench_std(a));
-  }
-  return 0;
-}
-
-std::uint64_t parseSeed(const std::string& seed, std::uint64_t max) {
-  try {
-    std::size_t used = 0;
-    const unsigned long long v = std::stoull(seed, &used);
-    if (used != seed.size() || seed[0] == '-' || v > max) throw std::invalid_argument(seed);
-    return v;
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError("--seed needs a whole number in 0.." + std::to_string(max) + ", not '" + seed + "'");
-  }
-}
-
-int runDemo(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
-  if (!args.flag("--offline")) {
-    ftid::cell::DemoOptions cell;
-    cell.workdir = args.value("--workdir", cell.workdir);
-    cell.hidden_effect = args.value("--hidden-effect", cell.hidden_effect);
-    cell.private_netns = !args.flag("--no-netns");
-    const std::string seed = args.value("--seed", "1");
-    args.finish();
-    cell.seed = static_cast<int>(parseSeed(seed, 2147483647));
+  if (!offline) {
+    cell.private_netns = !no_netns;
+    if (opt.seed > 2147483647u) {
+      throw cli::UsageError("--seed: '" + std::to_string(opt.seed) + "' is not a whole number in 0..2147483647");
+    }
+    cell.seed = static_cast<int>(opt.seed);
     return ftid::cell::runDemo(cell);
   }
-  DemoOptions opt;
-  const std::string seed = args.value("--seed", "1");
-  opt.robot_urdf = args.value("--robot");
-  opt.full_physics = args.flag("--full-physics");
-  args.finish();
-  opt.seed = parseSeed(seed, UINT64_MAX);
-  return runPaperDemo(opt);
+  return ftid::cell::runOfflineDemo(opt);
 }
 
 ftid::cli::Registrar reg{{"demo", "the demo cell against the simulators (--offline: paper-only simulation)", kUsage, &runDemo}};

@@ -11,6 +11,7 @@
 
 #include "command.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/common/default_files.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/design/excitation_metric.hpp"
@@ -62,42 +63,6 @@ const char* kUsage =
     "\n"
     "Exit: 0 designed and verified, 1 no acceptable trajectory (reason printed), 2 usage error.";
 
-std::vector<double> parseList(const std::string& text, const std::string& what) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    try {
-      std::size_t used = 0;
-      out.push_back(std::stod(item, &used));
-      if (used != item.size()) throw std::invalid_argument("trailing");
-    } catch (const std::exception&) {
-      throw ftid::cli::UsageError(what + ": '" + item + "' is not a number");
-    }
-  }
-  return out;
-}
-
-double parsePositive(const std::string& text, const std::string& what) {
-  const auto v = parseList(text, what);
-  if (v.size() != 1 || !(v[0] > 0.0) || !std::isfinite(v[0])) {
-    throw ftid::cli::UsageError(what + " needs one positive number, got '" + text + "'");
-  }
-  return v[0];
-}
-
-long parseCount(const std::string& text, const std::string& what, long min) {
-  try {
-    std::size_t used = 0;
-    const long v = std::stol(text, &used);
-    if (used != text.size() || v < min) throw std::invalid_argument("range");
-    return v;
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError(what + " needs an integer >= " + std::to_string(min) + ", got '" +
-                                text + "'");
-  }
-}
-
 std::map<std::string, double> parseNominal(const std::string& text) {
   std::map<std::string, double> out = ftid::design::defaultNominalParameters();
   std::stringstream ss(text);
@@ -106,9 +71,23 @@ std::map<std::string, double> parseNominal(const std::string& text) {
     const auto eq = item.find('=');
     if (eq == std::string::npos)
       throw ftid::cli::UsageError("--nominal: expected name=value, got '" + item + "'");
-    out[item.substr(0, eq)] = parseList(item.substr(eq + 1), "--nominal")[0];
+    out[item.substr(0, eq)] = ftid::cli::parseReal(item.substr(eq + 1), "--nominal " + item.substr(0, eq));
   }
   return out;
+}
+
+/// The command line that designs the same trajectory again: this run's options, with the evaluation
+/// budgets pinned to the counts used so the result does not depend on the machine's speed.
+std::string reproduceCommand(const ftid::design::DesignOptions& o, const ftid::design::DesignResult& r) {
+  std::ostringstream s;
+  s << "ftid design --model " << o.model << " --joints ";
+  for (std::size_t i = 0; i < o.joints.size(); ++i) s << (i ? "," : "") << o.joints[i];
+  s << " --duration " << ftid::yamlNumberText(r.file.duration_s) << " --periods " << o.periods << " --harmonics "
+    << o.harmonics << " --rate " << ftid::yamlNumberText(o.servo_rate_hz) << " --objective "
+    << (o.objective == ftid::design::Objective::kCondition ? "cond" : "dopt") << " --seed " << o.seed
+    << " --global " << o.global_algorithm << " --local " << o.local_algorithm << " --global-evals "
+    << r.global_evals << " --local-evals " << r.local_evals << " (same robot, config and q0)";
+  return s.str();
 }
 
 void printStd(const std::map<std::string, double>& s,
@@ -124,48 +103,47 @@ void printStd(const std::map<std::string, double>& s,
 
 int runDesign(const std::vector<std::string>& argv) {
   using namespace ftid;
-  cli::Args args(argv, kUsage);
   design::DesignOptions o;
-  o.model = args.value("--model", "paper");
-  o.robot_path = args.value("--robot", "");
-  std::string config = args.value("--config", "");
-  const std::string joints = args.value("--joints", "4,5,6");
-  o.duration_s = parsePositive(args.value("--duration", "10"), "--duration");
-  o.periods = static_cast<int>(parseCount(args.value("--periods", "1"), "--periods", 1));
-  o.harmonics = static_cast<int>(parseCount(args.value("--harmonics", "5"), "--harmonics", 2));
-  o.servo_rate_hz = parsePositive(args.value("--rate", "125"), "--rate");
-  const std::string q0 = args.value("--q0", "");
-  const std::string objective = args.value("--objective", "cond");
-  o.seed = static_cast<std::uint64_t>(parseCount(args.value("--seed", "1"), "--seed", 0));
-  o.time_budget_s = parsePositive(args.value("--time-budget", "30"), "--time-budget");
-  o.global_algorithm = args.value("--global", "multistart");
-  o.local_algorithm = args.value("--local", "cobyla");
-  o.global_max_evals = parseCount(args.value("--global-evals", "0"), "--global-evals", 0);
-  o.local_max_evals = parseCount(args.value("--local-evals", "0"), "--local-evals", 0);
-  const std::string noise = args.value("--noise", "");
-  const std::string nominal = args.value("--nominal", "");
-  const std::string target = args.value("--target-std", "");
-  o.max_condition = parsePositive(args.value("--max-cond", "1e4"), "--max-cond");
-  o.baseline_seeds =
-      static_cast<int>(parseCount(args.value("--baseline-seeds", "50"), "--baseline-seeds", 0));
-  const std::string out = args.value("--out", "traj.yaml");
-  const bool quiet = args.flag("--quiet");
-  args.finish();
+  o.robot_path.clear();  // the shipped default, found below
+  std::string config, joints = "4,5,6", objective = "cond", noise, nominal, target, out = "traj.yaml";
+  std::vector<double> q0;
+  bool quiet = false;
+  CLI::App app{"ftid design"};
+  app.add_option("--model", o.model);
+  app.add_option("--robot", o.robot_path);
+  app.add_option("--config", config);
+  app.add_option("--joints", joints);
+  app.add_option("--duration", o.duration_s)->transform(cli::real(cli::positive()));
+  app.add_option("--periods", o.periods)->transform(cli::integer(1, 1000000));
+  app.add_option("--harmonics", o.harmonics)->transform(cli::integer(2, 1000000));
+  app.add_option("--rate", o.servo_rate_hz)->transform(cli::real(cli::positive()));
+  cli::addReals(app, "--q0", q0, 6);
+  app.add_option("--objective", objective)->transform(cli::oneOf({"cond", "dopt"}));
+  app.add_option("--seed", o.seed)->transform(cli::count());
+  app.add_option("--time-budget", o.time_budget_s)->transform(cli::real(cli::positive()));
+  app.add_option("--global", o.global_algorithm);
+  app.add_option("--local", o.local_algorithm);
+  app.add_option("--global-evals", o.global_max_evals)->transform(cli::integer(0, 1000000000000));
+  app.add_option("--local-evals", o.local_max_evals)->transform(cli::integer(0, 1000000000000));
+  app.add_option("--noise", noise);
+  app.add_option("--nominal", nominal);
+  app.add_option("--target-std", target);
+  app.add_option("--max-cond", o.max_condition)->transform(cli::real(cli::positive()));
+  app.add_option("--baseline-seeds", o.baseline_seeds)->transform(cli::integer(0, 1000000));
+  app.add_option("--out", out);
+  app.add_flag("--quiet", quiet);
+  cli::parse(app, argv);
 
   if (joints == "all") {
     o.joints = {1, 2, 3, 4, 5, 6};
   } else {
     o.joints.clear();
-    for (double j : parseList(joints, "--joints")) {
-      if (j != std::floor(j) || j < 1 || j > 6)
-        throw cli::UsageError("--joints: joint numbers are 1..6 or 'all'");
-      o.joints.push_back(static_cast<int>(j));
-    }
+    std::stringstream ss(joints);
+    std::string item;
+    while (std::getline(ss, item, ',')) o.joints.push_back(static_cast<int>(cli::parseInteger(item, "--joints", 1, 6)));
   }
   if (!q0.empty()) {
-    const auto v = parseList(q0, "--q0");
-    if (v.size() != 6) throw cli::UsageError("--q0 needs 6 comma-separated angles [rad]");
-    for (int i = 0; i < 6; ++i) o.q0[i] = v[static_cast<std::size_t>(i)];
+    for (int i = 0; i < 6; ++i) o.q0[i] = q0[static_cast<std::size_t>(i)];
   }
   if (objective == "cond") {
     o.objective = design::Objective::kCondition;
@@ -215,6 +193,7 @@ int runDesign(const std::vector<std::string>& argv) {
     r = design::designExcitation(o, kin);
   }
   r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : config;
+  r.file.design["reproduce"] = reproduceCommand(o, r);
   if (!target.empty()) r.file.design["target_std"] = target;
 
   for (const auto& w : r.warnings) std::cerr << "ftid design: warning: " << w << "\n";

@@ -29,12 +29,13 @@ const char* const kUsage =
     "atomically. Exit: 0 written, 1 bad parameter or config file (the message names it), 2 usage.";
 
 int runExport(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
-  const std::string params = args.value("--params");
-  std::string ros2 = args.value("--ros2");
-  std::string urscript = args.value("--urscript");
-  std::string config = args.value("--config");
-  args.finish();
+  std::string params, ros2, urscript, config;
+  CLI::App app{"ftid export"};
+  app.add_option("--params", params);
+  app.add_option("--ros2", ros2);
+  app.add_option("--urscript", urscript);
+  app.add_option("--config", config);
+  ftid::cli::parse(app, argv);
   if (params.empty()) throw ftid::cli::UsageError("--params FILE is required");
   if (ros2.empty() && urscript.empty()) {
     ros2 = params + ".ros2.yaml";

@@ -6,6 +6,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/offline.hpp"
 
@@ -46,32 +47,23 @@ const char* const kUsage =
     "parameters (the message names those not excited).";
 
 int runIdentify(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
   ftid::identify::IdentifyRequest req;
-  req.log_path = args.value("--log");
-  req.method = args.value("--method", "dynamic");
-  req.model = args.value("--model");
-  req.robot_urdf = args.value("--robot");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
-  const std::string out = args.value("--out");
-  std::string config = args.value("--config");
-  const bool json = args.flag("--json");
-  const std::string noise = args.value("--noise");
-  const std::string max_delay = args.value("--max-delay");
-  args.finish();
-  if (!max_delay.empty()) {
-    std::size_t used = 0;
-    double d = 0.0;
-    try {
-      d = std::stod(max_delay, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != max_delay.size() || !(d > 0.0 && d <= 10.0)) {
-      throw ftid::cli::UsageError("--max-delay must be a number of seconds in (0, 10], not '" + max_delay + "'");
-    }
-    req.max_delay_s = d;
-  }
+  req.method = "dynamic";
+  std::string wrench_frame, out, config, noise;
+  bool json = false;
+  CLI::App app{"ftid identify"};
+  app.add_option("--log", req.log_path);
+  app.add_option("--method", req.method)->transform(ftid::cli::oneOf({"static", "dynamic"}));
+  app.add_option("--model", req.model);
+  app.add_option("--robot", req.robot_urdf);
+  app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
+  app.add_option("--out", out);
+  app.add_option("--config", config);
+  app.add_flag("--json", json);
+  app.add_option("--noise", noise);
+  app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
+  ftid::cli::parse(app, argv);
+  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
   if (!noise.empty()) {
     try {
       req.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
@@ -80,9 +72,6 @@ int runIdentify(const std::vector<std::string>& argv) {
     }
   }
   if (req.log_path.empty()) throw ftid::cli::UsageError("--log FILE is required");
-  if (req.method != "static" && req.method != "dynamic") {
-    throw ftid::cli::UsageError("--method must be 'static' or 'dynamic'");
-  }
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
@@ -100,10 +89,7 @@ int runIdentify(const std::vector<std::string>& argv) {
     }
   }
   if (json) {
-    std::string j = ftid::identify::toJson(set);
-    const auto close = j.rfind('}');
-    j.insert(close, ", " + ftid::identify::fitCheckJsonMembers(id.check));
-    std::cout << j << "\n";
+    std::cout << ftid::identify::identificationJson(set, id.check) << "\n";
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
     std::cout << ftid::identify::formatFitCheck(id.check);

@@ -25,13 +25,15 @@ const char* const kUsage =
     "  --keep-invalid    keep cycles flagged invalid or stale";
 
 int runLcmToCsv(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
   ftid::transport::LcmToLogOptions options;
-  const std::string out = args.value("--out");
-  options.channel = args.value("--channel", options.channel);
-  options.keep_invalid = args.flag("--keep-invalid");
-  const std::vector<std::string> inputs = args.positionals();
-  args.finish();
+  std::string out;
+  std::vector<std::string> inputs;
+  CLI::App app{"ftid lcm-to-csv"};
+  app.add_option("--out", out);
+  app.add_option("--channel", options.channel);
+  app.add_flag("--keep-invalid", options.keep_invalid);
+  app.add_option("LCMLOG", inputs);
+  ftid::cli::parse(app, argv);
   if (inputs.size() != 1) throw ftid::cli::UsageError("exactly one LCM log file is required");
   if (out.empty()) throw ftid::cli::UsageError("--out is required");
   ftid::checkOutputPath(out);

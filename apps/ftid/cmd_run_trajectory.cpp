@@ -66,44 +66,36 @@ struct Progress {
   }
 };
 
-double number(const std::string& key, const std::string& v) {
-  try {
-    std::size_t pos = 0;
-    const double d = std::stod(v, &pos);
-    if (pos != v.size()) throw std::invalid_argument(v);
-    return d;
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError(key + ": not a number: '" + v + "'");
-  }
-}
-
 int runRunTrajectory(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
+  namespace cli = ftid::cli;
   ftid::motion::RobotSessionConfig cfg;
-  cfg.arm.host = args.value("--robot-host", "127.0.0.1");
-  cfg.arm.rtde_port = static_cast<std::uint16_t>(number("--rtde-port", args.value("--rtde-port", "30004")));
-  cfg.arm.script_port = static_cast<std::uint16_t>(number("--script-port", args.value("--script-port", "30003")));
-  cfg.arm.register_offset = static_cast<int>(number("--register-offset", args.value("--register-offset", "0")));
-  cfg.arm.lookahead_time = number("--lookahead", args.value("--lookahead", "0.1"));
-  cfg.arm.gain = number("--gain", args.value("--gain", "300"));
-  cfg.motion.approach_velocity = number("--approach-speed", args.value("--approach-speed", "0.25"));
-  cfg.motion.tracking_error_limit = number("--tracking-limit", args.value("--tracking-limit", "0.05"));
-  cfg.motion.realtime.require = args.flag("--require-rt");
-  const bool yes = args.flag("--yes");
-  std::string robot_urdf = args.value("--robot");
-  const std::string constraints_path = args.value("--constraints");
-  const std::string out = args.value("--out");
-  const auto pos = args.positionals();
-  args.finish();
-  if (pos.size() != 1) throw ftid::cli::UsageError("expected exactly one trajectory file");
-  if (out.empty()) throw ftid::cli::UsageError("--out is required");
+  cfg.arm.host = "127.0.0.1";
+  int rtde_port = 30004, script_port = 30003;
+  bool yes = false;
+  std::string robot_urdf, constraints_path, out, path;
+  CLI::App app{"ftid run-trajectory"};
+  app.add_option("--robot-host", cfg.arm.host);
+  app.add_option("--rtde-port", rtde_port)->transform(cli::integer(1, 65535));
+  app.add_option("--script-port", script_port)->transform(cli::integer(1, 65535));
+  app.add_option("--register-offset", cfg.arm.register_offset)->transform(cli::integer(0, 24));
+  app.add_option("--lookahead", cfg.arm.lookahead_time)->transform(cli::real(cli::positive()));
+  app.add_option("--gain", cfg.arm.gain)->transform(cli::real(cli::positive()));
+  app.add_option("--approach-speed", cfg.motion.approach_velocity)->transform(cli::real({0.0, 1.0, true, false}));
+  app.add_option("--tracking-limit", cfg.motion.tracking_error_limit)->transform(cli::real(cli::positive()));
+  app.add_flag("--require-rt", cfg.motion.realtime.require);
+  app.add_flag("--yes", yes);
+  app.add_option("--robot", robot_urdf);
+  app.add_option("--constraints", constraints_path);
+  app.add_option("--out", out);
+  app.add_option("TRAJECTORY", path);
+  cli::parse(app, argv);
+  cfg.arm.rtde_port = static_cast<std::uint16_t>(rtde_port);
+  cfg.arm.script_port = static_cast<std::uint16_t>(script_port);
+  if (path.empty()) throw cli::UsageError("expected exactly one trajectory file");
+  if (out.empty()) throw cli::UsageError("--out is required");
   ftid::checkOutputPath(out);  // before the robot moves
-  if (!(cfg.motion.approach_velocity > 0 && cfg.motion.approach_velocity <= 1.0)) {
-    throw ftid::cli::UsageError("--approach-speed must be in (0, 1] rad/s");
-  }
 
   // Load the trajectory.
-  const std::string& path = pos[0];
   std::unique_ptr<ftid::motion::JointTrajectorySource> source;
   ftid::trajectory::FourierTrajectory fourier;
   const bool yaml = path.size() > 5 && (path.substr(path.size() - 5) == ".yaml" || path.substr(path.size() - 4) == ".yml");

@@ -34,58 +34,41 @@ const char* kUsage =
     "  echo 'sim protective_stop' | nc 127.0.0.1 29999     (also: sim drop 20, sim disconnect)\n"
     "Tracking model, limits and protocol details: docs/robot.md.";
 
-std::uint16_t parsePort(const std::string& key, const std::string& v) {
-  try {
-    const long p = std::stol(v);
-    if (p < 0 || p > 65535) throw std::out_of_range("port");
-    return static_cast<std::uint16_t>(p);
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError(key + ": not a port number: '" + v + "'");
-  }
-}
-
 int runSimRobot(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
+  namespace cli = ftid::cli;
   ftid::simrobot::SimRobotConfig cfg;
-  cfg.model = ftid::simrobot::parseRobotModel(args.value("--model", "ur10"));
-  cfg.host = args.value("--host", "127.0.0.1");
-  cfg.rtde_port = parsePort("--rtde-port", args.value("--rtde-port", "30004"));
-  cfg.dashboard_port = parsePort("--dashboard-port", args.value("--dashboard-port", "29999"));
-  cfg.script_port = parsePort("--script-port", args.value("--script-port", "30003"));
-  const std::string q0 = args.value("--q0");
-  if (!q0.empty()) {
-    std::stringstream ss(q0);
-    std::string item;
-    int i = 0;
-    while (std::getline(ss, item, ',')) {
-      if (i >= 6) throw ftid::cli::UsageError("--q0 needs exactly 6 comma-separated values");
-      try {
-        cfg.q0[i++] = std::stod(item);
-      } catch (const std::exception&) {
-        throw ftid::cli::UsageError("--q0: not a number: '" + item + "'");
-      }
-    }
-    if (i != 6) throw ftid::cli::UsageError("--q0 needs exactly 6 comma-separated values");
-  }
-  while (args.has("--fault-after")) {
-    const std::string f = args.value("--fault-after");
+  std::string model = "ur10";
+  int rtde_port = 30004, dashboard_port = 29999, script_port = 30003;
+  std::vector<double> q0;
+  std::vector<std::string> faults;
+  CLI::App app{"ftid sim-robot"};
+  app.add_option("--model", model);
+  app.add_option("--host", cfg.host);
+  // Port 0: the simulator picks a free port (and prints it).
+  app.add_option("--rtde-port", rtde_port)->transform(cli::integer(0, 65535));
+  app.add_option("--dashboard-port", dashboard_port)->transform(cli::integer(0, 65535));
+  app.add_option("--script-port", script_port)->transform(cli::integer(0, 65535));
+  cli::addReals(app, "--q0", q0, 6);
+  cli::addRepeatable(app, "--fault-after", faults);
+  app.add_flag("--verbose", cfg.verbose);
+  cli::parse(app, argv);
+  cfg.model = ftid::simrobot::parseRobotModel(model);
+  cfg.rtde_port = static_cast<std::uint16_t>(rtde_port);
+  cfg.dashboard_port = static_cast<std::uint16_t>(dashboard_port);
+  cfg.script_port = static_cast<std::uint16_t>(script_port);
+  for (std::size_t i = 0; i < q0.size(); ++i) cfg.q0[static_cast<int>(i)] = q0[i];
+  for (const auto& f : faults) {  // SECONDS:KIND[:COUNT]
     std::stringstream ss(f);
     std::string when, kind, count;
     std::getline(ss, when, ':');
     std::getline(ss, kind, ':');
     std::getline(ss, count, ':');
     ftid::simrobot::ScheduledFault sf;
-    try {
-      sf.after_s = std::stod(when);
-      if (!count.empty()) sf.count = std::stoi(count);
-    } catch (const std::exception&) {
-      throw ftid::cli::UsageError("--fault-after: expected SECONDS:KIND[:COUNT], got '" + f + "'");
-    }
+    sf.after_s = cli::parseReal(when, "--fault-after " + f + ": SECONDS", cli::nonNegative());
+    if (!count.empty()) sf.count = static_cast<int>(cli::parseInteger(count, "--fault-after " + f + ": COUNT", 1, 1000000000));
     sf.kind = ftid::simrobot::parseFaultKind(kind);
     cfg.scheduled_faults.push_back(sf);
   }
-  cfg.verbose = args.flag("--verbose");
-  args.finish();
 
   // Block the signals before any thread starts so only sigwait() below receives them.
   sigset_t set;

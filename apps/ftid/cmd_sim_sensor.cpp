@@ -54,65 +54,66 @@ const char* kUsage =
     "Default payload: the paper's Table 2 (8.862 N, c = (0.5, 0.2, 5.1) cm, tilt -9.87/-5.37 deg).\n"
     "Layout, health rules and the simulator: docs/sensor.md.";
 
-double parseNumber(const std::string& key, const std::string& v) {
-  try {
-    std::size_t used = 0;
-    const double d = std::stod(v, &used);
-    if (used != v.size()) throw std::invalid_argument(v);
-    return d;
-  } catch (const std::exception&) {
-    throw ftid::cli::UsageError(key + ": not a number: '" + v + "'");
-  }
-}
-
 int runSimSensor(const std::vector<std::string>& argv) {
   using namespace ftid::simsensor;
-  ftid::cli::Args args(argv, kUsage);
+  namespace cli = ftid::cli;
   SimSensorConfig cfg = defaultSimSensorConfig();
   cfg.urdf_path.clear();  // defaults from the one lookup below, unless --config/--urdf set them
   cfg.dbc_path.clear();
-  const std::string config_path = args.value("--config");
-  if (!config_path.empty()) loadSimSensorYaml(config_path, cfg);
-  if (args.has("--robot-host")) cfg.robot_host = args.value("--robot-host");
-  if (args.has("--rtde-port")) {
-    const double p = parseNumber("--rtde-port", args.value("--rtde-port"));
-    if (p < 1 || p > 65535) throw ftid::cli::UsageError("--rtde-port must be 1..65535");
-    cfg.rtde_port = static_cast<std::uint16_t>(p);
-  }
-  if (args.has("--rtde-frequency"))
-    cfg.rtde_frequency_hz = parseNumber("--rtde-frequency", args.value("--rtde-frequency"));
-  if (args.has("--urdf")) cfg.urdf_path = args.value("--urdf");
-  if (args.has("--socket")) cfg.socket_path = args.value("--socket");
-  if (args.has("--rate")) cfg.rate_hz = parseNumber("--rate", args.value("--rate"));
-  if (args.has("--duration")) cfg.duration_s = parseNumber("--duration", args.value("--duration"));
-  if (args.has("--seed")) {
-    const double s = parseNumber("--seed", args.value("--seed"));
-    if (s < 0) throw ftid::cli::UsageError("--seed must be >= 0");
-    cfg.cell.seed = static_cast<std::uint64_t>(s);
-  }
-  if (args.has("--can-interface")) cfg.can_interface = args.value("--can-interface");
-  if (args.has("--candump-log")) cfg.candump_log = args.value("--candump-log");
-  if (args.has("--dbc")) cfg.dbc_path = args.value("--dbc");
-  if (cfg.urdf_path.empty()) cfg.urdf_path = ftid::findDefaultFile("ur10.urdf");
-  if (cfg.dbc_path.empty()) cfg.dbc_path = ftid::findDefaultFile("ftsensor.dbc");
-  // Repeatable options: Args::value() consumes one occurrence per call.
-  for (std::string e = args.value("--effect"); !e.empty(); e = args.value("--effect"))
-    enableEffect(e, cfg);
-  for (std::string f = args.value("--fault"); !f.empty(); f = args.value("--fault")) {
+  std::string config_path, robot_host, urdf, socket, can_interface, candump_log, dbc;
+  int rtde_port = 0;
+  double rtde_frequency = 0.0, rate = 0.0, duration = 0.0;
+  std::uint64_t seed = 0;
+  std::vector<std::string> effects, faults;
+  bool verbose = false;
+  CLI::App app{"ftid sim-sensor"};
+  app.add_option("--config", config_path);
+  CLI::Option* o_host = app.add_option("--robot-host", robot_host);
+  CLI::Option* o_port = app.add_option("--rtde-port", rtde_port)->transform(cli::integer(1, 65535));
+  CLI::Option* o_freq = app.add_option("--rtde-frequency", rtde_frequency)->transform(cli::real(cli::nonNegative()));
+  CLI::Option* o_urdf = app.add_option("--urdf", urdf);
+  CLI::Option* o_socket = app.add_option("--socket", socket);
+  CLI::Option* o_rate = app.add_option("--rate", rate)->transform(cli::real(cli::positive()));
+  CLI::Option* o_duration = app.add_option("--duration", duration)->transform(cli::real(cli::nonNegative()));
+  CLI::Option* o_seed = app.add_option("--seed", seed)->transform(cli::count());
+  CLI::Option* o_can = app.add_option("--can-interface", can_interface);
+  CLI::Option* o_candump = app.add_option("--candump-log", candump_log);
+  CLI::Option* o_dbc = app.add_option("--dbc", dbc);
+  cli::addRepeatable(app, "--effect", effects);
+  cli::addRepeatable(app, "--fault", faults);
+  app.add_flag("--verbose", verbose);
+  cli::parse(app, argv);
+  std::vector<ScheduledSensorFault> cli_faults;  // checked before any file is read
+  for (const auto& f : faults) {  // SECONDS:KIND[:COUNT]
     std::stringstream ss(f);
-    std::string when, kind, count;
+    std::string when, kind, n;
     std::getline(ss, when, ':');
     std::getline(ss, kind, ':');
-    std::getline(ss, count, ':');
+    std::getline(ss, n, ':');
     ScheduledSensorFault sf;
-    sf.at_s = parseNumber("--fault", when);
+    sf.at_s = cli::parseReal(when, "--fault " + f + ": SECONDS", cli::nonNegative());
     sf.kind = parseSensorFault(kind);
-    if (!count.empty()) sf.count = static_cast<int>(parseNumber("--fault", count));
-    if (sf.count < 1) throw ftid::cli::UsageError("--fault: COUNT must be >= 1");
-    cfg.faults.push_back(sf);
+    if (!n.empty()) sf.count = static_cast<int>(cli::parseInteger(n, "--fault " + f + ": COUNT", 1, 1000000000));
+    cli_faults.push_back(sf);
   }
-  cfg.verbose = args.flag("--verbose");
-  args.finish();
+  // The configuration file first; options given on the command line override it.
+  if (!config_path.empty()) loadSimSensorYaml(config_path, cfg);
+  if (o_host->count() > 0) cfg.robot_host = robot_host;
+  if (o_port->count() > 0) cfg.rtde_port = static_cast<std::uint16_t>(rtde_port);
+  if (o_freq->count() > 0) cfg.rtde_frequency_hz = rtde_frequency;
+  if (o_urdf->count() > 0) cfg.urdf_path = urdf;
+  if (o_socket->count() > 0) cfg.socket_path = socket;
+  if (o_rate->count() > 0) cfg.rate_hz = rate;
+  if (o_duration->count() > 0) cfg.duration_s = duration;
+  if (o_seed->count() > 0) cfg.cell.seed = seed;
+  if (o_can->count() > 0) cfg.can_interface = can_interface;
+  if (o_candump->count() > 0) cfg.candump_log = candump_log;
+  if (o_dbc->count() > 0) cfg.dbc_path = dbc;
+  if (cfg.urdf_path.empty()) cfg.urdf_path = ftid::findDefaultFile("ur10.urdf");
+  if (cfg.dbc_path.empty()) cfg.dbc_path = ftid::findDefaultFile("ftsensor.dbc");
+  for (const auto& e : effects) enableEffect(e, cfg);
+  cfg.faults.insert(cfg.faults.end(), cli_faults.begin(), cli_faults.end());
+  cfg.verbose = verbose;
 
   // Signals go to the waiter thread only (blocked before any thread starts).
   sigset_t set;

@@ -1,11 +1,8 @@
 // `ftid simulate`: write a simulated measurement log (and its truth) from the cell simulator.
 // Physics and switches: docs/simulator.md. Log format: docs/log-format.md.
-#include <sys/stat.h>
-
 #include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -16,6 +13,7 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "ftid/sim/effect_spec.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 
 namespace {
@@ -80,167 +78,62 @@ examples:
 
 exit codes: 0 log written, 1 bad robot description or trajectory file (named), 2 usage error.)";
 
-double parseDouble(const std::string& text, const std::string& what) {
-  std::size_t used = 0;
-  double v = 0.0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(v)) {
-    throw UsageError(what + ": not a finite number: '" + text + "'");
-  }
-  return v;
-}
-
-std::vector<double> parseList(const std::string& text, char sep, const std::string& what) {
-  std::vector<double> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, sep)) out.push_back(parseDouble(item, what));
-  return out;
-}
-
-ftid::Vec3 parseVec3(const std::string& text, char sep, const std::string& what) {
-  const auto v = parseList(text, sep, what);
-  if (v.size() != 3) throw UsageError(what + ": expected 3 values, got '" + text + "'");
-  return ftid::Vec3(v[0], v[1], v[2]);
-}
-
-// Vectors inside --effect use '/' between components (';' also accepted, but needs shell quoting).
-ftid::Vec3 parseEffectVec3(std::string text, const std::string& what) {
-  for (char& ch : text) {
-    if (ch == ';') ch = '/';
-  }
-  return parseVec3(text, '/', what);
-}
-
-void applyEffect(const std::string& spec, ftid::sim::CellSimConfig& c) {
-  const auto colon = spec.find(':');
-  const std::string name = spec.substr(0, colon);
-  std::vector<std::pair<std::string, std::string>> kv;
-  if (colon != std::string::npos) {
-    std::stringstream ss(spec.substr(colon + 1));
-    std::string item;
-    while (std::getline(ss, item, ',')) {
-      const auto eq = item.find('=');
-      if (eq == std::string::npos) throw UsageError("--effect " + name + ": expected key=value, got '" + item + "'");
-      kv.emplace_back(item.substr(0, eq), item.substr(eq + 1));
-    }
-  }
-  auto bad = [&](const std::string& key) {
-    return UsageError("--effect " + name + ": unknown key '" + key + "' (see ftid simulate --help)");
-  };
-  const std::string w = "--effect " + name;
-  if (name == "cable") {
-    c.cable.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "k") c.cable.stiffness_N_per_m = parseDouble(v, w + " k");
-      else if (k == "anchor") c.cable.p_BA_B = parseEffectVec3(v, w + " anchor");
-      else if (k == "attach") c.cable.p_SA_S = parseEffectVec3(v, w + " attach");
-      else throw bad(k);
-    }
-  } else if (name == "temperature_drift") {
-    c.temperature_drift.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "df") c.temperature_drift.dF0_dT_N_per_degC = parseEffectVec3(v, w + " df");
-      else if (k == "dt") c.temperature_drift.dT0_dT_Nm_per_degC = parseEffectVec3(v, w + " dt");
-      else if (k == "ref") c.temperature_drift.reference_degC = parseDouble(v, w + " ref");
-      else throw bad(k);
-    }
-  } else if (name == "time_drift") {
-    c.time_drift.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "df") c.time_drift.dF0_dt_N_per_s = parseEffectVec3(v, w + " df");
-      else if (k == "dt") c.time_drift.dT0_dt_Nm_per_s = parseEffectVec3(v, w + " dt");
-      else throw bad(k);
-    }
-  } else if (name == "sensor_delay") {
-    c.sensor_delay.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "tau") c.sensor_delay.tau_s = parseDouble(v, w + " tau");
-      else throw bad(k);
-    }
-  } else if (name == "crosstalk") {
-    c.crosstalk.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "scale") c.crosstalk.E *= parseDouble(v, w + " scale");
-      else throw bad(k);
-    }
-  } else if (name == "contact") {
-    c.contact.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "start") c.contact.t_start_s = parseDouble(v, w + " start");
-      else if (k == "end") c.contact.t_end_s = parseDouble(v, w + " end");
-      else if (k == "force") c.contact.force_B = parseEffectVec3(v, w + " force");
-      else if (k == "point") c.contact.p_SP_S = parseEffectVec3(v, w + " point");
-      else throw bad(k);
-    }
-  } else if (name == "glitches") {
-    c.glitches.enabled = true;
-    for (const auto& [k, v] : kv) {
-      if (k == "p") c.glitches.probability = parseDouble(v, w + " p");
-      else if (k == "force") c.glitches.force_N = parseDouble(v, w + " force");
-      else if (k == "torque") c.glitches.torque_Nm = parseDouble(v, w + " torque");
-      else throw bad(k);
-    }
-  } else if (name == "mounting") {
-    c.mounting.enabled = true;
-    constexpr double kDeg = 3.141592653589793 / 180.0;
-    ftid::Vec3 rpy_deg(0.0, 0.0, 3.0);
-    for (const auto& [k, v] : kv) {
-      if (k == "roll") rpy_deg.x() = parseDouble(v, w + " roll");
-      else if (k == "pitch") rpy_deg.y() = parseDouble(v, w + " pitch");
-      else if (k == "yaw") rpy_deg.z() = parseDouble(v, w + " yaw");
-      else throw bad(k);
-    }
-    c.mounting.rpy_rad = rpy_deg * kDeg;
-  } else if (name == "rigid_body") {
-    if (!kv.empty()) throw bad(kv.front().first);
-    c.full_rigid_body = true;
-  } else {
-    throw UsageError("unknown effect '" + name +
-                     "' (cable, temperature_drift, time_drift, sensor_delay, crosstalk, contact, glitches, mounting, "
-                     "rigid_body)");
-  }
-}
-
-
 int runSimulate(const std::vector<std::string>& argv) {
   using namespace ftid;
-  cli::Args args(argv, kUsage);
-  const std::string out = args.value("--out");
-  const std::string truth = args.value("--truth");
-  std::string robot_path = args.value("--robot");
-  const std::string traj_path = args.value("--trajectory");
-  const std::string duration = args.value("--duration");
-  const std::string rate = args.value("--rate", "125");
-  const std::string seed = args.value("--seed", "1");
-  const double noise_f = parseDouble(args.value("--noise-force", "0.05"), "--noise-force");
-  const double noise_t = parseDouble(args.value("--noise-torque", "0.01"), "--noise-torque");
-  const double noise_lowpass = parseDouble(args.value("--noise-lowpass", "0"), "--noise-lowpass");
-  const double noise_oversample = parseDouble(args.value("--noise-oversample", "1"), "--noise-oversample");
-  const std::string static_poses = args.value("--static-poses");
-  const double hold = parseDouble(args.value("--hold", "0.4"), "--hold");
-  const bool average = args.flag("--average");
-  const double noise_acc = parseDouble(args.value("--noise-acc", "0"), "--noise-acc");
-  const double noise_gyro = parseDouble(args.value("--noise-gyro", "0"), "--noise-gyro");
-  const double noise_alpha = parseDouble(args.value("--noise-alpha", "0"), "--noise-alpha");
-  const double noise_temp = parseDouble(args.value("--noise-temp", "0"), "--noise-temp");
-  const std::string mass = args.value("--mass"), com = args.value("--com"), inertia = args.value("--inertia");
-  const std::string f0 = args.value("--f0"), t0 = args.value("--t0");
-  const std::string tilt_u = args.value("--tilt-u-deg"), tilt_v = args.value("--tilt-v-deg");
-  const std::string mount_xyz = args.value("--mount-xyz"), mount_rpy = args.value("--mount-rpy");
-  const bool paper_model = args.flag("--paper-model");
+  namespace cli = ftid::cli;
+  std::string out, truth, robot_path, traj_path;
+  double duration = 0.0, rate = 125.0, hold = 0.4;
+  std::uint64_t seed = 1;
+  double noise_f = 0.05, noise_t = 0.01, noise_lowpass = 0.0;
+  int noise_oversample = 1, static_poses = 0;
+  double noise_acc = 0.0, noise_gyro = 0.0, noise_alpha = 0.0, noise_temp = 0.0;
+  double mass = 0.0, tilt_u_deg = 0.0, tilt_v_deg = 0.0;
+  std::vector<double> com, inertia, f0, t0, mount_xyz, mount_rpy;
+  bool average = false, paper_model = false;
   std::vector<std::string> effects;
-  while (true) {
-    const std::string e = args.value("--effect");
-    if (e.empty()) break;
-    effects.push_back(e);
-  }
-  args.finish();
+  CLI::App app{"ftid simulate"};
+  app.add_option("--out", out);
+  app.add_option("--truth", truth);
+  app.add_option("--robot", robot_path);
+  app.add_option("--trajectory", traj_path);
+  CLI::Option* duration_opt = app.add_option("--duration", duration)->transform(cli::real(cli::positive()));
+  app.add_option("--rate", rate)->transform(cli::real(cli::positive()));
+  app.add_option("--seed", seed)->transform(cli::count());
+  app.add_option("--noise-force", noise_f)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-torque", noise_t)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-lowpass", noise_lowpass)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-oversample", noise_oversample)->transform(cli::integer(1, 1000));
+  app.add_option("--noise-acc", noise_acc)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-gyro", noise_gyro)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-alpha", noise_alpha)->transform(cli::real(cli::nonNegative()));
+  app.add_option("--noise-temp", noise_temp)->transform(cli::real(cli::nonNegative()));
+  CLI::Option* mass_opt = app.add_option("--mass", mass)->transform(cli::real());
+  cli::addReals(app, "--com", com, 3);
+  cli::addReals(app, "--inertia", inertia, 6);
+  cli::addReals(app, "--f0", f0, 3);
+  cli::addReals(app, "--t0", t0, 3);
+  CLI::Option* tilt_u_opt = app.add_option("--tilt-u-deg", tilt_u_deg)->transform(cli::real());
+  CLI::Option* tilt_v_opt = app.add_option("--tilt-v-deg", tilt_v_deg)->transform(cli::real());
+  cli::addReals(app, "--mount-xyz", mount_xyz, 3);
+  cli::addReals(app, "--mount-rpy", mount_rpy, 3);
+  CLI::Option* poses_opt = app.add_option("--static-poses", static_poses)->transform(cli::integer(1, 1000000));
+  app.add_option("--hold", hold)->transform(cli::real(cli::positive()));
+  app.add_flag("--average", average);
+  app.add_flag("--paper-model", paper_model);
+  cli::addRepeatable(app, "--effect", effects);
+  cli::parse(app, argv);
   if (out.empty()) throw UsageError("--out is required");
+  {
+    // Command-line mistakes before any file is read: try every --effect on a scratch configuration.
+    sim::CellSimConfig scratch;
+    for (const auto& e : effects) {
+      try {
+        sim::applyEffectSpec(e, scratch);
+      } catch (const ConfigError& err) {
+        throw UsageError(err.what());
+      }
+    }
+  }
   checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!truth.empty()) checkOutputPath(truth);
 
@@ -249,34 +142,19 @@ int runSimulate(const std::vector<std::string>& argv) {
   }
   sim::CellSimConfig c = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(robot_path));
   if (!traj_path.empty()) c.trajectory = trajectory::readTrajectoryFile(traj_path).toTrajectory();
-  c.duration_s = duration.empty() ? c.trajectory.duration() : parseDouble(duration, "--duration");
-  c.rate_hz = parseDouble(rate, "--rate");
-  {
-    std::size_t used = 0;
-    unsigned long long s = 0;
-    try {
-      s = std::stoull(seed, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used == 0 || used != seed.size()) throw UsageError("--seed: not a non-negative integer: '" + seed + "'");
-    c.seed = s;
-  }
+  c.duration_s = duration_opt->count() == 0 ? c.trajectory.duration() : duration;
+  c.rate_hz = rate;
+  c.seed = seed;
   c.noise.wrench_std << noise_f, noise_f, noise_f, noise_t, noise_t, noise_t;
   c.noise.wrench_lowpass_hz = noise_lowpass;
-  if (noise_oversample != std::floor(noise_oversample) || noise_oversample < 1 || noise_oversample > 1000) {
-    throw UsageError("--noise-oversample: an integer 1..1000, got " + std::to_string(noise_oversample));
-  }
-  c.noise.wrench_oversample = static_cast<int>(noise_oversample);
-  if (!static_poses.empty()) {
-    const double np = parseDouble(static_poses, "--static-poses");
-    if (np != std::floor(np) || np < 1 || np > 1e6) throw UsageError("--static-poses: an integer 1..1e6");
+  c.noise.wrench_oversample = noise_oversample;
+  if (poses_opt->count() > 0) {
     c.static_poses.enabled = true;
-    c.static_poses.poses = static_cast<int>(np);
+    c.static_poses.poses = static_poses;
     c.static_poses.hold_s = hold;
     c.static_poses.average = average;
     c.static_poses.span_s = c.duration_s;
-    c.duration_s = np * hold;
+    c.duration_s = static_poses * hold;
   } else if (average) {
     throw UsageError("--average needs --static-poses");
   }
@@ -284,27 +162,26 @@ int runSimulate(const std::vector<std::string>& argv) {
   c.noise.gyro_std = noise_gyro;
   c.noise.alpha_std = noise_alpha;
   c.noise.temp_std = noise_temp;
-  if (!mass.empty()) c.payload.mass_kg = parseDouble(mass, "--mass");
-  if (!com.empty()) c.payload.p_SC_S = parseVec3(com, ',', "--com");
+  if (mass_opt->count() > 0) c.payload.mass_kg = mass;
+  if (!com.empty()) c.payload.p_SC_S = Vec3(com[0], com[1], com[2]);
   if (!inertia.empty()) {
-    const auto v = parseList(inertia, ',', "--inertia");
-    if (v.size() != 6) throw UsageError("--inertia: expected IXX,IYY,IZZ,IXY,IXZ,IYZ");
+    const auto& v = inertia;
     c.payload.I_C_S << v[0], v[3], v[4], v[3], v[1], v[5], v[4], v[5], v[2];
   }
-  if (!f0.empty()) c.F0_N = parseVec3(f0, ',', "--f0");
-  if (!t0.empty()) c.T0_Nm = parseVec3(t0, ',', "--t0");
+  if (!f0.empty()) c.F0_N = Vec3(f0[0], f0[1], f0[2]);
+  if (!t0.empty()) c.T0_Nm = Vec3(t0[0], t0[1], t0[2]);
   constexpr double kDeg = 3.141592653589793 / 180.0;
-  if (!tilt_u.empty()) c.tilt_u_rad = parseDouble(tilt_u, "--tilt-u-deg") * kDeg;
-  if (!tilt_v.empty()) c.tilt_v_rad = parseDouble(tilt_v, "--tilt-v-deg") * kDeg;
-  if (!mount_xyz.empty()) c.p_FS_F = parseVec3(mount_xyz, ',', "--mount-xyz");
+  if (tilt_u_opt->count() > 0) c.tilt_u_rad = tilt_u_deg * kDeg;
+  if (tilt_v_opt->count() > 0) c.tilt_v_rad = tilt_v_deg * kDeg;
+  if (!mount_xyz.empty()) c.p_FS_F = Vec3(mount_xyz[0], mount_xyz[1], mount_xyz[2]);
   if (!mount_rpy.empty()) {
-    const Vec3 rpy = parseVec3(mount_rpy, ',', "--mount-rpy");
+    const Vec3 rpy(mount_rpy[0], mount_rpy[1], mount_rpy[2]);
     c.R_FS = (Eigen::AngleAxisd(rpy.z(), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy.y(), Vec3::UnitY()) *
               Eigen::AngleAxisd(rpy.x(), Vec3::UnitX()))
                  .toRotationMatrix();
   }
   if (paper_model) c.full_rigid_body = false;
-  for (const auto& e : effects) applyEffect(e, c);
+  for (const auto& e : effects) sim::applyEffectSpec(e, c);  // checked above
 
   const sim::CellSim simulator(c);
   logio::LogData log = simulator.run();

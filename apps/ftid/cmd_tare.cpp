@@ -9,15 +9,14 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <string>
 
 #include "command.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/fileio/json_text.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/command_auth.hpp"
 #include "ftid/transport/source_filter.hpp"
@@ -56,30 +55,6 @@ const char* const kUsage =
     "     running, with this configuration, on this host?";
 
 const char* const kOffsetNames[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
-
-std::string jsonString(const std::string& s) {
-  std::string o = "\"";
-  for (const char c : s) {
-    if (c == '"' || c == '\\') {
-      o += '\\';
-      o += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
-      o += buf;
-    } else {
-      o += c;
-    }
-  }
-  return o + "\"";
-}
-
-std::string number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
-}
 
 struct TareReply {
   bool answered = false;
@@ -133,31 +108,28 @@ std::string offsetsText(const double* o) {
 }
 
 std::string replyJson(const ftid_lcm::ack_t& a) {
-  std::string o = "{\"ok\": " + std::string(a.ok ? "true" : "false") + ", \"message\": " + jsonString(a.message) +
-                  ", \"param_version\": " + std::to_string(a.param_version);
+  ftid::Json o = ftid::Json::object();
+  o["ok"] = a.ok != 0;  // an LCM boolean is an int8_t
+  o["message"] = a.message;
+  o["param_version"] = a.param_version;
   if (a.ok) {
-    o += ", \"offsets\": {";
-    for (int i = 0; i < 6; ++i) o += std::string(i ? ", " : "") + "\"" + kOffsetNames[i] + "\": " + number(a.offsets[i]);
-    o += "}";
+    ftid::Json offsets = ftid::Json::object();
+    for (int i = 0; i < 6; ++i) offsets[kOffsetNames[i]] = ftid::jsonNumber(a.offsets[i]);
+    o["offsets"] = std::move(offsets);
   }
-  return o + "}";
+  return ftid::jsonText(o);
 }
 
 int runTare(const std::vector<std::string>& argv) {
-  ftid::cli::Args args(argv, kUsage);
-  const std::string config_path = args.value("--config", "/etc/ftid/ftidd.yaml");
-  const std::string key_path = args.value("--key");
-  const std::string timeout_text = args.value("--timeout");
-  const bool json = args.flag("--json");
-  args.finish();
-  double timeout_s = -1.0;
-  if (!timeout_text.empty()) {
-    char* end = nullptr;
-    timeout_s = std::strtod(timeout_text.c_str(), &end);
-    if (*end != '\0' || !(timeout_s > 0.0 && timeout_s <= 600.0)) {
-      throw ftid::cli::UsageError("--timeout: '" + timeout_text + "' is not a number of seconds in (0, 600]");
-    }
-  }
+  std::string config_path = "/etc/ftid/ftidd.yaml", key_path;
+  double timeout_s = -1.0;  // default: the configured tare window + 3 s
+  bool json = false;
+  CLI::App app{"ftid tare"};
+  app.add_option("--config", config_path);
+  app.add_option("--key", key_path);
+  app.add_option("--timeout", timeout_s)->transform(ftid::cli::real({0.0, 600.0, true, false}));
+  app.add_flag("--json", json);
+  ftid::cli::parse(app, argv);
 
   const ftid::config::DaemonConfig cfg = ftid::config::loadDaemonConfig(config_path);  // names file and key
   if (timeout_s < 0.0) timeout_s = cfg.parameters.tare_window_s + 3.0;

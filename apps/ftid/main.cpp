@@ -27,68 +27,6 @@ const std::vector<Command>& commands() {
   return r;
 }
 
-Args::Args(std::vector<std::string> args, std::string command_usage)
-    : args_(std::move(args)), used_(args_.size(), false), usage_(std::move(command_usage)) {
-  for (std::size_t i = 0; i < args_.size(); ++i) {
-    if (args_[i] == "--help" || args_[i] == "-h") {
-      help_ = true;
-      used_[i] = true;
-    }
-  }
-}
-
-bool Args::has(const std::string& name) const {
-  for (std::size_t i = 0; i < args_.size(); ++i) {
-    if (used_[i]) continue;
-    if (args_[i] == name || args_[i].rfind(name + "=", 0) == 0) return true;
-  }
-  return false;
-}
-
-bool Args::flag(const std::string& name) {
-  bool found = false;
-  for (std::size_t i = 0; i < args_.size(); ++i) {
-    if (!used_[i] && args_[i] == name) {
-      used_[i] = true;
-      found = true;
-    }
-  }
-  return found;
-}
-
-std::string Args::value(const std::string& name, const std::string& default_value) {
-  for (std::size_t i = 0; i < args_.size(); ++i) {
-    if (used_[i]) continue;
-    if (args_[i] == name) {
-      if (i + 1 >= args_.size()) throw UsageError(name + " needs a value");
-      used_[i] = used_[i + 1] = true;
-      return args_[i + 1];
-    }
-    if (args_[i].rfind(name + "=", 0) == 0) {
-      used_[i] = true;
-      return args_[i].substr(name.size() + 1);
-    }
-  }
-  return default_value;
-}
-
-std::vector<std::string> Args::positionals() {
-  std::vector<std::string> out;
-  for (std::size_t i = 0; i < args_.size(); ++i) {
-    if (!used_[i] && (args_[i].empty() || args_[i][0] != '-' || args_[i] == "-")) {
-      used_[i] = true;
-      out.push_back(args_[i]);
-    }
-  }
-  return out;
-}
-
-void Args::finish() const {
-  for (std::size_t i = 0; i < args_.size(); ++i) {
-    if (!used_[i]) throw UsageError("unknown argument '" + args_[i] + "'");
-  }
-}
-
 }  // namespace ftid::cli
 
 namespace {

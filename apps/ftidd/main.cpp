@@ -1,10 +1,11 @@
 // ftidd: the long-running compensation daemon (docs/daemon.md). Parses arguments, loads and
 // validates the configuration, and runs ftid::daemon::Daemon. No logic here.
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <exception>
 #include <string>
+#include <vector>
+
+#include "cli_args.hpp"
 
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
@@ -59,44 +60,32 @@ void printHelp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config_path = kDefaultConfig;
-  bool check_only = false;
-  ftid::daemon::DaemonRunOptions options;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "ftidd: %s needs a value (see ftidd --help)\n", name);
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (arg == "--help" || arg == "-h") {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  for (const auto& a : args) {  // --help and --version win over everything else
+    if (a == "--help" || a == "-h") {
       printHelp();
       return 0;
-    } else if (arg == "--version") {
-      std::printf("ftidd %s\n", FTID_VERSION);
-      return 0;
-    } else if (arg == "--config") {
-      config_path = value("--config");
-    } else if (arg.rfind("--config=", 0) == 0) {
-      config_path = arg.substr(9);
-    } else if (arg == "--check-config") {
-      check_only = true;
-    } else if (arg == "--record") {
-      options.record_path = value("--record");
-    } else if (arg == "--connect-timeout") {
-      const std::string v = value("--connect-timeout");
-      char* end = nullptr;
-      options.connect_timeout_s = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end != '\0' || !(options.connect_timeout_s >= 0.0)) {
-        std::fprintf(stderr, "ftidd: --connect-timeout: expected seconds >= 0, got '%s'\n", v.c_str());
-        return 2;
-      }
-    } else {
-      std::fprintf(stderr, "ftidd: unknown argument '%s' (see ftidd --help)\n", arg.c_str());
-      return 2;
     }
+  }
+  std::string config_path = kDefaultConfig;
+  bool check_only = false;
+  bool version = false;
+  ftid::daemon::DaemonRunOptions options;
+  CLI::App app{"ftidd"};
+  app.add_option("--config", config_path);
+  app.add_flag("--check-config", check_only);
+  app.add_option("--record", options.record_path);
+  app.add_option("--connect-timeout", options.connect_timeout_s)->transform(ftid::cli::real(ftid::cli::nonNegative()));
+  app.add_flag("--version", version);
+  try {
+    ftid::cli::parse(app, args);
+  } catch (const ftid::cli::UsageError& e) {
+    std::fprintf(stderr, "ftidd: %s (see ftidd --help)\n", e.what());
+    return 2;
+  }
+  if (version) {
+    std::printf("ftidd %s\n", FTID_VERSION);
+    return 0;
   }
 
   ftid::config::DaemonConfig config;

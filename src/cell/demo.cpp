@@ -27,6 +27,7 @@
 #include "ftid/cell/cell_identify.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/parameter_set.hpp"
 #include "ftid/lab/analyze.hpp"
@@ -316,15 +317,36 @@ int runDemo(const DemoOptions& opt) {
     writeFile(key, hex + "\n");
     fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
   }
-  writeFile(work / "ftidd.yaml",
-            "# ftidd configuration written by `ftid demo` (see config/ftidd.yaml for every key)\n"
-            "robot:\n  host: 127.0.0.1\n  rtde_port: 30004\n  dashboard_port: 29999\n"
-            "  rtde_frequency_hz: 125\n  urdf_path: " + (cfgdir / "ur10.urdf").string() + "\n"
-            "sensor:\n  transport: seqpacket\n  socket_path: " + sock.string() + "\n"
-            "  dbc_path: " + (cfgdir / "ftsensor.dbc").string() + "\n  stale_timeout_ms: 20\n"
-            "parameters:\n  path: " + params.string() + "\n  required: false\n"
-            "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  command_key_path: " + key.string() + "\n"
-            "rt:\n  require_rt: false\n");
+  {
+    YAML::Emitter y;
+    y << YAML::BeginMap;
+    y << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "host" << YAML::Value << "127.0.0.1";
+    y << YAML::Key << "rtde_port" << YAML::Value << 30004;
+    y << YAML::Key << "dashboard_port" << YAML::Value << 29999;
+    y << YAML::Key << "rtde_frequency_hz" << YAML::Value << 125;
+    y << YAML::Key << "urdf_path" << YAML::Value << (cfgdir / "ur10.urdf").string();
+    y << YAML::EndMap;
+    y << YAML::Key << "sensor" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "transport" << YAML::Value << "seqpacket";
+    y << YAML::Key << "socket_path" << YAML::Value << sock.string();
+    y << YAML::Key << "dbc_path" << YAML::Value << (cfgdir / "ftsensor.dbc").string();
+    y << YAML::Key << "stale_timeout_ms" << YAML::Value << 20;
+    y << YAML::EndMap;
+    y << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "path" << YAML::Value << params.string();
+    y << YAML::Key << "required" << YAML::Value << false;
+    y << YAML::EndMap;
+    y << YAML::Key << "lcm" << YAML::Value << YAML::BeginMap;
+    y << YAML::Key << "url" << YAML::Value << YAML::DoubleQuoted << "udpm://239.255.76.67:7667?ttl=0";
+    y << YAML::Key << "command_key_path" << YAML::Value << key.string();
+    y << YAML::EndMap;
+    y << YAML::Key << "rt" << YAML::Value << YAML::BeginMap << YAML::Key << "require_rt" << YAML::Value << false
+      << YAML::EndMap;
+    y << YAML::EndMap;
+    writeFile(work / "ftidd.yaml",
+              yamlDocument("# ftidd configuration written by `ftid demo` (see config/ftidd.yaml for every key)\n", y));
+  }
   std::string sensor_yaml;
   {
     std::ifstream in(cfgdir / "sim_sensor.yaml");

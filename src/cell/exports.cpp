@@ -1,17 +1,14 @@
 #include "ftid/cell/exports.hpp"
 
-#include <fcntl.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdio>
-#include <cstring>
 #include <filesystem>
 #include <sstream>
 
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/model/frames.hpp"
 
 namespace ftid::cell {
@@ -133,43 +130,54 @@ std::string urScriptFile(const PayloadExport& e, const std::vector<RigidPart>& p
 }
 
 std::string ros2BroadcasterYaml(const PayloadExport& e, const Ros2Names& n) {
-  std::ostringstream o;
-  o << "# ros2_control parameters exported by ftid (docs/operations.md \"Exports\"), model " << e.model << ".\n"
-    << "# force_torque_sensor_broadcaster publishes reading + offset, then runs the sensor_filter_chain.\n"
-    << "#  - offset.force / offset.torque are ADDED to the reading, so they are the negated identified\n"
-    << "#    sensor offsets: offset = -F0 [N], -T0 [Nm] (F0 = " << vec(e.f0_S) << ", T0 = " << vec(e.t0_S)
-    << ").\n"
-    << "#  - control_filters/GravityCompensationWrench (control_toolbox) subtracts the tool's weight:\n"
-    << "#    tool.mass [kg]; tool.CoG = centre of mass in sensor_frame (frame S) [m];\n"
-    << "#    tool.gravity_field = gravity in world_frame [m/s^2], here the robot base B with the\n"
-    << "#    identified base tilt (g_B = R_WB^T g_W). world_frame must be the TF frame of B (UR: 'base'),\n"
-    << "#    sensor_frame the TF frame of S (the sensor mount in your URDF must match ftidd.yaml's).\n"
-    << "#  The filter compensates gravity only; ftidd also removes the inertial wrench in motion.\n"
-    << n.controller << ":\n"
-    << "  ros__parameters:\n"
-    << "    sensor_name: " << n.sensor_name << "\n"
-    << "    frame_id: " << n.sensor_frame << "\n"
-    << "    offset:\n"
-    << "      force:\n"
-    << "        x: " << num(-e.f0_S.x()) << "\n"
-    << "        y: " << num(-e.f0_S.y()) << "\n"
-    << "        z: " << num(-e.f0_S.z()) << "\n"
-    << "      torque:\n"
-    << "        x: " << num(-e.t0_S.x()) << "\n"
-    << "        y: " << num(-e.t0_S.y()) << "\n"
-    << "        z: " << num(-e.t0_S.z()) << "\n"
-    << "    sensor_filter_chain:\n"
-    << "      filter1:\n"
-    << "        type: control_filters/GravityCompensationWrench\n"
-    << "        name: gravity_compensation\n"
-    << "        params:\n"
-    << "          world_frame: " << n.world_frame << "\n"
-    << "          sensor_frame: " << n.sensor_frame << "\n"
-    << "          tool:\n"
-    << "            CoG: " << vec(e.com_S) << "\n"
-    << "            mass: " << num(e.mass) << "\n"
-    << "            gravity_field: " << vec(e.gravity_B) << "\n";
-  return o.str();
+  std::ostringstream header;
+  header << "# ros2_control parameters exported by ftid (docs/operations.md \"Exports\"), model " << e.model << ".\n"
+         << "# force_torque_sensor_broadcaster publishes reading + offset, then runs the sensor_filter_chain.\n"
+         << "#  - offset.force / offset.torque are ADDED to the reading, so they are the negated identified\n"
+         << "#    sensor offsets: offset = -F0 [N], -T0 [Nm] (F0 = " << vec(e.f0_S) << ", T0 = " << vec(e.t0_S)
+         << ").\n"
+         << "#  - control_filters/GravityCompensationWrench (control_toolbox) subtracts the tool's weight:\n"
+         << "#    tool.mass [kg]; tool.CoG = centre of mass in sensor_frame (frame S) [m];\n"
+         << "#    tool.gravity_field = gravity in world_frame [m/s^2], here the robot base B with the\n"
+         << "#    identified base tilt (g_B = R_WB^T g_W). world_frame must be the TF frame of B (UR: 'base'),\n"
+         << "#    sensor_frame the TF frame of S (the sensor mount in your URDF must match ftidd.yaml's).\n"
+         << "#  The filter compensates gravity only; ftidd also removes the inertial wrench in motion.\n";
+  auto xyz = [](YAML::Emitter& o, const Vec3& v) {
+    o << YAML::BeginMap;
+    for (int i = 0; i < 3; ++i) o << YAML::Key << std::string(1, "xyz"[i]) << YAML::Value << YamlNumber{v(i)};
+    o << YAML::EndMap;
+  };
+  auto list = [](YAML::Emitter& o, const Vec3& v) {
+    o << YAML::Flow << YAML::BeginSeq << YamlNumber{v.x()} << YamlNumber{v.y()} << YamlNumber{v.z()} << YAML::EndSeq;
+  };
+  // Names are always quoted: a frame called `true` or `1` must stay a string for ROS 2's parser.
+  YAML::Emitter o;
+  o << YAML::BeginMap << YAML::Key << n.controller << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "ros__parameters" << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "sensor_name" << YAML::Value << YAML::DoubleQuoted << n.sensor_name;
+  o << YAML::Key << "frame_id" << YAML::Value << YAML::DoubleQuoted << n.sensor_frame;
+  o << YAML::Key << "offset" << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "force" << YAML::Value;
+  xyz(o, -e.f0_S);
+  o << YAML::Key << "torque" << YAML::Value;
+  xyz(o, -e.t0_S);
+  o << YAML::EndMap;  // offset
+  o << YAML::Key << "sensor_filter_chain" << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "filter1" << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "type" << YAML::Value << "control_filters/GravityCompensationWrench";
+  o << YAML::Key << "name" << YAML::Value << "gravity_compensation";
+  o << YAML::Key << "params" << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "world_frame" << YAML::Value << YAML::DoubleQuoted << n.world_frame;
+  o << YAML::Key << "sensor_frame" << YAML::Value << YAML::DoubleQuoted << n.sensor_frame;
+  o << YAML::Key << "tool" << YAML::Value << YAML::BeginMap;
+  o << YAML::Key << "CoG" << YAML::Value;
+  list(o, e.com_S);
+  o << YAML::Key << "mass" << YAML::Value << YamlNumber{e.mass};
+  o << YAML::Key << "gravity_field" << YAML::Value;
+  list(o, e.gravity_B);
+  o << YAML::EndMap << YAML::EndMap << YAML::EndMap << YAML::EndMap;  // tool, params, filter1, chain
+  o << YAML::EndMap << YAML::EndMap << YAML::EndMap;  // ros__parameters, controller, document
+  return yamlDocument(header.str(), o);
 }
 
 std::vector<RigidPart> partsFromConfig(const config::DaemonConfig& cfg) {
@@ -187,30 +195,9 @@ Ros2Names ros2NamesFromConfig(const config::DaemonConfig& cfg) {
   return n;
 }
 
-void writeTextFileAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(path + ": cannot write (" + std::string(std::strerror(errno)) + ")");
-  std::size_t done = 0;
-  bool ok = true;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      ok = false;
-      break;
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  const int err = errno;
-  if (ok && ::fsync(fd) != 0) ok = false;
-  ::close(fd);
-  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int e = ok ? errno : err;
-    ::unlink(tmp.c_str());
-    throw Error(path + ": cannot write (" + std::string(std::strerror(e)) + ")");
-  }
-}
+/// The one atomic writer (ftid/fileio/atomic_file.hpp: never over a symlink, device, FIFO or
+/// directory); its FileError is an Error like the rest of this file's.
+void writeTextFileAtomic(const std::string& path, const std::string& text) { writeFileAtomically(path, text); }
 
 std::string writeExports(const identify::ParameterSet& set, const config::DaemonConfig& cfg,
                          const std::string& ros2_path, const std::string& urscript_path) {

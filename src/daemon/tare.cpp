@@ -13,6 +13,7 @@
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/fileio/yaml_strict.hpp"
 #include "ftid/transport/hmac_sha256.hpp"
 
@@ -30,12 +31,6 @@ std::string hexOf(const transport::Sha256Digest& d) {
     s += digits[b & 0xF];
   }
   return s;
-}
-
-std::string formatDouble(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  return buf;
 }
 
 }  // namespace
@@ -70,16 +65,19 @@ void setOffsets(identify::ParameterSet* set, const Wrench& offsets) {
 std::string tareStatePath(const std::string& parameter_path) { return parameter_path + ".tare.yaml"; }
 
 void writeTareState(const std::string& path, const TareState& state) {
-  std::ostringstream out;
-  out << "# ftidd tare state (docs/daemon.md, \"Tare\"): offsets measured by a TARE command.\n"
-      << "# Applied only to the parameter file whose SHA-256 is parameter_sha256; a reload\n"
-      << "# (SIGHUP or RELOAD_PARAMETERS) deletes this file. Written by ftidd; do not edit.\n"
-      << "parameter_sha256: " << state.parameter_sha256 << "\n"
-      << "utime: " << state.utime << "\n"
-      << "cycles: " << state.cycles << "\n"
-      << "offsets:  # N (f0) and Nm (t0), in the sensor frame S\n";
-  for (int i = 0; i < 6; ++i) out << "  " << kOffsetNames[i] << ": " << formatDouble(state.offsets(i)) << "\n";
-  writeFileAtomically(path, out.str());
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "parameter_sha256" << YAML::Value << state.parameter_sha256;
+  out << YAML::Key << "utime" << YAML::Value << state.utime;
+  out << YAML::Key << "cycles" << YAML::Value << state.cycles;
+  out << YAML::Key << "offsets" << YAML::Value << YAML::Comment("N (f0) and Nm (t0), in the sensor frame S")
+      << YAML::BeginMap;
+  for (int i = 0; i < 6; ++i) out << YAML::Key << kOffsetNames[i] << YAML::Value << YamlNumber{state.offsets(i)};
+  out << YAML::EndMap << YAML::EndMap;
+  writeFileAtomically(path, yamlDocument("# ftidd tare state (docs/daemon.md, \"Tare\"): offsets measured by a TARE command.\n"
+                                         "# Applied only to the parameter file whose SHA-256 is parameter_sha256; a reload\n"
+                                         "# (SIGHUP or RELOAD_PARAMETERS) deletes this file. Written by ftidd; do not edit.\n",
+                                         out));
 }
 
 std::optional<TareState> readTareState(const std::string& path) {

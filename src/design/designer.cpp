@@ -721,12 +721,8 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
                     fmt(opt.noise_sigma[4]) + "," + fmt(opt.noise_sigma[5])},
       {"global_result", res.global_result},
       {"local_result", res.local_result},
-      {"repaired", res.repaired ? "true" : "false"},
-      {"reproduce", "ftid design --model " + opt.model + " --joints " + joinInts(opt.joints) +
-                        " --duration " + fmt(opt.duration_s) + " --harmonics " +
-                        std::to_string(opt.harmonics) + " --seed " + seed + " --global-evals " +
-                        std::to_string(res.global_evals) + " --local-evals " +
-                        std::to_string(res.local_evals) + " (same robot, config and q0)"}};
+      {"repaired", res.repaired ? "true" : "false"}};
+  // The `reproduce` command line is the CLI's to write (apps/ftid/cmd_design.cpp): it knows its flags.
   f.metrics = {{"condition_number", res.condition_number},
                {"d_optimality", res.d_optimality},
                {"samples", static_cast<double>(Ks)},

@@ -8,35 +8,11 @@
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/fit.hpp"
+#include "ftid/identify/noise.hpp"
+#include "json_internal.hpp"
 
 namespace ftid::identify {
 
-namespace {
-
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char b[40];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
-}
-
-std::string axesJson(const Vec6& v) {
-  std::string o = "{";
-  for (int a = 0; a < 6; ++a) o += std::string(a ? ", " : "") + "\"" + kWrenchAxisNames[a] + "\": " + num(v(a));
-  return o + "}";
-}
-
-std::string jsonString(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    o += c;
-  }
-  return o + "\"";
-}
-
-}  // namespace
 
 FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& identify, const std::string& analyze_command,
                   const std::optional<Vec6>& noise_std, int folds) {
@@ -155,12 +131,29 @@ std::string formatFitCheck(const FitCheck& c) {
   return s;
 }
 
-std::string fitCheckJsonMembers(const FitCheck& c) {
-  std::string o = "\"noise_floor\": " + axesJson(c.noise.std) + ", \"noise_method\": " + jsonString(toString(c.noise.method)) +
-                  ", \"heldout_rms\": " + axesJson(c.heldout_rms) + ", \"residual_to_noise\": " +
-                  axesJson(c.residual_to_noise) + ", \"glitches\": " + std::to_string(c.glitches) + ", \"warnings\": [";
-  for (std::size_t k = 0; k < c.warnings.size(); ++k) o += (k ? ", " : "") + jsonString(c.warnings[k]);
-  return o + "]";
+namespace {
+
+void addFitCheck(Json& j, const FitCheck& c) {
+  j["noise_floor"] = axesJson(c.noise.std);
+  j["noise_method"] = toString(c.noise.method);
+  j["heldout_rms"] = axesJson(c.heldout_rms);
+  j["residual_to_noise"] = axesJson(c.residual_to_noise);
+  j["glitches"] = c.glitches;
+  j["warnings"] = c.warnings;
+}
+
+}  // namespace
+
+std::string fitCheckJson(const FitCheck& check) {
+  Json j = Json::object();
+  addFitCheck(j, check);
+  return jsonText(j);
+}
+
+std::string identificationJson(const ParameterSet& set, const FitCheck& check) {
+  Json j = parameterSetJson(set);
+  addFitCheck(j, check);
+  return jsonText(j);
 }
 
 }  // namespace ftid::identify

@@ -1,4 +1,4 @@
-// Parameter files (YAML) and the --json object: reading, validation, atomic writing. Needs no fit
+// Parameter files (YAML): reading, validation, atomic writing (the --json object: json.cpp). Needs no fit
 // or effect machinery (only the inertia math), so the parameter_yaml fuzz target links just this.
 #include "ftid/identify/parameter_set.hpp"
 
@@ -21,6 +21,7 @@
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/fileio/yaml_strict.hpp"
 
 namespace ftid::identify {
@@ -32,28 +33,6 @@ std::string number(double v) {
   char buf[40];
   std::snprintf(buf, sizeof(buf), "%.17g", v);
   return buf;
-}
-
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (char ch : s) {
-    switch (ch) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
-      case '\r': out += "\\r"; break;
-      default:
-        if (static_cast<unsigned char>(ch) < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(ch)));
-          out += buf;
-        } else {
-          out += ch;
-        }
-    }
-  }
-  return out + "\"";
 }
 
 std::string nowUtc() {
@@ -96,9 +75,10 @@ NamedValue readEntry(const YAML::Node& node, const std::string& name, const std:
   return nv;
 }
 
-void yamlEntry(std::ostream& os, const std::string& indent, const NamedValue& p) {
-  os << indent << p.name << ": {value: " << number(p.value) << ", std: " << number(p.std)
-     << ", unit: " << quoted(p.unit) << "}\n";
+void yamlEntry(YAML::Emitter& out, const NamedValue& p) {
+  out << YAML::Key << p.name << YAML::Value << YAML::Flow << YAML::BeginMap << YAML::Key << "value" << YAML::Value
+      << YamlNumber{p.value} << YAML::Key << "std" << YAML::Value << YamlNumber{p.std} << YAML::Key << "unit"
+      << YAML::Value << YAML::DoubleQuoted << p.unit << YAML::EndMap;
 }
 
 }  // namespace
@@ -255,85 +235,51 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
     throw IdentificationError(path + ": not written (the previous file is untouched): '" + problem->key + "': " +
                               problem->message);
   }
-  std::ostringstream os;
-  os << "# ftid payload parameters, written by `ftid identify` (docs/identification.md).\n"
-        "# Frames, units and signs: docs/conventions.md. Each entry: {value, std (standard error), unit}.\n"
-        "# `parameters` are the linear parameters of the model (what compensation uses);\n"
-        "# `derived` (centre of mass, weight) and `provenance` are for information.\n";
-  os << "model: " << quoted(set.model) << "\n";
-  os << "parameters:\n";
-  for (const auto& p : set.params) yamlEntry(os, "  ", p);
+  const std::string header =
+      "# ftid payload parameters, written by `ftid identify` (docs/identification.md).\n"
+      "# Frames, units and signs: docs/conventions.md. Each entry: {value, std (standard error), unit}.\n"
+      "# `parameters` are the linear parameters of the model (what compensation uses);\n"
+      "# `derived` (centre of mass, weight) and `provenance` are for information.\n";
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  out << YAML::Key << "model" << YAML::Value << YAML::DoubleQuoted << set.model;
+  out << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
+  for (const auto& p : set.params) yamlEntry(out, p);
+  out << YAML::EndMap;
   if (!set.derived.empty()) {
-    os << "derived:\n";
-    for (const auto& p : set.derived) yamlEntry(os, "  ", p);
+    out << YAML::Key << "derived" << YAML::Value << YAML::BeginMap;
+    for (const auto& p : set.derived) yamlEntry(out, p);
+    out << YAML::EndMap;
   }
-  os << "tilt:  # base mounting tilt R_WB = Rx(u) Ry(v)\n";
-  os << "  estimated: " << (set.tilt_estimated ? "true" : "false") << "\n";
-  yamlEntry(os, "  ", {"u", set.tilt_u_rad, set.tilt_u_std, "rad"});
-  yamlEntry(os, "  ", {"v", set.tilt_v_rad, set.tilt_v_std, "rad"});
-  os << "provenance:\n";
-  os << "  date: " << quoted(set.provenance.date_utc.empty() ? nowUtc() : set.provenance.date_utc) << "\n";
-  os << "  data_file: " << quoted(set.provenance.data_file) << "\n";
-  os << "  model: " << quoted(set.model) << "\n";
-  os << "  method: " << quoted(set.provenance.method) << "\n";
-  os << "  trajectory: " << quoted(set.provenance.trajectory) << "\n";
-  os << "  n_samples: " << set.provenance.n_samples << "\n";
-  os << "  residual_rms: {";
-  for (int a = 0; a < 6; ++a) os << (a ? ", " : "") << kWrenchAxisNames[a] << ": " << number(set.residual_rms(a));
-  os << "}\n";
-  os << "  condition_number: " << number(set.condition_number) << "\n";
+  out << YAML::Key << "tilt" << YAML::Value << YAML::Comment("base mounting tilt R_WB = Rx(u) Ry(v)") << YAML::BeginMap;
+  out << YAML::Key << "estimated" << YAML::Value << set.tilt_estimated;
+  yamlEntry(out, {"u", set.tilt_u_rad, set.tilt_u_std, "rad"});
+  yamlEntry(out, {"v", set.tilt_v_rad, set.tilt_v_std, "rad"});
+  out << YAML::EndMap;
+  out << YAML::Key << "provenance" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "date" << YAML::Value << YAML::DoubleQuoted
+      << (set.provenance.date_utc.empty() ? nowUtc() : set.provenance.date_utc);
+  out << YAML::Key << "data_file" << YAML::Value << YAML::DoubleQuoted << set.provenance.data_file;
+  out << YAML::Key << "model" << YAML::Value << YAML::DoubleQuoted << set.model;
+  out << YAML::Key << "method" << YAML::Value << YAML::DoubleQuoted << set.provenance.method;
+  out << YAML::Key << "trajectory" << YAML::Value << YAML::DoubleQuoted << set.provenance.trajectory;
+  out << YAML::Key << "n_samples" << YAML::Value << set.provenance.n_samples;
+  out << YAML::Key << "residual_rms" << YAML::Value << YAML::Flow << YAML::BeginMap;
+  for (int a = 0; a < 6; ++a) out << YAML::Key << kWrenchAxisNames[a] << YAML::Value << YamlNumber{set.residual_rms(a)};
+  out << YAML::EndMap;
+  out << YAML::Key << "condition_number" << YAML::Value << YamlNumber{set.condition_number};
+  out << YAML::EndMap;  // provenance
+  out << YAML::EndMap;
+  const std::string text = yamlDocument(header, out);
 
   // Atomic replacement (ftid/fileio/atomic_file.hpp); the previous file is kept as PATH.bak.
   AtomicWriteOptions options;
   options.keep_backup = true;
   try {
-    writeFileAtomically(path, os.str(), options);
+    writeFileAtomically(path, text, options);
   } catch (const FileError& e) {
     throw ConfigError(e.what());
   }
-}
-
-std::string toJson(const ParameterSet& set) {
-  std::ostringstream os;
-  os << "{\"model\":" << quoted(set.model) << ",\"method\":" << quoted(set.provenance.method)
-     << ",\"n_samples\":" << set.provenance.n_samples << ",\"parameters\":{";
-  bool first = true;
-  auto entry = [&](const std::string& name, double value, double sd) {
-    os << (first ? "" : ",") << quoted(name) << ":{\"value\":" << number(value) << ",\"std\":" << number(sd) << "}";
-    first = false;
-  };
-  std::vector<std::string> done;
-  for (const char* name : {"mass", "weight", "com_x", "com_y", "com_z", "f0_x", "f0_y", "f0_z", "t0_x",
-                           "t0_y", "t0_z"}) {
-    if (const NamedValue* p = set.find(name)) {
-      entry(name, p->value, p->std);
-      done.push_back(name);
-    }
-  }
-  entry("tilt_u", set.tilt_u_rad, set.tilt_u_std);
-  entry("tilt_v", set.tilt_v_rad, set.tilt_v_std);
-  for (const auto& p : set.params) {
-    if (std::find(done.begin(), done.end(), p.name) == done.end()) entry(p.name, p.value, p.std);
-  }
-  os << "},\"residual_rms\":{";
-  for (int a = 0; a < 6; ++a) os << (a ? "," : "") << quoted(kWrenchAxisNames[a]) << ":" << number(set.residual_rms(a));
-  os << "},\"condition_number\":" << number(set.condition_number);
-  os << ",\"tilt_estimated\":" << (set.tilt_estimated ? "true" : "false");
-  os << ",\"units\":{";
-  first = true;
-  for (const auto* group : {&set.params, &set.derived}) {
-    for (const auto& p : *group) {
-      os << (first ? "" : ",") << quoted(p.name) << ":" << quoted(p.unit);
-      first = false;
-    }
-  }
-  os << (first ? "" : ",") << "\"tilt_u\":\"rad\",\"tilt_v\":\"rad\"}";
-  os << ",\"extras\":{";
-  for (std::size_t i = 0; i < set.extras.size(); ++i) {
-    os << (i ? "," : "") << quoted(set.extras[i].name) << ":" << number(set.extras[i].value);
-  }
-  os << "},\"data_file\":" << quoted(set.provenance.data_file) << "}";
-  return os.str();
 }
 
 }  // namespace ftid::identify

@@ -1,133 +1,123 @@
 // JSON output of `ftid analyze` (analyze.hpp): one object, keys documented in docs/analyze.md.
-#include <cmath>
-#include <cstdio>
-#include <sstream>
+// Built with nlohmann-json under the output policy of ftid/fileio/json_text.hpp (round-trip
+// numbers, null for non-finite ones).
 #include <string>
 
+#include "ftid/fileio/json_text.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace ftid::lab {
 
 namespace {
 
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.10g", v);
-  return buf;
+Json axes(const Vec6& v) {
+  Json o = Json::object();
+  for (int a = 0; a < 6; ++a) o[kWrenchAxisNames[a]] = jsonNumber(v(a));
+  return o;
 }
 
-std::string str(const std::string& s) {
-  std::string o = "\"";
-  for (char c : s) {
-    switch (c) {
-      case '"': o += "\\\""; break;
-      case '\\': o += "\\\\"; break;
-      case '\n': o += "\\n"; break;
-      case '\t': o += "\\t"; break;
-      default:
-        if (static_cast<unsigned char>(c) < 0x20) {
-          char b[8];
-          std::snprintf(b, sizeof b, "\\u%04x", c);
-          o += b;
-        } else {
-          o += c;
-        }
-    }
+Json params(const ModelReport& r) {
+  Json o = Json::object();
+  for (const auto& p : r.params) {
+    o[p.name] = Json{{"value", jsonNumber(p.value)}, {"std", jsonNumber(p.std)}, {"unit", p.unit}};
   }
-  return o + "\"";
+  return o;
 }
 
-std::string axes(const Vec6& v) {
-  std::string o = "{";
-  for (int a = 0; a < 6; ++a) o += std::string(a ? ", " : "") + "\"" + kWrenchAxisNames[a] + "\": " + num(v(a));
-  return o + "}";
-}
-
-std::string params(const ModelReport& r) {
-  std::string o = "{";
-  for (std::size_t k = 0; k < r.params.size(); ++k) {
-    const auto& p = r.params[k];
-    o += std::string(k ? ", " : "") + str(p.name) + ": {\"value\": " + num(p.value) + ", \"std\": " + num(p.std) +
-         ", \"unit\": " + str(p.unit) + "}";
-  }
-  return o + "}";
-}
-
-std::string report(const ModelReport& r) {
-  std::string o = "{\"model\": " + str(r.model) + ", \"residual_rms\": " + axes(r.residual_rms) +
-                  ", \"fit_residual_rms\": " + axes(r.fit_residual_rms) +
-                  ", \"condition_number\": " + num(r.condition_number) + ", \"parameters\": " + params(r);
+Json report(const ModelReport& r) {
+  Json o = Json::object();
+  o["model"] = r.model;
+  o["residual_rms"] = axes(r.residual_rms);
+  o["fit_residual_rms"] = axes(r.fit_residual_rms);
+  o["condition_number"] = jsonNumber(r.condition_number);
+  o["parameters"] = params(r);
   if (r.inertia) {
-    o += ", \"inertia_com\": {\"value\": [";
-    for (int k = 0; k < 6; ++k) o += (k ? ", " : "") + num(r.inertia->value(k));
-    o += "], \"std\": [";
-    for (int k = 0; k < 6; ++k) o += (k ? ", " : "") + num(r.inertia->std(k));
-    o += "], \"positive_definite\": " + std::string(r.inertia->positive_definite ? "true" : "false") +
-         ", \"triangle_inequalities\": " + (r.inertia->triangle_inequalities ? "true" : "false") +
-         ", \"explanation\": " + str(r.inertia->explanation) + "}";
+    Json value = Json::array(), sd = Json::array();
+    for (int k = 0; k < 6; ++k) {
+      value.push_back(jsonNumber(r.inertia->value(k)));
+      sd.push_back(jsonNumber(r.inertia->std(k)));
+    }
+    o["inertia_com"] = Json{{"value", std::move(value)},
+                            {"std", std::move(sd)},
+                            {"positive_definite", r.inertia->positive_definite},
+                            {"triangle_inequalities", r.inertia->triangle_inequalities},
+                            {"explanation", r.inertia->explanation}};
   }
-  return o + "}";
+  return o;
 }
 
 }  // namespace
 
 std::string formatJson(const AnalysisResult& r) {
-  std::ostringstream o;
-  o << "{\"model\": " << str(r.report.model) << ",\n";
-  o << " \"log\": " << str(r.log) << ", \"validate_log\": " << str(r.validate_log) << ",\n";
-  o << " \"samples\": " << r.n_samples << ", \"heldout_samples\": " << r.n_eval << ", \"folds\": " << r.folds << ",\n";
-  o << " \"residual_rms\": " << axes(r.report.residual_rms) << ",\n";
-  o << " \"noise_floor\": " << axes(r.noise_floor) << ",\n";
-  o << " \"noise_method\": " << str(r.noise_method) << ", \"noise_detail\": " << str(r.noise_detail)
-    << ", \"noise_ar1\": " << axes(r.noise_ar1) << ",\n";
-  o << " \"outliers\": {\"count\": " << r.outliers.count << ", \"times\": [";
-  for (std::size_t k = 0; k < r.outliers.times.size(); ++k) o << (k ? ", " : "") << num(r.outliers.times[k]);
-  o << "]},\n \"warnings\": [";
-  for (std::size_t k = 0; k < r.warnings.size(); ++k) o << (k ? ", " : "") << str(r.warnings[k]);
-  o << "],\n";
-  o << " \"raw_rms\": " << axes(r.report.raw_rms) << ",\n";
-  o << " \"fit\": " << report(r.report) << ",\n";
-  o << " \"windows\": [";
-  for (std::size_t k = 0; k < r.windows.size(); ++k) {
-    const auto& w = r.windows[k];
-    o << (k ? ", " : "") << "{\"t_start\": " << num(w.t_start) << ", \"t_end\": " << num(w.t_end)
-      << ", \"ratio\": " << num(w.ratio) << ", \"worst_axis\": " << str(kWrenchAxisNames[w.worst_axis]) << "}";
+  Json o = Json::object();
+  o["model"] = r.report.model;
+  o["log"] = r.log;
+  o["validate_log"] = r.validate_log;
+  o["samples"] = r.n_samples;
+  o["heldout_samples"] = r.n_eval;
+  o["folds"] = r.folds;
+  o["residual_rms"] = axes(r.report.residual_rms);
+  o["noise_floor"] = axes(r.noise_floor);
+  o["noise_method"] = r.noise_method;
+  o["noise_detail"] = r.noise_detail;
+  o["noise_ar1"] = axes(r.noise_ar1);
+  Json times = Json::array();
+  for (const double t : r.outliers.times) times.push_back(jsonNumber(t));
+  o["outliers"] = Json{{"count", r.outliers.count}, {"times", std::move(times)}};
+  o["warnings"] = r.warnings;
+  o["raw_rms"] = axes(r.report.raw_rms);
+  o["fit"] = report(r.report);
+  Json windows = Json::array();
+  for (const auto& w : r.windows) {
+    windows.push_back(Json{{"t_start", jsonNumber(w.t_start)},
+                           {"t_end", jsonNumber(w.t_end)},
+                           {"ratio", jsonNumber(w.ratio)},
+                           {"worst_axis", kWrenchAxisNames[w.worst_axis]}});
   }
-  o << "],\n \"correlations\": [";
-  for (std::size_t k = 0; k < r.correlations.size(); ++k) {
-    const auto& c = r.correlations[k];
-    o << (k ? ", " : "") << "{\"signal\": " << str(c.signal) << ", \"axis\": " << str(kWrenchAxisNames[c.axis])
-      << ", \"r\": " << num(c.r) << ", \"significant\": " << (c.significant ? "true" : "false") << "}";
+  o["windows"] = std::move(windows);
+  Json correlations = Json::array();
+  for (const auto& c : r.correlations) {
+    correlations.push_back(Json{{"signal", c.signal},
+                                {"axis", kWrenchAxisNames[c.axis]},
+                                {"r", jsonNumber(c.r)},
+                                {"significant", c.significant}});
   }
-  o << "],\n \"candidates\": [";
-  bool first = true;
+  o["correlations"] = std::move(correlations);
+  Json candidates = Json::array();
   for (const auto& c : r.candidates) {
-    o << (first ? "\n  " : ",\n  ");
-    first = false;
-    o << "{\"effect\": " << str(c.effect) << ", \"relative_reduction\": " << num(c.relative_reduction)
-      << ", \"significant\": " << (c.significant ? "true" : "false") << ", \"p_value\": " << num(c.p_value)
-      << ", \"f_statistic\": " << num(c.f_statistic) << ", \"added_params\": " << c.added_params
-      << ", \"delta_bic\": " << num(c.delta_bic) << ", \"residual_rms\": " << axes(c.residual_rms)
-      << ", \"description\": " << str(c.description) << ", \"next_command\": " << str(c.next_command)
-      << ", \"skipped\": " << (c.skipped ? "true" : "false") << ", \"note\": " << str(c.note)
-      << ", \"confounded\": " << (c.confounded ? "true" : "false") << ", \"confound\": " << str(c.confound)
-      << ", \"separating_motion\": " << str(c.separating_motion) << "}";
+    Json e = Json::object();
+    e["effect"] = c.effect;
+    e["relative_reduction"] = jsonNumber(c.relative_reduction);
+    e["significant"] = c.significant;
+    e["p_value"] = jsonNumber(c.p_value);
+    e["f_statistic"] = jsonNumber(c.f_statistic);
+    e["added_params"] = c.added_params;
+    e["delta_bic"] = jsonNumber(c.delta_bic);
+    e["residual_rms"] = axes(c.residual_rms);
+    e["description"] = c.description;
+    e["next_command"] = c.next_command;
+    e["skipped"] = c.skipped;
+    e["note"] = c.note;
+    e["confounded"] = c.confounded;
+    e["confound"] = c.confound;
+    e["separating_motion"] = c.separating_motion;
+    candidates.push_back(std::move(e));
   }
-  o << "]";
+  o["candidates"] = std::move(candidates);
   if (!r.steps.empty()) {
-    o << ",\n \"steps\": [";
-    for (std::size_t k = 0; k < r.steps.size(); ++k) {
-      const auto& s = r.steps[k];
-      o << (k ? ",\n  " : "\n  ") << "{\"model\": " << str(s.model) << ", \"added\": " << str(s.added)
-        << ", \"residual_rms\": " << axes(s.residual_rms) << ", \"ratio_to_noise\": " << num(s.total_ratio)
-        << ", \"p_value\": " << num(s.p_value) << "}";
+    Json steps = Json::array();
+    for (const auto& s : r.steps) {
+      steps.push_back(Json{{"model", s.model},
+                           {"added", s.added},
+                           {"residual_rms", axes(s.residual_rms)},
+                           {"ratio_to_noise", jsonNumber(s.total_ratio)},
+                           {"p_value", jsonNumber(s.p_value)}});
     }
-    o << "]";
+    o["steps"] = std::move(steps);
   }
-  if (r.final_report) o << ",\n \"final\": " << report(*r.final_report);
-  o << ",\n \"seconds\": " << num(r.seconds) << "}\n";
-  return o.str();
+  if (r.final_report) o["final"] = report(*r.final_report);
+  o["seconds"] = jsonNumber(r.seconds);
+  return jsonText(o, 1) + "\n";
 }
 
 }  // namespace ftid::lab

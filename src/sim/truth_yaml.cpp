@@ -12,25 +12,14 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
 namespace ftid::sim {
 
 namespace {
 
-// Shortest representation that reads back to the identical double.
-struct Num {
-  double v;
-};
-YAML::Emitter& operator<<(YAML::Emitter& e, Num n) {
-  char buf[32];
-  const auto res = std::to_chars(buf, buf + sizeof buf, n.v);
-  std::string text(buf, res.ptr);
-  // "8e-04" -> "8.0e-04": also a float for YAML 1.1 readers (e.g. PyYAML).
-  const auto epos = text.find('e');
-  if (epos != std::string::npos && text.find('.') == std::string::npos) text.insert(epos, ".0");
-  return e << text;
-}
+using Num = YamlNumber;  // the output policy of every YAML file (ftid/fileio/yaml_emit.hpp)
 
 void vec3(YAML::Emitter& e, const char* key, const Vec3& v) {
   e << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << Num{v.x()} << Num{v.y()} << Num{v.z()} << YAML::EndSeq;

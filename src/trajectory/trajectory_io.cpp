@@ -18,6 +18,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
+#include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/fileio/yaml_strict.hpp"
 
 namespace ftid::trajectory {
@@ -28,31 +29,11 @@ constexpr const char* kFormatTag = "ftid-excitation-trajectory/1";
 
 // ---------------------------------------------------------------- writing
 
-std::string num(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  std::string s(buf);
-  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // keep it a float in YAML
-  return s;
-}
-
 template <typename Vec>
-std::string seq(const Vec& v, int n) {
-  std::string s = "[";
-  for (int i = 0; i < n; ++i) {
-    if (i > 0) s += ", ";
-    s += num(v[i]);
-  }
-  return s + "]";
-}
-
-std::string quoted(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
+void seq(YAML::Emitter& o, const Vec& v, int n) {
+  o << YAML::Flow << YAML::BeginSeq;
+  for (int i = 0; i < n; ++i) o << YamlNumber{v[i]};
+  o << YAML::EndSeq;
 }
 
 /// Writes `text` to `path` through the one atomic writer (ftid/fileio/atomic_file.hpp).
@@ -161,68 +142,95 @@ void writeTrajectoryFile(const std::string& path, const TrajectoryFile& file) {
     throw ConfigError(path + ": cannot write a trajectory with " + std::to_string(n) +
                       " harmonics");
   }
-  std::ostringstream o;
-  o << "# ftid excitation trajectory (docs/design.md). Joint i follows the finite Fourier series\n"
-       "#   q_i(t)   = q0_i + sum_l [ a_il/(w l) sin(w l t) + b_il/(w l) (1 - cos(w l t)) ]\n"
-       "#   qd_i(t)  = sum_l [ a_il cos(w l t) + b_il sin(w l t) ]          w = 2 pi "
-       "base_frequency_hz\n"
-       "# (paper Eq. 47-49 with the offset q0). Rest-to-rest: sum_l a_il = 0, sum_l l b_il = 0 and "
-       "a\n"
-       "# whole number of base periods. Units SI (docs/conventions.md). Re-check with\n"
-       "#   ftid check-trajectory THIS_FILE\n";
-  o << "format: " << kFormatTag << "\n";
-  o << "robot: " << quoted(relativeTo(path, file.robot)) << "   # a relative path is relative to this file\n";
-  o << "joints: [";
-  for (std::size_t i = 0; i < file.joints.size(); ++i) o << (i ? ", " : "") << file.joints[i];
-  o << "]            # excited joints, 1-based UR order; the others stay at q0\n";
-  o << "q0: " << seq(file.q0, kNumJoints) << "   # start/end pose [rad]\n";
-  o << "base_frequency_hz: " << num(file.base_frequency_hz) << "\n";
-  o << "harmonics: " << n << "\n";
-  o << "duration_s: " << num(file.duration_s) << "\n";
-  o << "servo_rate_hz: " << num(file.servo_rate_hz) << "   # rate of the CSV beside this file\n";
-  o << "coefficients:   # [rad/s], one row per joint 1..6, one column per harmonic 1..N\n";
-  o << "  a:\n";
-  for (int j = 0; j < kNumJoints; ++j)
-    o << "    - " << seq(file.a[static_cast<std::size_t>(j)], n) << "\n";
-  o << "  b:\n";
-  for (int j = 0; j < kNumJoints; ++j)
-    o << "    - " << seq(file.b[static_cast<std::size_t>(j)], n) << "\n";
+  const std::string header =
+      "# ftid excitation trajectory (docs/design.md). Joint i follows the finite Fourier series\n"
+      "#   q_i(t)   = q0_i + sum_l [ a_il/(w l) sin(w l t) + b_il/(w l) (1 - cos(w l t)) ]\n"
+      "#   qd_i(t)  = sum_l [ a_il cos(w l t) + b_il sin(w l t) ]          w = 2 pi base_frequency_hz\n"
+      "# (paper Eq. 47-49 with the offset q0). Rest-to-rest: sum_l a_il = 0, sum_l l b_il = 0 and a\n"
+      "# whole number of base periods. Units SI (docs/conventions.md). Re-check with\n"
+      "#   ftid check-trajectory THIS_FILE\n";
+  YAML::Emitter o;
+  o << YAML::BeginMap;
+  o << YAML::Key << "format" << YAML::Value << kFormatTag;
+  o << YAML::Key << "robot" << YAML::Value << YAML::DoubleQuoted << relativeTo(path, file.robot)
+    << YAML::Comment("a relative path is relative to this file");
+  o << YAML::Key << "joints" << YAML::Value << YAML::Flow << file.joints
+    << YAML::Comment("excited joints, 1-based UR order; the others stay at q0");
+  o << YAML::Key << "q0" << YAML::Value;
+  seq(o, file.q0, kNumJoints);
+  o << YAML::Comment("start/end pose [rad]");
+  o << YAML::Key << "base_frequency_hz" << YAML::Value << YamlNumber{file.base_frequency_hz};
+  o << YAML::Key << "harmonics" << YAML::Value << n;
+  o << YAML::Key << "duration_s" << YAML::Value << YamlNumber{file.duration_s};
+  o << YAML::Key << "servo_rate_hz" << YAML::Value << YamlNumber{file.servo_rate_hz}
+    << YAML::Comment("rate of the CSV beside this file");
+  o << YAML::Key << "coefficients" << YAML::Value
+    << YAML::Comment("[rad/s], one row per joint 1..6, one column per harmonic 1..N") << YAML::BeginMap;
+  for (const auto* name : {"a", "b"}) {
+    const auto& rows = name[0] == 'a' ? file.a : file.b;
+    o << YAML::Key << name << YAML::Value << YAML::BeginSeq;
+    for (int j = 0; j < kNumJoints; ++j) seq(o, rows[static_cast<std::size_t>(j)], n);
+    o << YAML::EndSeq;
+  }
+  o << YAML::EndMap;
 
   const auto& c = file.constraints;
-  o << "constraints:   # what the trajectory was designed and checked against\n";
-  o << "  position_lower: " << seq(c.position_lower, kNumJoints) << "   # [rad]\n";
-  o << "  position_upper: " << seq(c.position_upper, kNumJoints) << "   # [rad]\n";
-  o << "  velocity: " << seq(c.velocity, kNumJoints) << "   # [rad/s]\n";
-  o << "  acceleration: " << seq(c.acceleration, kNumJoints) << "   # [rad/s^2]\n";
-  o << "  floor_z: " << num(c.floor_z_B) << "   # [m] in the base frame B\n";
-  o << "  tool:   # spheres fixed in the sensor frame S\n";
-  if (c.tool.empty()) o << "    []\n";
+  o << YAML::Key << "constraints" << YAML::Value << YAML::Comment("what the trajectory was designed and checked against")
+    << YAML::BeginMap;
+  o << YAML::Key << "position_lower" << YAML::Value;
+  seq(o, c.position_lower, kNumJoints);
+  o << YAML::Comment("[rad]");
+  o << YAML::Key << "position_upper" << YAML::Value;
+  seq(o, c.position_upper, kNumJoints);
+  o << YAML::Comment("[rad]");
+  o << YAML::Key << "velocity" << YAML::Value;
+  seq(o, c.velocity, kNumJoints);
+  o << YAML::Comment("[rad/s]");
+  o << YAML::Key << "acceleration" << YAML::Value;
+  seq(o, c.acceleration, kNumJoints);
+  o << YAML::Comment("[rad/s^2]");
+  o << YAML::Key << "floor_z" << YAML::Value << YamlNumber{c.floor_z_B} << YAML::Comment("[m] in the base frame B");
+  o << YAML::Key << "tool" << YAML::Value << YAML::Comment("spheres fixed in the sensor frame S") << YAML::BeginSeq;
   for (const auto& t : c.tool) {
-    o << "    - {center: " << seq(t.center_S, 3) << ", radius: " << num(t.radius) << "}\n";
+    o << YAML::Flow << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
+    seq(o, t.center_S, 3);
+    o << YAML::Key << "radius" << YAML::Value << YamlNumber{t.radius} << YAML::EndMap;
   }
-  o << "  keep_out:   # spheres fixed in the base frame B\n";
-  if (c.keep_out.empty()) o << "    []\n";
+  o << YAML::EndSeq;
+  o << YAML::Key << "keep_out" << YAML::Value << YAML::Comment("spheres fixed in the base frame B") << YAML::BeginSeq;
   for (const auto& k : c.keep_out) {
-    o << "    - {name: " << quoted(k.name) << ", center: " << seq(k.center_B, 3)
-      << ", radius: " << num(k.radius) << "}\n";
+    o << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << YAML::DoubleQuoted << k.name
+      << YAML::Key << "center" << YAML::Value;
+    seq(o, k.center_B, 3);
+    o << YAML::Key << "radius" << YAML::Value << YamlNumber{k.radius} << YAML::EndMap;
   }
-  o << "  sensor_mount:   # X_FS: rotation row-major, translation [m]\n";
+  o << YAML::EndSeq;
+  o << YAML::Key << "sensor_mount" << YAML::Value << YAML::Comment("X_FS: rotation row-major, translation [m]")
+    << YAML::BeginMap;
   {
     double r[9];
     for (int i = 0; i < 9; ++i) r[i] = c.R_FS(i / 3, i % 3);
-    o << "    rotation: " << seq(r, 9) << "\n";
-    o << "    translation: " << seq(c.p_FS_F, 3) << "\n";
+    o << YAML::Key << "rotation" << YAML::Value;
+    seq(o, r, 9);
+    o << YAML::Key << "translation" << YAML::Value;
+    seq(o, c.p_FS_F, 3);
   }
-  o << "design:   # how it was produced (enough to reproduce it)\n";
-  if (file.design.empty()) o << "  {}\n";
-  for (const auto& [k, v] : file.design) o << "  " << k << ": " << quoted(v) << "\n";
-  o << "metrics:\n";
-  if (file.metrics.empty()) o << "  {}\n";
-  for (const auto& [k, v] : file.metrics) o << "  " << k << ": " << num(v) << "\n";
-  o << "predicted_std:   # predicted standard errors [SI] for the design noise\n";
-  if (file.predicted_std.empty()) o << "  {}\n";
-  for (const auto& [k, v] : file.predicted_std) o << "  " << k << ": " << num(v) << "\n";
-  writeAtomically(path, o.str());
+  o << YAML::EndMap;  // sensor_mount
+  o << YAML::EndMap;  // constraints
+  o << YAML::Key << "design" << YAML::Value << YAML::Comment("how it was produced (enough to reproduce it)")
+    << YAML::BeginMap;
+  for (const auto& [k, v] : file.design) o << YAML::Key << k << YAML::Value << YAML::DoubleQuoted << v;
+  o << YAML::EndMap;
+  o << YAML::Key << "metrics" << YAML::Value << YAML::BeginMap;
+  for (const auto& [k, v] : file.metrics) o << YAML::Key << k << YAML::Value << YamlNumber{v};
+  o << YAML::EndMap;
+  o << YAML::Key << "predicted_std" << YAML::Value
+    << YAML::Comment("predicted standard errors [SI] for the design noise") << YAML::BeginMap;
+  for (const auto& [k, v] : file.predicted_std) o << YAML::Key << k << YAML::Value << YamlNumber{v};
+  o << YAML::EndMap;
+  o << YAML::EndMap;
+  const std::string text = yamlDocument(header, o);
+  writeAtomically(path, text);
 }
 
 TrajectoryFile readTrajectoryFile(const std::string& path) {
@@ -363,7 +371,7 @@ TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& pa
   // Rest-to-rest needs a whole number of base periods; reject files that cannot be rest-to-rest.
   const double periods = f.periods();
   if (std::abs(periods - std::round(periods)) > 1e-9 || std::round(periods) < 1.0) {
-    r.fail("duration_s", "duration * base_frequency_hz = " + num(periods) +
+    r.fail("duration_s", "duration * base_frequency_hz = " + yamlNumberText(periods) +
                              " is not a whole number of base periods (rest-to-rest needs one)");
   }
   try {
@@ -378,7 +386,7 @@ TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& pa
 void writeTrajectoryCsv(const std::string& path, const FourierTrajectory& trajectory,
                         double rate_hz) {
   if (!(rate_hz > 0.0) || !std::isfinite(rate_hz)) {
-    throw ConfigError(path + ": sample rate must be positive (got " + num(rate_hz) + ")");
+    throw ConfigError(path + ": sample rate must be positive (got " + yamlNumberText(rate_hz) + ")");
   }
   const double T = trajectory.duration();
   const long n = std::lround(std::floor(T * rate_hz + 1e-9));

@@ -37,8 +37,12 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
 /// Text lines: the held-out residual against the noise floor per axis, then the warnings.
 std::string formatFitCheck(const FitCheck& check);
 
-/// JSON members (no braces): "noise_floor", "noise_method", "heldout_rms", "residual_to_noise",
-/// "warnings".
-std::string fitCheckJsonMembers(const FitCheck& check);
+/// JSON object (ftid/fileio/json_text.hpp policy): "noise_floor", "noise_method", "heldout_rms",
+/// "residual_to_noise", "glitches", "warnings".
+std::string fitCheckJson(const FitCheck& check);
+
+/// The `ftid identify --json` object: toJson(set)'s keys followed by fitCheckJson(check)'s
+/// (docs/identification.md "Outputs").
+std::string identificationJson(const ParameterSet& set, const FitCheck& check);
 
 }  // namespace ftid::identify

@@ -1,5 +1,6 @@
-// Issue 14, "Messages name the real cause": a bad number for --script-port is a usage error
-// (exit 2, naming the option), not "error: stoi" with exit 1.
+// The command lines of both executables (CLI11, apps/common/cli_args.hpp): a bad number is a usage
+// error (exit 2) whose first line names the option, never "error: stoi" with exit 1 (issue 14);
+// unknown options are usage errors; every sub-command's --help exits 0 with its own text.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -7,11 +8,15 @@
 #include <array>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 namespace {
 
-int runFtid(const std::string& args, std::string* output) {
-  const std::string cmd = std::string(FTID_BINARY_DIR "/apps/ftid/ftid ") + args + " 2>&1";
+const std::string kFtid = FTID_BINARY_DIR "/apps/ftid/ftid";
+const std::string kFtidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+
+int run(const std::string& exe, const std::string& args, std::string* output) {
+  const std::string cmd = "timeout 30 " + exe + " " + args + " 2>&1 </dev/null";
   FILE* p = ::popen(cmd.c_str(), "r");
   if (p == nullptr) return -1;
   std::array<char, 4096> buf{};
@@ -20,15 +25,132 @@ int runFtid(const std::string& args, std::string* output) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+std::string firstLine(const std::string& s) { return s.substr(0, s.find('\n')); }
+
+bool built() { return ::access(kFtid.c_str(), X_OK) == 0 && ::access(kFtidd.c_str(), X_OK) == 0; }
+
 TEST(CellIdentifyCli, BadPortNumbersAreUsageErrors) {
-  if (::access(FTID_BINARY_DIR "/apps/ftid/ftid", X_OK) != 0) GTEST_SKIP() << "ftid not built";
+  if (!built()) GTEST_SKIP() << "ftid not built";
   for (const std::string bad : {"--script-port abc", "--script-port 70000", "--script-port 12x",
-                                 "--register-offset 7"}) {
+                                 "--script-port=", "--register-offset 7", "--register-offset 0x18"}) {
     std::string out;
-    EXPECT_EQ(runFtid("--identify " + bad + " --config /nonexistent.yaml", &out), 2) << bad << "\n" << out;
-    EXPECT_NE(out.find(bad.substr(0, bad.find(' '))), std::string::npos) << out;
+    EXPECT_EQ(run(kFtid, "--identify " + bad + " --config /nonexistent.yaml", &out), 2) << bad << "\n" << out;
+    // The error line itself (the usage text printed after it lists every option) names the option.
+    EXPECT_NE(firstLine(out).find(bad.substr(0, bad.find_first_of(" ="))), std::string::npos) << out;
     EXPECT_EQ(out.find("stoi"), std::string::npos) << out;
   }
+}
+
+// One bad value per number parser that the commands had by hand before CLI11: trailing
+// characters, out of range, not finite, octal-looking or negative where unsigned.
+TEST(FtidCli, BadNumbersNameTheOptionAndExit2) {
+  if (!built()) GTEST_SKIP() << "ftid not built";
+  // Each command also gets arguments that would make it fail with exit 1 (a missing file) if the
+  // number were accepted, so exit 2 can only come from the number.
+  const std::string sim = "simulate --out /nonexistent/dir/run.csv --robot /nonexistent.urdf ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {sim + "--rate 125Hz", "--rate"},
+      {sim + "--rate -5", "--rate"},
+      {sim + "--duration nan", "--duration"},
+      {sim + "--duration 1e400", "--duration"},
+      {sim + "--seed -1", "--seed"},
+      {sim + "--seed 1.5", "--seed"},
+      {sim + "--noise-oversample 0", "--noise-oversample"},
+      {sim + "--static-poses 2x", "--static-poses"},
+      {sim + "--com 1,2", "--com"},
+      {sim + "--com 1,2,x", "--com"},
+      {sim + "--mass 1kg", "--mass"},
+      {sim + "--effect sensor_delay:tau=0.01s", "--effect sensor_delay tau"},
+      {sim + "--effect cable:k=5,anchor=1/2", "--effect cable anchor"},
+      {"identify --log /nonexistent.csv --max-delay 0", "--max-delay"},
+      {"identify --log /nonexistent.csv --max-delay 2s", "--max-delay"},
+      {"identify --log /nonexistent.csv --method fast", "--method"},
+      {"identify --log /nonexistent.csv --wrench-frame tool", "--wrench-frame"},
+      {"analyze /nonexistent.csv --folds 1", "--folds"},
+      {"analyze /nonexistent.csv --folds 5.0", "--folds"},
+      {"analyze /nonexistent.csv --alpha 1", "--alpha"},
+      {"analyze /nonexistent.csv --glitch-sigma -1", "--glitch-sigma"},
+      {"design --robot /nonexistent.urdf --harmonics 1", "--harmonics"},
+      {"design --robot /nonexistent.urdf --duration 0", "--duration"},
+      {"design --robot /nonexistent.urdf --q0 0,0,0,0,0", "--q0"},
+      {"design --robot /nonexistent.urdf --joints 4,7", "--joints"},
+      {"design --robot /nonexistent.urdf --seed 12abc", "--seed"},
+      {"check-trajectory /nonexistent.yaml --dt 0", "--dt"},
+      {"decode-candump /nonexistent.log --stale-ms 20ms", "--stale-ms"},
+      {"sim-robot --rtde-port 99999", "--rtde-port"},
+      {"sim-robot --q0 0,0,0,0,0,0,0", "--q0"},
+      {"sim-robot --fault-after 1x:protective_stop", "--fault-after"},
+      {"sim-sensor --config /nonexistent.yaml --rtde-port 0", "--rtde-port"},
+      {"sim-sensor --config /nonexistent.yaml --fault 1:silent:0", "--fault"},
+      {"run-trajectory /nonexistent.yaml --out /nonexistent/x.csv --approach-speed 2", "--approach-speed"},
+      {"run-trajectory /nonexistent.yaml --out /nonexistent/x.csv --gain 3e", "--gain"},
+      {"demo --offline --robot /nonexistent.urdf --seed x1", "--seed"},
+  };
+  for (const auto& [args, option] : cases) {
+    std::string out;
+    EXPECT_EQ(run(kFtid, args, &out), 2) << args << "\n" << out;
+    EXPECT_NE(firstLine(out).find(option), std::string::npos) << args << "\n" << out;
+  }
+}
+
+TEST(FtidCli, UnknownOptionsAndStrayArgumentsAreUsageErrors) {
+  if (!built()) GTEST_SKIP() << "ftid not built";
+  for (const std::string args : {"identify --log /nonexistent.csv --bogus", "analyze a.csv b.csv",
+                                 "simulate --out /nonexistent/x.csv --nosie-force 1", "export --params p --ros",
+                                 "demo --offline --workdir /tmp/x", "demo --full-physics"}) {
+    std::string out;
+    EXPECT_EQ(run(kFtid, args, &out), 2) << args << "\n" << out;
+  }
+  std::string out;
+  EXPECT_EQ(run(kFtid, "no-such-command", &out), 2) << out;
+  EXPECT_NE(out.find("unknown command 'no-such-command'"), std::string::npos) << out;
+}
+
+TEST(FtidCli, EverySubCommandsHelpExitsZeroWithItsUsage) {
+  if (!built()) GTEST_SKIP() << "ftid not built";
+  std::string overview;
+  ASSERT_EQ(run(kFtid, "--help", &overview), 0) << overview;
+  // The command names are the first word of each line of the overview's command list.
+  std::vector<std::string> names;
+  const auto list = overview.find("commands:\n");
+  ASSERT_NE(list, std::string::npos) << overview;
+  std::size_t at = list + 10;
+  while (at < overview.size() && overview.compare(at, 2, "  ") == 0) {
+    const std::size_t start = at + 2;
+    const std::size_t end = overview.find(' ', start);
+    names.push_back(overview.substr(start, end - start));
+    at = overview.find('\n', at) + 1;
+  }
+  ASSERT_GE(names.size(), 14u) << overview;
+  for (const auto& name : names) {
+    for (const char* flag : {"--help", "-h"}) {
+      std::string out;
+      EXPECT_EQ(run(kFtid, name + " " + flag, &out), 0) << name << "\n" << out;
+      EXPECT_EQ(out.rfind("usage: ftid ", 0), 0u) << name << "\n" << out;
+    }
+  }
+  std::string out;
+  EXPECT_EQ(run(kFtid, "--identify --help", &out), 0) << out;
+  EXPECT_EQ(out.rfind("usage: ftid --identify", 0), 0u) << out;
+}
+
+TEST(FtiddCli, BadNumbersUnknownOptionsAndHelp) {
+  if (!built()) GTEST_SKIP() << "ftidd not built";
+  for (const std::string bad : {"--connect-timeout abc", "--connect-timeout -1", "--connect-timeout 5s",
+                                 "--connect-timeout inf", "--connect-timeout"}) {
+    std::string out;
+    EXPECT_EQ(run(kFtidd, "--config /nonexistent.yaml " + bad, &out), 2) << bad << "\n" << out;
+    EXPECT_NE(firstLine(out).find("--connect-timeout"), std::string::npos) << out;
+  }
+  std::string out;
+  EXPECT_EQ(run(kFtidd, "--config /nonexistent.yaml --bogus", &out), 2) << out;
+  EXPECT_NE(out.find("--bogus"), std::string::npos) << out;
+  out.clear();
+  EXPECT_EQ(run(kFtidd, "--help", &out), 0) << out;
+  EXPECT_EQ(out.rfind("usage: ftidd ", 0), 0u) << out;
+  out.clear();
+  EXPECT_EQ(run(kFtidd, "--version", &out), 0) << out;
+  EXPECT_EQ(out.rfind("ftidd ", 0), 0u) << out;
 }
 
 }  // namespace

@@ -334,18 +334,34 @@ TEST(Ros2Export, EveryKeyIsAParameterOfTheBroadcasterOrTheGravityFilter) {
   const YAML::Node f = params["sensor_filter_chain"]["filter1"]["params"];
   EXPECT_EQ(f["world_frame"].Scalar(), "ur_base");
   EXPECT_EQ(f["sensor_frame"].Scalar(), "my_sensor");
-  EXPECT_DOUBLE_EQ(f["tool"]["mass"].as<double>(), 0.9);
+  // Full precision (ftid/fileio/yaml_emit.hpp): every number reads back as the same double.
+  EXPECT_EQ(f["tool"]["mass"].as<double>(), e.mass);
   for (int i = 0; i < 3; ++i) {
-    EXPECT_NEAR(f["tool"]["CoG"][i].as<double>(), e.com_S(i), 1e-12);
-    EXPECT_NEAR(f["tool"]["gravity_field"][i].as<double>(), e.gravity_B(i), 1e-8);
+    EXPECT_EQ(f["tool"]["CoG"][i].as<double>(), e.com_S(i));
+    EXPECT_EQ(f["tool"]["gravity_field"][i].as<double>(), e.gravity_B(i));
   }
   const char* ax[] = {"x", "y", "z"};
   for (int i = 0; i < 3; ++i) {
-    EXPECT_DOUBLE_EQ(params["offset"]["force"][ax[i]].as<double>(), -e.f0_S(i)) << ax[i];
-    EXPECT_DOUBLE_EQ(params["offset"]["torque"][ax[i]].as<double>(), -e.t0_S(i)) << ax[i];
+    EXPECT_EQ(params["offset"]["force"][ax[i]].as<double>(), -e.f0_S(i)) << ax[i];
+    EXPECT_EQ(params["offset"]["torque"][ax[i]].as<double>(), -e.t0_S(i)) << ax[i];
   }
   // With the offsets as the broadcaster applies them, a reading equal to the offsets is zero.
   EXPECT_DOUBLE_EQ(e.f0_S.x() + params["offset"]["force"]["x"].as<double>(), 0.0);
+}
+
+TEST(Ros2Export, NamesWithYamlSyntaxStayStrings) {
+  // The emitter quotes what YAML would otherwise read as syntax or as another type.
+  const auto e = ftid::cell::makePayloadExport(makeSet(), ftid::Mat3::Identity(), ftid::Vec3::Zero());
+  ftid::cell::Ros2Names names;
+  names.world_frame = "base: link # 1";
+  names.sensor_frame = "true";
+  names.sensor_name = "- [fts]";
+  const YAML::Node root = YAML::Load(ftid::cell::ros2BroadcasterYaml(e, names));
+  const YAML::Node params = root["force_torque_sensor_broadcaster"]["ros__parameters"];
+  EXPECT_EQ(params["sensor_name"].as<std::string>(), "- [fts]");
+  EXPECT_EQ(params["frame_id"].as<std::string>(), "true");
+  EXPECT_EQ(params["frame_id"].Tag(), "!");  // a quoted scalar: a string for every YAML reader, not a bool
+  EXPECT_EQ(params["sensor_filter_chain"]["filter1"]["params"]["world_frame"].as<std::string>(), "base: link # 1");
 }
 
 TEST(Ros2Export, WriteExportsUsesTheConfigsMountNamesAndParts) {

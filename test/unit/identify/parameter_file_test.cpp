@@ -5,8 +5,10 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <string>
 
@@ -61,6 +63,51 @@ TEST(ParameterFile, RoundTripOfAValidSet) {
   ASSERT_NE(back.find("mass"), nullptr);
   EXPECT_EQ(back.find("mass")->value, 0.9);
   std::filesystem::remove(p);
+}
+
+// The YAML emitter's number policy (ftid/fileio/yaml_emit.hpp): every double reads back bit for
+// bit, including values with no short decimal form, tiny and huge magnitudes and negative zero.
+TEST(ParameterFile, EveryDoubleRoundTripsBitForBit) {
+  std::mt19937_64 rng(2026);
+  std::uniform_real_distribution<double> mantissa(-1.0, 1.0);
+  std::uniform_int_distribution<int> exponent(-300, 300);
+  const auto awkward = [&] { return std::ldexp(mantissa(rng), exponent(rng) / 10); };
+  for (int trial = 0; trial < 20; ++trial) {
+    ParameterSet s = paperSet(0.1 + std::abs(mantissa(rng)));
+    for (auto& p : s.params) {
+      if (p.name != "mass") p.value = awkward();
+      p.std = std::abs(awkward());
+    }
+    s.params.push_back({"t0_x", 1e-300, 4.9406564584124654e-324, "Nm"});  // a subnormal std
+    s.params.push_back({"t0_y", -0.0, 1e300, "Nm"});
+    s.params.push_back({"t0_z", 1.0 / 3.0, 0.1, "Nm"});
+    s.tilt_u_rad = awkward();
+    s.tilt_v_rad = awkward();
+    s.tilt_u_std = std::abs(awkward());
+    for (int a = 0; a < 6; ++a) s.residual_rms(a) = std::abs(awkward());
+    s.condition_number = 1.0 + std::abs(awkward());
+    s.provenance.data_file = "runs/a: b # not a comment.csv";  // YAML-significant characters
+    const std::string path = scratch("bits.yaml");
+    std::filesystem::remove(path);
+    writeParameterFile(path, s);
+    const ParameterSet back = readParameterFile(path);
+    ASSERT_EQ(back.params.size(), s.params.size());
+    for (std::size_t k = 0; k < s.params.size(); ++k) {
+      EXPECT_EQ(back.params[k].name, s.params[k].name);
+      EXPECT_EQ(std::memcmp(&back.params[k].value, &s.params[k].value, sizeof(double)), 0)
+          << s.params[k].name << " " << s.params[k].value << " -> " << back.params[k].value;
+      EXPECT_EQ(std::memcmp(&back.params[k].std, &s.params[k].std, sizeof(double)), 0) << s.params[k].name;
+      EXPECT_EQ(back.params[k].unit, s.params[k].unit);
+    }
+    EXPECT_EQ(back.tilt_u_rad, s.tilt_u_rad);
+    EXPECT_EQ(back.tilt_v_rad, s.tilt_v_rad);
+    EXPECT_EQ(back.tilt_u_std, s.tilt_u_std);
+    EXPECT_EQ(back.residual_rms, s.residual_rms);
+    EXPECT_EQ(back.condition_number, s.condition_number);
+    EXPECT_EQ(back.provenance.data_file, s.provenance.data_file);
+    std::filesystem::remove(path);
+    std::filesystem::remove(path + ".bak");
+  }
 }
 
 TEST(ParameterFile, DuplicateMassKeyIsRefusedNamingTheLine) {

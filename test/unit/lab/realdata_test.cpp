@@ -4,6 +4,8 @@
 // The simulator makes each imperfection its own way (src/sim); the laboratory is not told.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <random>
 
@@ -172,8 +174,9 @@ TEST(Analyze, GlitchesAreFoundLeftOutAndMoveNoParameter) {
     EXPECT_LT(std::abs(p->value - q->value), q->std) << name << ": " << p->value << " vs " << q->value << " +- " << q->std
                                                      << "\n" << lab::formatText(r);
   }
-  const std::string j = lab::formatJson(r);
-  EXPECT_NE(j.find("\"outliers\": {\"count\": " + std::to_string(r.outliers.count)), std::string::npos);
+  const auto j = nlohmann::json::parse(lab::formatJson(r));
+  EXPECT_EQ(j.at("outliers").at("count").get<int>(), r.outliers.count);
+  EXPECT_EQ(j.at("outliers").at("times").size(), r.outliers.times.size());
   EXPECT_NE(lab::formatText(r).find("glitches: " + std::to_string(r.outliers.count)), std::string::npos);
   EXPECT_NE(lab::renderHtml(r).find("Glitches: " + std::to_string(r.outliers.count)), std::string::npos);
 }
@@ -217,10 +220,11 @@ TEST(IdentifyCheck, WarnsWhenTheModelMissesSomethingAndOnlyThen) {
     const auto chk = identify::checkFit(set.samples, paperDynamic, "ftid analyze run.csv --model paper --explain");
     EXPECT_TRUE(chk.warnings.empty()) << identify::formatFitCheck(chk);
     for (int a = 0; a < 6; ++a) EXPECT_LT(chk.residual_to_noise(a), 1.2) << identify::formatFitCheck(chk);
-    const std::string j = identify::fitCheckJsonMembers(chk);
-    for (const char* key : {"\"noise_floor\"", "\"residual_to_noise\"", "\"warnings\": []", "\"noise_method\": \"white\""}) {
-      EXPECT_NE(j.find(key), std::string::npos) << key << " in " << j;
-    }
+    const auto j = nlohmann::json::parse(identify::fitCheckJson(chk));
+    EXPECT_TRUE(j.at("noise_floor").is_object()) << j;
+    EXPECT_TRUE(j.at("residual_to_noise").is_object()) << j;
+    EXPECT_EQ(j.at("warnings"), nlohmann::json::array()) << j;
+    EXPECT_EQ(j.at("noise_method"), "white") << j;
   }
   {
     // Full rigid-body physics: the paper's model misses the rotational inertia.
