@@ -106,7 +106,7 @@ int main() {
 
     if (!small) continue;
     // Per-sample compensation: batches of all samples, divided by the count.
-    const identify::ParameterSet set = identify::identifyPaper(s.samples).toParameterSet();
+    const params::ParameterSet set = identify::identifyPaper(s.samples).toParameterSet();
     auto benchCompensator = [&](compensate::Compensator& comp, const char* label) {
       std::vector<double> per_sample_ns;
       Wrench contact;
@@ -137,7 +137,7 @@ int main() {
                   per_sample_ns[per_sample_ns.size() / 2], single_ns[single_ns.size() / 2],
                   single_ns[static_cast<std::size_t>(0.99 * static_cast<double>(single_ns.size() - 1))]);
     };
-    compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
+    compensate::Compensator comp(model, params::thetaFor(model, set), params::nonlinearFor(model, set));
     benchCompensator(comp, "Compensator::compute (paper model)");
     // The richest model: every effect that changes the compensation path (crosstalk's inverse,
     // the mounting rotation, a 24 ms delay line) plus the other named effects.

@@ -97,9 +97,9 @@ int runPaperDemo(const DemoOptions& opt) {
   cfg.seed = opt.seed + 1000;
   std::cerr << "demo: compensating an independent run (seed " << cfg.seed << ")\n";
   const identify::ContextSet check = identify::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
-  const identify::ParameterSet set = r.toParameterSet();
+  const params::ParameterSet set = r.toParameterSet();
   const effects::Model model = effects::Model::fromName(set.model);
-  compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
+  compensate::Compensator comp(model, params::thetaFor(model, set), params::nonlinearFor(model, set));
   Vec6 raw = Vec6::Zero(), residual = Vec6::Zero();
   for (const auto& ctx : check.samples) {
     Wrench contact;

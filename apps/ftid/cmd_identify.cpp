@@ -85,10 +85,10 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
-  const ftid::identify::ParameterSet& set = id.set;
+  const ftid::params::ParameterSet& set = id.set;
   std::string exports;
   if (!out.empty()) {
-    ftid::identify::writeParameterFile(out, set);
+    ftid::params::writeParameterFile(out, set);
     // The parameters are written; a bad config only costs the exports (named in the warning).
     try {
       if (config.empty()) config = ftid::cell::defaultExportConfigPath();
@@ -99,7 +99,7 @@ int runIdentify(const std::vector<std::string>& argv) {
     }
   }
   if (json) {
-    std::string j = ftid::identify::toJson(set);
+    std::string j = ftid::params::toJson(set);
     const auto close = j.rfind('}');
     j.insert(close, ", " + ftid::identify::fitCheckJsonMembers(id.check));
     std::cout << j << "\n";

@@ -28,7 +28,7 @@
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/offline.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -505,7 +505,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   identify::ContextOptions copts;
   copts.R_FS = cfg.sensor.R_FS();
   copts.p_FS_F = cfg.sensor.p_FS_F();
-  identify::ParameterSet set;
+  params::ParameterSet set;
   try {
     const identify::ContextSet contexts = identify::buildContexts(log, kin, copts);
     const identify::FitResult fit = identify::fitModel(model, contexts.samples);
@@ -572,7 +572,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // ---- write parameters atomically (previous version kept) and exports
   try {
     fs::create_directories(fs::path(params_path).parent_path());
-    identify::writeParameterFile(params_path, set);
+    params::writeParameterFile(params_path, set);
     result.params_path = params_path;
   } catch (const std::exception& e) {
     // The writer's exception may not say why (e.g. ENOSPC seen only at flush): name a full disk.

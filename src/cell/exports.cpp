@@ -17,8 +17,8 @@
 namespace ftid::cell {
 
 namespace {
-double need(const identify::ParameterSet& set, const std::string& name) {
-  const identify::NamedValue* v = set.find(name);
+double need(const params::ParameterSet& set, const std::string& name) {
+  const params::NamedValue* v = set.find(name);
   if (!v) throw ConfigError("parameter set (model '" + set.model + "') has no '" + name + "'");
   return v->value;
 }
@@ -41,7 +41,7 @@ Mat3 fromUrOrder(const Vec6& v) {
 Mat3 parallelAxis(double m, const Vec3& d) { return m * (d.squaredNorm() * Mat3::Identity() - d * d.transpose()); }
 }  // namespace
 
-PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F) {
+PayloadExport makePayloadExport(const params::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F) {
   PayloadExport e;
   e.model = set.model;
   e.mass = need(set, "mass");
@@ -212,7 +212,7 @@ void writeTextFileAtomic(const std::string& path, const std::string& text) {
   }
 }
 
-std::string writeExports(const identify::ParameterSet& set, const config::DaemonConfig& cfg,
+std::string writeExports(const params::ParameterSet& set, const config::DaemonConfig& cfg,
                          const std::string& ros2_path, const std::string& urscript_path) {
   const PayloadExport e = makePayloadExport(set, cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   // Build both texts first so that a bad parameter set writes nothing.

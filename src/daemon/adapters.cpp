@@ -9,7 +9,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace ftid::daemon {
 
@@ -173,12 +173,12 @@ model::SensorMotion KinematicsMotionModel::computeSensorMotion(const JointVector
 
 // ---------------------------------------------------------------------------------------------
 ParameterFileCompensation::ParameterFileCompensation(const std::string& path)
-    : ParameterFileCompensation(identify::readParameterFile(path), path) {}
+    : ParameterFileCompensation(params::readParameterFile(path), path) {}
 
-ParameterFileCompensation::ParameterFileCompensation(const identify::ParameterSet& set,
+ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet& set,
                                                      const std::string& path) {
   const effects::Model model = effects::Model::fromName(set.model);
-  const Eigen::VectorXd theta = identify::thetaFor(model, set, path);
+  const Eigen::VectorXd theta = params::thetaFor(model, set, path);
   if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_v_rad)) {
     throw ConfigError(path + ": key 'tilt': tilt angles must be finite");
   }
@@ -186,7 +186,7 @@ ParameterFileCompensation::ParameterFileCompensation(const identify::ParameterSe
   tilt_v_ = set.tilt_v_rad;
   model_name_ = model.name();
   compensator_ = std::make_unique<compensate::Compensator>(model, theta,
-                                                           identify::nonlinearFor(model, set, path));
+                                                           params::nonlinearFor(model, set, path));
 }
 
 bool ParameterFileCompensation::compute(const effects::SampleContext& ctx, Wrench* contact,

@@ -146,7 +146,7 @@ std::string formatParameterTable(const ParameterSet& set) {
 
 CompensateSummary compensateLogFile(const CompensateRequest& request) {
   checkOutputPath(request.out_csv);  // refuse a symlink, device, FIFO or directory before the work
-  const ParameterSet set = readParameterFile(request.params_path);
+  const ParameterSet set = params::readParameterFile(request.params_path);
   const Model model = Model::fromName(set.model);
   const Eigen::VectorXd theta = thetaFor(model, set, request.params_path);
   const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, nullptr);

@@ -38,7 +38,7 @@
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/rt_setup.hpp"
 #include "ftid/rt/rt_thread.hpp"
@@ -291,13 +291,13 @@ void writeTrueParams(const std::string& path, const sim::CellSimConfig& c) {
       {"f0_z", c.F0_N.z()}, {"t0_x", c.T0_Nm.x()},     {"t0_y", c.T0_Nm.y()},
       {"t0_z", c.T0_Nm.z()}};
   const effects::Model model = effects::Model::fromName("paper");
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = model.name();
   for (const auto& name : model.paramIndex().names()) set.params.push_back({name, v.at(name), 0.0, ""});
   set.tilt_estimated = true;
   set.tilt_u_rad = c.tilt_u_rad;
   set.tilt_v_rad = c.tilt_v_rad;
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
 }
 
 struct Received {

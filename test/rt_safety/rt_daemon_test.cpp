@@ -22,7 +22,7 @@
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
 #include "ftid/transport/spsc_queue.hpp"
@@ -32,7 +32,7 @@ namespace {
 
 std::string writeParams(const std::string& model_name, const std::string& path, double mass) {
   const effects::Model model = effects::Model::fromName(model_name);
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = model.name();
   double k = 0.01;
   for (const auto& name : model.paramIndex().names()) {
@@ -46,7 +46,7 @@ std::string writeParams(const std::string& model_name, const std::string& path, 
   }
   set.tilt_u_rad = 0.01;
   set.tilt_v_rad = -0.02;
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
   return path;
 }
 

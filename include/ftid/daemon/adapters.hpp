@@ -13,7 +13,7 @@
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/daemon/seams.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/ur/rtde_client.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -99,7 +99,7 @@ class ParameterFileCompensation final : public Compensation {
   /// Reads and validates the file; throws ConfigError naming the file and key.
   explicit ParameterFileCompensation(const std::string& path);
   /// From a set already read (e.g. with tared offsets); `source` names it in errors.
-  ParameterFileCompensation(const identify::ParameterSet& set, const std::string& source);
+  ParameterFileCompensation(const params::ParameterSet& set, const std::string& source);
   double tiltU() const noexcept override { return tilt_u_; }
   double tiltV() const noexcept override { return tilt_v_; }
   bool compute(const effects::SampleContext& ctx, Wrench* contact,

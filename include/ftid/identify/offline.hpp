@@ -8,7 +8,7 @@
 
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/fit_check.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace ftid::identify {
 

@@ -13,7 +13,7 @@
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/context.hpp"
 #include "ftid/identify/fit.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace {
 

@@ -40,9 +40,9 @@ TEST(Compensator, IdentifiedParametersRecoverASimulatedContactPush) {
   sim::CellSimConfig cfg = test::paperConfig(false, 6);
   const identify::ContextSet clean = test::contextsOf(cfg);
   const identify::PaperResult id = identify::identifyPaper(clean.samples);
-  const identify::ParameterSet set = id.toParameterSet();
+  const params::ParameterSet set = id.toParameterSet();
   const auto model = effects::Model::fromName(set.model);
-  Compensator comp(model, identify::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
+  Compensator comp(model, params::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
 
   cfg.contact.enabled = true;
   const logio::LogData log = sim::CellSim(cfg).run();

@@ -39,7 +39,7 @@ Wrench trueOffsets() {
 }
 
 void writeParams(const std::string& path, double mass) {
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = "paper";
   const Wrench f0 = fileOffsets();
   for (int i = 0; i < 6; ++i) set.params.push_back({kOffsetNames[i], f0(i), 0.1, ""});
@@ -47,7 +47,7 @@ void writeParams(const std::string& path, double mass) {
   set.params.push_back({"mass_com_x", mass * kCom.x(), 0.0, "kg*m"});
   set.params.push_back({"mass_com_y", mass * kCom.y(), 0.0, "kg*m"});
   set.params.push_back({"mass_com_z", mass * kCom.z(), 0.0, "kg*m"});
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
 }
 
 struct Files {

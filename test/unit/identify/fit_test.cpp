@@ -9,7 +9,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/offline.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
 

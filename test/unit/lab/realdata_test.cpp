@@ -205,7 +205,7 @@ TEST(Analyze, StaticPoseSetCablePullIsConfoundedWithTheWeightAndNotTaken) {
   EXPECT_NE(text.find("not observable"), std::string::npos) << text;
 }
 
-identify::ParameterSet paperDynamic(const std::vector<effects::SampleContext>& ctx) {
+params::ParameterSet paperDynamic(const std::vector<effects::SampleContext>& ctx) {
   identify::PaperOptions po;
   po.method = identify::PaperMethod::kDynamic;
   return identify::identifyPaper(ctx, po).toParameterSet();

@@ -1,6 +1,6 @@
 // Parameter files (YAML) and the --json object: reading, validation, atomic writing. Needs no fit
 // or effect machinery (only the inertia math), so the parameter_yaml fuzz target links just this.
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -23,7 +23,7 @@
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/fileio/yaml_strict.hpp"
 
-namespace ftid::identify {
+namespace ftid::params {
 
 namespace {
 
@@ -336,4 +336,4 @@ std::string toJson(const ParameterSet& set) {
   return os.str();
 }
 
-}  // namespace ftid::identify
+}  // namespace ftid::params
