@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/sim/cell_sim.hpp"
@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
     const logio::LogData log = sim::CellSim(c).run();
     const double t_sim = now() - t0;
     t0 = now();
-    const identify::ContextSet set = identify::buildContexts(log, *c.robot);
+    const samples::ContextSet set = samples::buildContexts(log, *c.robot);
     const double t_ctx = now() - t0;
     std::printf("bench_analyze [%s]: %zu samples (10 s at 1 kHz); simulate %.3f s, contexts %.3f s\n", label, set.size(),
                 t_sim, t_ctx);

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "ftid/compensate/compensator.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/identify/offline.hpp"
@@ -67,7 +67,7 @@ int main() {
     cfg.full_rigid_body = false;
     cfg.seed = 3;
     cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-    const identify::ContextSet s = identify::buildContexts(sim::CellSim(cfg).run(), kin);
+    const samples::ContextSet s = samples::buildContexts(sim::CellSim(cfg).run(), kin);
     const std::string n = std::to_string(s.size()) + " samples";
     const bool small = s.size() < 2000;
 

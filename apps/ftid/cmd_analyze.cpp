@@ -78,7 +78,7 @@ int runAnalyze(const std::vector<std::string>& argv) {
   const std::string report = args.value("--report");
   const bool json = args.flag("--json");
   req.robot_urdf = args.value("--robot");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
+  req.context.wrench_in_base = ftid::samples::parseWrenchFrame(args.value("--wrench-frame"));
   const auto pos = args.positionals();
   args.finish();
   if (pos.size() != 1) throw ftid::cli::UsageError("exactly one LOG is required");

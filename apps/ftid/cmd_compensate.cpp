@@ -31,7 +31,7 @@ int runCompensate(const std::vector<std::string>& argv) {
   req.params_path = args.value("--params");
   req.out_csv = args.value("--out");
   req.robot_urdf = args.value("--robot");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
+  req.context.wrench_in_base = ftid::samples::parseWrenchFrame(args.value("--wrench-frame"));
   args.finish();
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");

@@ -10,7 +10,7 @@
 #include "ftid/cell/demo.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -77,7 +77,7 @@ int runPaperDemo(const DemoOptions& opt) {
   std::cerr << "demo: simulating 10 s excitation at 125 Hz (" << (opt.full_physics ? "full rigid-body" : "paper")
             << " physics, noise 0.05 N / 0.01 Nm, seed " << opt.seed << ")\n";
   const logio::LogData log = sim::CellSim(cfg).run();
-  const identify::ContextSet contexts = identify::buildContexts(log, *cfg.robot);
+  const samples::ContextSet contexts = samples::buildContexts(log, *cfg.robot);
   std::cerr << "demo: identifying (paper, dynamic method) from " << contexts.size() << " samples\n";
   const identify::PaperResult r = identify::identifyPaper(contexts.samples);
 
@@ -96,7 +96,7 @@ int runPaperDemo(const DemoOptions& opt) {
   // Compensate an independent run (new noise) with the identified parameters.
   cfg.seed = opt.seed + 1000;
   std::cerr << "demo: compensating an independent run (seed " << cfg.seed << ")\n";
-  const identify::ContextSet check = identify::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
+  const samples::ContextSet check = samples::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
   const params::ParameterSet set = r.toParameterSet();
   const effects::Model model = effects::Model::fromName(set.model);
   compensate::Compensator comp(model, params::thetaFor(model, set), params::nonlinearFor(model, set));

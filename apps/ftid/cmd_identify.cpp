@@ -51,7 +51,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   req.method = args.value("--method", "dynamic");
   req.model = args.value("--model");
   req.robot_urdf = args.value("--robot");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(args.value("--wrench-frame"));
+  req.context.wrench_in_base = ftid::samples::parseWrenchFrame(args.value("--wrench-frame"));
   const std::string out = args.value("--out");
   std::string config = args.value("--config");
   const bool json = args.flag("--json");

@@ -24,7 +24,7 @@
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/design/trajectory_check.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/offline.hpp"
@@ -502,12 +502,12 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   }
 
   // ---- identify and analyse
-  identify::ContextOptions copts;
+  samples::ContextOptions copts;
   copts.R_FS = cfg.sensor.R_FS();
   copts.p_FS_F = cfg.sensor.p_FS_F();
   params::ParameterSet set;
   try {
-    const identify::ContextSet contexts = identify::buildContexts(log, kin, copts);
+    const samples::ContextSet contexts = samples::buildContexts(log, kin, copts);
     const identify::FitResult fit = identify::fitModel(model, contexts.samples);
     set = identify::toParameterSet(fit);
     set.provenance.date_utc = utcStamp(true);

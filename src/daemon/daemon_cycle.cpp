@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "ftid/model/frames.hpp"
+#include "ftid/samples/sample_builder.hpp"
 
 namespace ftid::daemon {
 
@@ -224,23 +225,16 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
       have_first_time_ = true;
     }
     const model::SensorMotion m = motion_->computeSensorMotion(robot.q, robot.qd, robot.qdd);
-    ctx_.t = robot.robot_time - first_robot_time_;
-    ctx_.q = robot.q;
-    ctx_.qd = robot.qd;
-    ctx_.R_BS = m.R_BS;
-    ctx_.p_BS_B = m.p_BS_B;
-    ctx_.w_S = m.w_S;
-    ctx_.alpha_S = m.alpha_S;
-    ctx_.a_S = m.a_S;
-    ctx_.g_S = model::gravityInSensor(m.R_BS, comp->tiltU(), comp->tiltV());
-    ctx_.wrench_S = rec.sensor.wrench_S;
-    ctx_.has_imu = rec.sensor.has_imu;
-    ctx_.imu_acc_S = rec.sensor.imu_acc_S;
-    ctx_.imu_w_S = rec.sensor.imu_w_S;
-    ctx_.imu_alpha_S = rec.sensor.imu_alpha_S;
-    ctx_.has_temp = rec.sensor.has_temp;
-    ctx_.temp_degC = rec.sensor.temp_degC;
-    ctx_.extra = nullptr;
+    samples::SensorReading reading;
+    reading.wrench_S = rec.sensor.wrench_S;
+    reading.has_imu = rec.sensor.has_imu;
+    reading.imu_acc_S = rec.sensor.imu_acc_S;
+    reading.imu_w_S = rec.sensor.imu_w_S;
+    reading.imu_alpha_S = rec.sensor.imu_alpha_S;
+    reading.has_temp = rec.sensor.has_temp;
+    reading.temp_degC = rec.sensor.temp_degC;
+    samples::makeSampleContext(robot.robot_time - first_robot_time_, robot.q, robot.qd, m, reading,
+                               model::gravityInBase(comp->tiltU(), comp->tiltV()), &ctx_);
     Wrench contact;
     Wrench modelled;
     const bool ok = comp->compute(ctx_, &contact, &modelled) && contact.allFinite() &&

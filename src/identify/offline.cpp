@@ -28,14 +28,14 @@ void say(const ProgressFn& progress, const std::string& line) {
   if (progress) progress(line);
 }
 
-ContextSet loadContexts(const std::string& log_path, const std::string& robot_urdf,
-                        const ContextOptions& options, const ProgressFn& progress) {
+samples::ContextSet loadContexts(const std::string& log_path, const std::string& robot_urdf,
+                                 const samples::ContextOptions& options, const ProgressFn& progress) {
   say(progress, "reading " + log_path);
   const logio::LogData log = logio::readLog(log_path);
   const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
   say(progress, "robot " + urdf + ", " + std::to_string(log.samples.size()) + " samples");
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
-  return buildContexts(log, kin, options);
+  return samples::buildContexts(log, kin, options);
 }
 
 }  // namespace
@@ -88,7 +88,7 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
 }
 
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
-  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+  const samples::ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
   CheckedIdentification out;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
@@ -149,7 +149,7 @@ CompensateSummary compensateLogFile(const CompensateRequest& request) {
   const ParameterSet set = params::readParameterFile(request.params_path);
   const Model model = Model::fromName(set.model);
   const Eigen::VectorXd theta = thetaFor(model, set, request.params_path);
-  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, nullptr);
+  const samples::ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, nullptr);
   compensate::Compensator comp(model, theta, nonlinearFor(model, set, request.params_path));
 
   CompensateSummary summary;

@@ -6,7 +6,7 @@
 
 #include <optional>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/fit_parameters.hpp"
 
@@ -19,7 +19,7 @@ struct IdentifyRequest {
   std::string method = "dynamic";  ///< paper method: "static" or "dynamic" (ignored with `model`)
   std::string model;               ///< non-empty: general fit of this model (e.g. "paper+rigid_body")
   std::string robot_urdf;          ///< URDF of the robot (config/ur10.urdf)
-  ContextOptions context;          ///< sensor mount
+  samples::ContextOptions context; ///< sensor mount
   ProgressFn progress;             ///< optional progress lines
   std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
   double max_delay_s = 1.0;        ///< models with sensor_delay: search range of the delay [s]
@@ -47,7 +47,7 @@ struct CompensateRequest {
   std::string params_path;
   std::string out_csv;
   std::string robot_urdf;
-  ContextOptions context;
+  samples::ContextOptions context;
 };
 
 struct CompensateSummary {

@@ -86,7 +86,7 @@ TEST_P(CompensationByEffect, IdentifiedModelCompensatesToTheNoiseFloorDuringMoti
   // Identify on run A, through a parameter file as ftidd would load it.
   const sim::CellSimConfig cfg_a = baseConfig(101, c.rate_hz);
   const logio::LogData log_a = simulate(c, cfg_a);
-  const identify::ContextSet ctx_a = identify::buildContexts(log_a, *cfg_a.robot);
+  const samples::ContextSet ctx_a = samples::buildContexts(log_a, *cfg_a.robot);
   const identify::FitResult fit = identify::fitModel(model, ctx_a.samples);
   SCOPED_TRACE(::testing::Message() << "fit residual RMS " << fit.residual_rms.transpose());
   const std::string path = scratchPath(c.name);
@@ -124,7 +124,7 @@ TEST_P(CompensationByEffect, IdentifiedModelCompensatesToTheNoiseFloorDuringMoti
   sim::CellSimConfig cfg_b = baseConfig(202, c.rate_hz);
   makeDifferentRun(cfg_b);
   const logio::LogData log_b = simulate(c, cfg_b);
-  const identify::ContextSet ctx_b = identify::buildContexts(log_b, *cfg_b.robot);
+  const samples::ContextSet ctx_b = samples::buildContexts(log_b, *cfg_b.robot);
   const int cfx = log_b.extraIndex("contact_fx");
   ASSERT_GE(cfx, 0);
   Compensator comp(loaded, params::thetaFor(loaded, set), params::nonlinearFor(loaded, set));

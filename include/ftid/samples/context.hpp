@@ -1,6 +1,7 @@
 #pragma once
-// Building the per-sample SampleContext (ftid/effects/effect.hpp) from a log and the robot
-// kinematics. Frames and units: docs/conventions.md.
+// Building the per-sample SampleContext (ftid/effects/effect.hpp) of a whole log from the robot
+// kinematics, each through the one sample builder (ftid/samples/sample_builder.hpp) that the
+// daemon's cycle also uses. Frames and units: docs/conventions.md.
 //
 //   R_BS, p_BS_B, w_S, alpha_S, a_S  = RobotKinematics::computeSensorMotion(q, qd, qdd)
 //   g_S                              = R_BS^T g_B(U, V)          (for the tilt in the options)
@@ -21,7 +22,7 @@ namespace ftid::model {
 class RobotKinematics;
 }
 
-namespace ftid::identify {
+namespace ftid::samples {
 
 using effects::SampleContext;
 
@@ -85,4 +86,4 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
 /// Sets g_S = R_BS^T g_B(U, V) in every context.
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad);
 
-}  // namespace ftid::identify
+}  // namespace ftid::samples
