@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/lab/analyze.hpp"
@@ -54,7 +55,7 @@ double now() {
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;
   sim::CellSimConfig cfg =
-      sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(identify::defaultRobotUrdf()));
+      sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(defaultRobotUrdf()));
   cfg.trajectory = richTrajectory();
   cfg.payload.mass_kg = 3.0;
   cfg.payload.p_SC_S = Vec3(0.02, -0.015, 0.09);

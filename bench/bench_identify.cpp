@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
@@ -60,7 +61,7 @@ volatile double g_sink = 0.0;
 
 int main() {
   using namespace ftid;
-  const auto kin = model::RobotKinematics::fromUrdfFile(identify::defaultRobotUrdf());
+  const auto kin = model::RobotKinematics::fromUrdfFile(defaultRobotUrdf());
   for (double rate : {125.0, 1000.0}) {
     sim::CellSimConfig cfg = sim::paperCellConfig(kin);
     cfg.rate_hz = rate;

@@ -3,7 +3,7 @@
 #include <iostream>
 
 #include "command.hpp"
-#include "ftid/identify/offline.hpp"
+#include "ftid/compensate/compensate_log.hpp"
 
 namespace {
 
@@ -26,7 +26,7 @@ const char* const kUsage =
 
 int runCompensate(const std::vector<std::string>& argv) {
   ftid::cli::Args args(argv, kUsage);
-  ftid::identify::CompensateRequest req;
+  ftid::compensate::CompensateRequest req;
   req.log_path = args.value("--log");
   req.params_path = args.value("--params");
   req.out_csv = args.value("--out");
@@ -36,7 +36,7 @@ int runCompensate(const std::vector<std::string>& argv) {
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
-  const auto s = ftid::identify::compensateLogFile(req);
+  const auto s = ftid::compensate::compensateLogFile(req);
   std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
   if (s.n_without_kinematics > 0) {
     std::printf("%d samples left out: with the identified sensor delay their kinematics lie outside the log\n",

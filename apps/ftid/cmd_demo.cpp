@@ -7,6 +7,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/cell/demo.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
@@ -68,7 +69,7 @@ double truthOf(const std::string& name) {
 
 int runPaperDemo(const DemoOptions& opt) {
   using namespace ftid;
-  const std::string urdf = opt.robot_urdf.empty() ? identify::defaultRobotUrdf() : opt.robot_urdf;
+  const std::string urdf = opt.robot_urdf.empty() ? defaultRobotUrdf() : opt.robot_urdf;
   std::cerr << "demo: robot " << urdf << "\n";
   sim::CellSimConfig cfg = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(urdf));
   cfg.full_rigid_body = opt.full_physics;

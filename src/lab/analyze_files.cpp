@@ -4,6 +4,7 @@
 #include <cstring>
 #include <fstream>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/samples/context.hpp"
@@ -19,7 +20,7 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
   auto say = [&](const std::string& s) {
     if (progress) progress(s);
   };
-  const std::string urdf = request.robot_urdf.empty() ? identify::defaultRobotUrdf() : request.robot_urdf;
+  const std::string urdf = request.robot_urdf.empty() ? defaultRobotUrdf() : request.robot_urdf;
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
   say("reading " + request.log_path);
   const logio::LogData log = logio::readLog(request.log_path);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <utility>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/frames.hpp"
@@ -247,6 +248,17 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
   }
   set.repoint();
   return set;
+}
+
+ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
+                           const ContextOptions& options,
+                           const std::function<void(const std::string& line)>& progress) {
+  if (progress) progress("reading " + log_path);
+  const logio::LogData log = logio::readLog(log_path);
+  const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
+  if (progress) progress("robot " + urdf + ", " + std::to_string(log.samples.size()) + " samples");
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
+  return buildContexts(log, kin, options);
 }
 
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad) {

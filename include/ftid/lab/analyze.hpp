@@ -183,7 +183,7 @@ std::string renderHtml(const AnalysisResult& result);
 namespace ftid::lab {
 
 /// `ftid analyze` on files: reads the log(s) (docs/log-format.md), builds the contexts with the
-/// robot kinematics (default robot: identify::defaultRobotUrdf()), and runs analyze().
+/// robot kinematics (default robot: defaultRobotUrdf()), and runs analyze().
 struct AnalyzeFilesRequest {
   std::string log_path;
   std::string validate_path;   ///< "" = k-fold

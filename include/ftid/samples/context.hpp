@@ -10,6 +10,7 @@
 //   extra, extra_names               = pointers to this sample's extra columns (row-major copy)
 //                                      and to the set's column names (generic effects such as
 //                                      poly(<column>,n) read them)
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -82,6 +83,13 @@ struct ContextSet {
 /// has_joints is false in every context.
 ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics& kinematics,
                          const ContextOptions& options = {});
+
+/// Reads the log (logio::readLog) and the robot (`robot_urdf`, "" = defaultRobotUrdf()) and builds
+/// the contexts; `progress` (optional) gets a line for each step. Throws as readLog, the URDF
+/// loader and buildContexts do.
+ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
+                           const ContextOptions& options = {},
+                           const std::function<void(const std::string& line)>& progress = {});
 
 /// Sets g_S = R_BS^T g_B(U, V) in every context.
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad);
