@@ -404,7 +404,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // Let the last samples arrive, then stop recording.
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   recorder.stop();
-  const std::vector<transport::CycleRecord> records = recorder.snapshot();
+  const std::vector<CycleRecord> records = recorder.snapshot();
 
   if (!setup_error.empty()) {
     result.message = "robot set-up failed: " + setup_error + "; nothing moved, parameters unchanged";
@@ -421,7 +421,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   }
   // The stream must follow the controller's clock: duplicates are dropped, a second publisher
   // (conflicting samples, off-grid times) makes the run unusable.
-  std::vector<transport::CycleRecord> clean;
+  std::vector<CycleRecord> clean;
   const CycleStreamReport stream =
       checkCycleStream(records, rate, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, &clean);
   RecordsToLogReport conv;

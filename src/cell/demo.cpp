@@ -316,11 +316,11 @@ int runDemo(const DemoOptions& opt) {
   say("[6/6] live compensated wrench from ftidd (LCM FTID_WRENCH) while someone pushes the tool");
   lcm::LCM lc("udpm://239.255.76.67:7667?ttl=0");
   struct Collector {
-    std::vector<transport::CycleRecord> recs;
+    std::vector<CycleRecord> recs;
     void handle(const lcm::ReceiveBuffer* rb, const std::string&) {
       ftid_lcm::compensated_wrench_t m;
       if (m.decode(rb->data, 0, static_cast<int>(rb->data_size)) < 0) return;
-      transport::CycleRecord r;
+      CycleRecord r;
       transport::fromLcm(m, &r);
       recs.push_back(r);
     }

@@ -26,7 +26,7 @@ RtdeArmSource::RtdeArmSource(const std::string& host, int port, double frequency
 RtdeArmSource::~RtdeArmSource() { client_.disconnect(); }
 
 Status RtdeArmSource::waitForState(std::chrono::nanoseconds timeout,
-                                   transport::RobotStateRecord* out) noexcept {
+                                   RobotStateRecord* out) noexcept {
   const Status s = client_.tryReceiveState(timeout, &state_);
   if (s != Status::kOk) return s;
   if (state_.packages_skipped > 0) {
@@ -64,7 +64,7 @@ Status RtdeArmSource::waitForState(std::chrono::nanoseconds timeout,
 }
 
 // ---------------------------------------------------------------------------------------------
-void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept {
+void toSensorRecord(const can::SensorSample& in, SensorSampleRecord* out) noexcept {
   out->recv_utime = in.rx_time_ns / 1000;
   out->counter = static_cast<std::int32_t>(in.counter);
   out->wrench_S = in.wrench_S;
@@ -81,17 +81,17 @@ void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* 
   out->has_temp = in.has_temperature;
   out->temp_degC = in.has_temperature ? in.temp_degC : 0.0;
   out->status_word = static_cast<std::int32_t>(in.status_word);
-  std::uint32_t h = transport::kHealthOk;
-  if ((in.flags & (can::kSampleFlagNoData | can::kSampleFlagStale)) != 0) h |= transport::kHealthStale;
+  std::uint32_t h = kHealthOk;
+  if ((in.flags & (can::kSampleFlagNoData | can::kSampleFlagStale)) != 0) h |= kHealthStale;
   if ((in.flags & (can::kSampleFlagCounterGap | can::kSampleFlagCounterRepeat)) != 0) {
-    h |= transport::kHealthCounterGap;
+    h |= kHealthCounterGap;
   }
   if ((in.flags & (can::kSampleFlagErrorFrame | can::kSampleFlagBusOff)) != 0) {
-    h |= transport::kHealthErrorFrame;
+    h |= kHealthErrorFrame;
   }
-  if ((in.flags & can::kSampleFlagOutOfRange) != 0) h |= transport::kHealthOutOfRange;
-  if ((in.flags & can::kSampleFlagStatusFault) != 0) h |= transport::kHealthStatusError;
-  if ((in.flags & can::kSampleFlagTransportDown) != 0) h |= transport::kHealthTransportDown;
+  if ((in.flags & can::kSampleFlagOutOfRange) != 0) h |= kHealthOutOfRange;
+  if ((in.flags & can::kSampleFlagStatusFault) != 0) h |= kHealthStatusError;
+  if ((in.flags & can::kSampleFlagTransportDown) != 0) h |= kHealthTransportDown;
   out->health_flags = h;
   out->valid = in.valid;
 }
@@ -129,7 +129,7 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
 }
 
 void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
-                            transport::SensorSampleRecord* latest) noexcept {
+                            SensorSampleRecord* latest) noexcept {
   pump(history);
   assembler_.readLatest(sample_, now_utime * 1000);
   sample_.flags |= interval_flags_;

@@ -94,7 +94,7 @@ std::uint64_t countAbove(const rt::LatencyHistogram& h, double threshold_us) {
 // The wrench message published while no robot state package arrives: valid = false, cycle = -1,
 // fault bit robot timeout, no sensor sample.
 void publishSilence(transport::LcmOutbox* outbox, std::int32_t param_version) {
-  transport::CycleRecord rec;
+  CycleRecord rec;
   rec.utime = realtimeNowUs();
   rec.cycle = -1;
   rec.sensor_age_us = -1;
@@ -568,7 +568,7 @@ int Daemon::run() {
       next_stats += std::chrono::duration_cast<Clock::duration>(
           std::chrono::duration<double>(cfg.lcm.stats_period_s));
       stats_box->readLatest(&snap);
-      transport::LoopStatsRecord s;
+      LoopStatsRecord s;
       s.utime = realtimeNowUs();
       s.uptime_s = secondsSince(t0);
       s.cycles = static_cast<std::int64_t>(c.cycles.load());

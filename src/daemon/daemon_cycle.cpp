@@ -18,12 +18,12 @@ std::int64_t realtimeNowUs() noexcept {
 
 namespace {
 
-bool robotUsable(const transport::RobotStateRecord& r) noexcept {
+bool robotUsable(const RobotStateRecord& r) noexcept {
   return r.valid && std::isfinite(r.robot_time) && r.q.allFinite() && r.qd.allFinite() &&
          r.qdd.allFinite();
 }
 
-bool sensorFinite(const transport::SensorSampleRecord& s) noexcept {
+bool sensorFinite(const SensorSampleRecord& s) noexcept {
   if (!s.wrench_S.allFinite()) return false;
   if (s.has_imu && !(s.imu_acc_S.allFinite() && s.imu_w_S.allFinite() && s.imu_alpha_S.allFinite())) {
     return false;
@@ -44,7 +44,7 @@ void TareAccumulator::start(const TareRequest& request) noexcept {
   sum_.setZero();
 }
 
-bool TareAccumulator::add(const transport::CycleRecord& rec, TareResult* result) noexcept {
+bool TareAccumulator::add(const CycleRecord& rec, TareResult* result) noexcept {
   if (!active_) return false;
   const auto version = static_cast<std::uint32_t>(rec.param_version);
   if (n_ == 0) version_ = version;
@@ -140,9 +140,8 @@ CycleAction DaemonCycle::onMissed(std::uint32_t /*consecutive_missed*/) noexcept
   return CycleAction::kContinue;
 }
 
-void DaemonCycle::step(const transport::RobotStateRecord& robot,
-                       transport::CycleRecord* out) noexcept {
-  using transport::CycleRecord;
+void DaemonCycle::step(const RobotStateRecord& robot,
+                       CycleRecord* out) noexcept {
   const std::int64_t now = options_.now_us();
   if (params_->tryAcquire() != nullptr) {
     counters_.param_swaps.fetch_add(1, std::memory_order_relaxed);
@@ -184,7 +183,7 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
     // error frames since the last cycle, an invalid newest value): never less strict than before.
     rec.sensor.health_flags |= latest_.health_flags;
     rec.sensor.valid = rec.sensor.valid && latest_.valid;
-    if (reach_us > options_.stale_timeout_us) rec.sensor.health_flags |= transport::kHealthStale;
+    if (reach_us > options_.stale_timeout_us) rec.sensor.health_flags |= kHealthStale;
     if (pairing == SensorPairing::kInterpolated) {
       counters_.sensor_interpolated.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -197,14 +196,14 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
   rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
   if (rec.sensor.recv_utime <= 0 || latest_.recv_utime <= 0 ||
       now - latest_.recv_utime > options_.stale_timeout_us) {
-    rec.sensor.health_flags |= transport::kHealthStale;
+    rec.sensor.health_flags |= kHealthStale;
   }
-  if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= transport::kHealthNonFinite;
-  if ((rec.sensor.health_flags & (transport::kHealthStale | transport::kHealthNonFinite)) != 0) {
+  if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= kHealthNonFinite;
+  if ((rec.sensor.health_flags & (kHealthStale | kHealthNonFinite)) != 0) {
     rec.sensor.valid = false;
   }
   if (!rec.sensor.valid) {
-    if ((rec.sensor.health_flags & transport::kHealthStale) != 0) {
+    if ((rec.sensor.health_flags & kHealthStale) != 0) {
       rec.fault_bits |= kFaultSensorStale;
       counters_.stale_sensor.fetch_add(1, std::memory_order_relaxed);
     } else {

@@ -44,7 +44,7 @@
 #include "ftid/rt/rt_thread.hpp"
 #include "ftid/simrobot/sim_robot.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 #include "ftid_lcm/compensated_wrench_t.hpp"
 #include "ftid_lcm/loop_stats_t.hpp"
 
@@ -452,12 +452,8 @@ TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
                             << slurp(dir + "/ftidd.log") << "\nsim-sensor log:\n"
                             << slurp(dir + "/sensor.log");
   // Sensor health bits as published (sensor_sample_t.health_flags, transport/records.hpp).
-  using transport::kHealthCounterGap;
-  using transport::kHealthErrorFrame;
-  using transport::kHealthOutOfRange;
-  using transport::kHealthStale;
-  const std::uint32_t invalidating = kHealthStale | kHealthOutOfRange | transport::kHealthNonFinite |
-                                     transport::kHealthStatusError | transport::kHealthTransportDown;
+  const std::uint32_t invalidating = kHealthStale | kHealthOutOfRange | kHealthNonFinite |
+                                     kHealthStatusError | kHealthTransportDown;
   int valid = 0, stale_invalid = 0, out_of_range_invalid = 0, gap_flagged = 0, error_flagged = 0;
   int unexplained_invalid = 0, flagged_valid = 0, valid_after_stale = 0, valid_after_oor = 0;
   bool seen_valid = false;

@@ -115,7 +115,7 @@ class TimedArm : public ArmStateSource {
  public:
   std::int64_t next_ns = 0;  // CLOCK_MONOTONIC time of the next state
   double robot_time = 3600.0;
-  Status waitForState(std::chrono::nanoseconds, transport::RobotStateRecord* out) noexcept override {
+  Status waitForState(std::chrono::nanoseconds, RobotStateRecord* out) noexcept override {
     rt::sleepUntilNs(next_ns);
     next_ns += 8'000'000;
     robot_time += 0.008;
@@ -182,13 +182,13 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
 
 TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
   transport::warmUpCodec();
-  transport::CycleRecord rec;
+  CycleRecord rec;
   rec.sensor.wrench_S << 1, 2, 3, 4, 5, 6;
   ftid_lcm::cycle_sample_t cycle_msg{};
   ftid_lcm::compensated_wrench_t wrench_msg{};
   std::uint8_t buf[2048];
-  static transport::SpscQueue<transport::CycleRecord, 64> queue;
-  transport::CycleRecord out;
+  static transport::SpscQueue<CycleRecord, 64> queue;
+  CycleRecord out;
   std::size_t allocations = 0;
   {
     ftid::test::ScopedAllocationCounter counter;

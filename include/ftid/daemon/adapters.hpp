@@ -31,7 +31,7 @@ class RtdeArmSource final : public ArmStateSource {
   RtdeArmSource(const std::string& host, int port, double frequency_hz);
   ~RtdeArmSource() override;
   Status waitForState(std::chrono::nanoseconds timeout,
-                      transport::RobotStateRecord* out) noexcept override;
+                      RobotStateRecord* out) noexcept override;
   bool robotStopped() const noexcept override { return stopped_; }
   std::uint64_t packetsSkipped() const noexcept override {
     return skipped_.load(std::memory_order_relaxed);
@@ -49,7 +49,7 @@ class RtdeArmSource final : public ArmStateSource {
 };
 
 /// Converts a can::SensorSample (the CAN driver's) into the published record.
-void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept;
+void toSensorRecord(const can::SensorSample& in, SensorSampleRecord* out) noexcept;
 
 /// The CAN sensor, drained each cycle with every complete sample handed to the history.
 /// can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
@@ -62,7 +62,7 @@ class CanSensorSource final : public SensorSource {
   CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
                   const can::SensorHealthOptions& health);
   void drain(std::int64_t now_utime, SensorHistory* history,
-             transport::SensorSampleRecord* latest) noexcept override;
+             SensorSampleRecord* latest) noexcept override;
   /// Drains, then ppoll()s the transport's descriptor until such a sample is complete or the
   /// timeout passes (no waiting for a transport without a descriptor, e.g. a candump replay).
   bool waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
@@ -78,7 +78,7 @@ class CanSensorSource final : public SensorSource {
   can::SampleAssembler assembler_;
   std::array<can::ReceivedFrame, 64> batch_{};
   can::SensorSample sample_;
-  transport::SensorSampleRecord record_;
+  SensorSampleRecord record_;
   std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
 };
 
@@ -120,7 +120,7 @@ CompensationFactory parameterFileFactory();
 class OutboxSink final : public CycleSink {
  public:
   explicit OutboxSink(transport::LcmOutbox* outbox) : outbox_(outbox) {}
-  bool tryPush(const transport::CycleRecord& record) noexcept override {
+  bool tryPush(const CycleRecord& record) noexcept override {
     return outbox_->tryPush(record);
   }
 

@@ -12,7 +12,7 @@
 #include "ftid/daemon/time_pairing.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/model/kinematics.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::daemon {
 
@@ -23,7 +23,7 @@ class ArmStateSource {
   /// kOk (out filled, out->valid tells whether the values are usable), kTimeout, or kFault
   /// (connection lost). Real-time safe.
   virtual Status waitForState(std::chrono::nanoseconds timeout,
-                              transport::RobotStateRecord* out) noexcept = 0;
+                              RobotStateRecord* out) noexcept = 0;
   /// True if the last state reported a protective/emergency stop or a stopped program.
   virtual bool robotStopped() const noexcept { return false; }
   /// State packets the source dropped since start because a newer one was already waiting
@@ -44,7 +44,7 @@ class SensorSource {
   /// transport down). now_utime: CLOCK_REALTIME [us], the clock of recv_utime.
   /// Never blocks, never allocates.
   virtual void drain(std::int64_t now_utime, SensorHistory* history,
-                     transport::SensorSampleRecord* latest) noexcept = 0;
+                     SensorSampleRecord* latest) noexcept = 0;
   /// Waits until *history holds a sample received at or after t_utime [us, CLOCK_REALTIME],
   /// draining into it as drain() does (what a drain reports about the interval is kept for the
   /// next drain()), or until `timeout` has passed. Returns true if such a sample is there.
@@ -81,7 +81,7 @@ class Compensation {
 class CycleSink {
  public:
   virtual ~CycleSink() = default;
-  virtual bool tryPush(const transport::CycleRecord& record) noexcept = 0;
+  virtual bool tryPush(const CycleRecord& record) noexcept = 0;
 };
 
 }  // namespace ftid::daemon

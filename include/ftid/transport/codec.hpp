@@ -1,5 +1,5 @@
 #pragma once
-// Codec between the domain records (ftid/transport/records.hpp) and the generated LCM types
+// Codec between the domain records (ftid/common/records.hpp) and the generated LCM types
 // (lcmtypes/*.lcm, package ftid_lcm). The to*/from* conversions and encodeInto() are
 // real-time safe: no allocation, no exceptions (every message they touch has fixed-size
 // fields only). Call warmUpCodec() once outside the loop: lcm-gen's getHash() initialises a
@@ -21,7 +21,7 @@
 #include <ftid_lcm/sensor_sample_t.hpp>
 #pragma GCC diagnostic pop
 
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::transport {
 

@@ -17,7 +17,7 @@
 
 namespace {
 
-using ftid::transport::CycleRecord;
+using ftid::CycleRecord;
 
 std::vector<CycleRecord> genuineStream(std::uint64_t seed) {
   ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, seed);

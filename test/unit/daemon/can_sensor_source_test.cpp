@@ -40,7 +40,7 @@ TEST(CanSensorSource, EverySampleOfADrainReachesTheHistory) {
   for (std::uint32_t k = 1; k <= 8; ++k) b.send(k, -10.0 - static_cast<double>(k));
   b.send(12, -30.0);  // samples 9..11 lost: a counter gap before this one
   SensorHistory history;
-  transport::SensorSampleRecord latest;
+  SensorSampleRecord latest;
   b.source.drain(can::realtimeNowNs() / 1000, &history, &latest);
   ASSERT_EQ(history.size(), 9);
   for (int i = 0; i < 8; ++i) {
@@ -51,9 +51,9 @@ TEST(CanSensorSource, EverySampleOfADrainReachesTheHistory) {
       EXPECT_GT(history.at(i).recv_utime, history.at(i - 1).recv_utime);
     }
   }
-  EXPECT_NE(history.newest().health_flags & transport::kHealthCounterGap, 0u);
+  EXPECT_NE(history.newest().health_flags & kHealthCounterGap, 0u);
   EXPECT_EQ(latest.counter, 12);
-  EXPECT_NE(latest.health_flags & transport::kHealthCounterGap, 0u);
+  EXPECT_NE(latest.health_flags & kHealthCounterGap, 0u);
   EXPECT_TRUE(latest.valid);  // a gap alone does not invalidate (SensorHealthOptions default)
   EXPECT_EQ(b.source.health().samples_complete, 9u);
   EXPECT_EQ(b.source.health().samples_lost, 3u);
@@ -62,13 +62,13 @@ TEST(CanSensorSource, EverySampleOfADrainReachesTheHistory) {
   b.source.drain(can::realtimeNowNs() / 1000, &history, &latest);
   EXPECT_EQ(history.size(), 10);
   EXPECT_EQ(latest.counter, 13);
-  EXPECT_EQ(latest.health_flags & transport::kHealthCounterGap, 0u);  // reported once
+  EXPECT_EQ(latest.health_flags & kHealthCounterGap, 0u);  // reported once
 }
 
 TEST(CanSensorSource, GapSeenWhileWaitingIsReportedByTheNextDrain) {
   Bench b;
   SensorHistory history;
-  transport::SensorSampleRecord latest;
+  SensorSampleRecord latest;
   b.send(1, -1.0);
   b.source.drain(can::realtimeNowNs() / 1000, &history, &latest);
   b.send(5, -5.0);  // gap
@@ -77,7 +77,7 @@ TEST(CanSensorSource, GapSeenWhileWaitingIsReportedByTheNextDrain) {
   EXPECT_EQ(history.newest().counter, 5);
   b.source.drain(can::realtimeNowNs() / 1000, &history, &latest);
   EXPECT_EQ(latest.counter, 5);
-  EXPECT_NE(latest.health_flags & transport::kHealthCounterGap, 0u);
+  EXPECT_NE(latest.health_flags & kHealthCounterGap, 0u);
 }
 
 TEST(CanSensorSource, WaitForSampleReturnsAsSoonAsItIsThereAndTimesOutOtherwise) {

@@ -91,7 +91,7 @@ struct TareRig {
     ASSERT_EQ(cycle->waitForTick(std::chrono::milliseconds(12)), Status::kOk);
     cycle->onTick();
   }
-  const transport::CycleRecord& last() const { return cycle->lastRecord(); }
+  const CycleRecord& last() const { return cycle->lastRecord(); }
 };
 
 TEST(Tare, RemovesAConstantContactBiasAndPersistsUntilReload) {
