@@ -213,7 +213,7 @@ int Daemon::run() {
     built = std::move(lp);
     return comp;
   };
-  OwnedSwapSlot<Compensation> params;
+  rt::OwnedSwapSlot<Compensation> params;
   ParameterReloader reloader(&params, factory);
   std::int32_t reloads_failed = 0;
   {

@@ -83,7 +83,7 @@ bool TareAccumulator::add(const CycleRecord& rec, TareResult* result) noexcept {
 }
 
 DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
-                         OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
+                         rt::OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
     : arm_(arm),
       sensor_(sensor),
       motion_(motion),

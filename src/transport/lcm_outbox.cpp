@@ -16,7 +16,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
-#include "ftid/transport/spsc_queue.hpp"
+#include "ftid/rt/spsc_queue.hpp"
 
 namespace ftid::transport {
 namespace {
@@ -42,7 +42,7 @@ struct LcmOutbox::Impl {
   OutboxOptions options;
   std::unique_ptr<lcm::LCM> owned_lcm;
   lcm::LCM* lcm = nullptr;
-  SpscQueue<CycleRecord, kQueueCapacity> queue;
+  rt::SpscQueue<CycleRecord, kQueueCapacity> queue;
   int event_fd = -1;
   std::thread thread;
   std::atomic<bool> running{false};

@@ -25,7 +25,7 @@
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
-#include "ftid/transport/spsc_queue.hpp"
+#include "ftid/rt/spsc_queue.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -64,7 +64,7 @@ TEST(RtDaemon, CycleStepWithProductionMathAndSinkDoesNotAllocate) {
 
   model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
   KinematicsMotionModel motion(kin);
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(p1));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(p1));
   lcm::LCM lc("memq://");
   transport::LcmOutbox outbox(transport::OutboxOptions{}, &lc);
   outbox.start();
@@ -149,7 +149,7 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
     }
   });
   test::FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
   TimedArm arm;
   CycleOptions opt;  // real clock, default wait bound
   DaemonCycle cycle(&arm, &sensor, &motion, &slot, nullptr, opt);
@@ -187,7 +187,7 @@ TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
   ftid_lcm::cycle_sample_t cycle_msg{};
   ftid_lcm::compensated_wrench_t wrench_msg{};
   std::uint8_t buf[2048];
-  static transport::SpscQueue<CycleRecord, 64> queue;
+  static rt::SpscQueue<CycleRecord, 64> queue;
   CycleRecord out;
   std::size_t allocations = 0;
   {

@@ -39,7 +39,7 @@ TEST(RtTare, WindowAccumulationAndHandOverDoNotAllocate) {
   set.params.push_back({"mass_com_z", 0.07, 0.0, "kg*m"});
   params::writeParameterFile(path, set);
 
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   test::FakeArm arm;
   test::FakeSensor sensor;
   test::FixedMotion motion;

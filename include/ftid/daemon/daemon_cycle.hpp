@@ -26,7 +26,7 @@
 #include "ftid/common/status.hpp"
 #include "ftid/daemon/output_stage.hpp"
 #include "ftid/daemon/seams.hpp"
-#include "ftid/daemon/swap_slot.hpp"
+#include "ftid/rt/swap_slot.hpp"
 #include "ftid/daemon/time_pairing.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/loop_stats.hpp"
@@ -128,7 +128,7 @@ class DaemonCycle {
   /// All pointers must outlive the cycle. params may hold no object yet (then every cycle is
   /// published with wrench_valid = false and kFaultNone for the parameters).
   DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
-              OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options = {});
+              rt::OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options = {});
 
   // ftid::rt executor interface (runDeviceClocked).
   Status waitForTick(std::chrono::nanoseconds timeout) noexcept;
@@ -182,7 +182,7 @@ class DaemonCycle {
   ArmStateSource* arm_;
   SensorSource* sensor_;
   const MotionModel* motion_;
-  OwnedSwapSlot<Compensation>* params_;
+  rt::OwnedSwapSlot<Compensation>* params_;
   CycleSink* sink_;
   CycleOptions options_;
   CycleCounters counters_;

@@ -73,7 +73,7 @@ TEST(DaemonCompensation, ContactWrenchMatchesAnIndependentStaticModel) {
 
   model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
   KinematicsMotionModel motion(kin);
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   test::FakeArm arm;
   test::FakeSensor sensor;
   test::RecordingSink sink;
@@ -169,7 +169,7 @@ TEST_P(DaemonMovingCompensation, ContactIsTheSimulatorsPushWhileTheArmMoves) {
   params::writeParameterFile(path, set);
 
   KinematicsMotionModel motion(kin);
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   std::remove(path.c_str());
   test::FakeArm arm;
   test::FakeSensor sensor;

@@ -31,7 +31,7 @@ struct Rig {
   FakeArm arm;
   FakeSensor sensor;
   FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot;
+  rt::OwnedSwapSlot<Compensation> slot;
   RecordingSink sink;
   std::unique_ptr<DaemonCycle> cycle;
   explicit Rig(std::unique_ptr<Compensation> initial = nullptr) : slot(std::move(initial)) {

@@ -65,7 +65,7 @@ struct TareRig {
   test::FakeArm arm;
   test::FakeSensor sensor;
   test::FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot;
+  rt::OwnedSwapSlot<Compensation> slot;
   test::RecordingSink sink;
   rt::Mailbox<TareRequest> requests;
   rt::Mailbox<TareResult> results;

@@ -288,7 +288,7 @@ RunResult runCycles(ClockedSensor* sensor, int cycles, std::int64_t robot_first_
               int spike_cycle = -1, std::int64_t spike_us = 0) {
   ScriptedArm arm;
   test::FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
   CycleOptions opt;
   opt.stale_timeout_us = 20'000;
   opt.max_sensor_wait_us = max_wait_us;
