@@ -13,7 +13,7 @@
 #include "ftid/effects/model.hpp"
 #include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
-#include "ftid/params/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace {
 

@@ -18,7 +18,7 @@
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/fit.hpp"
-#include "ftid/params/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace ftid::compensate {
 namespace {

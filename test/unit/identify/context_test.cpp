@@ -28,7 +28,7 @@ void expectPointsInto(const samples::ContextSet& set, const char* what) {
   const effects::SignalSource cycle = effects::SignalSource::parse("cycle");
   ASSERT_EQ(set.extra_names.size(), 2u) << what;
   for (std::size_t i = 0; i < set.size(); ++i) {
-    const SampleContext& c = set.samples[i];
+    const effects::SampleContext& c = set.samples[i];
     ASSERT_EQ(c.extra_names, &set.extra_names) << what << ", sample " << i;
     ASSERT_EQ(c.extra, set.extra_rows.data() + 2 * i) << what << ", sample " << i;
     EXPECT_TRUE(humidity.available(c)) << what;
