@@ -30,7 +30,7 @@ const char* kUsage =
     "  --output FILE     write the CSV to FILE instead of stdout";
 
 int runDecodeCandump(const std::vector<std::string>& argv) {
-  using namespace ftid::can;
+  using namespace ftid::drivers::can;
   ftid::cli::Args args(argv, kUsage);
   std::string dbc = args.value("--dbc", "");
   if (dbc.empty()) dbc = ftid::findDefaultFile("ftsensor.dbc");

@@ -128,7 +128,7 @@ struct HookContext {
 
 void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
   auto* c = static_cast<HookContext*>(context);
-  const std::int64_t now = monotonicNowNs();
+  const std::int64_t now = monotonicNs();
   const std::int64_t since_hook = c->last_hook_ns > 0 ? now - c->last_hook_ns : 0;
   c->last_hook_ns = now;
   const double rt = tick.state.timestamp;
@@ -233,7 +233,7 @@ std::string requestDaemonReload(const std::string& lcm_url, const std::string& c
       got = true;
     }
   } waiter;
-  waiter.request_id = static_cast<std::int64_t>(monotonicNowNs() ^ (static_cast<std::int64_t>(::getpid()) << 40));
+  waiter.request_id = static_cast<std::int64_t>(monotonicNs() ^ (static_cast<std::int64_t>(::getpid()) << 40));
   lcm::Subscription* sub = lc.subscribe(ack_channel, &AckWaiter::handle, &waiter);
   ftid_lcm::command_t cmd;
   cmd.utime = static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::microseconds>(

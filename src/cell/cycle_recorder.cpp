@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/cell/cycle_recorder.hpp"
 
 #include <pthread.h>
@@ -15,12 +16,6 @@
 #include "ftid/transport/lcm_to_csv.hpp"
 
 namespace ftid::cell {
-
-std::int64_t monotonicNowNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 struct CycleRecorder::Impl {
   std::unique_ptr<lcm::LCM> lcm;
@@ -51,7 +46,7 @@ void CycleRecorder::start() {
   impl_->subscription->setQueueCapacity(2000);
   if (!allowed_.empty()) transport::restrictLcmSources(*impl_->lcm, url_, allowed_);
   running_ = true;
-  last_poll_ns_.store(monotonicNowNs());
+  last_poll_ns_.store(monotonicNs());
   thread_ = std::thread([this] {
     // A low real-time priority where permitted: on an overloaded host a starved receive thread
     // would look like a silent ftidd (the motion loop runs at a higher one).
@@ -59,7 +54,7 @@ void CycleRecorder::start() {
     sp.sched_priority = 5;
     (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
     while (running_.load()) {
-      last_poll_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
+      last_poll_ns_.store(monotonicNs(), std::memory_order_relaxed);
       impl_->lcm->handleTimeout(50);
     }
   });
@@ -88,7 +83,7 @@ void CycleRecorder::onMessage(const void* data, std::size_t size) {
   if (!have_cycle_ || rec.cycle > newest_cycle_) {
     have_cycle_ = true;
     newest_cycle_ = rec.cycle;
-    last_receive_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
+    last_receive_ns_.store(monotonicNs(), std::memory_order_relaxed);
     const bool sensor_ok = rec.sensor.valid && rec.sensor.health_flags == kHealthOk;
     if (sensor_ok) {
       invalid_streak_.store(0, std::memory_order_relaxed);

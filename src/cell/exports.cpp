@@ -11,6 +11,7 @@
 
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/model/frames.hpp"
 
@@ -187,31 +188,6 @@ Ros2Names ros2NamesFromConfig(const config::DaemonConfig& cfg) {
   return n;
 }
 
-void writeTextFileAtomic(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(path + ": cannot write (" + std::string(std::strerror(errno)) + ")");
-  std::size_t done = 0;
-  bool ok = true;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      ok = false;
-      break;
-    }
-    done += static_cast<std::size_t>(n);
-  }
-  const int err = errno;
-  if (ok && ::fsync(fd) != 0) ok = false;
-  ::close(fd);
-  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int e = ok ? errno : err;
-    ::unlink(tmp.c_str());
-    throw Error(path + ": cannot write (" + std::string(std::strerror(e)) + ")");
-  }
-}
-
 std::string writeExports(const params::ParameterSet& set, const config::DaemonConfig& cfg,
                          const std::string& ros2_path, const std::string& urscript_path) {
   const PayloadExport e = makePayloadExport(set, cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
@@ -220,11 +196,11 @@ std::string writeExports(const params::ParameterSet& set, const config::DaemonCo
   const std::string ur = urScriptFile(e, partsFromConfig(cfg));
   std::string written;
   if (!ros2_path.empty()) {
-    writeTextFileAtomic(ros2_path, ros2);
+    writeFileAtomically(ros2_path, ros2);
     written += ros2_path + " (ros2_control force_torque_sensor_broadcaster + GravityCompensationWrench)";
   }
   if (!urscript_path.empty()) {
-    writeTextFileAtomic(urscript_path, ur);
+    writeFileAtomically(urscript_path, ur);
     written += (written.empty() ? "" : ", ") + urscript_path + " (UR set_target_payload)";
   }
   return written;

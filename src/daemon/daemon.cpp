@@ -265,13 +265,13 @@ int Daemon::run() {
   if (!out_opt.record_path.empty()) logLine("recording to " + out_opt.record_path);
 
   // Devices.
-  can::CanSensorConfig can_cfg;
+  drivers::can::CanSensorConfig can_cfg;
   can_cfg.endpoint = cfg.sensor.transport == "socketcan" ? "socketcan:" + cfg.sensor.can_interface
                                                           : "seqpacket:" + cfg.sensor.socket_path;
   can_cfg.dbc_path = cfg.sensor.dbc_path;
   can_cfg.health.stale_timeout_ns = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1e6);
   CanSensorSource sensor(retryUntil(options_.connect_timeout_s, "the sensor at " + can_cfg.endpoint,
-                                    [&] { return can::openCanSensor(can_cfg); }),
+                                    [&] { return drivers::can::openCanSensor(can_cfg); }),
                          can_cfg.health);
   std::unique_ptr<RtdeArmSource> arm = retryUntil(
       options_.connect_timeout_s,

@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
 
 #include <algorithm>
@@ -10,11 +11,7 @@
 
 namespace ftid::daemon {
 
-std::int64_t realtimeNowUs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;
-}
+std::int64_t realtimeNowUs() noexcept { return realtimeUs(); }
 
 namespace {
 

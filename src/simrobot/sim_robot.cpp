@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/simrobot/sim_robot.hpp"
 
 #include <arpa/inet.h>
@@ -101,12 +102,6 @@ Vec6 forwardKinematicsTcpPose(RobotModel model, const JointVector& q) {
 
 // ------------------------------------------------------------------------------------------------
 namespace {
-
-std::int64_t nowNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 enum class OutKind : std::uint8_t {
   kZero, kTimestamp, kTargetQ, kTargetQd, kTargetQdd, kActualQ, kActualQd, kTcpPose, kTargetTcpPose,
@@ -380,7 +375,7 @@ struct SimRobot::Impl {
     event("protective stop: " + why);
   }
 
-  // ---------------------------------------------------------------- program step (§3.4)
+  // ---------------------------------------------------------------- program step (docs/robot.md, simulator "Each tick")
   void programStep() {
     if (runtime_state != rtde::kRuntimePlaying || program == ProgramKind::kNone || program == ProgramKind::kOther) {
       return;
@@ -1097,7 +1092,7 @@ struct SimRobot::Impl {
   void tickLoop() {
     raisePriority(cfg.thread_priority);
     const std::int64_t period_ns = static_cast<std::int64_t>(std::llround(dt * 1e9));
-    std::int64_t next = nowNs() + period_ns;
+    std::int64_t next = monotonicNs() + period_ns;
     while (running.load()) {
       if (cfg.realtime) {
         timespec ts{static_cast<time_t>(next / 1'000'000'000), static_cast<long>(next % 1'000'000'000)};
@@ -1109,7 +1104,7 @@ struct SimRobot::Impl {
         tick();
       }
       next += period_ns;
-      const std::int64_t now = nowNs();
+      const std::int64_t now = monotonicNs();
       if (now - next > 5 * period_ns) next = now;  // re-anchor after a long stall of the host
     }
   }

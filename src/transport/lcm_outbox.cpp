@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
 
 #include <poll.h>
@@ -23,11 +24,7 @@ namespace {
 
 constexpr std::size_t kMaxChannelLength = 63;  // LCM_MAX_CHANNEL_NAME_LENGTH
 
-std::int64_t nowUtime() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
-}
+std::int64_t nowUtime() { return realtimeUs(); }
 
 void checkChannel(const std::string& key, const std::string& name) {
   if (name.empty() || name.size() > kMaxChannelLength) {

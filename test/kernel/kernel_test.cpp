@@ -79,7 +79,7 @@ Vec3 gravityInSensor(const JointVector& q, double U, double V) {
 
 void requireVcan() {
   std::string why;
-  ASSERT_TRUE(can::socketCanAvailable(&why)) << why;
+  ASSERT_TRUE(drivers::can::socketCanAvailable(&why)) << why;
   ASSERT_NE(if_nametoindex(kIface), 0u) << "no interface " << kIface << " (the rig creates it)";
 }
 
@@ -155,8 +155,8 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   requireVcan();
   if (HasFatalFailure()) return;
   using simsensor::SensorFault;
-  const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(kSrc + "/config/ftsensor.dbc"));
+  const drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(kSrc + "/config/ftsensor.dbc"));
   simsensor::SimSensorConfig config = simsensor::defaultSimSensorConfig();
   config.cell.temperature_drift.enabled = false;
   simsensor::RobotHistory history;
@@ -169,20 +169,20 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   simsensor::SensorFrameSource src(config, layout,
                                    model::RobotKinematics::fromUrdfFile(kSrc + "/config/ur10.urdf"));
   // The sender: a plain raw socket on vcan0, as `ftid sim-sensor --can-interface` opens it.
-  can::SocketCanOptions tx_opts;
+  drivers::can::SocketCanOptions tx_opts;
   tx_opts.interface = kIface;
   tx_opts.error_mask = 0;
-  can::SocketCanTransport bus(tx_opts);
+  drivers::can::SocketCanTransport bus(tx_opts);
   // The receiver: the daemon's driver, opened from its endpoint string.
-  can::CanSensorConfig sc;
+  drivers::can::CanSensorConfig sc;
   sc.endpoint = std::string("socketcan:") + kIface;
   sc.dbc_path = kSrc + "/config/ftsensor.dbc";
   sc.health.stale_timeout_ns = 3'500'000;  // 3.5 samples at 1 kHz, as on the stand-in
-  auto sensor = can::openCanSensor(sc);
+  auto sensor = drivers::can::openCanSensor(sc);
 
   std::array<can_frame, simsensor::SensorFrameSource::kMaxFrames> frames{};
   std::uint64_t sent = 0;
-  can::SensorSample s;
+  drivers::can::SensorSample s;
   // One sensor sample: its frames go out on vcan0; the driver reads until it has received all of
   // them (the kernel delivers asynchronously). Reads in between may report part of the step's
   // flags, so the step's flags are the union over its reads; `s` is the last read. The stale
@@ -191,7 +191,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   const auto step = [&]() {
     const int n = src.nextSample(history, 50.03, 1.0, frames);
     for (int i = 0; i < n; ++i) {
-      EXPECT_EQ(bus.trySend(frames[static_cast<std::size_t>(i)]), can::IoResult::kOk)
+      EXPECT_EQ(bus.trySend(frames[static_cast<std::size_t>(i)]), drivers::can::IoResult::kOk)
           << "errno " << bus.lastErrno();
     }
     sent += static_cast<std::uint64_t>(n);
@@ -214,10 +214,10 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   for (int i = 0; i < 5; ++i) EXPECT_EQ(step(), 0);
   sensor->tryReadLatest(s, s.rx_time_ns + 5'000'000);  // 5 ms without a sample
   EXPECT_FALSE(s.valid);  // stale after 3.5 ms of silence
-  EXPECT_TRUE(s.flags & can::kSampleFlagStale);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagStale);
   step();
   EXPECT_TRUE(s.valid);
-  EXPECT_TRUE(step_flags & can::kSampleFlagCounterGap);
+  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagCounterGap);
   EXPECT_EQ(sensor->health().samples_lost, 5u);
 
   src.inject(SensorFault::kCounterGap, 7);
@@ -227,7 +227,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kOutOfRange, 2);
   step();
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & can::kSampleFlagOutOfRange);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagOutOfRange);
   EXPECT_NEAR(s.wrench_S[0], 360.0, 0.03);
   step();
   step();
@@ -236,7 +236,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kStuckCounter, 1);
   step();
   step();
-  EXPECT_TRUE(step_flags & can::kSampleFlagCounterRepeat);
+  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagCounterRepeat);
   EXPECT_FALSE(s.valid);
   step();
   EXPECT_TRUE(s.valid);
@@ -250,7 +250,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kErrorFrame, 2);
   EXPECT_EQ(step(), 8);
   EXPECT_EQ(sensor->health().error_frames, 2u);
-  EXPECT_TRUE(step_flags & can::kSampleFlagErrorFrame);
+  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagErrorFrame);
   src.inject(SensorFault::kBusOff, 1);
   step();
   EXPECT_EQ(sensor->health().bus_off_events, 1u);
@@ -263,20 +263,20 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
 TEST(SocketCanSensor, UnknownInterfaceIsNamedInTheError) {
   requireVcan();
   if (HasFatalFailure()) return;
-  can::SocketCanOptions o;
+  drivers::can::SocketCanOptions o;
   o.interface = "vcan9";
   try {
-    can::SocketCanTransport t(o);
+    drivers::can::SocketCanTransport t(o);
     FAIL() << "opened a socket on a missing interface";
   } catch (const DriverError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("socketcan:vcan9"), std::string::npos) << what;
     EXPECT_NE(what.find("no such network interface"), std::string::npos) << what;
   }
-  can::CanSensorConfig sc;
+  drivers::can::CanSensorConfig sc;
   sc.endpoint = "socketcan:vcan9";
   sc.dbc_path = kSrc + "/config/ftsensor.dbc";
-  EXPECT_THROW(can::openCanSensor(sc), DriverError);
+  EXPECT_THROW(drivers::can::openCanSensor(sc), DriverError);
 }
 
 // ---- ftidd end to end on socketcan:vcan0 -----------------------------------------------------

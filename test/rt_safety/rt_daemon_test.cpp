@@ -127,16 +127,16 @@ class TimedArm : public ArmStateSource {
 };
 
 TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
-  const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
-  auto pair = can::makeSeqpacketPair();
-  can::CanTransport* bus = pair.a.get();
-  CanSensorSource sensor(std::make_unique<can::CanFtImuSensor>(std::move(pair.b), layout),
-                         can::SensorHealthOptions{});
+  const drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  auto pair = drivers::can::makeSeqpacketPair();
+  drivers::can::CanTransport* bus = pair.a.get();
+  CanSensorSource sensor(std::make_unique<drivers::can::CanFtImuSensor>(std::move(pair.b), layout),
+                         drivers::can::SensorHealthOptions{});
   std::atomic<bool> stop{false}, paused{false};
   std::thread sender([&] {  // the sensor: one sample per millisecond, values linear in time
-    std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
-    can::SensorValues values;
+    std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> frames{};
+    drivers::can::SensorValues values;
     std::uint32_t counter = 0;
     std::int64_t next = rt::monotonicNs();
     while (!stop.load()) {
@@ -144,7 +144,7 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
       rt::sleepUntilNs(next);
       if (paused.load()) continue;
       values.wrench_S[2] = -10.0 + 1e-3 * static_cast<double>(counter);
-      const int n = can::encodeSample(layout, values, ++counter, frames);
+      const int n = drivers::can::encodeSample(layout, values, ++counter, frames);
       for (int i = 0; i < n; ++i) bus->trySend(frames[static_cast<std::size_t>(i)]);
     }
   });

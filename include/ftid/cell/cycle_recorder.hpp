@@ -11,15 +11,13 @@
 #include <thread>
 #include <vector>
 
+#include "ftid/common/clock.hpp"  // monotonicNs(): the time base of lastReceiveNs()
 #include "ftid/cell/run_stream.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/common/records.hpp"
 #include "ftid/transport/source_filter.hpp"
 
 namespace ftid::cell {
-
-/// Monotonic clock in ns (CLOCK_MONOTONIC), the time base of lastReceiveNs().
-std::int64_t monotonicNowNs() noexcept;
 
 class CycleRecorder {
  public:

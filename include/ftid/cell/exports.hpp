@@ -91,7 +91,5 @@ std::string writeExports(const params::ParameterSet& set, const config::DaemonCo
 /// config) if it exists, else the shipped ftidd.yaml (the one default-file lookup).
 std::string defaultExportConfigPath();
 
-/// Writes a text file atomically (temporary file in the same directory, fsync, rename).
-void writeTextFileAtomic(const std::string& path, const std::string& text);
 
 }  // namespace ftid::cell

@@ -48,36 +48,36 @@ class RtdeArmSource final : public ArmStateSource {
   std::atomic<std::uint64_t> skipped_{0};
 };
 
-/// Converts a can::SensorSample (the CAN driver's) into the published record.
-void toSensorRecord(const can::SensorSample& in, SensorSampleRecord* out) noexcept;
+/// Converts a drivers::can::SensorSample (the CAN driver's) into the published record.
+void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* out) noexcept;
 
 /// The CAN sensor, drained each cycle with every complete sample handed to the history.
-/// can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
-/// drains the sensor's transport itself and assembles with its own can::SampleAssembler (same
+/// drivers::can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
+/// drains the sensor's transport itself and assembles with its own drivers::can::SampleAssembler (same
 /// layout and health options, the same rules): the CanFtImuSensor's own assembler is not used,
 /// read health() here instead of sensor->health().
 class CanSensorSource final : public SensorSource {
  public:
   /// `health` must be the options the sensor was opened with (CanSensorConfig::health).
-  CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
-                  const can::SensorHealthOptions& health);
+  CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
+                  const drivers::can::SensorHealthOptions& health);
   void drain(std::int64_t now_utime, SensorHistory* history,
              SensorSampleRecord* latest) noexcept override;
   /// Drains, then ppoll()s the transport's descriptor until such a sample is complete or the
   /// timeout passes (no waiting for a transport without a descriptor, e.g. a candump replay).
   bool waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
                      SensorHistory* history) noexcept override;
-  const can::SensorHealth& health() const noexcept { return assembler_.health(); }
+  const drivers::can::SensorHealth& health() const noexcept { return assembler_.health(); }
 
  private:
   /// Receives pending frames; every complete sample goes to the history (see adapters.cpp).
   void pump(SensorHistory* history) noexcept;
 
-  std::unique_ptr<can::CanFtImuSensor> sensor_;  // owns the transport
-  can::SensorHealthOptions options_;
-  can::SampleAssembler assembler_;
-  std::array<can::ReceivedFrame, 64> batch_{};
-  can::SensorSample sample_;
+  std::unique_ptr<drivers::can::CanFtImuSensor> sensor_;  // owns the transport
+  drivers::can::SensorHealthOptions options_;
+  drivers::can::SampleAssembler assembler_;
+  std::array<drivers::can::ReceivedFrame, 64> batch_{};
+  drivers::can::SensorSample sample_;
   SensorSampleRecord record_;
   std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
 };

@@ -1,5 +1,5 @@
 #pragma once
-// DaemonCycle: one cycle of ftidd (architecture §9.5), written against the seams of
+// DaemonCycle: one cycle of ftidd (docs/daemon.md), written against the seams of
 // ftid/daemon/seams.hpp so that it runs in unit tests without threads or hardware.
 //
 //   waitForTick(timeout)  arm->waitForState()                    (the robot is the clock)

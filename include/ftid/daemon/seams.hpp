@@ -1,5 +1,5 @@
 #pragma once
-// The seams ftidd's cycle is written against (architecture P10): one per piece of hardware and
+// The seams ftidd's cycle is written against (docs/architecture.md): one per piece of hardware and
 // one for each piece of math, so that a whole cycle runs in a unit test against fakes. The
 // production implementations are thin adapters (ftid/daemon/adapters.hpp) over the UR RTDE
 // client, the CAN sensor, RobotKinematics and the compensator. Every method the loop calls is

@@ -2,7 +2,7 @@
 // A Universal Robots controller simulator on loopback (docs/robot.md, "Simulator"):
 //  - RTDE server (protocol v1/v2, several clients, per-connection input ownership, output
 //    decimation floor(f_ctrl / f_req)), faithful enough for ur_rtde 1.6.5 and UR's Python client;
-//  - dashboard server subset (exact reply texts per ur-interface-notes §3.3) plus `sim ...`
+//  - dashboard server subset (exact reply texts of UR's dashboard server, docs/robot.md) plus `sim ...`
 //    fault-injection commands;
 //  - script port: accepts a program text, recognises ftid's `def ftid_servo():` and ur_rtde's
 //    `def rtde_control():` by header and emulates their register protocol (commands 0, 1 moveJ,
@@ -53,7 +53,7 @@ struct SimRobotConfig {
   std::uint16_t script_port = 30003;     ///< 0: pick a free port
   /// Initial joint angles [rad] (a typical "home": elbow up, tool down).
   JointVector q0 = (JointVector() << 0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0).finished();
-  double t0 = 50.0;  ///< timestamp of the first tick [s] (> 40 s, see notes §1.6)
+  double t0 = 50.0;  ///< timestamp of the first tick [s] (> 40 s, like a controller that has been up a while)
   /// Servo tracking model: omega = 2 / lookahead * sqrt(gain / 300), capped at
   /// omega_max_fraction / period; qdd = omega^2 (q_cmd - q) + 2 omega (v_ff - qd).
   double omega_max_fraction = 0.4;
