@@ -10,7 +10,9 @@
 // lcm-gen's decode() trips GCC's -Wmaybe-uninitialized (a false positive on msg_hash) where it
 // is inlined; the warning is attributed to the generated headers, so silence it for them only.
 #pragma GCC diagnostic push
+#if defined(__GNUC__) && !defined(__clang__)  // GCC only (clang, e.g. clang-tidy, lacks the group)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <ftid_lcm/ack_t.hpp>
 #include <ftid_lcm/command_t.hpp>
 #include <ftid_lcm/compensated_wrench_t.hpp>
