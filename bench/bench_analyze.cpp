@@ -13,7 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/common/default_files.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/sim/cell_sim.hpp"
@@ -54,7 +55,7 @@ double now() {
 int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::max(1, std::atoi(argv[1])) : 3;
   sim::CellSimConfig cfg =
-      sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(identify::defaultRobotUrdf()));
+      sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(defaultRobotUrdf()));
   cfg.trajectory = richTrajectory();
   cfg.payload.mass_kg = 3.0;
   cfg.payload.p_SC_S = Vec3(0.02, -0.015, 0.09);
@@ -70,7 +71,7 @@ int main(int argc, char** argv) {
     const logio::LogData log = sim::CellSim(c).run();
     const double t_sim = now() - t0;
     t0 = now();
-    const identify::ContextSet set = identify::buildContexts(log, *c.robot);
+    const samples::ContextSet set = samples::buildContexts(log, *c.robot);
     const double t_ctx = now() - t0;
     std::printf("bench_analyze [%s]: %zu samples (10 s at 1 kHz); simulate %.3f s, contexts %.3f s\n", label, set.size(),
                 t_sim, t_ctx);

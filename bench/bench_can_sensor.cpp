@@ -38,18 +38,18 @@ std::string sourceDir() {
 int main(int argc, char** argv) {
   using namespace ftid;
   const int iterations = argc > 1 ? std::atoi(argv[1]) : 20000;
-  const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(sourceDir() + "/config/ftsensor.dbc"));
+  const drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(sourceDir() + "/config/ftsensor.dbc"));
 
   // 1. decode + group
   {
-    can::SampleAssembler a(layout);
-    std::vector<can::ReceivedFrame> frames;
-    std::array<can_frame, can::SensorLayout::kMaxMessages> f{};
-    can::SensorValues v;
+    drivers::can::SampleAssembler a(layout);
+    std::vector<drivers::can::ReceivedFrame> frames;
+    std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> f{};
+    drivers::can::SensorValues v;
     for (int s = 0; s < 256; ++s) {
       v.wrench_S[0] = s * 0.1;
-      const int n = can::encodeSample(layout, v, static_cast<std::uint32_t>(s), f);
+      const int n = drivers::can::encodeSample(layout, v, static_cast<std::uint32_t>(s), f);
       for (int i = 0; i < n; ++i) frames.push_back({f[static_cast<std::size_t>(i)], s * 1000});
     }
     const auto t0 = Clock::now();
@@ -64,18 +64,18 @@ int main(int argc, char** argv) {
 
   // 2. drain 8 samples per call over the stand-in
   {
-    auto pair = can::makeSeqpacketPair();
-    can::CanTransport& bus = *pair.a;
-    can::CanFtImuSensor sensor(std::move(pair.b), layout);
-    std::array<can_frame, can::SensorLayout::kMaxMessages> f{};
-    can::SensorValues v;
-    can::SensorSample s;
+    auto pair = drivers::can::makeSeqpacketPair();
+    drivers::can::CanTransport& bus = *pair.a;
+    drivers::can::CanFtImuSensor sensor(std::move(pair.b), layout);
+    std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> f{};
+    drivers::can::SensorValues v;
+    drivers::can::SensorSample s;
     std::vector<double> us;
     std::uint32_t counter = 0;
     const int calls = std::max(iterations / 10, 100);
     for (int c = 0; c < calls; ++c) {
       for (int k = 0; k < 8; ++k) {
-        const int n = can::encodeSample(layout, v, counter++, f);
+        const int n = drivers::can::encodeSample(layout, v, counter++, f);
         for (int i = 0; i < n; ++i) bus.trySend(f[static_cast<std::size_t>(i)]);
       }
       const auto t0 = Clock::now();
@@ -89,14 +89,14 @@ int main(int argc, char** argv) {
 
   // 3. stand-in latency (send -> kernel receive timestamp)
   {
-    auto pair = can::makeSeqpacketPair();
+    auto pair = drivers::can::makeSeqpacketPair();
     std::vector<double> us;
     can_frame f{};
     f.can_id = 0x1A0;
     f.len = 8;
-    can::ReceivedFrame rf;
+    drivers::can::ReceivedFrame rf;
     for (int i = 0; i < iterations; ++i) {
-      const std::int64_t t0 = can::realtimeNowNs();
+      const std::int64_t t0 = drivers::can::realtimeNowNs();
       pair.a->trySend(f);
       pair.b->tryReceive(rf);
       us.push_back(static_cast<double>(rf.rx_time_ns - t0) * 1e-3);

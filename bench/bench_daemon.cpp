@@ -21,7 +21,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
 
 namespace {
@@ -68,7 +68,7 @@ int writeParams(const std::string& path) {
   // Paper Table 2 payload, the simulator's default (docs/sensor.md).
   const double g = 9.80665, m = 8.862 / g, deg = 3.141592653589793 / 180.0;
   const ftid::effects::Model model = ftid::effects::Model::fromName("paper");
-  ftid::identify::ParameterSet set;
+  ftid::params::ParameterSet set;
   set.model = model.name();
   for (const auto& name : model.paramIndex().names()) {
     double v = 0.0;
@@ -87,7 +87,7 @@ int writeParams(const std::string& path) {
   set.tilt_estimated = true;
   set.tilt_u_rad = -9.8716 * deg;
   set.tilt_v_rad = -5.3709 * deg;
-  ftid::identify::writeParameterFile(path, set);
+  ftid::params::writeParameterFile(path, set);
   return 0;
 }
 

@@ -20,7 +20,7 @@
 #include "ftid/design/designer.hpp"
 #include "ftid/design/excitation_metric.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
@@ -62,7 +62,7 @@ SimErrors simulate(const model::RobotKinematics& kin, const trajectory::FourierT
     cfg.full_rigid_body = full_rigid_body;
     cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
     const auto log = sim::CellSim(cfg).run();
-    const auto ctx = identify::buildContexts(log, kin);
+    const auto ctx = samples::buildContexts(log, kin);
     const auto fit = identify::fitModel(model, ctx.samples);
     const double em = (fit.value("mass") - m) / m;
     sm += em * em;

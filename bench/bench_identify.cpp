@@ -18,8 +18,9 @@
 #include <string>
 #include <vector>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/compensate/compensator.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/identify/offline.hpp"
@@ -76,14 +77,14 @@ volatile double g_sink = 0.0;
 
 int main() {
   using namespace ftid;
-  const auto kin = model::RobotKinematics::fromUrdfFile(identify::defaultRobotUrdf());
+  const auto kin = model::RobotKinematics::fromUrdfFile(defaultRobotUrdf());
   for (double rate : {125.0, 1000.0}) {
     sim::CellSimConfig cfg = sim::paperCellConfig(kin);
     cfg.rate_hz = rate;
     cfg.full_rigid_body = false;
     cfg.seed = 3;
     cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-    const identify::ContextSet s = identify::buildContexts(sim::CellSim(cfg).run(), kin);
+    const samples::ContextSet s = samples::buildContexts(sim::CellSim(cfg).run(), kin);
     const std::string n = std::to_string(s.size()) + " samples";
     const bool small = s.size() < 2000;
 
@@ -133,7 +134,7 @@ int main() {
 
     if (!small) continue;
     // Per-sample compensation: batches of all samples, divided by the count.
-    const identify::ParameterSet set = identify::identifyPaper(s.samples).toParameterSet();
+    const params::ParameterSet set = identify::identifyPaper(s.samples).toParameterSet();
     auto benchCompensator = [&](compensate::Compensator& comp, const char* label) {
       std::vector<double> per_sample_ns;
       Wrench contact;
@@ -164,7 +165,7 @@ int main() {
                   per_sample_ns[per_sample_ns.size() / 2], single_ns[single_ns.size() / 2],
                   single_ns[static_cast<std::size_t>(0.99 * static_cast<double>(single_ns.size() - 1))]);
     };
-    compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
+    compensate::Compensator comp(model, params::thetaFor(model, set), params::nonlinearFor(model, set));
     benchCompensator(comp, "Compensator::compute (paper model)");
     // The richest model: every effect that changes the compensation path (crosstalk's inverse,
     // the mounting rotation, a 24 ms delay line) plus the other named effects.

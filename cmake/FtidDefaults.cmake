@@ -21,6 +21,7 @@ function(ftid_add_library name)
   cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
   add_library(ftid_${name} STATIC ${ARG_SOURCES})
   add_library(ftid::${name} ALIAS ftid_${name})
+  set_property(GLOBAL APPEND PROPERTY FTID_MODULE_TARGETS ftid_${name})
   set_target_properties(ftid_${name} PROPERTIES POSITION_INDEPENDENT_CODE ON)
   target_include_directories(ftid_${name} PUBLIC
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}/include> $<INSTALL_INTERFACE:include>)

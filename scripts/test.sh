@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets everything up and runs the whole test suite:
-#   1. install packages, build (warnings are errors), run every CTest test, then the kernel rig
+#   1. install packages, build (warnings are errors), clang-tidy (scripts/tidy.sh, findings are
+#      errors), run every CTest test, then the kernel rig
 #      (scripts/kernel-rig.sh: SocketCAN and PREEMPT_RT tests inside qemu);
 #   2. rebuild the unit tests with AddressSanitizer + UndefinedBehaviorSanitizer and run them;
 #   3. fuzz every parser for ~20 s with libFuzzer + ASan + UBSan (scripts/fuzz.sh, docs/fuzzing.md;
@@ -15,6 +16,9 @@ jobs="$(nproc)"
 start=$(date +%s)
 
 "$here/setup.sh" "$build"
+# clang-tidy with the repository's .clang-tidy on every source (a few minutes; fails on findings).
+echo "== test: clang-tidy (scripts/tidy.sh)"
+"$here/tidy.sh" "$build"
 echo "== test: ctest ($build)"
 summary="$(mktemp)"
 (cd "$build" && ctest --output-on-failure -j"$jobs" --timeout 600) | tee "$summary"

@@ -90,7 +90,7 @@ int runAnalyze(const std::vector<std::string>& argv) {
   app.add_option("LOG", req.log_path);
   cli::parse(app, argv);
   if (req.log_path.empty()) throw cli::UsageError("exactly one LOG is required");
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
+  req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   if (!noise.empty()) {
     try {
       req.options.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");

@@ -30,7 +30,7 @@ const char* kUsage =
     "  --output FILE     write the CSV to FILE instead of stdout";
 
 int runDecodeCandump(const std::vector<std::string>& argv) {
-  using namespace ftid::can;
+  using namespace ftid::drivers::can;
   std::string dbc, iface, output, log;
   double stale_ms = 20.0;
   CLI::App app{"ftid decode-candump"};

@@ -3,7 +3,7 @@
 #include <iostream>
 
 #include "command.hpp"
-#include "ftid/identify/offline.hpp"
+#include "ftid/compensate/compensate_log.hpp"
 
 namespace {
 
@@ -25,7 +25,7 @@ const char* const kUsage =
     "or parameter file (the message names the file, line or key), 2 usage error.";
 
 int runCompensate(const std::vector<std::string>& argv) {
-  ftid::identify::CompensateRequest req;
+  ftid::compensate::CompensateRequest req;
   std::string wrench_frame;
   CLI::App app{"ftid compensate"};
   app.add_option("--log", req.log_path);
@@ -34,11 +34,11 @@ int runCompensate(const std::vector<std::string>& argv) {
   app.add_option("--robot", req.robot_urdf);
   app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
   ftid::cli::parse(app, argv);
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
+  req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
-  const auto s = ftid::identify::compensateLogFile(req);
+  const auto s = ftid::compensate::compensateLogFile(req);
   std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
   if (s.n_without_kinematics > 0) {
     std::printf("%d samples left out: with the identified sensor delay their kinematics lie outside the log\n",

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "command.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/cell/demo.hpp"
 
 namespace {

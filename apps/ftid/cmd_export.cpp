@@ -4,7 +4,7 @@
 #include "command.hpp"
 #include "ftid/cell/exports.hpp"
 #include "ftid/config/daemon_config.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace {
 
@@ -42,7 +42,7 @@ int runExport(const std::vector<std::string>& argv) {
     urscript = params + ".urscript";
   }
   if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-  const ftid::identify::ParameterSet set = ftid::identify::readParameterFile(params);
+  const ftid::params::ParameterSet set = ftid::params::readParameterFile(params);
   const ftid::config::DaemonConfig cfg = ftid::config::loadDaemonConfig(config);
   std::cout << "exports (config " << config << "): " << ftid::cell::writeExports(set, cfg, ros2, urscript) << "\n";
   return 0;

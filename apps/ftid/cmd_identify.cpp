@@ -63,7 +63,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_option("--noise", noise);
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
   ftid::cli::parse(app, argv);
-  req.context.wrench_in_base = ftid::identify::parseWrenchFrame(wrench_frame);
+  req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   if (!noise.empty()) {
     try {
       req.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
@@ -75,10 +75,10 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
-  const ftid::identify::ParameterSet& set = id.set;
+  const ftid::params::ParameterSet& set = id.set;
   std::string exports;
   if (!out.empty()) {
-    ftid::identify::writeParameterFile(out, set);
+    ftid::params::writeParameterFile(out, set);
     // The parameters are written; a bad config only costs the exports (named in the warning).
     try {
       if (config.empty()) config = ftid::cell::defaultExportConfigPath();

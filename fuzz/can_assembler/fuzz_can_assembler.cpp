@@ -1,4 +1,4 @@
-// Fuzz target: the CAN sample assembler (ftid::can::SampleAssembler) fed arbitrary frames: ids,
+// Fuzz target: the CAN sample assembler (ftid::drivers::can::SampleAssembler) fed arbitrary frames: ids,
 // lengths, payloads, flags and receive times chosen by the fuzzer, with the shipped DBC's layout.
 // Each 16-byte record is one frame: can_id (4), dlc (1), flags (1), dt_us (2), data (8).
 #include <cmath>
@@ -13,25 +13,25 @@
 #include "ftid/drivers/can/transport.hpp"
 
 namespace {
-const ftid::can::SensorLayout& layout() {
-  static const ftid::can::SensorLayout l =
-      ftid::can::SensorLayout::fromDbc(ftid::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+const ftid::drivers::can::SensorLayout& layout() {
+  static const ftid::drivers::can::SensorLayout l =
+      ftid::drivers::can::SensorLayout::fromDbc(ftid::drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
   return l;
 }
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  ftid::can::SensorHealthOptions options;
+  ftid::drivers::can::SensorHealthOptions options;
   options.counter_gap_invalidates = (data[0] & 1) != 0;
   options.error_frame_invalidates = (data[0] & 2) != 0;
   options.max_open_groups = 1 + (data[0] >> 4);
-  ftid::can::SampleAssembler assembler(layout(), options);
+  ftid::drivers::can::SampleAssembler assembler(layout(), options);
   std::int64_t t_ns = 1'000'000'000;
-  ftid::can::SensorSample out;
+  ftid::drivers::can::SensorSample out;
   for (std::size_t pos = 1; pos + 16 <= size; pos += 16) {
     const std::uint8_t* r = data + pos;
-    ftid::can::ReceivedFrame f;
+    ftid::drivers::can::ReceivedFrame f;
     std::memcpy(&f.frame.can_id, r, 4);
     f.frame.len = r[4];  // deliberately unchecked: may exceed 8
     f.frame.__pad = r[5];

@@ -1,4 +1,4 @@
-// Fuzz target: the DBC parser (ftid::can::parseDbc) and the sensor layout built from it.
+// Fuzz target: the DBC parser (ftid::drivers::can::parseDbc) and the sensor layout built from it.
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -10,8 +10,8 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
   try {
-    const ftid::can::DbcDatabase db = ftid::can::parseDbc(text, "fuzz.dbc");
-    (void)ftid::can::SensorLayout::fromDbc(db);
+    const ftid::drivers::can::DbcDatabase db = ftid::drivers::can::parseDbc(text, "fuzz.dbc");
+    (void)ftid::drivers::can::SensorLayout::fromDbc(db);
   } catch (const ftid::Error&) {
     // a clear rejection naming file and line
   }

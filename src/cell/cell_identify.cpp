@@ -24,11 +24,11 @@
 #include "ftid/daemon/client.hpp"
 #include "ftid/design/trajectory_check.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/offline.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -127,7 +127,7 @@ struct HookContext {
 
 void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
   auto* c = static_cast<HookContext*>(context);
-  const std::int64_t now = monotonicNowNs();
+  const std::int64_t now = monotonicNs();
   const std::int64_t since_hook = c->last_hook_ns > 0 ? now - c->last_hook_ns : 0;
   c->last_hook_ns = now;
   const double rt = tick.state.timestamp;
@@ -355,7 +355,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // Let the last samples arrive, then stop recording.
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   recorder.stop();
-  const std::vector<transport::CycleRecord> records = recorder.snapshot();
+  const std::vector<CycleRecord> records = recorder.snapshot();
 
   if (!setup_error.empty()) {
     result.message = "robot set-up failed: " + setup_error + "; nothing moved, parameters unchanged";
@@ -372,7 +372,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   }
   // The stream must follow the controller's clock: duplicates are dropped, a second publisher
   // (conflicting samples, off-grid times) makes the run unusable.
-  std::vector<transport::CycleRecord> clean;
+  std::vector<CycleRecord> clean;
   const CycleStreamReport stream =
       checkCycleStream(records, rate, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, &clean);
   RecordsToLogReport conv;
@@ -453,12 +453,12 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   }
 
   // ---- identify and analyse
-  identify::ContextOptions copts;
+  samples::ContextOptions copts;
   copts.R_FS = cfg.sensor.R_FS();
   copts.p_FS_F = cfg.sensor.p_FS_F();
-  identify::ParameterSet set;
+  params::ParameterSet set;
   try {
-    const identify::ContextSet contexts = identify::buildContexts(log, kin, copts);
+    const samples::ContextSet contexts = samples::buildContexts(log, kin, copts);
     const identify::FitResult fit = identify::fitModel(model, contexts.samples);
     set = identify::toParameterSet(fit);
     set.provenance.date_utc = utcStamp(true);
@@ -523,7 +523,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // ---- write parameters atomically (previous version kept) and exports
   try {
     fs::create_directories(fs::path(params_path).parent_path());
-    identify::writeParameterFile(params_path, set);
+    params::writeParameterFile(params_path, set);
     result.params_path = params_path;
   } catch (const std::exception& e) {
     // The writer's exception may not say why (e.g. ENOSPC seen only at flush): name a full disk.

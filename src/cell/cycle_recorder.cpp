@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/cell/cycle_recorder.hpp"
 
 #include <pthread.h>
@@ -15,12 +16,6 @@
 #include "ftid/transport/lcm_to_csv.hpp"
 
 namespace ftid::cell {
-
-std::int64_t monotonicNowNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
-}
 
 struct CycleRecorder::Impl {
   std::unique_ptr<lcm::LCM> lcm;
@@ -51,7 +46,7 @@ void CycleRecorder::start() {
   impl_->subscription->setQueueCapacity(2000);
   if (!allowed_.empty()) transport::restrictLcmSources(*impl_->lcm, url_, allowed_);
   running_ = true;
-  last_poll_ns_.store(monotonicNowNs());
+  last_poll_ns_.store(monotonicNs());
   thread_ = std::thread([this] {
     // A low real-time priority where permitted: on an overloaded host a starved receive thread
     // would look like a silent ftidd (the motion loop runs at a higher one).
@@ -59,7 +54,7 @@ void CycleRecorder::start() {
     sp.sched_priority = 5;
     (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &sp);
     while (running_.load()) {
-      last_poll_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
+      last_poll_ns_.store(monotonicNs(), std::memory_order_relaxed);
       impl_->lcm->handleTimeout(50);
     }
   });
@@ -79,7 +74,7 @@ void CycleRecorder::stop() noexcept {
 void CycleRecorder::onMessage(const void* data, std::size_t size) {
   ftid_lcm::cycle_sample_t msg;
   if (!transport::decodeFrom(data, size, &msg)) return;
-  transport::CycleRecord rec;
+  CycleRecord rec;
   transport::fromLcm(msg, &rec);
   if (stream_) stream_->append(rec);
   // Liveness and the sensor streak follow ftidd's cycles, not datagrams: a repeated or forged
@@ -88,8 +83,8 @@ void CycleRecorder::onMessage(const void* data, std::size_t size) {
   if (!have_cycle_ || rec.cycle > newest_cycle_) {
     have_cycle_ = true;
     newest_cycle_ = rec.cycle;
-    last_receive_ns_.store(monotonicNowNs(), std::memory_order_relaxed);
-    const bool sensor_ok = rec.sensor.valid && rec.sensor.health_flags == transport::kHealthOk;
+    last_receive_ns_.store(monotonicNs(), std::memory_order_relaxed);
+    const bool sensor_ok = rec.sensor.valid && rec.sensor.health_flags == kHealthOk;
     if (sensor_ok) {
       invalid_streak_.store(0, std::memory_order_relaxed);
     } else {
@@ -120,14 +115,14 @@ void CycleRecorder::clear() {
   count_.store(0);
 }
 
-std::vector<transport::CycleRecord> CycleRecorder::snapshot() const {
+std::vector<CycleRecord> CycleRecorder::snapshot() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return records_;
 }
 
 namespace {
 
-bool sameContent(const transport::CycleRecord& a, const transport::CycleRecord& b) {
+bool sameContent(const CycleRecord& a, const CycleRecord& b) {
   return a.cycle == b.cycle && a.utime == b.utime && a.robot.robot_time == b.robot.robot_time &&
          a.robot.q == b.robot.q && a.robot.qd == b.robot.qd && a.robot.qdd == b.robot.qdd &&
          a.robot.valid == b.robot.valid && a.sensor.recv_utime == b.sensor.recv_utime &&
@@ -165,11 +160,11 @@ std::string CycleStreamReport::describe() const {
   return s;
 }
 
-CycleStreamReport checkCycleStream(const std::vector<transport::CycleRecord>& records, double rate_hz,
-                                   double t_min, double t_max, std::vector<transport::CycleRecord>* clean) {
+CycleStreamReport checkCycleStream(const std::vector<CycleRecord>& records, double rate_hz,
+                                   double t_min, double t_max, std::vector<CycleRecord>* clean) {
   CycleStreamReport rep;
   const double period = 1.0 / rate_hz;
-  std::vector<transport::CycleRecord> in;
+  std::vector<CycleRecord> in;
   double prev_t = -1e300;
   for (const auto& r : records) {
     const double t = r.robot.robot_time;
@@ -179,11 +174,11 @@ CycleStreamReport checkCycleStream(const std::vector<transport::CycleRecord>& re
     in.push_back(r);
   }
   rep.received = in.size();
-  std::stable_sort(in.begin(), in.end(), [](const transport::CycleRecord& a, const transport::CycleRecord& b) {
+  std::stable_sort(in.begin(), in.end(), [](const CycleRecord& a, const CycleRecord& b) {
     return a.robot.robot_time < b.robot.robot_time ||
            (a.robot.robot_time == b.robot.robot_time && a.cycle < b.cycle);
   });
-  std::vector<transport::CycleRecord> out;
+  std::vector<CycleRecord> out;
   out.reserve(in.size());
   for (const auto& r : in) {
     if (!out.empty() && r.robot.robot_time == out.back().robot.robot_time) {
@@ -222,13 +217,13 @@ CycleStreamReport checkCycleStream(const std::vector<transport::CycleRecord>& re
   return rep;
 }
 
-logio::LogData recordsToLog(const std::vector<transport::CycleRecord>& records, double t_min,
+logio::LogData recordsToLog(const std::vector<CycleRecord>& records, double t_min,
                             double t_max, const std::string& source, RecordsToLogReport* report) {
   RecordsToLogReport rep;
   transport::CycleLogBuilder builder(source);
   for (const auto& r : records) {
     if (r.robot.robot_time < t_min || r.robot.robot_time > t_max) continue;
-    if (r.sensor.health_flags != transport::kHealthOk) {  // stale/gap/error: never fitted as valid
+    if (r.sensor.health_flags != kHealthOk) {  // stale/gap/error: never fitted as valid
       ++rep.skipped_invalid;
       continue;
     }

@@ -28,8 +28,8 @@
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/yaml_emit.hpp"
-#include "ftid/identify/context.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/samples/context.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -226,7 +226,7 @@ std::string truthText(const simsensor::SimSensorConfig& s, const std::string& hi
 
 /// The identified payload beside the simulator's truth (value, 1 sigma, truth).
 std::string identifiedText(const std::string& params_path, const sim::CellSimConfig& truth) {
-  const identify::ParameterSet set = identify::readParameterFile(params_path);
+  const params::ParameterSet set = params::readParameterFile(params_path);
   std::string out;
   auto line = [&](const char* label, double value, double std, const char* unit, double t, int dec) {
     char b[200];
@@ -235,7 +235,7 @@ std::string identifiedText(const std::string& params_path, const sim::CellSimCon
     out += b;
   };
   auto row = [&](const char* name, const char* label, double scale, const char* unit, double t, int dec) {
-    const identify::NamedValue* v = set.find(name);
+    const params::NamedValue* v = set.find(name);
     if (v != nullptr) line(label, scale * v->value, scale * v->std, unit, scale * t, dec);
   };
   constexpr double kDeg = 180.0 / M_PI;
@@ -258,7 +258,7 @@ std::string identifiedText(const std::string& params_path, const sim::CellSimCon
 Vec6 heldoutOn(const std::string& csv, const std::string& model_name, const std::string& urdf,
                const std::string& candidate) {
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
-  const identify::ContextSet contexts = identify::buildContexts(logio::readLog(csv), kin);
+  const samples::ContextSet contexts = samples::buildContexts(logio::readLog(csv), kin);
   lab::AnalyzeOptions o;
   o.model = model_name;
   o.candidates = {candidate};  // the ranking is not needed here; one candidate keeps it short
@@ -413,11 +413,11 @@ int runDemo(const DemoOptions& opt) {
   // after it: nothing queued from before (e.g. during an identification) is counted.
   struct Collector {
     std::int64_t since_utime = 0;
-    std::vector<transport::CycleRecord> recs;
+    std::vector<CycleRecord> recs;
     void handle(const lcm::ReceiveBuffer* rb, const std::string&) {
       ftid_lcm::compensated_wrench_t m;
       if (m.decode(rb->data, 0, static_cast<int>(rb->data_size)) < 0) return;
-      transport::CycleRecord r;
+      CycleRecord r;
       transport::fromLcm(m, &r);
       if (r.utime >= since_utime) recs.push_back(r);
     }

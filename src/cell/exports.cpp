@@ -6,6 +6,7 @@
 
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/yaml_emit.hpp"
@@ -14,8 +15,8 @@
 namespace ftid::cell {
 
 namespace {
-double need(const identify::ParameterSet& set, const std::string& name) {
-  const identify::NamedValue* v = set.find(name);
+double need(const params::ParameterSet& set, const std::string& name) {
+  const params::NamedValue* v = set.find(name);
   if (!v) throw ConfigError("parameter set (model '" + set.model + "') has no '" + name + "'");
   return v->value;
 }
@@ -38,7 +39,7 @@ Mat3 fromUrOrder(const Vec6& v) {
 Mat3 parallelAxis(double m, const Vec3& d) { return m * (d.squaredNorm() * Mat3::Identity() - d * d.transpose()); }
 }  // namespace
 
-PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F) {
+PayloadExport makePayloadExport(const params::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F) {
   PayloadExport e;
   e.model = set.model;
   e.mass = need(set, "mass");
@@ -195,11 +196,7 @@ Ros2Names ros2NamesFromConfig(const config::DaemonConfig& cfg) {
   return n;
 }
 
-/// The one atomic writer (ftid/fileio/atomic_file.hpp: never over a symlink, device, FIFO or
-/// directory); its FileError is an Error like the rest of this file's.
-void writeTextFileAtomic(const std::string& path, const std::string& text) { writeFileAtomically(path, text); }
-
-std::string writeExports(const identify::ParameterSet& set, const config::DaemonConfig& cfg,
+std::string writeExports(const params::ParameterSet& set, const config::DaemonConfig& cfg,
                          const std::string& ros2_path, const std::string& urscript_path) {
   const PayloadExport e = makePayloadExport(set, cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   // Build both texts first so that a bad parameter set writes nothing.
@@ -207,11 +204,11 @@ std::string writeExports(const identify::ParameterSet& set, const config::Daemon
   const std::string ur = urScriptFile(e, partsFromConfig(cfg));
   std::string written;
   if (!ros2_path.empty()) {
-    writeTextFileAtomic(ros2_path, ros2);
+    writeFileAtomically(ros2_path, ros2);
     written += ros2_path + " (ros2_control force_torque_sensor_broadcaster + GravityCompensationWrench)";
   }
   if (!urscript_path.empty()) {
-    writeTextFileAtomic(urscript_path, ur);
+    writeFileAtomically(urscript_path, ur);
     written += (written.empty() ? "" : ", ") + urscript_path + " (UR set_target_payload)";
   }
   return written;

@@ -6,9 +6,10 @@
 #include <string>
 
 #include "ftid/cell/demo.hpp"
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -38,7 +39,7 @@ double truthOf(const std::string& name) {
 
 int runOfflineDemo(const OfflineDemoOptions& opt) {
   using namespace ftid;
-  const std::string urdf = opt.robot_urdf.empty() ? identify::defaultRobotUrdf() : opt.robot_urdf;
+  const std::string urdf = opt.robot_urdf.empty() ? ftid::defaultRobotUrdf() : opt.robot_urdf;
   std::cerr << "demo: robot " << urdf << "\n";
   sim::CellSimConfig cfg = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(urdf));
   cfg.full_rigid_body = opt.full_physics;
@@ -47,7 +48,7 @@ int runOfflineDemo(const OfflineDemoOptions& opt) {
   std::cerr << "demo: simulating 10 s excitation at 125 Hz (" << (opt.full_physics ? "full rigid-body" : "paper")
             << " physics, noise 0.05 N / 0.01 Nm, seed " << opt.seed << ")\n";
   const logio::LogData log = sim::CellSim(cfg).run();
-  const identify::ContextSet contexts = identify::buildContexts(log, *cfg.robot);
+  const samples::ContextSet contexts = samples::buildContexts(log, *cfg.robot);
   std::cerr << "demo: identifying (paper, dynamic method) from " << contexts.size() << " samples\n";
   const identify::PaperResult r = identify::identifyPaper(contexts.samples);
 
@@ -66,10 +67,10 @@ int runOfflineDemo(const OfflineDemoOptions& opt) {
   // Compensate an independent run (new noise) with the identified parameters.
   cfg.seed = opt.seed + 1000;
   std::cerr << "demo: compensating an independent run (seed " << cfg.seed << ")\n";
-  const identify::ContextSet check = identify::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
-  const identify::ParameterSet set = r.toParameterSet();
+  const samples::ContextSet check = samples::buildContexts(sim::CellSim(cfg).run(), *cfg.robot);
+  const params::ParameterSet set = r.toParameterSet();
   const effects::Model model = effects::Model::fromName(set.model);
-  compensate::Compensator comp(model, identify::thetaFor(model, set), identify::nonlinearFor(model, set));
+  compensate::Compensator comp(model, params::thetaFor(model, set), params::nonlinearFor(model, set));
   Vec6 raw = Vec6::Zero(), residual = Vec6::Zero();
   for (const auto& ctx : check.samples) {
     Wrench contact;

@@ -80,10 +80,10 @@ void RunStreamWriter::writePending() noexcept {
   pending_.clear();
 }
 
-void RunStreamWriter::append(const transport::CycleRecord& r) noexcept {
+void RunStreamWriter::append(const CycleRecord& r) noexcept {
   if (fd_ < 0 || !error_.empty()) return;
   try {
-    const bool usable = r.robot.valid && r.sensor.valid && r.sensor.health_flags == transport::kHealthOk &&
+    const bool usable = r.robot.valid && r.sensor.valid && r.sensor.health_flags == kHealthOk &&
                         std::isfinite(r.robot.robot_time) && r.robot.q.allFinite() && r.robot.qd.allFinite() &&
                         r.robot.qdd.allFinite() && r.sensor.wrench_S.allFinite() && r.robot.robot_time > last_t_;
     if (!usable) {

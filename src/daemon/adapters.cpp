@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/reloader.hpp"
 
@@ -9,7 +10,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace ftid::daemon {
 
@@ -36,7 +37,7 @@ RtdeArmSource::RtdeArmSource(const std::string& host, int port, double frequency
 RtdeArmSource::~RtdeArmSource() { client_.disconnect(); }
 
 Status RtdeArmSource::waitForState(std::chrono::nanoseconds timeout,
-                                   transport::RobotStateRecord* out) noexcept {
+                                   RobotStateRecord* out) noexcept {
   const Status s = client_.tryReceiveState(timeout, &state_);
   if (s != Status::kOk) return s;
   if (state_.packages_skipped > 0) {
@@ -74,7 +75,7 @@ Status RtdeArmSource::waitForState(std::chrono::nanoseconds timeout,
 }
 
 // ---------------------------------------------------------------------------------------------
-void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept {
+void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* out) noexcept {
   out->recv_utime = in.rx_time_ns / 1000;
   out->counter = static_cast<std::int32_t>(in.counter);
   out->wrench_S = in.wrench_S;
@@ -91,23 +92,23 @@ void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* 
   out->has_temp = in.has_temperature;
   out->temp_degC = in.has_temperature ? in.temp_degC : 0.0;
   out->status_word = static_cast<std::int32_t>(in.status_word);
-  std::uint32_t h = transport::kHealthOk;
-  if ((in.flags & (can::kSampleFlagNoData | can::kSampleFlagStale)) != 0) h |= transport::kHealthStale;
-  if ((in.flags & (can::kSampleFlagCounterGap | can::kSampleFlagCounterRepeat)) != 0) {
-    h |= transport::kHealthCounterGap;
+  std::uint32_t h = kHealthOk;
+  if ((in.flags & (drivers::can::kSampleFlagNoData | drivers::can::kSampleFlagStale)) != 0) h |= kHealthStale;
+  if ((in.flags & (drivers::can::kSampleFlagCounterGap | drivers::can::kSampleFlagCounterRepeat)) != 0) {
+    h |= kHealthCounterGap;
   }
-  if ((in.flags & (can::kSampleFlagErrorFrame | can::kSampleFlagBusOff)) != 0) {
-    h |= transport::kHealthErrorFrame;
+  if ((in.flags & (drivers::can::kSampleFlagErrorFrame | drivers::can::kSampleFlagBusOff)) != 0) {
+    h |= kHealthErrorFrame;
   }
-  if ((in.flags & can::kSampleFlagOutOfRange) != 0) h |= transport::kHealthOutOfRange;
-  if ((in.flags & can::kSampleFlagStatusFault) != 0) h |= transport::kHealthStatusError;
-  if ((in.flags & can::kSampleFlagTransportDown) != 0) h |= transport::kHealthTransportDown;
+  if ((in.flags & drivers::can::kSampleFlagOutOfRange) != 0) h |= kHealthOutOfRange;
+  if ((in.flags & drivers::can::kSampleFlagStatusFault) != 0) h |= kHealthStatusError;
+  if ((in.flags & drivers::can::kSampleFlagTransportDown) != 0) h |= kHealthTransportDown;
   out->health_flags = h;
   out->valid = in.valid;
 }
 
-CanSensorSource::CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
-                                 const can::SensorHealthOptions& health)
+CanSensorSource::CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
+                                 const drivers::can::SensorHealthOptions& health)
     : sensor_(std::move(sensor)), options_(health), assembler_(sensor_->layout(), health) {}
 
 // The drain loop of CanFtImuSensor::tryReadLatest, except that every complete sample is read
@@ -115,18 +116,18 @@ CanSensorSource::CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
 // counter-gap and error-frame flags such a read consumes belong to the interval since the
 // previous cycle: they are collected and reported with the newest sample by drain(), as one read
 // per cycle reports them.
-can::CanTransport& CanSensorSource::bus() noexcept {
+drivers::can::CanTransport& CanSensorSource::bus() noexcept {
   if (replacement_.tryAcquire() != nullptr) transport_down_.store(false, std::memory_order_release);
-  can::CanTransport* r = replacement_.current();
+  drivers::can::CanTransport* r = replacement_.current();
   return r != nullptr ? *r : sensor_->transport();
 }
 
 void CanSensorSource::pump(SensorHistory* history) noexcept {
-  constexpr std::uint32_t kIntervalFlags = can::kSampleFlagCounterGap | can::kSampleFlagErrorFrame;
-  can::CanTransport& bus = this->bus();
+  constexpr std::uint32_t kIntervalFlags = drivers::can::kSampleFlagCounterGap | drivers::can::kSampleFlagErrorFrame;
+  drivers::can::CanTransport& bus = this->bus();
   int total = 0;
-  while (total < can::CanFtImuSensor::kMaxFramesPerRead) {
-    can::IoResult status = can::IoResult::kOk;
+  while (total < drivers::can::CanFtImuSensor::kMaxFramesPerRead) {
+    drivers::can::IoResult status = drivers::can::IoResult::kOk;
     const int n = bus.tryReceiveBatch(batch_.data(), static_cast<int>(batch_.size()), status);
     for (int i = 0; i < n; ++i) {
       if (!assembler_.feed(batch_[static_cast<std::size_t>(i)])) continue;
@@ -136,7 +137,7 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
       history->push(record_);
     }
     total += n;
-    if (status == can::IoResult::kClosed || status == can::IoResult::kError) {
+    if (status == drivers::can::IoResult::kClosed || status == drivers::can::IoResult::kError) {
       assembler_.noteTransportProblem();
       transport_down_.store(true, std::memory_order_release);
       break;
@@ -146,12 +147,12 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
 }
 
 void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
-                            transport::SensorSampleRecord* latest) noexcept {
+                            SensorSampleRecord* latest) noexcept {
   pump(history);
   assembler_.readLatest(sample_, now_utime * 1000);
   sample_.flags |= interval_flags_;
-  if (((interval_flags_ & can::kSampleFlagCounterGap) != 0 && options_.counter_gap_invalidates) ||
-      ((interval_flags_ & can::kSampleFlagErrorFrame) != 0 && options_.error_frame_invalidates)) {
+  if (((interval_flags_ & drivers::can::kSampleFlagCounterGap) != 0 && options_.counter_gap_invalidates) ||
+      ((interval_flags_ & drivers::can::kSampleFlagErrorFrame) != 0 && options_.error_frame_invalidates)) {
     sample_.valid = false;
   }
   interval_flags_ = 0;
@@ -161,16 +162,12 @@ void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
 bool CanSensorSource::waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
                                     SensorHistory* history) noexcept {
   auto have = [&] { return !history->empty() && history->newest().recv_utime >= t_utime; };
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  const std::int64_t deadline =
-      static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec + timeout.count();
+  const std::int64_t deadline = monotonicNs() + timeout.count();
   const int fd = bus().fd();
   for (;;) {
     pump(history);
     if (have()) return true;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    const std::int64_t left = deadline - (static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec);
+    const std::int64_t left = deadline - monotonicNs();
     if (left <= 0 || fd < 0) return false;
     pollfd p{fd, POLLIN, 0};
     const timespec wait{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
@@ -190,12 +187,12 @@ model::SensorMotion KinematicsMotionModel::computeSensorMotion(const JointVector
 
 // ---------------------------------------------------------------------------------------------
 ParameterFileCompensation::ParameterFileCompensation(const std::string& path)
-    : ParameterFileCompensation(identify::readParameterFile(path), path) {}
+    : ParameterFileCompensation(params::readParameterFile(path), path) {}
 
-ParameterFileCompensation::ParameterFileCompensation(const identify::ParameterSet& set,
+ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet& set,
                                                      const std::string& path) {
   const effects::Model model = effects::Model::fromName(set.model);
-  const Eigen::VectorXd theta = identify::thetaFor(model, set, path);
+  const Eigen::VectorXd theta = params::thetaFor(model, set, path);
   if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_v_rad)) {
     throw ConfigError(path + ": key 'tilt': tilt angles must be finite");
   }
@@ -203,7 +200,7 @@ ParameterFileCompensation::ParameterFileCompensation(const identify::ParameterSe
   tilt_v_ = set.tilt_v_rad;
   model_name_ = model.name();
   compensator_ = std::make_unique<compensate::Compensator>(model, theta,
-                                                           identify::nonlinearFor(model, set, path));
+                                                           params::nonlinearFor(model, set, path));
 }
 
 bool ParameterFileCompensation::compute(const effects::SampleContext& ctx, Wrench* contact,

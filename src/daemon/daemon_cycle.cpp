@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
 
 #include <algorithm>
@@ -6,23 +7,20 @@
 #include <limits>
 
 #include "ftid/model/frames.hpp"
+#include "ftid/samples/sample_builder.hpp"
 
 namespace ftid::daemon {
 
-std::int64_t realtimeNowUs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000 + ts.tv_nsec / 1000;
-}
+std::int64_t realtimeNowUs() noexcept { return realtimeUs(); }
 
 namespace {
 
-bool robotUsable(const transport::RobotStateRecord& r) noexcept {
+bool robotUsable(const RobotStateRecord& r) noexcept {
   return r.valid && std::isfinite(r.robot_time) && r.q.allFinite() && r.qd.allFinite() &&
          r.qdd.allFinite();
 }
 
-bool sensorFinite(const transport::SensorSampleRecord& s) noexcept {
+bool sensorFinite(const SensorSampleRecord& s) noexcept {
   if (!s.wrench_S.allFinite()) return false;
   if (s.has_imu && !(s.imu_acc_S.allFinite() && s.imu_w_S.allFinite() && s.imu_alpha_S.allFinite())) {
     return false;
@@ -43,7 +41,7 @@ void TareAccumulator::start(const TareRequest& request) noexcept {
   sum_.setZero();
 }
 
-bool TareAccumulator::add(const transport::CycleRecord& rec, TareResult* result) noexcept {
+bool TareAccumulator::add(const CycleRecord& rec, TareResult* result) noexcept {
   if (!active_) return false;
   const auto version = static_cast<std::uint32_t>(rec.param_version);
   if (n_ == 0) version_ = version;
@@ -82,7 +80,7 @@ bool TareAccumulator::add(const transport::CycleRecord& rec, TareResult* result)
 }
 
 DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
-                         OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
+                         rt::OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options)
     : arm_(arm),
       sensor_(sensor),
       motion_(motion),
@@ -139,9 +137,8 @@ CycleAction DaemonCycle::onMissed(std::uint32_t /*consecutive_missed*/) noexcept
   return CycleAction::kContinue;
 }
 
-void DaemonCycle::step(const transport::RobotStateRecord& robot,
-                       transport::CycleRecord* out) noexcept {
-  using transport::CycleRecord;
+void DaemonCycle::step(const RobotStateRecord& robot,
+                       CycleRecord* out) noexcept {
   const std::int64_t now = options_.now_us();
   if (params_->tryAcquire() != nullptr) {
     counters_.param_swaps.fetch_add(1, std::memory_order_relaxed);
@@ -183,7 +180,7 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
     // error frames since the last cycle, an invalid newest value): never less strict than before.
     rec.sensor.health_flags |= latest_.health_flags;
     rec.sensor.valid = rec.sensor.valid && latest_.valid;
-    if (reach_us > options_.stale_timeout_us) rec.sensor.health_flags |= transport::kHealthStale;
+    if (reach_us > options_.stale_timeout_us) rec.sensor.health_flags |= kHealthStale;
     if (pairing == SensorPairing::kInterpolated) {
       counters_.sensor_interpolated.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -196,14 +193,14 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
   rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
   if (rec.sensor.recv_utime <= 0 || latest_.recv_utime <= 0 ||
       now - latest_.recv_utime > options_.stale_timeout_us) {
-    rec.sensor.health_flags |= transport::kHealthStale;
+    rec.sensor.health_flags |= kHealthStale;
   }
-  if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= transport::kHealthNonFinite;
-  if ((rec.sensor.health_flags & (transport::kHealthStale | transport::kHealthNonFinite)) != 0) {
+  if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= kHealthNonFinite;
+  if ((rec.sensor.health_flags & (kHealthStale | kHealthNonFinite)) != 0) {
     rec.sensor.valid = false;
   }
   if (!rec.sensor.valid) {
-    if ((rec.sensor.health_flags & transport::kHealthStale) != 0) {
+    if ((rec.sensor.health_flags & kHealthStale) != 0) {
       rec.fault_bits |= kFaultSensorStale;
       counters_.stale_sensor.fetch_add(1, std::memory_order_relaxed);
     } else {
@@ -224,23 +221,16 @@ void DaemonCycle::step(const transport::RobotStateRecord& robot,
       have_first_time_ = true;
     }
     const model::SensorMotion m = motion_->computeSensorMotion(robot.q, robot.qd, robot.qdd);
-    ctx_.t = robot.robot_time - first_robot_time_;
-    ctx_.q = robot.q;
-    ctx_.qd = robot.qd;
-    ctx_.R_BS = m.R_BS;
-    ctx_.p_BS_B = m.p_BS_B;
-    ctx_.w_S = m.w_S;
-    ctx_.alpha_S = m.alpha_S;
-    ctx_.a_S = m.a_S;
-    ctx_.g_S = model::gravityInSensor(m.R_BS, comp->tiltU(), comp->tiltV());
-    ctx_.wrench_S = rec.sensor.wrench_S;
-    ctx_.has_imu = rec.sensor.has_imu;
-    ctx_.imu_acc_S = rec.sensor.imu_acc_S;
-    ctx_.imu_w_S = rec.sensor.imu_w_S;
-    ctx_.imu_alpha_S = rec.sensor.imu_alpha_S;
-    ctx_.has_temp = rec.sensor.has_temp;
-    ctx_.temp_degC = rec.sensor.temp_degC;
-    ctx_.extra = nullptr;
+    samples::SensorReading reading;
+    reading.wrench_S = rec.sensor.wrench_S;
+    reading.has_imu = rec.sensor.has_imu;
+    reading.imu_acc_S = rec.sensor.imu_acc_S;
+    reading.imu_w_S = rec.sensor.imu_w_S;
+    reading.imu_alpha_S = rec.sensor.imu_alpha_S;
+    reading.has_temp = rec.sensor.has_temp;
+    reading.temp_degC = rec.sensor.temp_degC;
+    samples::makeSampleContext(robot.robot_time - first_robot_time_, robot.q, robot.qd, m, reading,
+                               model::gravityInBase(comp->tiltU(), comp->tiltV()), &ctx_);
     Wrench contact;
     Wrench modelled;
     const bool ok = comp->compute(ctx_, &contact, &modelled) && contact.allFinite() &&

@@ -135,7 +135,7 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   can_cfg.health.stale_timeout_ns = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1e6);
   sensor = std::make_unique<CanSensorSource>(
       retryUntil(options.connect_timeout_s, backoff, "the sensor at " + can_cfg.endpoint,
-                 [&] { return can::openCanSensor(can_cfg); }),
+                 [&] { return drivers::can::openCanSensor(can_cfg); }),
       can_cfg.health);
   first_arm = retryUntil(options.connect_timeout_s, backoff,
                          "the robot at " + cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port),
@@ -194,7 +194,7 @@ SensorLink DaemonSetup::sensorLink() {
   const std::string endpoint = can_cfg.endpoint;
   const int rcvbuf = can_cfg.receive_buffer_bytes;
   link.down = [s] { return s->transportDown(); };
-  link.reopen = [s, endpoint, rcvbuf] { s->offerTransport(can::openCanTransport(endpoint, rcvbuf)); };
+  link.reopen = [s, endpoint, rcvbuf] { s->offerTransport(drivers::can::openCanTransport(endpoint, rcvbuf)); };
   link.collect = [s] { s->collectRetired(); };
   link.reconnects = [s] { return s->reconnects(); };
   return link;

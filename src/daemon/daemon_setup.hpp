@@ -61,7 +61,7 @@ struct DaemonSetup {
   LoadedParameters built;      ///< the set of the last successful build
   LoadedParameters active;     ///< the set of the parameters offered to the loop
   bool have_active = false;
-  OwnedSwapSlot<Compensation> params;
+  rt::OwnedSwapSlot<Compensation> params;
   std::unique_ptr<ParameterReloader> reloader;
   std::int32_t reloads_failed = 0;
 
@@ -72,7 +72,7 @@ struct DaemonSetup {
   CommandQueue commands;
 
   // Devices.
-  can::CanSensorConfig can_cfg;
+  drivers::can::CanSensorConfig can_cfg;
   std::unique_ptr<CanSensorSource> sensor;
   std::unique_ptr<ArmStateSource> first_arm;  ///< handed to the loop owner
 

@@ -31,7 +31,7 @@ std::string regularFileProblem(const std::string& path) {
   return path + ": is " + std::string(what) + ", not a regular file";
 }
 
-ParameterReloader::ParameterReloader(OwnedSwapSlot<Compensation>* slot, CompensationFactory factory)
+ParameterReloader::ParameterReloader(rt::OwnedSwapSlot<Compensation>* slot, CompensationFactory factory)
     : slot_(slot), factory_(std::move(factory)) {}
 
 ReloadResult ParameterReloader::reload(const std::string& path,

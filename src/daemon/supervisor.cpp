@@ -56,7 +56,7 @@ std::uint64_t countAbove(const rt::LatencyHistogram& h, double threshold_us) {
 // fault bit robot timeout, no sensor sample. utime is the host's CLOCK_REALTIME (the robot's
 // clock is gone); the rate is the supervisor's tick on CLOCK_MONOTONIC.
 void publishSilence(transport::LcmOutbox* outbox, std::int32_t param_version) {
-  transport::CycleRecord rec;
+  CycleRecord rec;
   rec.utime = realtimeNowUs();
   rec.cycle = -1;
   rec.sensor_age_us = -1;
@@ -284,7 +284,7 @@ void Supervisor::publishStats() {
   next_stats_ += toClock(std::chrono::duration<double>(cfg.lcm.stats_period_s));
   s_.stats_box->readLatest(&snap_);
   const LinkStatus link = owner_.status();
-  transport::LoopStatsRecord s;
+  LoopStatsRecord s;
   s.utime = realtimeNowUs();
   s.uptime_s = secondsSince(t0_);
   s.cycles = static_cast<std::int64_t>(c.cycles.load());

@@ -35,10 +35,10 @@ std::string hexOf(const transport::Sha256Digest& d) {
 
 }  // namespace
 
-Wrench offsetsOf(const identify::ParameterSet& set, const std::string& source) {
+Wrench offsetsOf(const params::ParameterSet& set, const std::string& source) {
   Wrench w;
   for (int i = 0; i < 6; ++i) {
-    const identify::NamedValue* v = nullptr;
+    const params::NamedValue* v = nullptr;
     for (const auto& p : set.params) {
       if (p.name == kOffsetNames[i]) v = &p;
     }
@@ -51,7 +51,7 @@ Wrench offsetsOf(const identify::ParameterSet& set, const std::string& source) {
   return w;
 }
 
-void setOffsets(identify::ParameterSet* set, const Wrench& offsets) {
+void setOffsets(params::ParameterSet* set, const Wrench& offsets) {
   for (int i = 0; i < 6; ++i) {
     for (auto& p : set->params) {
       if (p.name == kOffsetNames[i]) {
@@ -124,7 +124,7 @@ LoadedParameters loadParameters(const std::string& path, bool apply_tare) {
   LoadedParameters out;
   const std::string text = readInputFile(path, "parameter file");
   out.sha256 = hexOf(transport::sha256(text.data(), text.size()));
-  out.set = identify::parseParameterText(text, path);
+  out.set = params::parseParameterText(text, path);
   if (!apply_tare) return out;
   const std::string tare_path = tareStatePath(path);
   std::optional<TareState> state;

@@ -16,7 +16,7 @@ V lerp(const V& x0, const V& x1, double a) noexcept {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-void SensorHistory::push(const transport::SensorSampleRecord& sample) noexcept {
+void SensorHistory::push(const SensorSampleRecord& sample) noexcept {
   if (sample.recv_utime <= 0) return;
   if (count_ > 0) {
     const std::int64_t newest_t = newest().recv_utime;
@@ -31,10 +31,10 @@ void SensorHistory::push(const transport::SensorSampleRecord& sample) noexcept {
   count_ = std::min(count_ + 1, kCapacity);
 }
 
-SensorPairing SensorHistory::sampleAt(std::int64_t t_us, transport::SensorSampleRecord* out,
+SensorPairing SensorHistory::sampleAt(std::int64_t t_us, SensorSampleRecord* out,
                                       std::int64_t* reach_us) const noexcept {
   if (count_ == 0) return SensorPairing::kNone;
-  const transport::SensorSampleRecord& last = newest();
+  const SensorSampleRecord& last = newest();
   if (t_us > last.recv_utime) {
     *out = last;
     *reach_us = t_us - last.recv_utime;
@@ -43,7 +43,7 @@ SensorPairing SensorHistory::sampleAt(std::int64_t t_us, transport::SensorSample
   // Newest first: the robot state's time is normally within the last sensor period or two.
   int i1 = count_ - 1;
   while (i1 > 0 && at(i1 - 1).recv_utime >= t_us) --i1;
-  const transport::SensorSampleRecord& s1 = at(i1);
+  const SensorSampleRecord& s1 = at(i1);
   if (s1.recv_utime == t_us) {
     *out = s1;
     *reach_us = 0;
@@ -54,7 +54,7 @@ SensorPairing SensorHistory::sampleAt(std::int64_t t_us, transport::SensorSample
     *reach_us = s1.recv_utime - t_us;
     return SensorPairing::kOldest;
   }
-  const transport::SensorSampleRecord& s0 = at(i1 - 1);
+  const SensorSampleRecord& s0 = at(i1 - 1);
   const std::int64_t span = s1.recv_utime - s0.recv_utime;  // > 0: push keeps times increasing
   const double a = static_cast<double>(t_us - s0.recv_utime) / static_cast<double>(span);
   out->recv_utime = s1.recv_utime;

@@ -10,7 +10,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/design/parametrization.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/frames.hpp"
 
@@ -119,10 +119,10 @@ Eigen::MatrixXd ExcitationMetric::information(const SampledMotion& motion, doubl
     s.qd = motion.qd.col(static_cast<Eigen::Index>(k));
     s.qdd = motion.qdd.col(static_cast<Eigen::Index>(k));
   }
-  identify::ContextOptions opts;
+  samples::ContextOptions opts;
   opts.R_FS = constraints_.R_FS;
   opts.p_FS_F = constraints_.p_FS_F;
-  identify::ContextSet ctxs = identify::buildContexts(log, kinematics_, opts);
+  samples::ContextSet ctxs = samples::buildContexts(log, kinematics_, opts);
 
   const int P = model_.numParams();
   const int C = numColumns();

@@ -12,7 +12,6 @@
 
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
-#include "ftid/compensate/compensator.hpp"
 #include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/fit.hpp"
@@ -28,19 +27,7 @@ void say(const ProgressFn& progress, const std::string& line) {
   if (progress) progress(line);
 }
 
-ContextSet loadContexts(const std::string& log_path, const std::string& robot_urdf,
-                        const ContextOptions& options, const ProgressFn& progress) {
-  say(progress, "reading " + log_path);
-  const logio::LogData log = logio::readLog(log_path);
-  const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
-  say(progress, "robot " + urdf + ", " + std::to_string(log.samples.size()) + " samples");
-  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
-  return buildContexts(log, kin, options);
-}
-
 }  // namespace
-
-std::string defaultRobotUrdf() { return findDefaultFile("ur10.urdf"); }
 
 ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request) {
   ParameterSet set;
@@ -88,7 +75,7 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
 }
 
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
-  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, request.progress);
+  const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, request.progress);
   CheckedIdentification out;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
@@ -142,62 +129,6 @@ std::string formatParameterTable(const ParameterSet& set) {
     os << line;
   }
   return os.str();
-}
-
-CompensateSummary compensateLogFile(const CompensateRequest& request) {
-  checkOutputPath(request.out_csv);  // refuse a symlink, device, FIFO or directory before the work
-  const ParameterSet set = readParameterFile(request.params_path);
-  const Model model = Model::fromName(set.model);
-  const Eigen::VectorXd theta = thetaFor(model, set, request.params_path);
-  const ContextSet contexts = loadContexts(request.log_path, request.robot_urdf, request.context, nullptr);
-  compensate::Compensator comp(model, theta, nonlinearFor(model, set, request.params_path));
-
-  CompensateSummary summary;
-  std::ostringstream os;
-  os << "t,fx,fy,fz,tx,ty,tz,model_fx,model_fy,model_fz,model_tx,model_ty,model_tz\n";
-  char buf[64];
-  double last_t = -std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < contexts.size(); ++i) {
-    const SampleContext& ctx = contexts.samples[i];
-    Wrench contact, modelled;
-    const Status st = comp.compute(ctx, &contact, &modelled);
-    if (st == Status::kNotReady) {
-      ++summary.n_without_kinematics;
-      continue;
-    }
-    if (st != Status::kOk) {
-      throw DataError(request.log_path + ": sample " + std::to_string(i) + " cannot be compensated (non-finite)");
-    }
-    // With a negative delay the output belongs to an earlier reading (comp.outputTime()).
-    const double t_out = comp.outputTime();
-    if (!(t_out > last_t)) continue;
-    last_t = t_out;
-    ++summary.n_samples;
-    summary.raw_rms += (contact + modelled).cwiseAbs2();
-    summary.contact_rms += contact.cwiseAbs2();
-    std::snprintf(buf, sizeof(buf), "%.9f", t_out + contexts.t_origin);
-    os << buf;
-    for (int a = 0; a < 6; ++a) {
-      std::snprintf(buf, sizeof(buf), ",%.9g", contact(a));
-      os << buf;
-    }
-    for (int a = 0; a < 6; ++a) {
-      std::snprintf(buf, sizeof(buf), ",%.9g", modelled(a));
-      os << buf;
-    }
-    os << "\n";
-  }
-  summary.n_without_kinematics = static_cast<int>(contexts.size()) - summary.n_samples;
-  if (summary.n_samples > 0) {
-    summary.raw_rms = (summary.raw_rms / summary.n_samples).cwiseSqrt();
-    summary.contact_rms = (summary.contact_rms / summary.n_samples).cwiseSqrt();
-  }
-  try {
-    writeFileAtomically(request.out_csv, os.str());
-  } catch (const FileError& e) {
-    throw ConfigError(e.what());
-  }
-  return summary;
 }
 
 }  // namespace ftid::identify

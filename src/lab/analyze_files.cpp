@@ -4,9 +4,10 @@
 #include <cstring>
 #include <fstream>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
@@ -19,18 +20,18 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
   auto say = [&](const std::string& s) {
     if (progress) progress(s);
   };
-  const std::string urdf = request.robot_urdf.empty() ? identify::defaultRobotUrdf() : request.robot_urdf;
+  const std::string urdf = request.robot_urdf.empty() ? defaultRobotUrdf() : request.robot_urdf;
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
   say("reading " + request.log_path);
   const logio::LogData log = logio::readLog(request.log_path);
   say(std::to_string(log.samples.size()) + " samples, robot " + urdf);
-  identify::ContextSet fit = identify::buildContexts(log, kin, request.context);
+  samples::ContextSet fit = samples::buildContexts(log, kin, request.context);
   for (auto& c : fit.samples) c.extra_names = &fit.extra_names;
-  identify::ContextSet val;
+  samples::ContextSet val;
   if (!request.validate_path.empty()) {
     say("reading " + request.validate_path);
     const logio::LogData vlog = logio::readLog(request.validate_path);
-    val = identify::buildContexts(vlog, kin, request.context);
+    val = samples::buildContexts(vlog, kin, request.context);
     if (val.extra_names != fit.extra_names) {
       throw DataError(request.validate_path + ": its extra columns differ from those of " + request.log_path);
     }

@@ -261,7 +261,7 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
   };
   {
     // t always; the joint columns q, qd, qdd unless the log gives the sensor pose instead
-    // (qx,qy,qz,qw or rx,ry,rz: kept as extra columns, read by identify::buildContexts).
+    // (qx,qy,qz,qw or rx,ry,rz: kept as extra columns, read by samples::buildContexts).
     auto [missing, present, total] = missingOf(kCore);
     if (known_field[0] < 0) dataError(path, header_line, 1, "missing required column(s): " + missing);
     const auto hasExtra = [&](std::initializer_list<const char*> names) {

@@ -53,7 +53,7 @@ void lockProcessMemory(const RealtimeConfig& cfg, RealtimeReport* report) {
     return;
   }
   // With RLIMIT_MEMLOCK finite and no CAP_IPC_LOCK, mlockall(MCL_FUTURE) succeeds but later
-  // allocations beyond the limit fail (linux-rt notes §3.2): refuse to lock in that case.
+  // allocations beyond the limit fail (docs/daemon.md): refuse to lock in that case.
   rlimit lim{};
   getrlimit(RLIMIT_MEMLOCK, &lim);
   const bool unlimited = lim.rlim_cur == RLIM_INFINITY;

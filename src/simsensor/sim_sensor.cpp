@@ -1,4 +1,5 @@
 // ftid sim-sensor: robot state over RTDE -> cell physics -> CAN frames on the stand-in socket.
+#include "ftid/common/clock.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
 
 #include <algorithm>
@@ -164,7 +165,7 @@ bool RobotHistory::stateAt(double t, Tick& out) const {
 // ------------------------------------------------------------------------------ frame source
 
 SensorFrameSource::SensorFrameSource(const SimSensorConfig& config,
-                                     const can::SensorLayout& layout, model::RobotKinematics robot)
+                                     const drivers::can::SensorLayout& layout, model::RobotKinematics robot)
     : cell_([&] {
         sim::CellSimConfig c = config.cell;
         c.robot = std::move(robot);
@@ -177,13 +178,13 @@ SensorFrameSource::SensorFrameSource(const SimSensorConfig& config,
                n.alpha_std > 0.0 || n.temp_std > 0.0;
   for (auto& p : pending_) p.store(0);
   for (int i = 0; i < 6; ++i) {
-    can::SignalCodec c;
-    layout_.fieldCodec(static_cast<can::SensorField>(can::kFieldFx + i), c);
+    drivers::can::SignalCodec c;
+    layout_.fieldCodec(static_cast<drivers::can::SensorField>(drivers::can::kFieldFx + i), c);
     wrench_max_[static_cast<std::size_t>(i)] =
         c.has_range ? std::max(std::fabs(c.minimum), std::fabs(c.maximum)) : 1e300;
   }
-  can::SignalCodec fx;
-  layout_.fieldCodec(can::kFieldFx, fx);
+  drivers::can::SignalCodec fx;
+  layout_.fieldCodec(drivers::can::kFieldFx, fx);
   if (fx.has_range) fx_fault_value_ = 1.2 * fx.maximum;
 }
 
@@ -227,7 +228,7 @@ int SensorFrameSource::nextSample(const RobotHistory& history, double t_robot, d
   }
 
   const sim::SensorReading r = readingAt(history, t_robot, t_phys);
-  can::SensorValues v;
+  drivers::can::SensorValues v;
   v.wrench_S = r.wrench_S;
   v.acc_S = r.acc_S;
   v.w_S = r.w_S;
@@ -246,7 +247,7 @@ int SensorFrameSource::nextSample(const RobotHistory& history, double t_robot, d
     --out_of_range_left_;
   }
   int n = 0;
-  std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
+  std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> frames{};
   const std::uint32_t counter = counter_;
   if (stuck_left_ > 0) {
     --stuck_left_;
@@ -256,7 +257,7 @@ int SensorFrameSource::nextSample(const RobotHistory& history, double t_robot, d
   if (silent_left_ > 0) {
     --silent_left_;
   } else {
-    const int m = can::encodeSample(layout_, v, counter, frames);
+    const int m = drivers::can::encodeSample(layout_, v, counter, frames);
     for (int i = 0; i < m; ++i) out[static_cast<std::size_t>(n++)] = frames[static_cast<std::size_t>(i)];
   }
   for (int e = 0; e < error_frames + bus_off && n < kMaxFrames; ++e) {
@@ -276,10 +277,10 @@ int SensorFrameSource::nextSample(const RobotHistory& history, double t_robot, d
 // ---------------------------------------------------------------------------------- runner
 
 struct SimSensor::Impl {
-  can::SensorLayout layout;
+  drivers::can::SensorLayout layout;
   std::unique_ptr<SensorFrameSource> source;
-  std::unique_ptr<can::SeqpacketCanServer> server;
-  std::unique_ptr<can::SocketCanTransport> socketcan;
+  std::unique_ptr<drivers::can::SeqpacketCanServer> server;
+  std::unique_ptr<drivers::can::SocketCanTransport> socketcan;
   std::unique_ptr<std::ofstream> candump;
   RobotHistory history;
   mutable std::mutex stats_mutex;
@@ -314,15 +315,15 @@ struct SimSensor::Impl {
 SimSensor::SimSensor(SimSensorConfig config) : config_(std::move(config)), impl_(new Impl) {
   if (!(config_.rate_hz > 0.0 && config_.rate_hz <= 10000.0))
     throw ConfigError("rate_hz must be in (0, 10000] Hz, got " + std::to_string(config_.rate_hz));
-  impl_->layout = can::SensorLayout::fromDbc(can::loadDbc(config_.dbc_path));
+  impl_->layout = drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(config_.dbc_path));
   impl_->source = std::make_unique<SensorFrameSource>(
       config_, impl_->layout, model::RobotKinematics::fromUrdfFile(config_.urdf_path));
-  impl_->server = std::make_unique<can::SeqpacketCanServer>(config_.socket_path);
+  impl_->server = std::make_unique<drivers::can::SeqpacketCanServer>(config_.socket_path);
   if (!config_.can_interface.empty()) {
-    can::SocketCanOptions o;
+    drivers::can::SocketCanOptions o;
     o.interface = config_.can_interface;
     o.error_mask = 0;
-    impl_->socketcan = std::make_unique<can::SocketCanTransport>(o);
+    impl_->socketcan = std::make_unique<drivers::can::SocketCanTransport>(o);
   }
   if (!config_.candump_log.empty()) {
     impl_->candump = std::make_unique<std::ofstream>(config_.candump_log);
@@ -475,16 +476,16 @@ void SimSensor::run(const std::atomic<bool>& stop,
         ++next_fault;
       }
       const int n = im.source->nextSample(im.history, t_robot, t_phys, frames);
-      const std::int64_t rx_ns = can::realtimeNowNs();
+      const std::int64_t rx_ns = drivers::can::realtimeNowNs();
       for (int i = 0; i < n; ++i) {
         const can_frame& f = frames[static_cast<std::size_t>(i)];
         im.server->trySend(f);
         if (im.socketcan) im.socketcan->trySend(f);
         if (im.candump) {
-          can::ReceivedFrame rf;
+          drivers::can::ReceivedFrame rf;
           rf.frame = f;
           rf.rx_time_ns = rx_ns;
-          *im.candump << can::formatCandumpLine(rf, "can0") << '\n';
+          *im.candump << drivers::can::formatCandumpLine(rf, "can0") << '\n';
         }
       }
       sent += static_cast<std::uint64_t>(n);

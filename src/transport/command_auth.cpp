@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/transport/command_auth.hpp"
 
 #include <fcntl.h>
@@ -103,11 +104,7 @@ CommandKey loadCommandKey(const std::string& path) {
   return parseCommandKey(text, path);
 }
 
-std::int64_t realtimeUs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
-}
+std::int64_t realtimeUs() noexcept { return ftid::realtimeUs(); }
 
 Sha256Digest commandMac(const ftid_lcm::command_t& c, const CommandKey& key) {
   HmacSha256 h(key.bytes.data(), key.bytes.size());

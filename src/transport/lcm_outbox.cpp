@@ -1,3 +1,4 @@
+#include "ftid/common/clock.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
 
 #include <poll.h>
@@ -16,18 +17,14 @@
 #include "ftid/common/error.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
-#include "ftid/transport/spsc_queue.hpp"
+#include "ftid/rt/spsc_queue.hpp"
 
 namespace ftid::transport {
 namespace {
 
 constexpr std::size_t kMaxChannelLength = 63;  // LCM_MAX_CHANNEL_NAME_LENGTH
 
-std::int64_t nowUtime() {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000 + ts.tv_nsec / 1000;
-}
+std::int64_t nowUtime() { return realtimeUs(); }
 
 void checkChannel(const std::string& key, const std::string& name) {
   if (name.empty() || name.size() > kMaxChannelLength) {
@@ -42,7 +39,7 @@ struct LcmOutbox::Impl {
   OutboxOptions options;
   std::unique_ptr<lcm::LCM> owned_lcm;
   lcm::LCM* lcm = nullptr;
-  SpscQueue<CycleRecord, kQueueCapacity> queue;
+  rt::SpscQueue<CycleRecord, kQueueCapacity> queue;
   int event_fd = -1;
   std::thread thread;
   std::atomic<bool> running{false};

@@ -20,7 +20,7 @@
 #include <string>
 
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
 #include "ftid/transport/lcm_to_csv.hpp"
@@ -45,13 +45,13 @@ void writePaperParams(const std::string& path, double f0_x_extra) {
                                      {"f0_z", 0.3538},     {"t0_x", 0.0228},
                                      {"t0_y", 0.0084},     {"t0_z", 0.0080}};
   const ftid::effects::Model model = ftid::effects::Model::fromName("paper");
-  ftid::identify::ParameterSet set;
+  ftid::params::ParameterSet set;
   set.model = model.name();
   for (const auto& name : model.paramIndex().names()) set.params.push_back({name, v.at(name), 0.0, ""});
   set.tilt_estimated = true;
   set.tilt_u_rad = -9.8716 * deg;
   set.tilt_v_rad = -5.3709 * deg;
-  ftid::identify::writeParameterFile(path, set);
+  ftid::params::writeParameterFile(path, set);
 }
 
 TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {

@@ -41,13 +41,13 @@
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/rt_setup.hpp"
 #include "ftid/rt/rt_thread.hpp"
 #include "ftid/simrobot/sim_robot.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 #include "ftid_lcm/compensated_wrench_t.hpp"
 #include "ftid_lcm/loop_stats_t.hpp"
 
@@ -82,7 +82,7 @@ Vec3 gravityInSensor(const JointVector& q, double U, double V) {
 
 void requireVcan() {
   std::string why;
-  ASSERT_TRUE(can::socketCanAvailable(&why)) << why;
+  ASSERT_TRUE(drivers::can::socketCanAvailable(&why)) << why;
   ASSERT_NE(if_nametoindex(kIface), 0u) << "no interface " << kIface << " (the rig creates it)";
 }
 
@@ -158,8 +158,8 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   requireVcan();
   if (HasFatalFailure()) return;
   using simsensor::SensorFault;
-  const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(kSrc + "/config/ftsensor.dbc"));
+  const drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(kSrc + "/config/ftsensor.dbc"));
   simsensor::SimSensorConfig config = simsensor::defaultSimSensorConfig();
   config.cell.temperature_drift.enabled = false;
   simsensor::RobotHistory history;
@@ -172,20 +172,20 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   simsensor::SensorFrameSource src(config, layout,
                                    model::RobotKinematics::fromUrdfFile(kSrc + "/config/ur10.urdf"));
   // The sender: a plain raw socket on vcan0, as `ftid sim-sensor --can-interface` opens it.
-  can::SocketCanOptions tx_opts;
+  drivers::can::SocketCanOptions tx_opts;
   tx_opts.interface = kIface;
   tx_opts.error_mask = 0;
-  can::SocketCanTransport bus(tx_opts);
+  drivers::can::SocketCanTransport bus(tx_opts);
   // The receiver: the daemon's driver, opened from its endpoint string.
-  can::CanSensorConfig sc;
+  drivers::can::CanSensorConfig sc;
   sc.endpoint = std::string("socketcan:") + kIface;
   sc.dbc_path = kSrc + "/config/ftsensor.dbc";
   sc.health.stale_timeout_ns = 3'500'000;  // 3.5 samples at 1 kHz, as on the stand-in
-  auto sensor = can::openCanSensor(sc);
+  auto sensor = drivers::can::openCanSensor(sc);
 
   std::array<can_frame, simsensor::SensorFrameSource::kMaxFrames> frames{};
   std::uint64_t sent = 0;
-  can::SensorSample s;
+  drivers::can::SensorSample s;
   // One sensor sample: its frames go out on vcan0; the driver reads until it has received all of
   // them (the kernel delivers asynchronously). Reads in between may report part of the step's
   // flags, so the step's flags are the union over its reads; `s` is the last read. The stale
@@ -194,7 +194,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   const auto step = [&]() {
     const int n = src.nextSample(history, 50.03, 1.0, frames);
     for (int i = 0; i < n; ++i) {
-      EXPECT_EQ(bus.trySend(frames[static_cast<std::size_t>(i)]), can::IoResult::kOk)
+      EXPECT_EQ(bus.trySend(frames[static_cast<std::size_t>(i)]), drivers::can::IoResult::kOk)
           << "errno " << bus.lastErrno();
     }
     sent += static_cast<std::uint64_t>(n);
@@ -217,10 +217,10 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   for (int i = 0; i < 5; ++i) EXPECT_EQ(step(), 0);
   sensor->tryReadLatest(s, s.rx_time_ns + 5'000'000);  // 5 ms without a sample
   EXPECT_FALSE(s.valid);  // stale after 3.5 ms of silence
-  EXPECT_TRUE(s.flags & can::kSampleFlagStale);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagStale);
   step();
   EXPECT_TRUE(s.valid);
-  EXPECT_TRUE(step_flags & can::kSampleFlagCounterGap);
+  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagCounterGap);
   EXPECT_EQ(sensor->health().samples_lost, 5u);
 
   src.inject(SensorFault::kCounterGap, 7);
@@ -230,7 +230,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kOutOfRange, 2);
   step();
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & can::kSampleFlagOutOfRange);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagOutOfRange);
   EXPECT_NEAR(s.wrench_S[0], 360.0, 0.03);
   step();
   step();
@@ -239,7 +239,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kStuckCounter, 1);
   step();
   step();
-  EXPECT_TRUE(step_flags & can::kSampleFlagCounterRepeat);
+  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagCounterRepeat);
   EXPECT_FALSE(s.valid);
   step();
   EXPECT_TRUE(s.valid);
@@ -253,7 +253,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kErrorFrame, 2);
   EXPECT_EQ(step(), 8);
   EXPECT_EQ(sensor->health().error_frames, 2u);
-  EXPECT_TRUE(step_flags & can::kSampleFlagErrorFrame);
+  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagErrorFrame);
   src.inject(SensorFault::kBusOff, 1);
   step();
   EXPECT_EQ(sensor->health().bus_off_events, 1u);
@@ -266,20 +266,20 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
 TEST(SocketCanSensor, UnknownInterfaceIsNamedInTheError) {
   requireVcan();
   if (HasFatalFailure()) return;
-  can::SocketCanOptions o;
+  drivers::can::SocketCanOptions o;
   o.interface = "vcan9";
   try {
-    can::SocketCanTransport t(o);
+    drivers::can::SocketCanTransport t(o);
     FAIL() << "opened a socket on a missing interface";
   } catch (const DriverError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("socketcan:vcan9"), std::string::npos) << what;
     EXPECT_NE(what.find("no such network interface"), std::string::npos) << what;
   }
-  can::CanSensorConfig sc;
+  drivers::can::CanSensorConfig sc;
   sc.endpoint = "socketcan:vcan9";
   sc.dbc_path = kSrc + "/config/ftsensor.dbc";
-  EXPECT_THROW(can::openCanSensor(sc), DriverError);
+  EXPECT_THROW(drivers::can::openCanSensor(sc), DriverError);
 }
 
 // ---- ftidd end to end on socketcan:vcan0 -----------------------------------------------------
@@ -294,13 +294,13 @@ void writeTrueParams(const std::string& path, const sim::CellSimConfig& c) {
       {"f0_z", c.F0_N.z()}, {"t0_x", c.T0_Nm.x()},     {"t0_y", c.T0_Nm.y()},
       {"t0_z", c.T0_Nm.z()}};
   const effects::Model model = effects::Model::fromName("paper");
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = model.name();
   for (const auto& name : model.paramIndex().names()) set.params.push_back({name, v.at(name), 0.0, ""});
   set.tilt_estimated = true;
   set.tilt_u_rad = c.tilt_u_rad;
   set.tilt_v_rad = c.tilt_v_rad;
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
 }
 
 struct Received {
@@ -473,12 +473,8 @@ TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
                             << slurp(dir + "/ftidd.log") << "\nsim-sensor log:\n"
                             << slurp(dir + "/sensor.log");
   // Sensor health bits as published (sensor_sample_t.health_flags, transport/records.hpp).
-  using transport::kHealthCounterGap;
-  using transport::kHealthErrorFrame;
-  using transport::kHealthOutOfRange;
-  using transport::kHealthStale;
-  const std::uint32_t invalidating = kHealthStale | kHealthOutOfRange | transport::kHealthNonFinite |
-                                     transport::kHealthStatusError | transport::kHealthTransportDown;
+  const std::uint32_t invalidating = kHealthStale | kHealthOutOfRange | kHealthNonFinite |
+                                     kHealthStatusError | kHealthTransportDown;
   int valid = 0, stale_invalid = 0, out_of_range_invalid = 0, gap_flagged = 0, error_flagged = 0;
   int unexplained_invalid = 0, flagged_valid = 0, valid_after_stale = 0, valid_after_oor = 0;
   bool seen_valid = false;

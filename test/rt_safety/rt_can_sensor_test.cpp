@@ -10,7 +10,7 @@
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 namespace {
 
 static_assert(noexcept(std::declval<FtImuSensor&>().tryReadLatest(std::declval<SensorSample&>(),
@@ -89,7 +89,7 @@ TEST(RtCanSensor, ReplayTransportDoesNotAllocate) {
 }
 
 }  // namespace
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can
 
 // Positive controls: in this binary the counter sees a deliberate allocation of every kind.
 FTID_ALLOCATION_COUNTER_CONTROLS();

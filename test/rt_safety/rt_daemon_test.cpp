@@ -22,17 +22,17 @@
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
-#include "ftid/transport/spsc_queue.hpp"
+#include "ftid/rt/spsc_queue.hpp"
 
 namespace ftid::daemon {
 namespace {
 
 std::string writeParams(const std::string& model_name, const std::string& path, double mass) {
   const effects::Model model = effects::Model::fromName(model_name);
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = model.name();
   double k = 0.01;
   for (const auto& name : model.paramIndex().names()) {
@@ -46,7 +46,7 @@ std::string writeParams(const std::string& model_name, const std::string& path, 
   }
   set.tilt_u_rad = 0.01;
   set.tilt_v_rad = -0.02;
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
   return path;
 }
 
@@ -64,7 +64,7 @@ TEST(RtDaemon, CycleStepWithProductionMathAndSinkDoesNotAllocate) {
 
   model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
   KinematicsMotionModel motion(kin);
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(p1));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(p1));
   lcm::LCM lc("memq://");
   transport::LcmOutbox outbox(transport::OutboxOptions{}, &lc);
   outbox.start();
@@ -115,7 +115,7 @@ class TimedArm : public ArmStateSource {
  public:
   std::int64_t next_ns = 0;  // CLOCK_MONOTONIC time of the next state
   double robot_time = 3600.0;
-  Status waitForState(std::chrono::nanoseconds, transport::RobotStateRecord* out) noexcept override {
+  Status waitForState(std::chrono::nanoseconds, RobotStateRecord* out) noexcept override {
     rt::sleepUntilNs(next_ns);
     next_ns += 8'000'000;
     robot_time += 0.008;
@@ -127,16 +127,16 @@ class TimedArm : public ArmStateSource {
 };
 
 TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
-  const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
-  auto pair = can::makeSeqpacketPair();
-  can::CanTransport* bus = pair.a.get();
-  CanSensorSource sensor(std::make_unique<can::CanFtImuSensor>(std::move(pair.b), layout),
-                         can::SensorHealthOptions{});
+  const drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  auto pair = drivers::can::makeSeqpacketPair();
+  drivers::can::CanTransport* bus = pair.a.get();
+  CanSensorSource sensor(std::make_unique<drivers::can::CanFtImuSensor>(std::move(pair.b), layout),
+                         drivers::can::SensorHealthOptions{});
   std::atomic<bool> stop{false}, paused{false};
   std::thread sender([&] {  // the sensor: one sample per millisecond, values linear in time
-    std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
-    can::SensorValues values;
+    std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> frames{};
+    drivers::can::SensorValues values;
     std::uint32_t counter = 0;
     std::int64_t next = rt::monotonicNs();
     while (!stop.load()) {
@@ -144,12 +144,12 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
       rt::sleepUntilNs(next);
       if (paused.load()) continue;
       values.wrench_S[2] = -10.0 + 1e-3 * static_cast<double>(counter);
-      const int n = can::encodeSample(layout, values, ++counter, frames);
+      const int n = drivers::can::encodeSample(layout, values, ++counter, frames);
       for (int i = 0; i < n; ++i) bus->trySend(frames[static_cast<std::size_t>(i)]);
     }
   });
   test::FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
   TimedArm arm;
   CycleOptions opt;  // real clock, default wait bound
   DaemonCycle cycle(&arm, &sensor, &motion, &slot, nullptr, opt);
@@ -184,24 +184,24 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
 // the transport closed, the drain that takes a reopened transport (OwnedSwapSlot) and the drains
 // after it run under the counter; opening and offering the transport is the link thread's work.
 TEST(RtDaemon, CanSensorTransportReplacementDoesNotAllocate) {
-  const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
-  auto first = can::makeSeqpacketPair();
-  auto second = can::makeSeqpacketPair();
-  can::CanTransport* bus2 = second.a.get();
-  CanSensorSource sensor(std::make_unique<can::CanFtImuSensor>(std::move(first.b), layout),
-                         can::SensorHealthOptions{});
+  const drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  auto first = drivers::can::makeSeqpacketPair();
+  auto second = drivers::can::makeSeqpacketPair();
+  drivers::can::CanTransport* bus2 = second.a.get();
+  CanSensorSource sensor(std::make_unique<drivers::can::CanFtImuSensor>(std::move(first.b), layout),
+                         drivers::can::SensorHealthOptions{});
   SensorHistory history;
-  transport::SensorSampleRecord latest;
-  std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
-  can::SensorValues values;
+  SensorSampleRecord latest;
+  std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> frames{};
+  drivers::can::SensorValues values;
   values.wrench_S[2] = -12.0;
   first.a.reset();  // the peer goes away
-  sensor.drain(can::realtimeNowNs() / 1000, &history, &latest);  // warm-up outside the counter
+  sensor.drain(drivers::can::realtimeNowNs() / 1000, &history, &latest);  // warm-up outside the counter
   std::size_t down_allocations = 0;
   {
     ftid::test::ScopedAllocationCounter counter;
-    sensor.drain(can::realtimeNowNs() / 1000, &history, &latest);
+    sensor.drain(drivers::can::realtimeNowNs() / 1000, &history, &latest);
     down_allocations = counter.count();
   }
   EXPECT_TRUE(sensor.transportDown());
@@ -210,9 +210,9 @@ TEST(RtDaemon, CanSensorTransportReplacementDoesNotAllocate) {
   {
     ftid::test::ScopedAllocationCounter counter;
     for (std::uint32_t k = 1; k <= 20; ++k) {
-      const int n = can::encodeSample(layout, values, k, frames);
+      const int n = drivers::can::encodeSample(layout, values, k, frames);
       for (int i = 0; i < n; ++i) bus2->trySend(frames[static_cast<std::size_t>(i)]);
-      sensor.drain(can::realtimeNowNs() / 1000, &history, &latest);
+      sensor.drain(drivers::can::realtimeNowNs() / 1000, &history, &latest);
     }
     allocations = counter.count();
   }
@@ -227,13 +227,13 @@ TEST(RtDaemon, CanSensorTransportReplacementDoesNotAllocate) {
 
 TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
   transport::warmUpCodec();
-  transport::CycleRecord rec;
+  CycleRecord rec;
   rec.sensor.wrench_S << 1, 2, 3, 4, 5, 6;
   ftid_lcm::cycle_sample_t cycle_msg{};
   ftid_lcm::compensated_wrench_t wrench_msg{};
   std::uint8_t buf[2048];
-  static transport::SpscQueue<transport::CycleRecord, 64> queue;
-  transport::CycleRecord out;
+  static rt::SpscQueue<CycleRecord, 64> queue;
+  CycleRecord out;
   std::size_t allocations = 0;
   {
     ftid::test::ScopedAllocationCounter counter;

@@ -30,16 +30,16 @@ TEST(RtTare, WindowAccumulationAndHandOverDoNotAllocate) {
       std::remove((p + ".bak").c_str());
     }
   } remove_on_exit{path};
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = "paper";
   for (int i = 0; i < 6; ++i) set.params.push_back({kOffsetNames[i], 0.1 * (i + 1), 0.0, ""});
   set.params.push_back({"mass", 1.2, 0.0, "kg"});
   set.params.push_back({"mass_com_x", 0.01, 0.0, "kg*m"});
   set.params.push_back({"mass_com_y", -0.02, 0.0, "kg*m"});
   set.params.push_back({"mass_com_z", 0.07, 0.0, "kg*m"});
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
 
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   test::FakeArm arm;
   test::FakeSensor sensor;
   test::FixedMotion motion;

@@ -11,15 +11,13 @@
 #include <thread>
 #include <vector>
 
+#include "ftid/common/clock.hpp"  // monotonicNs(): the time base of lastReceiveNs()
 #include "ftid/cell/run_stream.hpp"
 #include "ftid/logio/log.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 #include "ftid/transport/source_filter.hpp"
 
 namespace ftid::cell {
-
-/// Monotonic clock in ns (CLOCK_MONOTONIC), the time base of lastReceiveNs().
-std::int64_t monotonicNowNs() noexcept;
 
 class CycleRecorder {
  public:
@@ -48,7 +46,7 @@ class CycleRecorder {
   /// Forgets what was recorded so far (non-RT).
   void clear();
   /// Copy of the records (non-RT).
-  std::vector<transport::CycleRecord> snapshot() const;
+  std::vector<CycleRecord> snapshot() const;
 
   // Real-time readable (atomics only).
   std::int64_t lastReceiveNs() const noexcept { return last_receive_ns_.load(std::memory_order_relaxed); }
@@ -70,7 +68,7 @@ class CycleRecorder {
   std::unique_ptr<RunStreamWriter> stream_;
   std::unique_ptr<Impl> impl_;
   mutable std::mutex mutex_;
-  std::vector<transport::CycleRecord> records_;
+  std::vector<CycleRecord> records_;
   std::atomic<bool> running_{false};
   std::thread thread_;
   std::atomic<std::int64_t> last_receive_ns_{0};
@@ -108,9 +106,9 @@ struct CycleStreamReport {
 
 /// Checks the records with t_min <= robot_time <= t_max against the controller rate and returns the
 /// verdict; *clean receives the records in robot-time order with exact duplicates removed.
-CycleStreamReport checkCycleStream(const std::vector<transport::CycleRecord>& records, double rate_hz,
+CycleStreamReport checkCycleStream(const std::vector<CycleRecord>& records, double rate_hz,
                                    double t_min, double t_max,
-                                   std::vector<transport::CycleRecord>* clean = nullptr);
+                                   std::vector<CycleRecord>* clean = nullptr);
 
 struct RecordsToLogReport {
   std::size_t converted = 0;
@@ -122,7 +120,7 @@ struct RecordsToLogReport {
 /// q/qd/qdd from the robot state, the raw wrench, IMU and temperature from the sensor sample.
 /// Records with an invalid robot state or sensor sample are dropped (never fitted as valid).
 /// Only records with t_min <= robot_time <= t_max are kept.
-logio::LogData recordsToLog(const std::vector<transport::CycleRecord>& records, double t_min,
+logio::LogData recordsToLog(const std::vector<CycleRecord>& records, double t_min,
                             double t_max, const std::string& source, RecordsToLogReport* report = nullptr);
 
 }  // namespace ftid::cell

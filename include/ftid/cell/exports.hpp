@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "ftid/common/types.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace ftid::config {
 struct DaemonConfig;
@@ -36,7 +36,7 @@ struct PayloadExport {
 
 /// Builds the export from a parameter set and the sensor mount X_FS. Throws ConfigError naming
 /// the missing parameter if the set has no mass / centre of mass.
-PayloadExport makePayloadExport(const identify::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F);
+PayloadExport makePayloadExport(const params::ParameterSet& set, const Mat3& R_FS, const Vec3& p_FS_F);
 
 /// A rigid body beyond the flange (adapter plate, sensor body), all in F.
 struct RigidPart {
@@ -84,14 +84,12 @@ Ros2Names ros2NamesFromConfig(const config::DaemonConfig& cfg);
 /// Writes the exports atomically: the ROS 2 file to `ros2_path` and the URScript file to
 /// `urscript_path` (either may be empty = not written), using the config's sensor mount, parts
 /// and names. Returns one line naming what was written. Throws on bad parameters or I/O errors.
-std::string writeExports(const identify::ParameterSet& set, const config::DaemonConfig& cfg,
+std::string writeExports(const params::ParameterSet& set, const config::DaemonConfig& cfg,
                          const std::string& ros2_path, const std::string& urscript_path);
 
 /// The configuration the exports use when none is given: /etc/ftid/ftidd.yaml (the live ftidd
 /// config) if it exists, else the shipped ftidd.yaml (the one default-file lookup).
 std::string defaultExportConfigPath();
 
-/// Writes a text file atomically (temporary file in the same directory, fsync, rename).
-void writeTextFileAtomic(const std::string& path, const std::string& text);
 
 }  // namespace ftid::cell

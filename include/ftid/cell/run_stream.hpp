@@ -18,7 +18,7 @@
 #include <string>
 #include <thread>
 
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::cell {
 
@@ -31,7 +31,7 @@ class RunStreamWriter {
   RunStreamWriter& operator=(const RunStreamWriter&) = delete;
 
   /// Appends the record if usable (non-RT; the LCM receive thread). Never throws.
-  void append(const transport::CycleRecord& record) noexcept;
+  void append(const CycleRecord& record) noexcept;
   /// Writes what is pending and fsyncs. Never throws.
   void finish() noexcept;
 

@@ -55,6 +55,9 @@ inline std::string findDefaultFile(const std::string& name, const std::string& e
                     "); give the file explicitly or reinstall ftid");
 }
 
+/// The default robot description (ur10.urdf) from the lookup above.
+inline std::string defaultRobotUrdf() { return findDefaultFile("ur10.urdf"); }
+
 /// A path named inside a file (e.g. a trajectory's `robot:`): absolute paths as they are,
 /// relative ones relative to the directory of `naming_file`.
 inline std::string resolveRelativeTo(const std::string& naming_file, const std::string& path) {

@@ -13,8 +13,8 @@
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/daemon/seams.hpp"
-#include "ftid/daemon/swap_slot.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/rt/swap_slot.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/ur/rtde_client.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -38,7 +38,7 @@ class RtdeArmSource final : public ArmStateSource {
   /// The controller's software version, read while connecting.
   const drivers::ur::rtde::ControllerVersion& controllerVersion() const noexcept { return version_; }
   Status waitForState(std::chrono::nanoseconds timeout,
-                      transport::RobotStateRecord* out) noexcept override;
+                      RobotStateRecord* out) noexcept override;
   bool robotStopped() const noexcept override { return stopped_; }
   std::uint64_t packetsSkipped() const noexcept override {
     return skipped_.load(std::memory_order_relaxed);
@@ -56,12 +56,12 @@ class RtdeArmSource final : public ArmStateSource {
   std::atomic<std::uint64_t> skipped_{0};
 };
 
-/// Converts a can::SensorSample (the CAN driver's) into the published record.
-void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* out) noexcept;
+/// Converts a drivers::can::SensorSample (the CAN driver's) into the published record.
+void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* out) noexcept;
 
 /// The CAN sensor, drained each cycle with every complete sample handed to the history.
-/// can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
-/// drains the sensor's transport itself and assembles with its own can::SampleAssembler (same
+/// drivers::can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
+/// drains the sensor's transport itself and assembles with its own drivers::can::SampleAssembler (same
 /// layout and health options, the same rules): the CanFtImuSensor's own assembler is not used,
 /// read health() here instead of sensor->health().
 ///
@@ -74,40 +74,40 @@ void toSensorRecord(const can::SensorSample& in, transport::SensorSampleRecord* 
 class CanSensorSource final : public SensorSource {
  public:
   /// `health` must be the options the sensor was opened with (CanSensorConfig::health).
-  CanSensorSource(std::unique_ptr<can::CanFtImuSensor> sensor,
-                  const can::SensorHealthOptions& health);
+  CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
+                  const drivers::can::SensorHealthOptions& health);
   /// Any thread: true if the transport in use closed or failed and no replacement is waiting.
   bool transportDown() const noexcept {
     return transport_down_.load(std::memory_order_acquire) && !replacement_.hasPending();
   }
   /// Non-RT: offers a freshly opened transport (same endpoint) to the loop.
-  void offerTransport(std::unique_ptr<can::CanTransport> transport) { replacement_.post(std::move(transport)); }
+  void offerTransport(std::unique_ptr<drivers::can::CanTransport> transport) { replacement_.post(std::move(transport)); }
   /// Non-RT: frees a transport the loop has replaced.
   void collectRetired() { replacement_.collectRetired(); }
   /// Any thread: replacement transports taken into use since start.
   std::uint32_t reconnects() const noexcept { return replacement_.version(); }
   void drain(std::int64_t now_utime, SensorHistory* history,
-             transport::SensorSampleRecord* latest) noexcept override;
+             SensorSampleRecord* latest) noexcept override;
   /// Drains, then ppoll()s the transport's descriptor until such a sample is complete or the
   /// timeout passes (no waiting for a transport without a descriptor, e.g. a candump replay).
   bool waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
                      SensorHistory* history) noexcept override;
-  const can::SensorHealth& health() const noexcept { return assembler_.health(); }
+  const drivers::can::SensorHealth& health() const noexcept { return assembler_.health(); }
 
  private:
   /// Receives pending frames; every complete sample goes to the history (see adapters.cpp).
   void pump(SensorHistory* history) noexcept;
   /// Loop thread: the transport in use (a replacement once one was taken, else the sensor's own).
-  can::CanTransport& bus() noexcept;
+  drivers::can::CanTransport& bus() noexcept;
 
-  std::unique_ptr<can::CanFtImuSensor> sensor_;  // owns the first transport
-  OwnedSwapSlot<can::CanTransport> replacement_;  // transports opened after a failure
+  std::unique_ptr<drivers::can::CanFtImuSensor> sensor_;  // owns the first transport
+  rt::OwnedSwapSlot<drivers::can::CanTransport> replacement_;  // transports opened after a failure
   std::atomic<bool> transport_down_{false};
-  can::SensorHealthOptions options_;
-  can::SampleAssembler assembler_;
-  std::array<can::ReceivedFrame, 64> batch_{};
-  can::SensorSample sample_;
-  transport::SensorSampleRecord record_;
+  drivers::can::SensorHealthOptions options_;
+  drivers::can::SampleAssembler assembler_;
+  std::array<drivers::can::ReceivedFrame, 64> batch_{};
+  drivers::can::SensorSample sample_;
+  SensorSampleRecord record_;
   std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
 };
 
@@ -128,7 +128,7 @@ class ParameterFileCompensation final : public Compensation {
   /// Reads and validates the file; throws ConfigError naming the file and key.
   explicit ParameterFileCompensation(const std::string& path);
   /// From a set already read (e.g. with tared offsets); `source` names it in errors.
-  ParameterFileCompensation(const identify::ParameterSet& set, const std::string& source);
+  ParameterFileCompensation(const params::ParameterSet& set, const std::string& source);
   double tiltU() const noexcept override { return tilt_u_; }
   double tiltV() const noexcept override { return tilt_v_; }
   bool compute(const effects::SampleContext& ctx, Wrench* contact,
@@ -149,7 +149,7 @@ CompensationFactory parameterFileFactory();
 class OutboxSink final : public CycleSink {
  public:
   explicit OutboxSink(transport::LcmOutbox* outbox) : outbox_(outbox) {}
-  bool tryPush(const transport::CycleRecord& record) noexcept override {
+  bool tryPush(const CycleRecord& record) noexcept override {
     return outbox_->tryPush(record);
   }
 

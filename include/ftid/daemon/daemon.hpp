@@ -1,5 +1,5 @@
 #pragma once
-// ftidd's wiring (architecture P15): the process owns real-time set-up, threads own their
+// ftidd's wiring (docs/daemon.md): the process owns real-time set-up, threads own their
 // scheduling, and only this class composes drivers, math and transport.
 //
 //   Daemon d(config);        // nothing opened yet

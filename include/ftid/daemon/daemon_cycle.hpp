@@ -1,5 +1,5 @@
 #pragma once
-// DaemonCycle: one cycle of ftidd (architecture §9.5), written against the seams of
+// DaemonCycle: one cycle of ftidd (docs/daemon.md), written against the seams of
 // ftid/daemon/seams.hpp so that it runs in unit tests without threads or hardware.
 //
 //   waitForTick(timeout)  arm->waitForState()                    (the robot is the clock)
@@ -26,12 +26,12 @@
 #include "ftid/common/status.hpp"
 #include "ftid/daemon/output_stage.hpp"
 #include "ftid/daemon/seams.hpp"
-#include "ftid/daemon/swap_slot.hpp"
+#include "ftid/rt/swap_slot.hpp"
 #include "ftid/daemon/time_pairing.hpp"
 #include "ftid/rt/cyclic_executor.hpp"
 #include "ftid/rt/loop_stats.hpp"
 #include "ftid/rt/mailbox.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::daemon {
 
@@ -111,7 +111,7 @@ class TareAccumulator {
   void start(const TareRequest& request) noexcept;
   bool active() const noexcept { return active_; }
   /// Adds one cycle. Returns true when the window ended (done or refused); then *result is set.
-  bool add(const transport::CycleRecord& rec, TareResult* result) noexcept;
+  bool add(const CycleRecord& rec, TareResult* result) noexcept;
 
  private:
   TareRequest request_;
@@ -128,7 +128,7 @@ class DaemonCycle {
   /// All pointers must outlive the cycle. params may hold no object yet (then every cycle is
   /// published with wrench_valid = false and kFaultNone for the parameters).
   DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const MotionModel* motion,
-              OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options = {});
+              rt::OwnedSwapSlot<Compensation>* params, CycleSink* sink, CycleOptions options = {});
 
   // ftid::rt executor interface (runDeviceClocked).
   Status waitForTick(std::chrono::nanoseconds timeout) noexcept;
@@ -137,7 +137,7 @@ class DaemonCycle {
 
   /// One cycle for the given robot state (what onTick() does after waitForTick()); the result
   /// is also handed to the sink. `out` may be nullptr.
-  void step(const transport::RobotStateRecord& robot, transport::CycleRecord* out) noexcept;
+  void step(const RobotStateRecord& robot, CycleRecord* out) noexcept;
 
   /// Every `every_n_cycles` ticks, onTick() copies *stats (the executor's, updated by the loop
   /// thread) into *box for the supervisor. Call before the loop starts.
@@ -176,10 +176,10 @@ class DaemonCycle {
   /// Version of the parameters in use (0 = none).
   std::uint32_t paramVersion() const noexcept { return params_->version(); }
   /// The record of the most recent cycle (loop thread / tests only).
-  const transport::CycleRecord& lastRecord() const noexcept { return record_; }
+  const CycleRecord& lastRecord() const noexcept { return record_; }
   /// The newest sensor sample of the most recent cycle as the source reported it (before
   /// pairing; loop thread / tests only).
-  const transport::SensorSampleRecord& lastNewestSample() const noexcept { return latest_; }
+  const SensorSampleRecord& lastNewestSample() const noexcept { return latest_; }
   /// How the most recent cycle paired its sensor sample (loop thread / tests only).
   SensorPairing lastPairing() const noexcept { return last_pairing_; }
   /// Host time [us] the most recent robot state was mapped to (0 if none; loop thread / tests).
@@ -192,17 +192,17 @@ class DaemonCycle {
   ArmStateSource* arm_;
   SensorSource* sensor_;
   const MotionModel* motion_;
-  OwnedSwapSlot<Compensation>* params_;
+  rt::OwnedSwapSlot<Compensation>* params_;
   CycleSink* sink_;
   CycleOptions options_;
   CycleCounters counters_;
   FaultWord faults_;
-  transport::RobotStateRecord robot_;  // filled by waitForTick
-  transport::CycleRecord record_;
+  RobotStateRecord robot_;  // filled by waitForTick
+  CycleRecord record_;
   effects::SampleContext ctx_;
   SensorHistory history_;
   RobotClockMap clock_map_;
-  transport::SensorSampleRecord latest_;
+  SensorSampleRecord latest_;
   SensorPairing last_pairing_ = SensorPairing::kNone;
   std::int64_t last_pair_time_us_ = 0;
   double prev_wait_robot_time_ = 0.0;  // robot_time of the previous waitForTick() state

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "ftid/daemon/seams.hpp"
-#include "ftid/daemon/swap_slot.hpp"
+#include "ftid/rt/swap_slot.hpp"
 
 namespace ftid::daemon {
 
@@ -31,7 +31,7 @@ std::string regularFileProblem(const std::string& path);
 
 class ParameterReloader {
  public:
-  ParameterReloader(OwnedSwapSlot<Compensation>* slot, CompensationFactory factory);
+  ParameterReloader(rt::OwnedSwapSlot<Compensation>* slot, CompensationFactory factory);
 
   /// Builds from `path` and offers the result to the loop, then waits up to `apply_timeout` for
   /// the loop to take it (0: do not wait). On a build error nothing changes and ok is false.
@@ -49,7 +49,7 @@ class ParameterReloader {
   std::uint32_t succeeded() const noexcept { return succeeded_; }
 
  private:
-  OwnedSwapSlot<Compensation>* slot_;
+  rt::OwnedSwapSlot<Compensation>* slot_;
   CompensationFactory factory_;
   std::uint32_t failed_ = 0;
   std::uint32_t succeeded_ = 0;

@@ -1,5 +1,5 @@
 #pragma once
-// The seams ftidd's cycle is written against (architecture P10): one per piece of hardware and
+// The seams ftidd's cycle is written against (docs/architecture.md): one per piece of hardware and
 // one for each piece of math, so that a whole cycle runs in a unit test against fakes. The
 // production implementations are thin adapters (ftid/daemon/adapters.hpp) over the UR RTDE
 // client, the CAN sensor, RobotKinematics and the compensator. Every method the loop calls is
@@ -12,7 +12,7 @@
 #include "ftid/daemon/time_pairing.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/model/kinematics.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::daemon {
 
@@ -23,7 +23,7 @@ class ArmStateSource {
   /// kOk (out filled, out->valid tells whether the values are usable), kTimeout, or kFault
   /// (connection lost). Real-time safe.
   virtual Status waitForState(std::chrono::nanoseconds timeout,
-                              transport::RobotStateRecord* out) noexcept = 0;
+                              RobotStateRecord* out) noexcept = 0;
   /// True if the last state reported a protective/emergency stop or a stopped program.
   virtual bool robotStopped() const noexcept { return false; }
   /// State packets the source dropped since start because a newer one was already waiting
@@ -47,7 +47,7 @@ class SensorSource {
   /// transport down). now_utime: CLOCK_REALTIME [us], the clock of recv_utime.
   /// Never blocks, never allocates.
   virtual void drain(std::int64_t now_utime, SensorHistory* history,
-                     transport::SensorSampleRecord* latest) noexcept = 0;
+                     SensorSampleRecord* latest) noexcept = 0;
   /// Waits until *history holds a sample received at or after t_utime [us, CLOCK_REALTIME],
   /// draining into it as drain() does (what a drain reports about the interval is kept for the
   /// next drain()), or until `timeout` has passed. Returns true if such a sample is there.
@@ -84,7 +84,7 @@ class Compensation {
 class CycleSink {
  public:
   virtual ~CycleSink() = default;
-  virtual bool tryPush(const transport::CycleRecord& record) noexcept = 0;
+  virtual bool tryPush(const CycleRecord& record) noexcept = 0;
 };
 
 }  // namespace ftid::daemon

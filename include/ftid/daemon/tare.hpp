@@ -9,7 +9,7 @@
 #include <string>
 
 #include "ftid/common/types.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace ftid::daemon {
 
@@ -17,9 +17,9 @@ namespace ftid::daemon {
 extern const char* const kOffsetNames[6];
 
 /// The offsets f0_x..t0_z of the set. Throws ConfigError naming `source` if one is missing.
-Wrench offsetsOf(const identify::ParameterSet& set, const std::string& source);
+Wrench offsetsOf(const params::ParameterSet& set, const std::string& source);
 /// Replaces the offsets (their standard errors become 0: a tare is not a fit).
-void setOffsets(identify::ParameterSet* set, const Wrench& offsets);
+void setOffsets(params::ParameterSet* set, const Wrench& offsets);
 
 /// PATH.tare.yaml.
 std::string tareStatePath(const std::string& parameter_path);
@@ -41,7 +41,7 @@ void removeTareState(const std::string& path);
 
 /// A parameter file as ftidd uses it.
 struct LoadedParameters {
-  identify::ParameterSet set;   ///< with the tared offsets if `tared`
+  params::ParameterSet set;   ///< with the tared offsets if `tared`
   std::string sha256;           ///< hex digest of the parameter file's content
   bool tared = false;           ///< the tare state matched and was applied
   std::string note;             ///< why a tare state present was not applied (empty otherwise)

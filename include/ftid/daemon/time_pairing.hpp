@@ -21,7 +21,7 @@
 #include <array>
 #include <cstdint>
 
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::daemon {
 
@@ -42,16 +42,16 @@ class SensorHistory {
   /// Appends a sample received after the previous one. Ignored if recv_utime <= 0 (no sample).
   /// A sample with the newest sample's receive time replaces it; a sample older than the newest
   /// means the host clock stepped back, and the history restarts with it.
-  void push(const transport::SensorSampleRecord& sample) noexcept;
+  void push(const SensorSampleRecord& sample) noexcept;
   void clear() noexcept { count_ = 0; }
 
   int size() const noexcept { return count_; }
   bool empty() const noexcept { return count_ == 0; }
   /// i = 0 is the oldest, size() - 1 the newest. Precondition: 0 <= i < size().
-  const transport::SensorSampleRecord& at(int i) const noexcept {
+  const SensorSampleRecord& at(int i) const noexcept {
     return ring_[static_cast<std::size_t>((head_ + kCapacity - count_ + i) % kCapacity)];
   }
-  const transport::SensorSampleRecord& newest() const noexcept { return at(count_ - 1); }
+  const SensorSampleRecord& newest() const noexcept { return at(count_ - 1); }
 
   /// The sample at host time t_us [us, CLOCK_REALTIME].
   ///   kInterpolated: t0 <= t_us <= t1 for adjacent samples s0, s1 (t = recv_utime):
@@ -62,11 +62,11 @@ class SensorHistory {
   ///       that contributed: the time the value became available). *reach_us = t1 - t0.
   ///   kNewest / kOldest: the nearest sample unchanged, *reach_us = |t_us - its recv_utime|.
   ///   kNone: out and *reach_us untouched.
-  SensorPairing sampleAt(std::int64_t t_us, transport::SensorSampleRecord* out,
+  SensorPairing sampleAt(std::int64_t t_us, SensorSampleRecord* out,
                          std::int64_t* reach_us) const noexcept;
 
  private:
-  std::array<transport::SensorSampleRecord, kCapacity> ring_{};
+  std::array<SensorSampleRecord, kCapacity> ring_{};
   int head_ = 0;   ///< index of the next write
   int count_ = 0;
 };

@@ -1,7 +1,7 @@
 #pragma once
 // How well a motion determines the parameters of a model (docs/design.md §Objective).
 //
-// For each sample the contexts are built exactly as for identification (identify::buildContexts
+// For each sample the contexts are built exactly as for identification (samples::buildContexts
 // from the robot kinematics, tilt 0) and the model's regressor Y (6 x P) is computed with
 // effects::Model::computeRegressor. Models that estimate the base tilt get two more columns, the
 // sensitivity of the modelled wrench to U and V at the nominal parameters (the regressor needs

@@ -31,7 +31,7 @@ enum Signal : std::uint32_t {
 };
 
 /// Everything an effect may read for one sample. Built from a log row and the robot kinematics
-/// (ftid/identify/context.hpp). Frames and units as in docs/conventions.md.
+/// (ftid/samples/sample_builder.hpp, ftid/samples/context.hpp). Frames and units as in docs/conventions.md.
 struct SampleContext {
   double t = 0.0;                        ///< [s] since the first sample of the log
   JointVector q = JointVector::Zero();   ///< [rad]

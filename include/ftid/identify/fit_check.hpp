@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "ftid/identify/noise.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace ftid::identify {
 

@@ -6,9 +6,9 @@
 
 #include <optional>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit_check.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace ftid::identify {
 
@@ -19,7 +19,7 @@ struct IdentifyRequest {
   std::string method = "dynamic";  ///< paper method: "static" or "dynamic" (ignored with `model`)
   std::string model;               ///< non-empty: general fit of this model (e.g. "paper+rigid_body")
   std::string robot_urdf;          ///< URDF of the robot (config/ur10.urdf)
-  ContextOptions context;          ///< sensor mount
+  samples::ContextOptions context; ///< sensor mount
   ProgressFn progress;             ///< optional progress lines
   std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
   double max_delay_s = 1.0;        ///< models with sensor_delay: search range of the delay [s]
@@ -41,30 +41,5 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
 
 /// Human-readable table: parameter, value, std, unit; residual RMS per axis; condition number.
 std::string formatParameterTable(const ParameterSet& set);
-
-struct CompensateRequest {
-  std::string log_path;
-  std::string params_path;
-  std::string out_csv;
-  std::string robot_urdf;
-  ContextOptions context;
-};
-
-struct CompensateSummary {
-  int n_samples = 0;                ///< rows written
-  int n_without_kinematics = 0;     ///< samples left out: their delayed kinematics lie outside the log
-  Vec6 raw_rms = Vec6::Zero();      ///< RMS of the reading
-  Vec6 contact_rms = Vec6::Zero();  ///< RMS of the compensated (contact) wrench
-};
-
-/// Writes OUT.csv (atomically) with columns t, fx..tz (contact wrench = reading - modelled) and
-/// model_fx..model_tz (modelled wrench), one row per log sample, through the real-time
-/// compensator (ftidd's code). With a `sensor_delay`, samples whose delayed kinematics lie outside
-/// the log (the first |delay| seconds, or the last ones for a negative delay) are left out.
-CompensateSummary compensateLogFile(const CompensateRequest& request);
-
-/// Default robot description: ur10.urdf from ftid's one default-file lookup
-/// (ftid/common/default_files.hpp: build tree, /usr/share/ftid/config, /etc/ftid).
-std::string defaultRobotUrdf();
 
 }  // namespace ftid::identify

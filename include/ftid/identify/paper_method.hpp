@@ -18,7 +18,7 @@
 #include <vector>
 
 #include "ftid/effects/effect.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace ftid::identify {
 

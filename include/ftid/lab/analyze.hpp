@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
@@ -161,7 +161,7 @@ struct AnalysisResult {
   std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance
 };
 
-/// Runs the analysis on contexts built from the log (identify::buildContexts). `validate`, if
+/// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if
 /// given, is evaluated with the model fitted on all of `fit` (instead of k-fold). `log_name` and
 /// `validate_name` are used in messages and next commands. Contexts need not have g_S set (the
 /// tilt is estimated when the model has `tilt`, else g_S is computed for zero tilt).
@@ -183,13 +183,13 @@ std::string renderHtml(const AnalysisResult& result);
 namespace ftid::lab {
 
 /// `ftid analyze` on files: reads the log(s) (docs/log-format.md), builds the contexts with the
-/// robot kinematics (default robot: identify::defaultRobotUrdf()), and runs analyze().
+/// robot kinematics (default robot: defaultRobotUrdf()), and runs analyze().
 struct AnalyzeFilesRequest {
   std::string log_path;
   std::string validate_path;   ///< "" = k-fold
   std::string robot_urdf;      ///< "" = default
   AnalyzeOptions options;
-  identify::ContextOptions context;  ///< e.g. wrench_in_base for `--wrench-frame base`
+  samples::ContextOptions context;  ///< e.g. wrench_in_base for `--wrench-frame base`
 };
 AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request);
 

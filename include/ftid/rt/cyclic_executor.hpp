@@ -1,5 +1,5 @@
 #pragma once
-// Cyclic executors for ONE loop thread (architecture P1, §9.5). Templated on the cycle type: no
+// Cyclic executors for ONE loop thread (docs/architecture.md: the robot is the clock). Templated on the cycle type: no
 // std::function, no virtual calls, nothing allocates, nothing throws.
 //
 // Device-clocked (the robot is the clock): each cycle starts when the device delivers the state
@@ -25,6 +25,7 @@
 #include <ctime>
 #include <limits>
 
+#include "ftid/common/clock.hpp"
 #include "ftid/common/status.hpp"
 #include "ftid/rt/loop_stats.hpp"
 
@@ -49,12 +50,8 @@ struct ExecutorConfig {
   std::uint32_t catch_up_periods = 0;
 };
 
-/// CLOCK_MONOTONIC in ns.
-inline std::int64_t monotonicNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+/// CLOCK_MONOTONIC in ns (ftid/common/clock.hpp).
+using ftid::monotonicNs;
 
 /// Sleeps until an absolute CLOCK_MONOTONIC time (retries on EINTR).
 void sleepUntilNs(std::int64_t deadline_ns) noexcept;

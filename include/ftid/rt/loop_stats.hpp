@@ -1,5 +1,5 @@
 #pragma once
-// Per-cycle statistics in fixed storage (architecture P8). update*() are real-time safe and
+// Per-cycle statistics in fixed storage (docs/architecture.md). update*() are real-time safe and
 // cheap; the struct is trivially copyable so the loop can publish snapshots through a Mailbox and
 // a normal thread can format them (summary()).
 #include <array>

@@ -1,5 +1,5 @@
 #pragma once
-// Process and thread real-time set-up (linux-rt notes §3, architecture P15).
+// Process and thread real-time set-up (docs/daemon.md, docs/architecture.md).
 //  - lockProcessMemory(): mlockall(MCL_CURRENT|MCL_FUTURE) after checking RLIMIT_MEMLOCK, then
 //    mallopt(M_TRIM_THRESHOLD, -1) and mallopt(M_MMAP_MAX, 0) so freed memory stays mapped.
 //  - configureCurrentThread(): SCHED_FIFO at `priority` and CPU affinity, for the calling (loop)

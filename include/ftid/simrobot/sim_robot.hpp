@@ -5,7 +5,7 @@
 //    model, watchdog, faults), socket-free;
 //  - an RTDE server (protocol v1/v2, several clients, per-connection input ownership, output
 //    decimation floor(f_ctrl / f_req)), faithful enough for ur_rtde 1.6.5 and UR's Python client;
-//  - a dashboard server subset (exact reply texts per ur-interface-notes §3.3) plus `sim ...`
+//  - dashboard server subset (exact reply texts of UR's dashboard server, docs/robot.md) plus `sim ...`
 //    fault-injection commands;
 //  - a script port that loads program texts into the controller;
 //  - a tick thread on rt::runTimerClocked; `timestamp` = t0 + n * period exactly.

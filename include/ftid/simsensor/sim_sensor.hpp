@@ -109,9 +109,9 @@ class RobotHistory {
 /// except inject().
 class SensorFrameSource {
  public:
-  static constexpr int kMaxFrames = can::SensorLayout::kMaxMessages + 4;
+  static constexpr int kMaxFrames = drivers::can::SensorLayout::kMaxMessages + 4;
 
-  SensorFrameSource(const SimSensorConfig& config, const can::SensorLayout& layout,
+  SensorFrameSource(const SimSensorConfig& config, const drivers::can::SensorLayout& layout,
                     model::RobotKinematics robot);
 
   /// The physical reading (noise included) for controller time t_robot and physics time t_phys.
@@ -129,7 +129,7 @@ class SensorFrameSource {
 
  private:
   sim::CellSim cell_;
-  can::SensorLayout layout_;
+  drivers::can::SensorLayout layout_;
   std::mt19937_64 rng_;
   bool add_noise_ = false;
   std::uint32_t counter_ = 0;

@@ -1,5 +1,5 @@
 #pragma once
-// Codec between the domain records (ftid/transport/records.hpp) and the generated LCM types
+// Codec between the domain records (ftid/common/records.hpp) and the generated LCM types
 // (lcmtypes/*.lcm, package ftid_lcm). The to*/from* conversions and encodeInto() are
 // real-time safe: no allocation, no exceptions (every message they touch has fixed-size
 // fields only). Call warmUpCodec() once outside the loop: lcm-gen's getHash() initialises a
@@ -10,7 +10,9 @@
 // lcm-gen's decode() trips GCC's -Wmaybe-uninitialized (a false positive on msg_hash) where it
 // is inlined; the warning is attributed to the generated headers, so silence it for them only.
 #pragma GCC diagnostic push
+#if defined(__GNUC__) && !defined(__clang__)  // GCC only (clang, e.g. clang-tidy, lacks the group)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
 #include <ftid_lcm/ack_t.hpp>
 #include <ftid_lcm/command_t.hpp>
 #include <ftid_lcm/compensated_wrench_t.hpp>
@@ -21,7 +23,7 @@
 #include <ftid_lcm/sensor_sample_t.hpp>
 #pragma GCC diagnostic pop
 
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::transport {
 

@@ -13,7 +13,7 @@
 #include <memory>
 #include <string>
 
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 #include "ftid/transport/source_filter.hpp"
 
 namespace lcm {

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "ftid/logio/log.hpp"
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::transport {
 

@@ -11,7 +11,7 @@
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/common/error.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 namespace {
 
@@ -202,4 +202,4 @@ bool CandumpReplayTransport::waitReadable(std::chrono::milliseconds) {
   return next_ < frames_.size() && (!paced_ || frames_[next_].rx_time_ns <= clock_ns_);
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 SignalCodec SignalCodec::fromDbc(const DbcSignal& signal) noexcept {
   SignalCodec c;
@@ -141,4 +141,4 @@ bool inRange(const SignalCodec& codec, double physical) noexcept {
   return physical >= codec.minimum - tol && physical <= codec.maximum + tol;
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

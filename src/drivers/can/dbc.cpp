@@ -15,7 +15,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/codec.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 const DbcSignal* DbcMessage::findSignal(const std::string& signal_name) const {
   for (const auto& s : signals) {
@@ -434,4 +434,4 @@ DbcDatabase loadDbc(const std::string& path) {
   }
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -6,7 +6,7 @@
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 Status statusOf(const SensorSample& s) noexcept {
   if (s.valid) return Status::kOk;
@@ -82,4 +82,4 @@ std::unique_ptr<CanFtImuSensor> openCanSensor(const CanSensorConfig& config) {
       openTransport(config.endpoint, config.receive_buffer_bytes, &layout), layout, config.health);
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

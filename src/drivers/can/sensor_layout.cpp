@@ -6,7 +6,7 @@
 
 #include "ftid/common/error.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 namespace {
 
@@ -336,4 +336,4 @@ int encodeSample(const SensorLayout& layout, const SensorValues& values, std::ui
   return n;
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -13,7 +13,7 @@
 #include "ftid/common/error.hpp"
 #include "socket_io.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 namespace {
 
@@ -243,4 +243,4 @@ SeqpacketPair makeSeqpacketPair() {
   return p;
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -8,9 +8,10 @@
 #include <cstring>
 #include <ctime>
 
+#include "ftid/common/clock.hpp"
 #include "ftid/common/error.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 int CanTransport::tryReceiveBatch(ReceivedFrame* out, int max_frames, IoResult& status) noexcept {
   int n = 0;
@@ -26,11 +27,7 @@ int CanTransport::tryReceiveBatch(ReceivedFrame* out, int max_frames, IoResult& 
   return n;
 }
 
-std::int64_t realtimeNowNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
+std::int64_t realtimeNowNs() noexcept { return realtimeNs(); }
 
 namespace detail {
 
@@ -159,4 +156,4 @@ std::string errnoText(int err) {
 }
 
 }  // namespace detail
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -5,7 +5,7 @@
 
 #include "ftid/drivers/can/transport.hpp"
 
-namespace ftid::can::detail {
+namespace ftid::drivers::can::detail {
 
 /// recvmsg() one 16-byte can_frame (MSG_DONTWAIT) and its SCM_TIMESTAMPNS/SCM_TIMESTAMP cmsg.
 IoResult receiveFrame(int fd, ReceivedFrame& out, int& err) noexcept;
@@ -20,4 +20,4 @@ bool pollReadable(int fd, std::chrono::milliseconds timeout);
 void enableTimestamps(int fd, const std::string& what);
 std::string errnoText(int err);
 
-}  // namespace ftid::can::detail
+}  // namespace ftid::drivers::can::detail

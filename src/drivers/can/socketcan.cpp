@@ -11,7 +11,7 @@
 #include "ftid/common/error.hpp"
 #include "socket_io.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 bool socketCanAvailable(std::string* why) {
   const int s = socket(PF_CAN, SOCK_RAW | SOCK_CLOEXEC, CAN_RAW);
@@ -99,4 +99,4 @@ bool SocketCanTransport::waitReadable(std::chrono::milliseconds timeout) {
   return detail::pollReadable(fd_, timeout);
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -11,13 +11,13 @@
 #include "../identify/paper_cell.hpp"
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace {
 
-using ftid::transport::CycleRecord;
+using ftid::CycleRecord;
 
 std::vector<CycleRecord> genuineStream(std::uint64_t seed) {
   ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, seed);
@@ -47,7 +47,7 @@ std::vector<CycleRecord> genuineStream(std::uint64_t seed) {
 double fittedF0z(const std::vector<CycleRecord>& records) {
   const ftid::logio::LogData log = ftid::cell::recordsToLog(records, -1e300, 1e300, "mem");
   const auto kin = ftid::test::ur10();
-  const ftid::identify::ContextSet ctx = ftid::identify::buildContexts(log, kin);
+  const ftid::samples::ContextSet ctx = ftid::samples::buildContexts(log, kin);
   const auto fit = ftid::identify::fitModel(ftid::effects::Model::fromName("paper"), ctx.samples);
   for (const auto& p : ftid::identify::toParameterSet(fit).params) {
     if (p.name == "f0_z") return p.value;

@@ -15,12 +15,12 @@
 
 #include "ftid/cell/exports.hpp"
 #include "ftid/config/daemon_config.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace {
 
-ftid::identify::ParameterSet makeSet() {
-  ftid::identify::ParameterSet set;
+ftid::params::ParameterSet makeSet() {
+  ftid::params::ParameterSet set;
   set.model = "paper";
   set.params = {{"mass", 0.9, 0.001, "kg"},   {"f0_x", -0.5, 0.01, "N"},   {"f0_y", 0.25, 0.01, "N"},
                 {"f0_z", 1.5, 0.01, "N"},     {"t0_x", 0.03, 0.001, "Nm"}, {"t0_y", -0.04, 0.001, "Nm"},
@@ -32,7 +32,7 @@ ftid::identify::ParameterSet makeSet() {
   return set;
 }
 
-void addInertia(ftid::identify::ParameterSet& set, double ixx, double iyy, double izz, double ixy, double ixz,
+void addInertia(ftid::params::ParameterSet& set, double ixx, double iyy, double izz, double ixy, double ixz,
                 double iyz) {
   set.derived.push_back({"i_c_xx", ixx, 0, ""});
   set.derived.push_back({"i_c_yy", iyy, 0, ""});
@@ -105,7 +105,7 @@ TEST(PayloadExport, InertiaAboutTheSensorOriginIsMovedToTheCentreOfMass) {
 }
 
 TEST(PayloadExport, MissingMassIsAClearError) {
-  ftid::identify::ParameterSet set;
+  ftid::params::ParameterSet set;
   set.model = "offsets";
   try {
     ftid::cell::makePayloadExport(set, ftid::Mat3::Identity(), ftid::Vec3::Zero());

@@ -5,8 +5,8 @@
 
 namespace {
 
-ftid::transport::CycleRecord record(double t, bool robot_ok, bool sensor_ok, std::uint32_t health = 0) {
-  ftid::transport::CycleRecord r;
+ftid::CycleRecord record(double t, bool robot_ok, bool sensor_ok, std::uint32_t health = 0) {
+  ftid::CycleRecord r;
   r.robot.robot_time = t;
   r.robot.valid = robot_ok;
   r.robot.q.setConstant(t);
@@ -23,12 +23,12 @@ ftid::transport::CycleRecord record(double t, bool robot_ok, bool sensor_ok, std
 }
 
 TEST(RecordsToLog, KeepsOnlyValidSamplesInsideTheWindow) {
-  std::vector<ftid::transport::CycleRecord> recs;
+  std::vector<ftid::CycleRecord> recs;
   recs.push_back(record(0.000, true, true));
   recs.push_back(record(0.008, true, true));
   recs.push_back(record(0.016, false, true));  // robot invalid
   recs.push_back(record(0.024, true, false));  // sensor invalid
-  recs.push_back(record(0.032, true, true, ftid::transport::kHealthStale));  // stale
+  recs.push_back(record(0.032, true, true, ftid::kHealthStale));  // stale
   recs.push_back(record(0.032, true, true));   // repeated time
   recs.push_back(record(0.040, true, true));
   recs.push_back(record(0.048, true, true));   // outside the window below
@@ -51,7 +51,7 @@ TEST(RecordsToLog, KeepsOnlyValidSamplesInsideTheWindow) {
 }
 
 TEST(RecordsToLog, NonMonotonicRobotTimeIsDropped) {
-  std::vector<ftid::transport::CycleRecord> recs{record(0.016, true, true), record(0.008, true, true),
+  std::vector<ftid::CycleRecord> recs{record(0.016, true, true), record(0.008, true, true),
                                                  record(0.024, true, true)};
   ftid::cell::RecordsToLogReport rep;
   const auto log = ftid::cell::recordsToLog(recs, -1e9, 1e9, "mem", &rep);

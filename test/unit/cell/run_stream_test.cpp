@@ -16,7 +16,7 @@
 
 namespace {
 
-using ftid::transport::CycleRecord;
+using ftid::CycleRecord;
 
 CycleRecord rec(int k) {
   CycleRecord r;
@@ -47,7 +47,7 @@ TEST(RunStream, WritesAValidLogAndSkipsUnusableRecords) {
     for (int k = 0; k < 50; ++k) {
       CycleRecord r = rec(k);
       if (k == 10) r.sensor.valid = false;
-      if (k == 11) r.sensor.health_flags = ftid::transport::kHealthStale;
+      if (k == 11) r.sensor.health_flags = ftid::kHealthStale;
       if (k == 12) r.robot.q[2] = NAN;
       w.append(r);
       if (k == 20) w.append(r);  // duplicate time: skipped

@@ -18,7 +18,7 @@
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/fit.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/identify/fit_parameters.hpp"
 
 namespace ftid::compensate {
 namespace {
@@ -86,12 +86,12 @@ TEST_P(CompensationByEffect, IdentifiedModelCompensatesToTheNoiseFloorDuringMoti
   // Identify on run A, through a parameter file as ftidd would load it.
   const sim::CellSimConfig cfg_a = baseConfig(101, c.rate_hz);
   const logio::LogData log_a = simulate(c, cfg_a);
-  const identify::ContextSet ctx_a = identify::buildContexts(log_a, *cfg_a.robot);
+  const samples::ContextSet ctx_a = samples::buildContexts(log_a, *cfg_a.robot);
   const identify::FitResult fit = identify::fitModel(model, ctx_a.samples);
   SCOPED_TRACE(::testing::Message() << "fit residual RMS " << fit.residual_rms.transpose());
   const std::string path = scratchPath(c.name);
-  identify::writeParameterFile(path, identify::toParameterSet(fit));
-  const identify::ParameterSet set = identify::readParameterFile(path);
+  params::writeParameterFile(path, identify::toParameterSet(fit));
+  const params::ParameterSet set = params::readParameterFile(path);
   std::remove(path.c_str());
   std::remove((path + ".bak").c_str());
   const effects::Model loaded = effects::Model::fromName(set.model);
@@ -99,7 +99,7 @@ TEST_P(CompensationByEffect, IdentifiedModelCompensatesToTheNoiseFloorDuringMoti
 
   // Run A.
   {
-    Compensator comp(loaded, identify::thetaFor(loaded, set), identify::nonlinearFor(loaded, set));
+    Compensator comp(loaded, params::thetaFor(loaded, set), params::nonlinearFor(loaded, set));
     Vec6 sse = Vec6::Zero();
     Vec6 raw = Vec6::Zero();
     int n = 0;
@@ -124,10 +124,10 @@ TEST_P(CompensationByEffect, IdentifiedModelCompensatesToTheNoiseFloorDuringMoti
   sim::CellSimConfig cfg_b = baseConfig(202, c.rate_hz);
   makeDifferentRun(cfg_b);
   const logio::LogData log_b = simulate(c, cfg_b);
-  const identify::ContextSet ctx_b = identify::buildContexts(log_b, *cfg_b.robot);
+  const samples::ContextSet ctx_b = samples::buildContexts(log_b, *cfg_b.robot);
   const int cfx = log_b.extraIndex("contact_fx");
   ASSERT_GE(cfx, 0);
-  Compensator comp(loaded, identify::thetaFor(loaded, set), identify::nonlinearFor(loaded, set));
+  Compensator comp(loaded, params::thetaFor(loaded, set), params::nonlinearFor(loaded, set));
   Vec6 sse = Vec6::Zero();
   int n = 0;
   int n_free = 0;

@@ -22,7 +22,7 @@ Eigen::VectorXd truthTheta(const effects::Model& model) {
 }
 
 TEST(Compensator, TrueParametersLeaveZeroOnNoiseFreeData) {
-  const identify::ContextSet s = test::contextsOf(test::paperConfig(false, 5));
+  const samples::ContextSet s = test::contextsOf(test::paperConfig(false, 5));
   const auto model = effects::Model::fromName("paper");
   Compensator comp(model, truthTheta(model), Table2::u(), Table2::v());
   double worst = 0.0, raw = 0.0;
@@ -38,15 +38,15 @@ TEST(Compensator, TrueParametersLeaveZeroOnNoiseFreeData) {
 
 TEST(Compensator, IdentifiedParametersRecoverASimulatedContactPush) {
   sim::CellSimConfig cfg = test::paperConfig(false, 6);
-  const identify::ContextSet clean = test::contextsOf(cfg);
+  const samples::ContextSet clean = test::contextsOf(cfg);
   const identify::PaperResult id = identify::identifyPaper(clean.samples);
-  const identify::ParameterSet set = id.toParameterSet();
+  const params::ParameterSet set = id.toParameterSet();
   const auto model = effects::Model::fromName(set.model);
-  Compensator comp(model, identify::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
+  Compensator comp(model, params::thetaFor(model, set), set.tilt_u_rad, set.tilt_v_rad);
 
   cfg.contact.enabled = true;
   const logio::LogData log = sim::CellSim(cfg).run();
-  const identify::ContextSet pushed = identify::buildContexts(log, *cfg.robot);
+  const samples::ContextSet pushed = samples::buildContexts(log, *cfg.robot);
   const int cfx = log.extraIndex("contact_fx");
   ASSERT_GE(cfx, 0);
   double worst = 0.0, peak = 0.0;

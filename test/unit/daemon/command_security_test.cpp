@@ -31,7 +31,7 @@ TEST(ReloadSafety, FifoAndPipeAreRefusedWithoutBlocking) {
   const std::string proc_pipe = "/proc/self/fd/" + std::to_string(pipe_fds[0]);
 
   // The production factory, as ftidd uses it: reading a FIFO with no writer would block forever.
-  OwnedSwapSlot<Compensation> slot;
+  rt::OwnedSwapSlot<Compensation> slot;
   ParameterReloader reloader(&slot, parameterFileFactory());
   for (const std::string& path : {fifo, proc_pipe, ::testing::TempDir()}) {
     const auto t0 = std::chrono::steady_clock::now();

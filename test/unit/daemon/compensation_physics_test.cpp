@@ -17,7 +17,7 @@
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
 namespace ftid::daemon {
@@ -51,7 +51,7 @@ std::string writeParams(const Payload& p, const std::string& path) {
       {"mass_com_z", p.m * p.c.z()}, {"f0_x", p.F0.x()},     {"f0_y", p.F0.y()},
       {"f0_z", p.F0.z()},     {"t0_x", p.T0.x()},            {"t0_y", p.T0.y()},
       {"t0_z", p.T0.z()}};
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = model.name();
   for (const auto& name : model.paramIndex().names()) {
     const auto it = v.find(name);
@@ -61,7 +61,7 @@ std::string writeParams(const Payload& p, const std::string& path) {
   set.tilt_estimated = true;
   set.tilt_u_rad = p.tilt_u;
   set.tilt_v_rad = p.tilt_v;
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
   return path;
 }
 
@@ -73,7 +73,7 @@ TEST(DaemonCompensation, ContactWrenchMatchesAnIndependentStaticModel) {
 
   model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
   KinematicsMotionModel motion(kin);
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   test::FakeArm arm;
   test::FakeSensor sensor;
   test::RecordingSink sink;
@@ -158,7 +158,7 @@ TEST_P(DaemonMovingCompensation, ContactIsTheSimulatorsPushWhileTheArmMoves) {
       {"i_s_zz", I_S(2, 2)},     {"i_s_xy", I_S(0, 1)},             {"i_s_xz", I_S(0, 2)},
       {"i_s_yz", I_S(1, 2)},     {"delay", mc.delay_s}};
   const effects::Model model = effects::Model::fromName(mc.model);
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = model.name();
   for (const auto& name : model.paramIndex().names()) set.params.push_back({name, v.at(name), 0.0, ""});
   if (model.estimatesDelay()) set.params.push_back({"delay", mc.delay_s, 0.0, "s"});
@@ -166,10 +166,10 @@ TEST_P(DaemonMovingCompensation, ContactIsTheSimulatorsPushWhileTheArmMoves) {
   set.tilt_v_rad = cfg.tilt_v_rad;
   const std::string path = ::testing::TempDir() + "ftid_daemon_moving_" + mc.name + "_" +
                            std::to_string(::getpid()) + ".yaml";
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
 
   KinematicsMotionModel motion(kin);
-  OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   std::remove(path.c_str());
   test::FakeArm arm;
   test::FakeSensor sensor;

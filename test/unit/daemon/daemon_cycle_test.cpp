@@ -31,7 +31,7 @@ struct Rig {
   FakeArm arm;
   FakeSensor sensor;
   FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot;
+  rt::OwnedSwapSlot<Compensation> slot;
   RecordingSink sink;
   std::unique_ptr<DaemonCycle> cycle;
   explicit Rig(std::unique_ptr<Compensation> initial = nullptr) : slot(std::move(initial)) {
@@ -47,7 +47,7 @@ struct Rig {
     ASSERT_EQ(cycle->waitForTick(std::chrono::milliseconds(12)), Status::kOk);
     cycle->onTick();
   }
-  const transport::CycleRecord& last() const {
+  const CycleRecord& last() const {
     return sink.records[static_cast<std::size_t>(sink.count - 1)];
   }
 };
@@ -93,7 +93,7 @@ TEST(DaemonCycle, StaleSensorIsFlaggedAndNeverCompensated) {
   const auto& r = rig.last();
   EXPECT_FALSE(r.wrench_valid);
   EXPECT_FALSE(r.sensor.valid);
-  EXPECT_NE(r.sensor.health_flags & transport::kHealthStale, 0u);
+  EXPECT_NE(r.sensor.health_flags & kHealthStale, 0u);
   EXPECT_NE(r.fault_bits & kFaultSensorStale, 0u);
   EXPECT_EQ(r.contact_S, Wrench::Zero());
   EXPECT_EQ(rig.cycle->counters().stale_sensor.load(), 2u);
@@ -114,12 +114,12 @@ TEST(DaemonCycle, StaleSensorIsFlaggedAndNeverCompensated) {
 TEST(DaemonCycle, SensorInvalidatedByTheDriverIsNotCompensated) {
   Rig rig(std::make_unique<OffsetCompensation>(Wrench::Zero()));
   rig.sensor.sample.valid = false;
-  rig.sensor.sample.health_flags = transport::kHealthOutOfRange;
+  rig.sensor.sample.health_flags = kHealthOutOfRange;
   rig.tick();
   EXPECT_FALSE(rig.last().wrench_valid);
   EXPECT_NE(rig.last().fault_bits & kFaultSensorInvalid, 0u);
   EXPECT_EQ(rig.last().fault_bits & kFaultSensorStale, 0u);
-  EXPECT_EQ(rig.last().sensor.health_flags, static_cast<std::uint32_t>(transport::kHealthOutOfRange));
+  EXPECT_EQ(rig.last().sensor.health_flags, static_cast<std::uint32_t>(kHealthOutOfRange));
 }
 
 TEST(DaemonCycle, NonFiniteInputsAreFlaggedNotPropagated) {
@@ -128,7 +128,7 @@ TEST(DaemonCycle, NonFiniteInputsAreFlaggedNotPropagated) {
   rig.sensor.sample.wrench_S(4) = nan;
   rig.tick();
   EXPECT_FALSE(rig.last().wrench_valid);
-  EXPECT_NE(rig.last().sensor.health_flags & transport::kHealthNonFinite, 0u);
+  EXPECT_NE(rig.last().sensor.health_flags & kHealthNonFinite, 0u);
   EXPECT_TRUE(rig.last().contact_S.allFinite());
 
   rig.sensor.sample.wrench_S(4) = 0.2;

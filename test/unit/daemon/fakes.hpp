@@ -15,13 +15,13 @@ inline std::int64_t fakeNowUs() noexcept { return g_fake_now_us; }
 class FakeArm : public ArmStateSource {
  public:
   Status next_status = Status::kOk;
-  transport::RobotStateRecord state;
+  RobotStateRecord state;
   int calls = 0;
   FakeArm() {
     state.valid = true;
     state.robot_time = 100.0;
   }
-  Status waitForState(std::chrono::nanoseconds, transport::RobotStateRecord* out) noexcept override {
+  Status waitForState(std::chrono::nanoseconds, RobotStateRecord* out) noexcept override {
     ++calls;
     if (next_status != Status::kOk) return next_status;
     state.robot_time += 0.008;
@@ -34,11 +34,11 @@ class FakeArm : public ArmStateSource {
 /// One settable sample, re-sent every cycle (history and newest alike).
 class FakeSensor : public SensorSource {
  public:
-  transport::SensorSampleRecord sample;
+  SensorSampleRecord sample;
   bool follow_clock = true;  ///< stamp each read with the current time (a fresh sample)
   FakeSensor() { sample.valid = true; }
   void drain(std::int64_t now_utime, SensorHistory* history,
-             transport::SensorSampleRecord* latest) noexcept override {
+             SensorSampleRecord* latest) noexcept override {
     if (follow_clock) sample.recv_utime = now_utime - 300;
     history->push(sample);
     *latest = sample;
@@ -77,10 +77,10 @@ class OffsetCompensation : public Compensation {
 class RecordingSink : public CycleSink {
  public:
   static constexpr int kCapacity = 4096;
-  std::array<transport::CycleRecord, kCapacity> records{};
+  std::array<CycleRecord, kCapacity> records{};
   int count = 0;
   bool accept = true;
-  bool tryPush(const transport::CycleRecord& r) noexcept override {
+  bool tryPush(const CycleRecord& r) noexcept override {
     if (!accept || count >= kCapacity) return false;
     records[static_cast<std::size_t>(count++)] = r;
     return true;

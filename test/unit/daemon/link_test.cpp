@@ -94,7 +94,7 @@ class ScriptedArm : public ArmStateSource {
   enum class Then { kFault, kSilence, kStream };
   ScriptedArm(int states, Then then, double* robot_time) : left_(states), then_(then), t_(robot_time) {}
   Status waitForState(std::chrono::nanoseconds timeout,
-                      transport::RobotStateRecord* out) noexcept override {
+                      RobotStateRecord* out) noexcept override {
     if (left_ == 0 && then_ == Then::kFault) return Status::kFault;
     if (left_ == 0 && then_ == Then::kSilence) {
       std::this_thread::sleep_for(timeout);
@@ -126,7 +126,7 @@ struct Rig {
   double robot_time = 50.0;
   FakeSensor sensor;
   FixedMotion motion;
-  OwnedSwapSlot<Compensation> params{std::make_unique<OffsetCompensation>(Wrench::Zero())};
+  rt::OwnedSwapSlot<Compensation> params{std::make_unique<OffsetCompensation>(Wrench::Zero())};
   RecordingSink sink;
   DaemonCycle cycle{nullptr, &sensor, &motion, &params, &sink, CycleOptions{}};
   rt::LoopStats stats;
@@ -303,24 +303,24 @@ TEST(Watchdog, FedOnlyWhileEveryThreadProgressesAndTheSilenceLimitAllows) {
 // --------------------------------------------------------------------------- CanSensorSource
 struct SensorBench {
   std::string path = ::testing::TempDir() + "ftid_link_sensor_" + std::to_string(::getpid()) + ".sock";
-  can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
-  std::unique_ptr<can::SeqpacketCanServer> server = std::make_unique<can::SeqpacketCanServer>(path);
+  drivers::can::SensorLayout layout =
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  std::unique_ptr<drivers::can::SeqpacketCanServer> server = std::make_unique<drivers::can::SeqpacketCanServer>(path);
   CanSensorSource source{
-      std::make_unique<can::CanFtImuSensor>(std::make_unique<can::SeqpacketCanClient>(path), layout),
-      can::SensorHealthOptions{}};
+      std::make_unique<drivers::can::CanFtImuSensor>(std::make_unique<drivers::can::SeqpacketCanClient>(path), layout),
+      drivers::can::SensorHealthOptions{}};
   SensorHistory history;
-  transport::SensorSampleRecord latest;
+  SensorSampleRecord latest;
 
   void send(std::uint32_t counter, double fz) {
-    std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
-    can::SensorValues v;
+    std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> frames{};
+    drivers::can::SensorValues v;
     v.wrench_S[2] = fz;
-    const int n = can::encodeSample(layout, v, counter, frames);
+    const int n = drivers::can::encodeSample(layout, v, counter, frames);
     for (int i = 0; i < n; ++i) server->trySend(frames[static_cast<std::size_t>(i)]);
     std::this_thread::sleep_for(1ms);
   }
-  void drain() { source.drain(can::realtimeNowNs() / 1000, &history, &latest); }
+  void drain() { source.drain(drivers::can::realtimeNowNs() / 1000, &history, &latest); }
 };
 
 TEST(CanSensorSourceLink, AReopenedTransportIsTakenByTheNextDrainAndSamplesResume) {
@@ -334,11 +334,11 @@ TEST(CanSensorSourceLink, AReopenedTransportIsTakenByTheNextDrainAndSamplesResum
   b.server.reset();  // the sensor bridge / simulator goes away
   b.drain();
   EXPECT_FALSE(b.latest.valid);
-  EXPECT_NE(b.latest.health_flags & transport::kHealthTransportDown, 0u);
+  EXPECT_NE(b.latest.health_flags & kHealthTransportDown, 0u);
   EXPECT_TRUE(b.source.transportDown());
 
-  b.server = std::make_unique<can::SeqpacketCanServer>(b.path);  // back
-  b.source.offerTransport(can::openCanTransport("seqpacket:" + b.path));
+  b.server = std::make_unique<drivers::can::SeqpacketCanServer>(b.path);  // back
+  b.source.offerTransport(drivers::can::openCanTransport("seqpacket:" + b.path));
   EXPECT_FALSE(b.source.transportDown());  // a replacement is waiting
   b.drain();                               // takes it (nothing sent yet)
   EXPECT_EQ(b.source.reconnects(), 1u);
@@ -347,7 +347,7 @@ TEST(CanSensorSourceLink, AReopenedTransportIsTakenByTheNextDrainAndSamplesResum
   b.drain();
   EXPECT_TRUE(b.latest.valid);
   EXPECT_NEAR(b.latest.wrench_S(2), -23.0, 0.01);
-  EXPECT_EQ(b.latest.health_flags & transport::kHealthTransportDown, 0u);
+  EXPECT_EQ(b.latest.health_flags & kHealthTransportDown, 0u);
   EXPECT_FALSE(b.source.transportDown());
   b.source.collectRetired();
 }

@@ -39,7 +39,7 @@ Wrench trueOffsets() {
 }
 
 void writeParams(const std::string& path, double mass) {
-  identify::ParameterSet set;
+  params::ParameterSet set;
   set.model = "paper";
   const Wrench f0 = fileOffsets();
   for (int i = 0; i < 6; ++i) set.params.push_back({kOffsetNames[i], f0(i), 0.1, ""});
@@ -47,7 +47,7 @@ void writeParams(const std::string& path, double mass) {
   set.params.push_back({"mass_com_x", mass * kCom.x(), 0.0, "kg*m"});
   set.params.push_back({"mass_com_y", mass * kCom.y(), 0.0, "kg*m"});
   set.params.push_back({"mass_com_z", mass * kCom.z(), 0.0, "kg*m"});
-  identify::writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
 }
 
 struct Files {
@@ -65,7 +65,7 @@ struct TareRig {
   test::FakeArm arm;
   test::FakeSensor sensor;
   test::FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot;
+  rt::OwnedSwapSlot<Compensation> slot;
   test::RecordingSink sink;
   rt::Mailbox<TareRequest> requests;
   rt::Mailbox<TareResult> results;
@@ -91,7 +91,7 @@ struct TareRig {
     ASSERT_EQ(cycle->waitForTick(std::chrono::milliseconds(12)), Status::kOk);
     cycle->onTick();
   }
-  const transport::CycleRecord& last() const { return cycle->lastRecord(); }
+  const CycleRecord& last() const { return cycle->lastRecord(); }
 };
 
 TEST(Tare, RemovesAConstantContactBiasAndPersistsUntilReload) {

@@ -21,7 +21,6 @@
 namespace ftid::daemon {
 namespace {
 
-using transport::SensorSampleRecord;
 
 constexpr std::int64_t kT0 = 1'700'000'000'000'000;  // host time origin of the scenarios [us]
 
@@ -111,7 +110,7 @@ TEST(SensorHistory, BracketFlagsAndValidityCombine) {
   SensorHistory h;
   SensorSampleRecord bad = sampleAt(kT0 + 1000, 400.0);
   bad.valid = false;
-  bad.health_flags = transport::kHealthOutOfRange;
+  bad.health_flags = kHealthOutOfRange;
   h.push(sampleAt(kT0, 1.0));
   h.push(bad);
   h.push(sampleAt(kT0 + 2000, 1.0));
@@ -120,7 +119,7 @@ TEST(SensorHistory, BracketFlagsAndValidityCombine) {
   for (std::int64_t t : {kT0 + 500, kT0 + 1000, kT0 + 1500}) {
     ASSERT_EQ(h.sampleAt(t, &out, &reach), SensorPairing::kInterpolated);
     EXPECT_FALSE(out.valid) << t - kT0;
-    EXPECT_EQ(out.health_flags, static_cast<std::uint32_t>(transport::kHealthOutOfRange));
+    EXPECT_EQ(out.health_flags, static_cast<std::uint32_t>(kHealthOutOfRange));
   }
   ASSERT_EQ(h.sampleAt(kT0, &out, &reach), SensorPairing::kInterpolated);  // exactly a sample
   EXPECT_TRUE(out.valid);
@@ -202,7 +201,7 @@ class ClockedSensor : public SensorSource {
   }
   Wrench value(std::int64_t t_us) const { return fn_(static_cast<double>(t_us - kT0) * 1e-6); }
   void drain(std::int64_t now_utime, SensorHistory* history,
-             transport::SensorSampleRecord* latest) noexcept override {
+             SensorSampleRecord* latest) noexcept override {
     deliverUntil(now_utime, history);
     *latest = newest_;
   }
@@ -228,7 +227,7 @@ class ClockedSensor : public SensorSource {
       s.valid = true;
       if (next_k_ == invalid_k) {
         s.valid = false;
-        s.health_flags = transport::kHealthOutOfRange;
+        s.health_flags = kHealthOutOfRange;
       }
       if (next_k_ == nan_k) s.wrench_S(2) = std::numeric_limits<double>::quiet_NaN();
       history->push(s);
@@ -246,8 +245,8 @@ class ClockedSensor : public SensorSource {
 /// Hands out the robot state the test put into `next`.
 class ScriptedArm : public ArmStateSource {
  public:
-  transport::RobotStateRecord next;
-  Status waitForState(std::chrono::nanoseconds, transport::RobotStateRecord* out) noexcept override {
+  RobotStateRecord next;
+  Status waitForState(std::chrono::nanoseconds, RobotStateRecord* out) noexcept override {
     *out = next;
     return Status::kOk;
   }
@@ -270,7 +269,7 @@ Wrench smoothWrench(double t) {
 struct CycleResult {
   std::int64_t robot_host_us = 0;  ///< the robot state's instant on the host clock (truth)
   std::int64_t now_us = 0;         ///< the cycle's start (after any wait for the sensor)
-  transport::CycleRecord rec;
+  CycleRecord rec;
   SensorSampleRecord newest;  ///< the newest sample: what the previous behaviour paired
   SensorPairing pairing = SensorPairing::kNone;
 };
@@ -289,7 +288,7 @@ RunResult runCycles(ClockedSensor* sensor, int cycles, std::int64_t robot_first_
               int spike_cycle = -1, std::int64_t spike_us = 0) {
   ScriptedArm arm;
   test::FixedMotion motion;
-  OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
   CycleOptions opt;
   opt.stale_timeout_us = 20'000;
   opt.max_sensor_wait_us = max_wait_us;
@@ -437,7 +436,7 @@ TEST(DaemonCyclePairing, StalenessIsFlaggedExactlyWhenTheNewestSampleIsTooOld) {
   for (const CycleResult& r : run.cycles) {
     const bool too_old = r.now_us - last_t > 20'000;  // the rule for the newest sample
     EXPECT_EQ((r.rec.fault_bits & kFaultSensorStale) != 0, too_old) << r.now_us - last_t;
-    EXPECT_EQ((r.rec.sensor.health_flags & transport::kHealthStale) != 0, too_old);
+    EXPECT_EQ((r.rec.sensor.health_flags & kHealthStale) != 0, too_old);
     EXPECT_EQ(r.rec.wrench_valid, !too_old);
     if (too_old) {
       EXPECT_EQ(r.rec.contact_S, Wrench::Zero());
@@ -468,10 +467,10 @@ TEST(DaemonCyclePairing, AnInvalidOrNonFiniteBracketingSampleIsNeverCompensated)
       EXPECT_FALSE(r.rec.wrench_valid);
       EXPECT_NE(r.rec.fault_bits & kFaultSensorInvalid, 0u);
       EXPECT_EQ(r.rec.fault_bits & kFaultSensorStale, 0u);
-      EXPECT_NE(r.rec.sensor.health_flags & transport::kHealthOutOfRange, 0u);
+      EXPECT_NE(r.rec.sensor.health_flags & kHealthOutOfRange, 0u);
     } else if (n == 20) {
       EXPECT_FALSE(r.rec.wrench_valid);
-      EXPECT_NE(r.rec.sensor.health_flags & transport::kHealthNonFinite, 0u);
+      EXPECT_NE(r.rec.sensor.health_flags & kHealthNonFinite, 0u);
       EXPECT_TRUE(r.rec.contact_S.allFinite());
     } else {
       EXPECT_TRUE(r.rec.wrench_valid) << n;

@@ -15,7 +15,7 @@
 #include "ftid/design/parametrization.hpp"
 #include "ftid/design/trajectory_check.hpp"
 #include "ftid/effects/model.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
@@ -131,10 +131,10 @@ TEST(ExcitationMetric, ConditionNumberEqualsSvdOfTheColumnScaledStack) {
   for (int tilt = 0; tilt < 5; ++tilt) {
     const double du = tilt == 1 ? h : tilt == 2 ? -h : 0.0;
     const double dv = tilt == 3 ? h : tilt == 4 ? -h : 0.0;
-    identify::ContextOptions co;
+    samples::ContextOptions co;
     co.tilt_u_rad = du;
     co.tilt_v_rad = dv;
-    const auto ctx = identify::buildContexts(log, ur10(), co);
+    const auto ctx = samples::buildContexts(log, ur10(), co);
     for (int k = 0; k < K; ++k) {
       Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, model.numParams());
       model.computeRegressor(ctx.samples[static_cast<std::size_t>(k)], Y);
@@ -340,7 +340,7 @@ TEST(DesignSimulation, Designed5sIdentifiesNoWorseThanThePaperStyle10s) {
     cfg.seed = seed;
     cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
     const logio::LogData log = sim::CellSim(cfg).run();
-    const auto ctx = identify::buildContexts(log, ur10());
+    const auto ctx = samples::buildContexts(log, ur10());
     return identify::fitModel(effects::Model::fromName(model_name), ctx.samples);
   };
   const double m_true = sim::PaperPayload::kMass_kg;

@@ -1,4 +1,4 @@
-// buildContexts and ContextSet: the extra log columns and their names reach every sample (what the
+// samples::buildContexts and ContextSet: the extra log columns and their names reach every sample (what the
 // generic effects read), and copies and moves keep pointing at their own storage.
 #include <gtest/gtest.h>
 
@@ -23,12 +23,12 @@ logio::LogData logWithExtraColumns() {
 }
 
 /// Every sample reads its own row and the set's names.
-void expectPointsInto(const ContextSet& set, const char* what) {
+void expectPointsInto(const samples::ContextSet& set, const char* what) {
   const effects::SignalSource humidity = effects::SignalSource::parse("humidity");
   const effects::SignalSource cycle = effects::SignalSource::parse("cycle");
   ASSERT_EQ(set.extra_names.size(), 2u) << what;
   for (std::size_t i = 0; i < set.size(); ++i) {
-    const SampleContext& c = set.samples[i];
+    const effects::SampleContext& c = set.samples[i];
     ASSERT_EQ(c.extra_names, &set.extra_names) << what << ", sample " << i;
     ASSERT_EQ(c.extra, set.extra_rows.data() + 2 * i) << what << ", sample " << i;
     EXPECT_TRUE(humidity.available(c)) << what;
@@ -38,21 +38,21 @@ void expectPointsInto(const ContextSet& set, const char* what) {
 }
 
 TEST(ContextSet, ExtraColumnsAndNamesReachEverySample) {
-  const ContextSet set = buildContexts(logWithExtraColumns(), test::ur10());
+  const samples::ContextSet set = samples::buildContexts(logWithExtraColumns(), test::ur10());
   ASSERT_GT(set.size(), 100u);
   expectPointsInto(set, "built");
 }
 
 TEST(ContextSet, CopiesAndMovesPointAtTheirOwnStorage) {
-  const ContextSet original = buildContexts(logWithExtraColumns(), test::ur10());
-  ContextSet copy(original);
+  const samples::ContextSet original = samples::buildContexts(logWithExtraColumns(), test::ur10());
+  samples::ContextSet copy(original);
   expectPointsInto(copy, "copy-constructed");
-  ContextSet assigned;
+  samples::ContextSet assigned;
   assigned = original;
   expectPointsInto(assigned, "copy-assigned");
-  ContextSet moved(std::move(copy));
+  samples::ContextSet moved(std::move(copy));
   expectPointsInto(moved, "move-constructed");
-  ContextSet move_assigned;
+  samples::ContextSet move_assigned;
   move_assigned = std::move(assigned);
   expectPointsInto(move_assigned, "move-assigned");
   expectPointsInto(original, "original after copies");
@@ -61,7 +61,7 @@ TEST(ContextSet, CopiesAndMovesPointAtTheirOwnStorage) {
 TEST(ContextSet, NoExtraColumnsMeansNoPointers) {
   sim::CellSimConfig cfg = test::paperConfig(false, 42);
   cfg.duration_s = 0.5;
-  const ContextSet set = buildContexts(sim::CellSim(cfg).run(), test::ur10());
+  const samples::ContextSet set = samples::buildContexts(sim::CellSim(cfg).run(), test::ur10());
   ASSERT_TRUE(set.extra_names.empty());
   for (const auto& c : set.samples) {
     EXPECT_EQ(c.extra, nullptr);

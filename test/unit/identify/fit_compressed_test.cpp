@@ -24,8 +24,8 @@ namespace ftid::identify {
 namespace {
 
 /// Full rigid-body physics (so paper's model has a systematic error), filtered noise, 125 Hz.
-const ContextSet& data() {
-  static const ContextSet s = [] {
+const samples::ContextSet& data() {
+  static const samples::ContextSet s = [] {
     sim::CellSimConfig cfg = test::paperConfig(true, 41);
     cfg.full_rigid_body = true;
     cfg.noise.wrench_lowpass_hz = 20.0;
@@ -201,7 +201,7 @@ TEST(CompressedTilt, UndeterminedParametersGiveTheSameError) {
   // Rest poses cannot determine the inertia: both paths name the same parameters.
   sim::CellSimConfig cfg = test::paperConfig(true, 42);
   test::useRestPoses(cfg, 12, 5);
-  const ContextSet s = test::contextsOf(cfg);
+  const samples::ContextSet s = test::contextsOf(cfg);
   const Model model = Model::fromName("paper+rigid_body");
   std::string fast_msg, ref_msg;
   try {

@@ -9,7 +9,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/offline.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
 
@@ -18,8 +18,8 @@ namespace {
 
 using test::Table2;
 
-const ContextSet& clean() {
-  static const ContextSet s = test::contextsOf(test::paperConfig(false, 11));
+const samples::ContextSet& clean() {
+  static const samples::ContextSet s = test::contextsOf(test::paperConfig(false, 11));
   return s;
 }
 
@@ -96,7 +96,7 @@ TEST(FitModel, ModelWrenchHookRecoversAGain) {
   cfg.crosstalk.enabled = true;
   cfg.crosstalk.E = Mat6::Zero();
   cfg.crosstalk.E(0, 0) = 0.02;  // the simulator reads (I + E) load + offsets
-  const ContextSet s = test::contextsOf(cfg);
+  const samples::ContextSet s = test::contextsOf(cfg);
   const Model model = Model::fromName("paper+test_fx_gain");
   const FitResult fit = fitModel(model, s.samples);
   EXPECT_NEAR(fit.value("test_fx_gain"), 0.02, 1e-9);
@@ -123,7 +123,7 @@ TEST_P(ExactDelay, RecoversTheSimulatorsDelayAndReachesTheNoiseFloor) {
   cfg.sensor_delay.enabled = true;
   cfg.sensor_delay.tau_s = tau;
   cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.005, 0.005, 0.005;
-  const ContextSet s = test::contextsOf(cfg);
+  const samples::ContextSet s = test::contextsOf(cfg);
   const Model model = Model::fromName("paper+sensor_delay");
   const FitResult fit = fitModel(model, s.samples);
   ASSERT_TRUE(fit.delay_estimated);
@@ -176,7 +176,7 @@ TEST(FitModel, CrosstalkRecoversTheSimulatorsMatrix) {
   const Mat6 E_fit = (Mat6::Identity() + E) / (1.0 + n) - Mat6::Identity();
   const Wrench offsets_fit = (Mat6::Identity() + E_fit).inverse() * (Wrench() << Table2::f0(), Table2::t0()).finished();
 
-  const ContextSet s = test::contextsOf(cfg);
+  const samples::ContextSet s = test::contextsOf(cfg);
   const Model model = Model::fromName("paper+rigid_body+crosstalk");
   const FitResult fit = fitModel(model, s.samples);
   int checked = 0;
@@ -265,11 +265,11 @@ TEST(ParameterFile, RoundTripKeepsBackupAndNamesBadKeys) {
   const std::string path = tempPath("params.yaml");
   std::remove(path.c_str());
   std::remove((path + ".bak").c_str());
-  writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
   EXPECT_FALSE(std::ifstream(path + ".bak").good());
-  writeParameterFile(path, set);
+  params::writeParameterFile(path, set);
   EXPECT_TRUE(std::ifstream(path + ".bak").good());
-  const ParameterSet back = readParameterFile(path);
+  const ParameterSet back = params::readParameterFile(path);
   EXPECT_EQ(back.model, "paper");
   EXPECT_EQ(back.provenance.data_file, set.provenance.data_file);
   const Model model = Model::fromName(back.model);
@@ -281,21 +281,21 @@ TEST(ParameterFile, RoundTripKeepsBackupAndNamesBadKeys) {
   const std::string bad = tempPath("bad.yaml");
   std::ofstream(bad) << "model: paper\nparameters:\n  mass: {value: heavy}\n";
   try {
-    (void)readParameterFile(bad);
+    (void)params::readParameterFile(bad);
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("parameters.mass.value"), std::string::npos) << e.what();
   }
   std::ofstream(bad) << "model: paper\nparameters:\n  mass: {value: 1.0}\n";
-  const ParameterSet partial = readParameterFile(bad);
+  const ParameterSet partial = params::readParameterFile(bad);
   try {
     (void)thetaFor(model, partial, bad);
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("parameters.f0_x"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(readParameterFile(tempPath("does_not_exist.yaml")), ConfigError);
+  EXPECT_THROW(params::readParameterFile(tempPath("does_not_exist.yaml")), ConfigError);
 }
 
 TEST(Json, HasTheDocumentedKeys) {

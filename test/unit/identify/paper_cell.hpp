@@ -5,7 +5,7 @@
 #include <functional>
 #include <string>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
@@ -43,9 +43,9 @@ inline void useRestPoses(sim::CellSimConfig& cfg, int poses, int per_pose) {
   };
 }
 
-inline identify::ContextSet contextsOf(const sim::CellSimConfig& cfg) {
+inline samples::ContextSet contextsOf(const sim::CellSimConfig& cfg) {
   const logio::LogData log = sim::CellSim(cfg).run();
-  return identify::buildContexts(log, *cfg.robot);
+  return samples::buildContexts(log, *cfg.robot);
 }
 
 struct Table2 {

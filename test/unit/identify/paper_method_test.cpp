@@ -28,15 +28,15 @@ double paperStd(const PaperResult& r, const std::string& name) {
 
 class PaperCell : public ::testing::Test {
  protected:
-  static const ContextSet& dynamicClean() {
-    static const ContextSet s = test::contextsOf(test::paperConfig(false, 1));
+  static const samples::ContextSet& dynamicClean() {
+    static const samples::ContextSet s = test::contextsOf(test::paperConfig(false, 1));
     return s;
   }
-  static const ContextSet& dynamicNoisy() {
-    static const ContextSet s = test::contextsOf(test::paperConfig(true, 2024));
+  static const samples::ContextSet& dynamicNoisy() {
+    static const samples::ContextSet s = test::contextsOf(test::paperConfig(true, 2024));
     return s;
   }
-  static ContextSet rest(bool noisy) {
+  static samples::ContextSet rest(bool noisy) {
     sim::CellSimConfig cfg = test::paperConfig(noisy, 77);
     test::useRestPoses(cfg, 12, 40);
     return test::contextsOf(cfg);
@@ -118,7 +118,7 @@ TEST_F(PaperCell, StandardErrorsMatchTheSpreadOverSeeds) {
   std::vector<double> weights;
   double reported = 0.0;
   for (std::uint64_t seed = 100; seed < 112; ++seed) {
-    const ContextSet s = test::contextsOf(test::paperConfig(true, seed));
+    const samples::ContextSet s = test::contextsOf(test::paperConfig(true, seed));
     const PaperResult r = identifyPaper(s.samples);
     weights.push_back(r.weight_N);
     reported += paperStd(r, "weight") / 12.0;
@@ -157,7 +157,7 @@ std::string messageOf(const std::function<void()>& f) {
 }
 
 TEST(RankDeficiency, SinglePoseNamesTheUnexcitedParameters) {
-  const ContextSet s = test::contextsOf(oneAxisConfig(true));
+  const samples::ContextSet s = test::contextsOf(oneAxisConfig(true));
   const std::string paper = messageOf([&] { identifyPaper(s.samples); });
   EXPECT_NE(paper.find("f0_x"), std::string::npos) << paper;
   EXPECT_NE(paper.find("gravity vector"), std::string::npos) << paper;
@@ -167,7 +167,7 @@ TEST(RankDeficiency, SinglePoseNamesTheUnexcitedParameters) {
 }
 
 TEST(RankDeficiency, RotationAboutOneAxisNamesTheUnexcitedParameters) {
-  const ContextSet s = test::contextsOf(oneAxisConfig(false));
+  const samples::ContextSet s = test::contextsOf(oneAxisConfig(false));
   const std::string paper = messageOf([&] { identifyPaper(s.samples); });
   EXPECT_NE(paper.find("f0_z"), std::string::npos) << paper;
   EXPECT_EQ(paper.find("f0_x"), std::string::npos) << paper;
@@ -182,7 +182,7 @@ TEST(RankDeficiency, NoPayloadNamesTheCentreOfMass) {
   // Readings of an empty sensor (offsets only) on the excitation run: the force stage is well
   // posed (L = 0), but the payload force never changes direction, so the torque stage cannot
   // determine c.
-  ContextSet s = test::contextsOf(test::paperConfig(false, 1));
+  samples::ContextSet s = test::contextsOf(test::paperConfig(false, 1));
   for (auto& c : s.samples) c.wrench_S << Table2::f0(), Table2::t0();
   for (PaperMethod method : {PaperMethod::kStatic, PaperMethod::kDynamic}) {
     PaperOptions o;
@@ -195,7 +195,7 @@ TEST(RankDeficiency, NoPayloadNamesTheCentreOfMass) {
 }
 
 TEST(RankDeficiency, TooFewSamples) {
-  ContextSet s = test::contextsOf(oneAxisConfig(false));
+  samples::ContextSet s = test::contextsOf(oneAxisConfig(false));
   s.samples.resize(1);
   EXPECT_THROW(identifyPaper(s.samples), IdentificationError);
   EXPECT_THROW(fitModel(Model::fromName("paper"), s.samples), IdentificationError);

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "ftid/common/error.hpp"
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
@@ -38,7 +38,7 @@ struct PoseOptions {
 /// The same run as a pose log: t, the pose of S in B (from the kinematics of the joint log), the
 /// wrench, optionally the exact motion columns.
 logio::LogData asPoseLog(const logio::LogData& joints, const PoseOptions& o) {
-  const ContextSet c = buildContexts(joints, test::ur10());
+  const samples::ContextSet c = samples::buildContexts(joints, test::ur10());
   logio::LogData p;
   p.source = joints.source;
   p.has_joints = false;
@@ -194,7 +194,7 @@ TEST(PoseLog, QuaternionThatIsNotUnitIsRejected) {
     ASSERT_GE(k, 0);
     p.extra_columns[static_cast<std::size_t>(k)][5] *= 1.01;  // |q| = 1.01
   }
-  EXPECT_THROW(buildContexts(p, test::ur10()), DataError);
+  EXPECT_THROW(samples::buildContexts(p, test::ur10()), DataError);
 }
 
 }  // namespace

@@ -46,7 +46,7 @@ TEST(AnalyzeNonlinear, NamesAMountingRotationNotCrosstalk) {
                         .toRotationMatrix();
   cfg.R_FS = R_SM;
   const logio::LogData log = sim::CellSim(cfg).run();
-  const identify::ContextSet set = identify::buildContexts(log, *cfg.robot);  // configured: identity
+  const samples::ContextSet set = samples::buildContexts(log, *cfg.robot);  // configured: identity
   lab::AnalyzeOptions o;
   o.model = "paper";
   o.explain = true;
@@ -82,7 +82,7 @@ TEST(FitCheckNonlinear, DelayedRotatedSensorWithTheRightModelRaisesNoWarning) {
   cfg.sensor_delay.tau_s = 0.150;
   cfg.R_FS = Eigen::AngleAxisd(0.05, Vec3::UnitZ()).toRotationMatrix();
   const logio::LogData log = sim::CellSim(cfg).run();
-  const identify::ContextSet set = identify::buildContexts(log, *cfg.robot);  // configured: identity
+  const samples::ContextSet set = samples::buildContexts(log, *cfg.robot);  // configured: identity
   identify::IdentifyRequest req;
   req.model = "paper+rigid_body+sensor_delay+mounting";
   const auto check = identify::checkFit(

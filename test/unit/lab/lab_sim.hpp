@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "ftid/identify/context.hpp"
+#include "ftid/samples/context.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
@@ -54,13 +54,13 @@ inline sim::CellSimConfig baseConfig(std::uint64_t seed) {
   return c;
 }
 
-inline identify::ContextSet contexts(const sim::CellSimConfig& c) {
+inline samples::ContextSet contexts(const sim::CellSimConfig& c) {
   const logio::LogData log = sim::CellSim(c).run();
-  return identify::buildContexts(log, *c.robot, {c.R_FS, c.p_FS_F, 0.0, 0.0});
+  return samples::buildContexts(log, *c.robot, {c.R_FS, c.p_FS_F, 0.0, 0.0});
 }
 
 inline lab::AnalysisResult analyzeRun(const sim::CellSimConfig& c, const std::string& model, bool explain) {
-  const identify::ContextSet set = contexts(c);
+  const samples::ContextSet set = contexts(c);
   lab::AnalyzeOptions o;
   o.model = model;
   o.explain = explain;

@@ -100,13 +100,13 @@ TEST(NoiseFloor, PoseColumnGroupsReadingsWhenTheJointAnglesJitter) {
     for (int j = 0; j < kNumJoints; ++j) smp.q(j) += jitter(gen);
   }
   {
-    const auto set = identify::buildContexts(log, *c.robot);
+    const auto set = samples::buildContexts(log, *c.robot);
     EXPECT_EQ(identify::estimateNoiseFloor(set.samples).method, identify::NoiseMethod::kNotObservable);
   }
   log.extra_names.push_back("pose");
   log.extra_columns.emplace_back();
   for (std::size_t k = 0; k < log.samples.size(); ++k) log.extra_columns.back().push_back(static_cast<double>(k / 31));
-  const auto set = identify::buildContexts(log, *c.robot);
+  const auto set = samples::buildContexts(log, *c.robot);
   const auto nf = identify::estimateNoiseFloor(set.samples);
   EXPECT_EQ(nf.method, identify::NoiseMethod::kStaticPoses) << nf.detail;
   const Vec6 truth = c.noise.wrench_std;
@@ -208,7 +208,7 @@ TEST(Analyze, StaticPoseSetCablePullIsConfoundedWithTheWeightAndNotTaken) {
   EXPECT_NE(text.find("not observable"), std::string::npos) << text;
 }
 
-identify::ParameterSet paperDynamic(const std::vector<effects::SampleContext>& ctx) {
+params::ParameterSet paperDynamic(const std::vector<effects::SampleContext>& ctx) {
   identify::PaperOptions po;
   po.method = identify::PaperMethod::kDynamic;
   return identify::identifyPaper(ctx, po).toParameterSet();

@@ -54,7 +54,7 @@ Spread run(const std::function<void(sim::CellSimConfig&)>& setup) {
   for (int k = 0; k < kSeeds; ++k) {
     sim::CellSimConfig c = labtest::baseConfig(1000 + static_cast<std::uint64_t>(k));
     setup(c);
-    const identify::ContextSet set = labtest::contexts(c);
+    const samples::ContextSet set = labtest::contexts(c);
     collect(identify::fitModel(model, set.samples), s);
   }
   return s;
@@ -114,7 +114,7 @@ TEST(StandardErrors, LaboratoryMatchesTheSpreadOverSeedsForLowPassFilteredNoise)
   for (int k = 0; k < kSeeds; ++k) {
     sim::CellSimConfig c = labtest::baseConfig(3000 + static_cast<std::uint64_t>(k));
     c.noise.wrench_lowpass_hz = 10.0;
-    const identify::ContextSet set = labtest::contexts(c);
+    const samples::ContextSet set = labtest::contexts(c);
     lab::AnalyzeOptions o;
     o.candidates = {"poly(t,2)"};
     const lab::AnalysisResult r = lab::analyze(set.samples, nullptr, o, "sim.csv");

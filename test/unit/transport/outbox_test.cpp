@@ -1,4 +1,4 @@
-// LcmOutbox over memq:// (in-process), its recording, and the SPSC queue under two threads.
+// LcmOutbox over memq:// (in-process) and its recording (the SPSC queue itself: test/unit/rt).
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -18,7 +18,6 @@
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
-#include "ftid/transport/spsc_queue.hpp"
 #include "test_records.hpp"
 
 namespace ftid::transport {
@@ -267,27 +266,6 @@ TEST(LcmOutbox, RejectsOverlongChannelAndBadUrl) {
   OutboxOptions bad;
   bad.url = "nosuchprovider://x";
   EXPECT_THROW(LcmOutbox{bad}, DriverError);
-}
-
-TEST(SpscQueue, TwoThreadsTransferEveryValueInOrder) {
-  static SpscQueue<std::uint64_t, 64> q;
-  constexpr std::uint64_t kCount = 20000;
-  std::thread producer([] {
-    for (std::uint64_t i = 0; i < kCount;) {
-      if (q.tryPush(i)) ++i;
-    }
-  });
-  std::uint64_t expected = 0;
-  std::uint64_t v = 0;
-  bool in_order = true;
-  while (expected < kCount) {
-    if (q.tryPop(&v)) {
-      in_order = in_order && (v == expected);
-      ++expected;
-    }
-  }
-  producer.join();
-  EXPECT_TRUE(in_order);
 }
 
 }  // namespace

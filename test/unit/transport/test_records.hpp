@@ -2,7 +2,7 @@
 // Seeded random records for transport tests.
 #include <random>
 
-#include "ftid/transport/records.hpp"
+#include "ftid/common/records.hpp"
 
 namespace ftid::transport::test {
 

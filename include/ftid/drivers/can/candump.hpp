@@ -12,7 +12,7 @@
 
 #include "ftid/drivers/can/transport.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 struct CandumpRecord {
   ReceivedFrame frame;     ///< rx_time_ns from the "(seconds.micros)" field
@@ -60,4 +60,4 @@ class CandumpReplayTransport final : public CanTransport {
   std::string description_;
 };
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -11,7 +11,7 @@
 
 #include "ftid/drivers/can/dbc.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 inline constexpr int kClassicCanMaxDlc = 8;
 
@@ -53,4 +53,4 @@ bool encodePhysical(const SignalCodec& codec, double physical, std::uint8_t* dat
 /// True if the physical value lies within the DBC [min|max] range (always true without a range).
 bool inRange(const SignalCodec& codec, double physical) noexcept;
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

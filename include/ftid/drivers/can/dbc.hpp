@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 /// Byte order of a signal: DBC `@1` is little-endian (Intel), `@0` big-endian (Motorola).
 enum class ByteOrder : std::uint8_t { kLittleEndian = 1, kBigEndian = 0 };
@@ -68,4 +68,4 @@ DbcDatabase parseDbc(const std::string& text, const std::string& source_name);
 /// Reads and parses a DBC file; throws ftid::DataError (naming the file) if it cannot be read.
 DbcDatabase loadDbc(const std::string& path);
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -1,8 +1,8 @@
 #pragma once
-// The F/T+IMU sensor seam used by the daemon (architecture P10) and its CAN implementation.
+// The F/T+IMU sensor seam used by the daemon (docs/architecture.md) and its CAN implementation.
 //
-//   auto sensor = ftid::can::openCanSensor(config);          // set-up: may throw
-//   ftid::can::SensorSample s;                                // preallocated
+//   auto sensor = ftid::drivers::can::openCanSensor(config);          // set-up: may throw
+//   ftid::drivers::can::SensorSample s;                                // preallocated
 //   ftid::Status st = sensor->tryReadLatest(s);              // each cycle: drain, never blocks
 //   if (st == ftid::Status::kOk) { /* s.valid is true */ }
 //
@@ -18,7 +18,7 @@
 #include "ftid/drivers/can/sensor_sample.hpp"
 #include "ftid/drivers/can/transport.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 class FtImuSensor {
  public:
@@ -79,4 +79,4 @@ std::unique_ptr<CanFtImuSensor> openCanSensor(const CanSensorConfig& config);
 std::unique_ptr<CanTransport> openCanTransport(const std::string& endpoint,
                                                int receive_buffer_bytes = 0);
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -10,7 +10,7 @@
 #include "ftid/drivers/can/sensor_sample.hpp"
 #include "ftid/drivers/can/transport.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 /// The quantities of a sample, in SensorSample order.
 enum SensorField : int {
@@ -145,4 +145,4 @@ int encodeSample(const SensorLayout& layout, const SensorValues& values, std::ui
                  std::array<can_frame, SensorLayout::kMaxMessages>& out,
                  bool* saturated = nullptr) noexcept;
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -7,7 +7,7 @@
 
 #include "ftid/common/types.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 /// Why a sample is flagged. Bits marked (invalid) make SensorSample::valid false.
 enum SampleFlag : std::uint32_t {
@@ -64,4 +64,4 @@ struct SensorHealth {
   std::uint32_t last_error_class = 0;   ///< can_id & CAN_ERR_MASK of the last error frame
 };
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -9,7 +9,7 @@
 
 #include "ftid/drivers/can/transport.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 /// Server side: binds a listening socket at `path` (replacing a stale socket file, creating the
 /// parent directory if missing). Up to kMaxClients clients; accept happens inside trySend/
@@ -80,4 +80,4 @@ struct SeqpacketPair {
 };
 SeqpacketPair makeSeqpacketPair();
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

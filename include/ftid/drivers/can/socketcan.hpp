@@ -6,7 +6,7 @@
 
 #include "ftid/drivers/can/transport.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 struct SocketCanOptions {
   std::string interface = "can0";  ///< "can0", "vcan0"; "any" binds to all CAN interfaces
@@ -42,4 +42,4 @@ class SocketCanTransport final : public CanTransport {
   std::string description_;
 };
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -13,7 +13,7 @@
 #include <chrono>
 #include <cstdint>
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 
 /// A received frame and its receive time: the kernel's SO_TIMESTAMP(NS) where the transport has
 /// one, else the time it was read; nanoseconds on CLOCK_REALTIME (Unix time).
@@ -66,4 +66,4 @@ inline std::uint32_t frameId(const can_frame& f) noexcept {
   return isExtendedFrame(f) ? (f.can_id & CAN_EFF_MASK) : (f.can_id & CAN_SFF_MASK);
 }
 
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

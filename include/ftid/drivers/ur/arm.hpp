@@ -1,5 +1,5 @@
 #pragma once
-// The arm seam (architecture P10): the loop talks to an Arm, production uses RtdeArm, tests use
+// The arm seam (docs/architecture.md): the loop talks to an Arm, production uses RtdeArm, tests use
 // fakes. Every method is real-time safe (noexcept, no allocation).
 #include <chrono>
 #include <cstdint>

@@ -1,8 +1,8 @@
 #pragma once
 // RTDE wire format (UR Real-Time Data Exchange, TCP port 30004), protocol versions 1 and 2.
 // Pure functions and tables only: no sockets. Shared by the client (RtdeClient) and the
-// controller simulator (ftid::simrobot). Byte layouts: docs/robot.md and
-// ../shared/reference/ur-interface-notes.md §1.
+// controller simulator (ftid::simrobot). Byte layouts: docs/robot.md (from Universal
+// Robots' RTDE guide).
 //
 // Every package: uint16 BE total size (including the 3-byte header), uint8 type, payload.
 // All integers and doubles are big-endian; doubles are IEEE-754 binary64.
@@ -32,7 +32,7 @@ enum class PackageType : std::uint8_t {
   kPause = 80,                   // 'P'
 };
 
-/// RTDE data types (§1.3). kNotFound / kInUse only appear in setup replies.
+/// RTDE data types. kNotFound / kInUse only appear in setup replies.
 enum class DataType : std::uint8_t {
   kBool,
   kUint8,
@@ -55,7 +55,7 @@ const char* dataTypeName(DataType type) noexcept;
 /// Parses a type name from a setup reply; returns false if unknown.
 bool parseDataType(const std::string& name, DataType* type) noexcept;
 
-/// Enumerations (§1.5).
+/// Enumerations.
 enum RobotMode : std::int32_t {
   kRobotModeNoController = -1,
   kRobotModeDisconnected = 0,
@@ -107,7 +107,7 @@ const char* runtimeStateName(std::uint32_t state) noexcept;
 /// Where a variable lives.
 enum class Direction : std::uint8_t { kOutput, kInput };
 
-/// The controller's variable table (controller outputs and inputs, §1.4). Inputs are also
+/// The controller's variable table (controller outputs and inputs). Inputs are also
 /// readable as outputs (read-back), as on a real controller.
 /// Returns kNotFound if the name is unknown for this direction.
 DataType variableType(const std::string& name, Direction direction);

@@ -1,5 +1,5 @@
 #pragma once
-// Last-hop check of servo targets (architecture P7). Pure and real-time safe.
+// Last-hop check of servo targets (docs/robot.md). Pure and real-time safe.
 // A target q_k passes when: every element is finite; lower <= q_k <= upper; the implied velocity
 // v_k = (q_k - q_{k-1}) / dt is within the velocity limit; and the implied acceleration
 // (v_k - v_{k-1}) / dt is within the acceleration limit. The reference (q_{k-1}, v_{k-1}) is the
@@ -14,7 +14,7 @@ namespace ftid::drivers::ur {
 struct ServoLimits {
   JointVector lower = JointVector::Constant(-6.283185307179586);  ///< [rad]
   JointVector upper = JointVector::Constant(6.283185307179586);   ///< [rad]
-  /// UR10/UR10e: 120 deg/s base/shoulder, 180 deg/s elbow and wrists (ur-interface-notes §4.2).
+  /// UR10/UR10e: 120 deg/s base/shoulder, 180 deg/s elbow and wrists (UR10/UR10e joint speed limits, docs/robot.md).
   JointVector velocity = (JointVector() << 2.0944, 2.0944, 3.1416, 3.1416, 3.1416, 3.1416).finished();
   JointVector acceleration = JointVector::Constant(40.0);  ///< [rad/s^2] (ur_rtde client bound)
 };

@@ -8,7 +8,7 @@
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/sensor_layout.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 namespace {
 
 const DbcDatabase& defaultDbc() {
@@ -305,4 +305,4 @@ TEST_F(AssemblerTest, WrenchOnlySensorHasNoImu) {
 }
 
 }  // namespace
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

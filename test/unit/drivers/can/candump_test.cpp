@@ -9,7 +9,7 @@
 #include "ftid/drivers/can/candump.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 namespace {
 
 TEST(Candump, ParsesStandardExtendedErrorRemoteFrames) {
@@ -119,4 +119,4 @@ TEST(Candump, ReplayThroughTheSensorPacedByTheLogClock) {
 }
 
 }  // namespace
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -7,7 +7,7 @@
 
 #include "ftid/drivers/can/codec.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 namespace {
 
 SignalCodec codec(int start, int length, ByteOrder order, bool is_signed, double factor = 1.0,
@@ -166,4 +166,4 @@ TEST(Codec, RandomRoundTripAgreesWithIndependentFormulation) {
 }
 
 }  // namespace
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -6,7 +6,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/dbc.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 namespace {
 
 // Expects parseDbc(text) to throw a DataError whose message contains every fragment.
@@ -131,4 +131,4 @@ TEST(Dbc, MotorolaSignalMustFitToo) {
 }
 
 }  // namespace
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

@@ -15,7 +15,7 @@
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
 
-namespace ftid::can {
+namespace ftid::drivers::can {
 namespace {
 
 std::string tempSocketPath(const char* tag) {
@@ -231,4 +231,4 @@ TEST(SocketCan, ConstructorExplainsMissingSupport) {
 }
 
 }  // namespace
-}  // namespace ftid::can
+}  // namespace ftid::drivers::can

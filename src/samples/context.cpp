@@ -1,16 +1,18 @@
-// Building SampleContexts from a log and the robot kinematics (include/ftid/identify/context.hpp).
-#include "ftid/identify/context.hpp"
+// Building SampleContexts from a log and the robot kinematics (include/ftid/samples/context.hpp).
+#include "ftid/samples/context.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <utility>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/frames.hpp"
 #include "ftid/model/kinematics.hpp"
+#include "ftid/samples/sample_builder.hpp"
 
-namespace ftid::identify {
+namespace ftid::samples {
 
 ContextSet::ContextSet(const ContextSet& other)
     : source(other.source),
@@ -223,34 +225,40 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
   for (std::size_t i = 0; i < n; ++i) {
     const logio::LogSample& s = log.samples[i];
     SampleContext& c = set.samples[i];
+    SensorReading reading;
+    reading.wrench_S = s.wrench_S;
+    reading.has_imu = log.has_imu;
+    reading.imu_acc_S = s.acc_S;
+    reading.imu_w_S = s.w_S;
+    reading.imu_alpha_S = s.alpha_S;
+    reading.has_temp = log.has_temp;
+    reading.temp_degC = s.temp_degC;
     if (log.has_joints) {
-      const model::SensorMotion motion = kin.computeSensorMotion(s.q, s.qd, s.qdd);
-      c.q = s.q;
-      c.qd = s.qd;
-      c.R_BS = motion.R_BS;
-      c.p_BS_B = motion.p_BS_B;
-      c.w_S = motion.w_S;
-      c.alpha_S = motion.alpha_S;
-      c.a_S = motion.a_S;
+      makeSampleContext(s.t - t0, s.q, s.qd, kin.computeSensorMotion(s.q, s.qd, s.qdd), reading, g_B, &c);
+    } else {
+      // Pose logs: the motion posesToContexts derived from the pose columns; no joint state.
+      const model::SensorMotion motion{c.R_BS, c.p_BS_B, c.w_S, c.alpha_S, c.a_S};
+      makeSampleContext(s.t - t0, JointVector::Zero(), JointVector::Zero(), motion, reading, g_B, &c);
+      c.has_joints = false;
     }
-    c.t = s.t - t0;
-    c.g_S = c.R_BS.transpose() * g_B;
-    c.wrench_S = s.wrench_S;
     if (options.wrench_in_base) {
       c.wrench_S.head<3>() = c.R_BS.transpose() * s.wrench_S.head<3>();
       c.wrench_S.tail<3>() = c.R_BS.transpose() * s.wrench_S.tail<3>();
     }
-    c.has_imu = log.has_imu;
-    c.has_temp = log.has_temp;
-    if (log.has_imu) {
-      c.imu_acc_S = s.acc_S;
-      c.imu_w_S = s.w_S;
-      c.imu_alpha_S = s.alpha_S;
-    }
-    if (log.has_temp) c.temp_degC = s.temp_degC;
   }
   set.repoint();
   return set;
+}
+
+ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
+                           const ContextOptions& options,
+                           const std::function<void(const std::string& line)>& progress) {
+  if (progress) progress("reading " + log_path);
+  const logio::LogData log = logio::readLog(log_path);
+  const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
+  if (progress) progress("robot " + urdf + ", " + std::to_string(log.samples.size()) + " samples");
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
+  return buildContexts(log, kin, options);
 }
 
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad) {
@@ -258,4 +266,4 @@ void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double til
   for (auto& c : contexts) c.g_S = c.R_BS.transpose() * g_B;
 }
 
-}  // namespace ftid::identify
+}  // namespace ftid::samples

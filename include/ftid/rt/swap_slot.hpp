@@ -13,7 +13,7 @@
 #include <cstdint>
 #include <memory>
 
-namespace ftid::daemon {
+namespace ftid::rt {
 
 template <class T>
 class OwnedSwapSlot {
@@ -72,4 +72,4 @@ class OwnedSwapSlot {
   std::atomic<std::uint32_t> version_{0};
 };
 
-}  // namespace ftid::daemon
+}  // namespace ftid::rt

@@ -1,6 +1,7 @@
 #pragma once
-// Building the per-sample SampleContext (ftid/effects/effect.hpp) from a log and the robot
-// kinematics. Frames and units: docs/conventions.md.
+// Building the per-sample SampleContext (ftid/effects/effect.hpp) of a whole log from the robot
+// kinematics, each through the one sample builder (ftid/samples/sample_builder.hpp) that the
+// daemon's cycle also uses. Frames and units: docs/conventions.md.
 //
 //   R_BS, p_BS_B, w_S, alpha_S, a_S  = RobotKinematics::computeSensorMotion(q, qd, qdd)
 //   g_S                              = R_BS^T g_B(U, V)          (for the tilt in the options)
@@ -9,6 +10,7 @@
 //   extra, extra_names               = pointers to this sample's extra columns (row-major copy)
 //                                      and to the set's column names (generic effects such as
 //                                      poly(<column>,n) read them)
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -21,7 +23,7 @@ namespace ftid::model {
 class RobotKinematics;
 }
 
-namespace ftid::identify {
+namespace ftid::samples {
 
 using effects::SampleContext;
 
@@ -82,7 +84,14 @@ struct ContextSet {
 ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics& kinematics,
                          const ContextOptions& options = {});
 
+/// Reads the log (logio::readLog) and the robot (`robot_urdf`, "" = defaultRobotUrdf()) and builds
+/// the contexts; `progress` (optional) gets a line for each step. Throws as readLog, the URDF
+/// loader and buildContexts do.
+ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
+                           const ContextOptions& options = {},
+                           const std::function<void(const std::string& line)>& progress = {});
+
 /// Sets g_S = R_BS^T g_B(U, V) in every context.
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad);
 
-}  // namespace ftid::identify
+}  // namespace ftid::samples

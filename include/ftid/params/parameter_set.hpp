@@ -9,9 +9,7 @@
 #include "ftid/effects/nonlinear.hpp"
 
 
-namespace ftid::identify {
-
-struct FitResult;
+namespace ftid::params {
 
 struct NamedValue {
   std::string name;
@@ -48,9 +46,6 @@ struct ParameterSet {
   const NamedValue* find(const std::string& name) const;
 };
 
-/// Parameter set of a general fit.
-ParameterSet toParameterSet(const FitResult& fit);
-
 /// theta for `model` (ordered as model.paramIndex()) from the set. Throws ConfigError naming the
 /// source (file) and the missing parameter.
 Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set,
@@ -86,4 +81,4 @@ void writeParameterFile(const std::string& path, const ParameterSet& set);
 /// The `ftid identify --json` object (one line of JSON, no trailing newline).
 std::string toJson(const ParameterSet& set);
 
-}  // namespace ftid::identify
+}  // namespace ftid::params

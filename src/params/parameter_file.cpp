@@ -1,6 +1,6 @@
 // Parameter files (YAML): reading, validation, atomic writing (the --json object: json.cpp). Needs no fit
 // or effect machinery (only the inertia math), so the parameter_yaml fuzz target links just this.
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -24,7 +24,7 @@
 #include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/fileio/yaml_strict.hpp"
 
-namespace ftid::identify {
+namespace ftid::params {
 
 namespace {
 
@@ -282,4 +282,4 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
   }
 }
 
-}  // namespace ftid::identify
+}  // namespace ftid::params

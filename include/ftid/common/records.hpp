@@ -1,13 +1,15 @@
 #pragma once
-// Domain records handed from the daemon's loop to the publishing side. Fixed size, no heap:
-// copying one into a queue slot is real-time safe. The LCM messages mirror them field for field
-// (lcmtypes/*.lcm, encoded by ftid/transport/codec.hpp). Frames, units and signs:
+// The loop's own data: what the daemon's cycle reads (robot state, sensor sample) and produces
+// (cycle record, loop statistics), handed to the publishing side. Fixed size, no heap: copying one
+// into a queue slot is real-time safe. They live here, below both the daemon and transport, so
+// the loop does not depend on LCM; the LCM messages mirror them field for field (lcmtypes/*.lcm,
+// encoded by ftid/transport/codec.hpp). Frames, units and signs:
 // docs/conventions.md.
 #include <cstdint>
 
 #include "ftid/common/types.hpp"
 
-namespace ftid::transport {
+namespace ftid {
 
 /// Sensor health flags (bit set = problem); sensor_sample_t.health_flags on the wire.
 enum SensorHealth : std::uint32_t {
@@ -97,4 +99,4 @@ struct LoopStatsRecord {
   std::int32_t sensor_reconnects = 0;
 };
 
-}  // namespace ftid::transport
+}  // namespace ftid

@@ -1,5 +1,5 @@
 // The parameter-set part of `ftid identify --json` (parameter_set.hpp toJson; the fit check's part
-// is in fit_check.cpp): built with nlohmann-json under the one output policy of
+// is in identify/fit_check.cpp): built with nlohmann-json under the one output policy of
 // ftid/fileio/json_text.hpp (round-trip numbers, null for non-finite ones). Keys:
 // docs/identification.md "Outputs". Kept apart from the fit machinery so the parameter_yaml fuzz
 // target links it alone.
@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "ftid/fileio/json_text.hpp"
-#include "json_internal.hpp"
+#include "ftid/params/parameter_json.hpp"
 
-namespace ftid::identify {
+namespace ftid::params {
 
 Json axesJson(const Vec6& v) {
   Json o = Json::object();
@@ -60,4 +60,4 @@ Json parameterSetJson(const ParameterSet& set) {
 
 std::string toJson(const ParameterSet& set) { return jsonText(parameterSetJson(set)); }
 
-}  // namespace ftid::identify
+}  // namespace ftid::params

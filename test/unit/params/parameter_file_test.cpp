@@ -15,9 +15,9 @@
 #include <gtest/gtest.h>
 
 #include "ftid/common/error.hpp"
-#include "ftid/identify/parameter_set.hpp"
+#include "ftid/params/parameter_set.hpp"
 
-namespace ftid::identify {
+namespace ftid::params {
 namespace {
 
 std::string scratch(const std::string& name) {
@@ -196,4 +196,4 @@ TEST(ParameterFile, FifoAndDirectoryAreRefusedWithoutBlocking) {
 }
 
 }  // namespace
-}  // namespace ftid::identify
+}  // namespace ftid::params

@@ -1,0 +1,33 @@
+#pragma once
+// The offline compensation pipeline behind `ftid compensate`: a log file and a parameter file in,
+// a compensated CSV out, through the real-time compensator (ftidd's code) and the one sample
+// builder (ftid/samples/sample_builder.hpp). The CLI only parses arguments and calls it.
+#include <string>
+
+#include "ftid/common/types.hpp"
+#include "ftid/samples/context.hpp"
+
+namespace ftid::compensate {
+
+struct CompensateRequest {
+  std::string log_path;
+  std::string params_path;
+  std::string out_csv;
+  std::string robot_urdf;
+  samples::ContextOptions context;
+};
+
+struct CompensateSummary {
+  int n_samples = 0;                ///< rows written
+  int n_without_kinematics = 0;     ///< samples left out: their delayed kinematics lie outside the log
+  Vec6 raw_rms = Vec6::Zero();      ///< RMS of the reading
+  Vec6 contact_rms = Vec6::Zero();  ///< RMS of the compensated (contact) wrench
+};
+
+/// Writes OUT.csv (atomically) with columns t, fx..tz (contact wrench = reading - modelled) and
+/// model_fx..model_tz (modelled wrench), one row per log sample, through the real-time
+/// compensator (ftidd's code). With a `sensor_delay`, samples whose delayed kinematics lie outside
+/// the log (the first |delay| seconds, or the last ones for a negative delay) are left out.
+CompensateSummary compensateLogFile(const CompensateRequest& request);
+
+}  // namespace ftid::compensate

@@ -1,0 +1,72 @@
+// Compensation of a whole log file (include/ftid/compensate/compensate_log.hpp).
+#include "ftid/compensate/compensate_log.hpp"
+
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+#include "ftid/common/error.hpp"
+#include "ftid/compensate/compensator.hpp"
+#include "ftid/effects/model.hpp"
+#include "ftid/fileio/atomic_file.hpp"
+#include "ftid/params/parameter_set.hpp"
+
+namespace ftid::compensate {
+
+CompensateSummary compensateLogFile(const CompensateRequest& request) {
+  checkOutputPath(request.out_csv);  // refuse a symlink, device, FIFO or directory before the work
+  const params::ParameterSet set = params::readParameterFile(request.params_path);
+  const effects::Model model = effects::Model::fromName(set.model);
+  const Eigen::VectorXd theta = params::thetaFor(model, set, request.params_path);
+  const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context);
+  Compensator comp(model, theta, params::nonlinearFor(model, set, request.params_path));
+
+  CompensateSummary summary;
+  std::ostringstream os;
+  os << "t,fx,fy,fz,tx,ty,tz,model_fx,model_fy,model_fz,model_tx,model_ty,model_tz\n";
+  char buf[64];
+  double last_t = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < contexts.size(); ++i) {
+    const effects::SampleContext& ctx = contexts.samples[i];
+    Wrench contact, modelled;
+    const Status st = comp.compute(ctx, &contact, &modelled);
+    if (st == Status::kNotReady) {
+      ++summary.n_without_kinematics;
+      continue;
+    }
+    if (st != Status::kOk) {
+      throw DataError(request.log_path + ": sample " + std::to_string(i) + " cannot be compensated (non-finite)");
+    }
+    // With a negative delay the output belongs to an earlier reading (comp.outputTime()).
+    const double t_out = comp.outputTime();
+    if (!(t_out > last_t)) continue;
+    last_t = t_out;
+    ++summary.n_samples;
+    summary.raw_rms += (contact + modelled).cwiseAbs2();
+    summary.contact_rms += contact.cwiseAbs2();
+    std::snprintf(buf, sizeof(buf), "%.9f", t_out + contexts.t_origin);
+    os << buf;
+    for (int a = 0; a < 6; ++a) {
+      std::snprintf(buf, sizeof(buf), ",%.9g", contact(a));
+      os << buf;
+    }
+    for (int a = 0; a < 6; ++a) {
+      std::snprintf(buf, sizeof(buf), ",%.9g", modelled(a));
+      os << buf;
+    }
+    os << "\n";
+  }
+  summary.n_without_kinematics = static_cast<int>(contexts.size()) - summary.n_samples;
+  if (summary.n_samples > 0) {
+    summary.raw_rms = (summary.raw_rms / summary.n_samples).cwiseSqrt();
+    summary.contact_rms = (summary.contact_rms / summary.n_samples).cwiseSqrt();
+  }
+  try {
+    writeFileAtomically(request.out_csv, os.str());
+  } catch (const FileError& e) {
+    throw ConfigError(e.what());
+  }
+  return summary;
+}
+
+}  // namespace ftid::compensate
