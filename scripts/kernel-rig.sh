@@ -175,6 +175,7 @@ done
 mkdir -p "$stage/rig"
 cp "$root/test/kernel/rig_init.sh" "$stage/init"
 chmod 755 "$stage/init"
+cp "$root/test/kernel/rig_lib.sh" "$stage/rig/lib.sh"
 # Stage 2 (not in latency mode): after the tests above, /init switches to a tmpfs root and execs
 # systemd as PID 1, which runs the packaged ftidd.service unchanged (the UnderSystemd.* tests).
 # Laid out as the .deb installs it: /usr/sbin/ftidd, /lib/systemd/system/ftidd.service,

@@ -143,26 +143,12 @@ void DashboardServer::read(net::LineConnection* c) {
   c->flush();
 }
 
-void DashboardServer::closeMarked() {
-  for (auto it = conns_.begin(); it != conns_.end();) {
-    if ((*it)->close) {
-      ::close((*it)->fd);
-      it = conns_.erase(it);
-    } else {
-      ++it;
-    }
-  }
-}
+void DashboardServer::closeMarked() { net::closeMarked(&conns_); }
 
 void DashboardServer::disconnectAll() {
   for (auto& c : conns_) c->close = true;
 }
 
-void DashboardServer::closeAll() {
-  for (auto& c : conns_) ::close(c->fd);
-  conns_.clear();
-  if (listen_fd_ >= 0) ::close(listen_fd_);
-  listen_fd_ = -1;
-}
+void DashboardServer::closeAll() { net::closeAll(&conns_, &listen_fd_); }
 
 }  // namespace ftid::simrobot

@@ -1,6 +1,9 @@
 #pragma once
 // Socket helpers shared by the simulator's servers (private to src/simrobot).
+#include <unistd.h>
+
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,5 +34,33 @@ struct LineConnection {
   bool close = false;
   void flush() { flushText(fd, &tx, &close); }
 };
+
+/// Closes and removes every connection marked `close`; `on_close(conn)` runs before the socket is
+/// closed (for a log line). Conn has `int fd` and `bool close`.
+template <class Conn, class OnClose>
+void closeMarked(std::vector<std::unique_ptr<Conn>>* conns, OnClose on_close) {
+  for (auto it = conns->begin(); it != conns->end();) {
+    if ((*it)->close) {
+      on_close(it->get());
+      ::close((*it)->fd);
+      it = conns->erase(it);
+    } else {
+      ++it;
+    }
+  }
+}
+template <class Conn>
+void closeMarked(std::vector<std::unique_ptr<Conn>>* conns) {
+  closeMarked(conns, [](Conn*) {});
+}
+
+/// Closes every connection and the listening socket (set to -1).
+template <class Conn>
+void closeAll(std::vector<std::unique_ptr<Conn>>* conns, int* listen_fd) {
+  for (auto& c : *conns) ::close(c->fd);
+  conns->clear();
+  if (*listen_fd >= 0) ::close(*listen_fd);
+  *listen_fd = -1;
+}
 
 }  // namespace ftid::simrobot::net

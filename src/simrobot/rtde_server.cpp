@@ -188,11 +188,8 @@ void RtdeServer::disconnectAll() {
 }
 
 void RtdeServer::closeAll() {
-  for (auto& c : conns_) ::close(c->fd);
-  conns_.clear();
+  net::closeAll(&conns_, &listen_fd_);
   input_owner_.clear();
-  if (listen_fd_ >= 0) ::close(listen_fd_);
-  listen_fd_ = -1;
 }
 
 // ---------------------------------------------------------------------------------- outputs

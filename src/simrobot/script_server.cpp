@@ -66,22 +66,8 @@ void ScriptServer::read(net::LineConnection* c) {
   }
 }
 
-void ScriptServer::closeMarked() {
-  for (auto it = conns_.begin(); it != conns_.end();) {
-    if ((*it)->close) {
-      ::close((*it)->fd);
-      it = conns_.erase(it);
-    } else {
-      ++it;
-    }
-  }
-}
+void ScriptServer::closeMarked() { net::closeMarked(&conns_); }
 
-void ScriptServer::closeAll() {
-  for (auto& c : conns_) ::close(c->fd);
-  conns_.clear();
-  if (listen_fd_ >= 0) ::close(listen_fd_);
-  listen_fd_ = -1;
-}
+void ScriptServer::closeAll() { net::closeAll(&conns_, &listen_fd_); }
 
 }  // namespace ftid::simrobot

@@ -22,14 +22,7 @@ export PATH=/bin:/sbin:/usr/bin:/usr/sbin
 /bin/busybox --install -s /bin
 . /rig/env
 
-check() {  # check NAME COMMAND...
-  name=$1; shift
-  if out=$("$@" 2>&1); then
-    echo "@@RIG check $name PASS"
-  else
-    echo "@@RIG check $name FAIL $(echo "$out" | tr '\n' ' ' | cut -c1-300)"
-  fi
-}
+. /rig/lib.sh  # check NAME COMMAND...
 
 echo "@@RIG start $(uname -r) $(uname -v) cpus=$(nproc)"
 check preempt_rt_kernel sh -c 'uname -v | grep -q PREEMPT_RT && [ "$(cat /sys/kernel/realtime)" = 1 ]'

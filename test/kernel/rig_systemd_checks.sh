@@ -8,14 +8,7 @@
 export PATH=/bin:/sbin:/usr/bin:/usr/sbin
 . /rig/env
 
-check() {  # check NAME COMMAND...
-  name=$1; shift
-  if out=$("$@" 2>&1); then
-    echo "@@RIG check $name PASS"
-  else
-    echo "@@RIG check $name FAIL $(echo "$out" | tr '\n' ' ' | cut -c1-300)"
-  fi
-}
+. /rig/lib.sh  # check NAME COMMAND...
 
 echo "@@RIG phase systemd-up $(systemctl --version | head -n 1)"
 check systemd_is_pid1 sh -c '[ "$(cat /proc/1/comm)" = systemd ]'
