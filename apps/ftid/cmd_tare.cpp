@@ -1,25 +1,15 @@
 // `ftid tare`: re-zero the sensor offsets of a running ftidd (a signed TARE on its command channel,
-// docs/daemon.md "Tare", docs/operations.md "Tare from the command line").
-//
-// The sender below (sign, publish once, wait for the matching ack) is written against the existing
-// command code (ftid/transport/command_auth.hpp, as requestDaemonReload in
-// src/cell/cell_identify.cpp); when the daemon's command client class lands it replaces
-// sendTare() and this file keeps only the argument parsing and the printing.
-#include <lcm/lcm-cpp.hpp>
-#include <unistd.h>
-
-#include <chrono>
+// docs/daemon.md "Tare", docs/operations.md "Tare from the command line"). The command goes through
+// ftid::daemon::DaemonClient (ftid/daemon/client.hpp), which publishes a TARE once and never
+// resends it; this file keeps only the argument parsing and the printing.
 #include <cstdio>
 #include <iostream>
 #include <string>
 
 #include "command.hpp"
-#include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/client.hpp"
 #include "ftid/fileio/json_text.hpp"
-#include "ftid/transport/codec.hpp"
-#include "ftid/transport/command_auth.hpp"
-#include "ftid/transport/source_filter.hpp"
 
 namespace {
 
@@ -56,50 +46,6 @@ const char* const kUsage =
 
 const char* const kOffsetNames[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
 
-struct TareReply {
-  bool answered = false;
-  ftid_lcm::ack_t ack;
-};
-
-/// Signs one TARE, publishes it once (a resend would be a second tare) and waits for the ack with
-/// its request id. The receive socket is open and filtered before the command leaves.
-TareReply sendTare(const ftid::config::DaemonConfig& cfg, const ftid::transport::CommandKey& key,
-                   double timeout_s) {
-  lcm::LCM lc(cfg.lcm.url);
-  if (!lc.good()) throw ftid::Error("LCM: cannot open '" + cfg.lcm.url + "' (lcm.url in " + cfg.source + ")");
-  struct Waiter {
-    std::int64_t request_id = 0;
-    TareReply reply;
-    void handle(const lcm::ReceiveBuffer* rbuf, const std::string&) {
-      ftid_lcm::ack_t a;
-      if (a.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
-      if (a.request_id != request_id || a.command != ftid_lcm::command_t::TARE) return;
-      reply.ack = a;
-      reply.answered = true;
-    }
-  } waiter;
-  waiter.request_id = ftid::transport::realtimeUs() ^ (static_cast<std::int64_t>(::getpid()) << 40);
-  lcm::Subscription* sub = lc.subscribe(cfg.lcm.channels.ack, &Waiter::handle, &waiter);
-  if (!cfg.lcm.accept_remote) {
-    ftid::transport::restrictLcmSources(lc, cfg.lcm.url, ftid::transport::localSources());
-  } else {
-    (void)lc.getFileno();  // the receive socket exists before the command leaves
-  }
-  ftid_lcm::command_t cmd;
-  cmd.utime = ftid::transport::realtimeUs();
-  cmd.request_id = waiter.request_id;
-  cmd.command = ftid_lcm::command_t::TARE;
-  std::fill(std::begin(cmd.mac), std::end(cmd.mac), 0);
-  ftid::transport::signCommand(&cmd, key);
-  if (lc.publish(cfg.lcm.channels.command, &cmd) != 0) {
-    throw ftid::Error("LCM: cannot publish on " + cfg.lcm.channels.command + " (" + cfg.lcm.url + ")");
-  }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (!waiter.reply.answered && std::chrono::steady_clock::now() < deadline) lc.handleTimeout(50);
-  lc.unsubscribe(sub);
-  return waiter.reply;
-}
-
 std::string offsetsText(const double* o) {
   char buf[256];
   std::snprintf(buf, sizeof buf, "f0 = (%.5f, %.5f, %.5f) N, t0 = (%.6f, %.6f, %.6f) Nm", o[0], o[1], o[2], o[3],
@@ -107,9 +53,9 @@ std::string offsetsText(const double* o) {
   return buf;
 }
 
-std::string replyJson(const ftid_lcm::ack_t& a) {
+std::string replyJson(const ftid::daemon::CommandAck& a) {
   ftid::Json o = ftid::Json::object();
-  o["ok"] = a.ok != 0;  // an LCM boolean is an int8_t
+  o["ok"] = a.ok;
   o["message"] = a.message;
   o["param_version"] = a.param_version;
   if (a.ok) {
@@ -133,19 +79,17 @@ int runTare(const std::vector<std::string>& argv) {
 
   const ftid::config::DaemonConfig cfg = ftid::config::loadDaemonConfig(config_path);  // names file and key
   if (timeout_s < 0.0) timeout_s = cfg.parameters.tare_window_s + 3.0;
-  ftid::transport::CommandKey key;
-  try {
-    key = ftid::transport::loadCommandKey(key_path.empty() ? cfg.lcm.command_key_path : key_path);
-  } catch (const std::exception& e) {
-    std::cerr << "ftid tare: cannot sign the TARE: " << e.what()
-              << (key_path.empty() ? " (lcm.command_key_path in " + cfg.source +
-                                         "; run as root or as a member of the ftid group, or give --key FILE)"
-                                   : std::string())
-              << "; nothing sent\n";
+  ftid::daemon::DaemonClientOptions options = ftid::daemon::DaemonClientOptions::fromConfig(cfg);
+  if (!key_path.empty()) options.key_path = key_path;
+  options.local_sources_only = !cfg.lcm.accept_remote;
+  ftid::daemon::DaemonClient client(options);
+  const ftid::daemon::CommandAck r = client.sendCommand(ftid::daemon::DaemonCommand::kTare, timeout_s);
+  if (!r.sent) {
+    const bool key_problem = r.message.rfind("cannot sign", 0) == 0;
+    std::cerr << "ftid tare: " << r.message << " (configuration " << cfg.source
+              << (key_problem && key_path.empty() ? "; or give --key FILE" : "") << "); nothing sent\n";
     return 1;
   }
-
-  const TareReply r = sendTare(cfg, key, timeout_s);
   if (!r.answered) {
     char secs[32];
     std::snprintf(secs, sizeof secs, "%.1f", timeout_s);
@@ -154,15 +98,15 @@ int runTare(const std::vector<std::string>& argv) {
               << "); is ftidd running with " << cfg.source << " on this host?\n";
     return 4;
   }
-  if (json) std::cout << replyJson(r.ack) << "\n";
-  if (!r.ack.ok) {
-    std::cerr << "ftid tare: ftidd refused the tare: " << r.ack.message << "\n";
+  if (json) std::cout << replyJson(r) << "\n";
+  if (!r.ok) {
+    std::cerr << "ftid tare: ftidd refused the tare: " << r.message << "\n";
     return 3;
   }
   if (!json) {
-    std::cout << "tared: " << offsetsText(r.ack.offsets) << " (sensor frame S), parameter version "
-              << r.ack.param_version << "\n"
-              << "ftidd: " << r.ack.message << "\n";
+    std::cout << "tared: " << offsetsText(r.offsets.data()) << " (sensor frame S), parameter version "
+              << r.param_version << "\n"
+              << "ftidd: " << r.message << "\n";
   }
   return 0;
 }

@@ -8,6 +8,7 @@
 
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/transport/command_auth.hpp"
+#include "ftid/transport/source_filter.hpp"
 #include <ftid_lcm/ack_t.hpp>
 #include <ftid_lcm/command_t.hpp>
 
@@ -45,6 +46,8 @@ const char* daemonCommandName(DaemonCommand command) noexcept {
   }
   return "?";
 }
+
+bool resendsUnanswered(DaemonCommand command) noexcept { return command != DaemonCommand::kTare; }
 
 DaemonClientOptions DaemonClientOptions::fromConfig(const config::DaemonConfig& config) {
   DaemonClientOptions o;
@@ -97,6 +100,19 @@ CommandAck DaemonClient::sendCommand(DaemonCommand command, double timeout_s,
   waiter.request_id = static_cast<std::int64_t>(mono_ns ^ (static_cast<std::int64_t>(::getpid()) << 40));
   result.request_id = waiter.request_id;
   lcm::Subscription* sub = lc.subscribe(options_.ack_channel, &AckWaiter::handle, &waiter);
+  // The receive socket is open (and filtered, if asked) before the command leaves.
+  try {
+    if (options_.local_sources_only) {
+      transport::restrictLcmSources(lc, options_.lcm_url, transport::localSources());
+    } else {
+      (void)lc.getFileno();
+    }
+  } catch (const std::exception& e) {
+    lc.unsubscribe(sub);
+    lcm_.reset();
+    result.message = "LCM: cannot restrict '" + options_.lcm_url + "' to this host: " + e.what();
+    return result;
+  }
   ftid_lcm::command_t cmd;
   cmd.utime = transport::realtimeUs();
   cmd.request_id = waiter.request_id;
@@ -106,9 +122,17 @@ CommandAck DaemonClient::sendCommand(DaemonCommand command, double timeout_s,
   const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
   const auto resend = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(options_.resend_period_s > 0.0 ? options_.resend_period_s : 0.5));
-  auto next_send = Clock::now();
+  const bool resends = resendsUnanswered(command);
+  transport::signCommand(&cmd, key);
+  if (lc.publish(options_.command_channel, &cmd) != 0) {
+    lc.unsubscribe(sub);
+    result.message = "LCM: cannot publish on " + options_.command_channel + " (" + options_.lcm_url + ")";
+    return result;
+  }
+  result.sent = true;
+  auto next_send = Clock::now() + resend;
   while (!waiter.got && Clock::now() < deadline) {
-    if (Clock::now() >= next_send) {
+    if (resends && Clock::now() >= next_send) {
       transport::signCommand(&cmd, key);  // a fresh sequence each time: a resend is no replay
       lc.publish(options_.command_channel, &cmd);
       next_send += resend;
@@ -125,6 +149,7 @@ CommandAck DaemonClient::sendCommand(DaemonCommand command, double timeout_s,
   result.ok = waiter.ack.ok;
   result.message = waiter.ack.message;
   result.param_version = waiter.ack.param_version;
+  for (int i = 0; i < 6; ++i) result.offsets[static_cast<std::size_t>(i)] = waiter.ack.offsets[i];
   return result;
 }
 

@@ -1,18 +1,27 @@
 // DaemonClient (ftid/daemon/client.hpp), the one sender of ftidd's commands: the options follow
 // an ftidd configuration, and every way of not getting an answer ends in a named reason, never an
-// exception (no key, unreadable key, no ftidd). The exchange with a running ftidd is covered by
-// the cell test (ftid --identify's reload) and the commands integration test.
+// exception (no key, unreadable key, no ftidd), "not sent" is told from "sent, no answer", a TARE
+// is published once and never resent (a resend would be a second tare) while PING/RELOAD resend,
+// and the ack's offsets reach the caller (against a fake ftidd on a private udpm port). The
+// exchange with a running ftidd is covered by the cell test (ftid --identify's reload) and the
+// commands integration test (`ftid tare`).
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <fstream>
+#include <lcm/lcm-cpp.hpp>
+#include <mutex>
 #include <string>
+#include <thread>
 
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/client.hpp"
+#include <ftid_lcm/ack_t.hpp>
+#include <ftid_lcm/command_t.hpp>
 
 namespace ftid::daemon {
 namespace {
@@ -43,6 +52,7 @@ TEST(DaemonClient, WithoutAReadableKeyNothingIsSentAndTheReasonNamesTheKey) {
   o.key_path = tempPath("missing.key");
   DaemonClient client(o);
   const CommandAck a = client.sendCommand(DaemonCommand::kTare, 0.2);
+  EXPECT_FALSE(a.sent);
   EXPECT_FALSE(a.answered);
   EXPECT_FALSE(a.ok);
   EXPECT_NE(a.describe().find("cannot sign the TARE command"), std::string::npos) << a.describe();
@@ -72,6 +82,7 @@ TEST(DaemonClient, NoDaemonMeansNoAckWithinTheTimeout) {
   const auto t0 = std::chrono::steady_clock::now();
   const CommandAck a = client.sendCommand(DaemonCommand::kReloadParameters, 0.3);
   const double took = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(a.sent);
   EXPECT_FALSE(a.answered);
   EXPECT_FALSE(a.ok);
   EXPECT_EQ(a.describe(), "ftidd did not acknowledge the RELOAD_PARAMETERS within 0.3 s (is it running?)");
@@ -81,6 +92,124 @@ TEST(DaemonClient, NoDaemonMeansNoAckWithinTheTimeout) {
   // The client is reusable: a second command gets its own request id.
   const CommandAck b = client.sendCommand(DaemonCommand::kPing, 0.1);
   EXPECT_NE(b.request_id, a.request_id);
+  ::unlink(key.c_str());
+}
+
+std::string writeKey(const std::string& name) {
+  const std::string key = tempPath(name);
+  std::ofstream(key) << std::string(64, 'c') << "\n";
+  ::chmod(key.c_str(), 0600);
+  return key;
+}
+
+TEST(DaemonClient, AnLcmThatCannotBeOpenedMeansNothingSent) {
+  const std::string key = writeKey("lcm.key");
+  DaemonClientOptions o;
+  o.lcm_url = "nosuchprovider://";
+  o.key_path = key;
+  DaemonClient client(o);
+  const CommandAck a = client.sendCommand(DaemonCommand::kTare, 0.2);
+  EXPECT_FALSE(a.sent);
+  EXPECT_FALSE(a.answered);
+  EXPECT_NE(a.describe().find("LCM: cannot open 'nosuchprovider://'"), std::string::npos) << a.describe();
+  ::unlink(key.c_str());
+}
+
+// A fake ftidd on a private udpm port (this process's id: no other test hears it): counts the
+// commands it receives per kind and, if `answer`, acks each with fixed offsets.
+class FakeDaemon {
+ public:
+  FakeDaemon(const std::string& url, bool answer) : lc_(url), answer_(answer) {
+    lc_.subscribe("T_COMMAND", &FakeDaemon::handle, this);
+    (void)lc_.getFileno();  // the receive socket exists before the client sends
+    thread_ = std::thread([this] {
+      while (!stop_) lc_.handleTimeout(20);
+    });
+  }
+  ~FakeDaemon() {
+    stop_ = true;
+    thread_.join();
+  }
+  bool good() { return lc_.good(); }
+  int count(DaemonCommand c) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return counts_[static_cast<int>(c)];
+  }
+
+ private:
+  void handle(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+    ftid_lcm::command_t cmd;
+    if (cmd.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (cmd.command >= 0 && cmd.command < 4) ++counts_[cmd.command];
+    }
+    if (!answer_) return;
+    ftid_lcm::ack_t ack{};
+    ack.request_id = cmd.request_id;
+    ack.command = cmd.command;
+    ack.ok = true;
+    ack.param_version = 7;
+    ack.message = "tared";
+    for (int i = 0; i < 6; ++i) ack.offsets[i] = 0.5 * (i + 1);
+    lc_.publish("T_ACK", &ack);
+  }
+  lcm::LCM lc_;
+  bool answer_;
+  std::atomic<bool> stop_{false};
+  std::mutex mutex_;
+  int counts_[4] = {0, 0, 0, 0};
+  std::thread thread_;
+};
+
+DaemonClientOptions privateOptions(const std::string& key) {
+  DaemonClientOptions o;
+  o.lcm_url = "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 30000) + "?ttl=0";
+  o.command_channel = "T_COMMAND";
+  o.ack_channel = "T_ACK";
+  o.key_path = key;
+  o.resend_period_s = 0.05;
+  return o;
+}
+
+TEST(DaemonClient, ATareIsPublishedOnceWhilePingIsResent) {
+  const std::string key = writeKey("once.key");
+  const DaemonClientOptions o = privateOptions(key);
+  FakeDaemon daemon(o.lcm_url, /*answer=*/false);
+  if (!daemon.good()) GTEST_SKIP() << "no udpm multicast here (" << o.lcm_url << ")";
+  DaemonClient client(o);
+  EXPECT_FALSE(resendsUnanswered(DaemonCommand::kTare));
+  EXPECT_TRUE(resendsUnanswered(DaemonCommand::kPing));
+  EXPECT_TRUE(resendsUnanswered(DaemonCommand::kReloadParameters));
+  const CommandAck tare = client.sendCommand(DaemonCommand::kTare, 0.4);
+  EXPECT_TRUE(tare.sent);
+  EXPECT_FALSE(tare.answered);
+  const CommandAck ping = client.sendCommand(DaemonCommand::kPing, 0.4);
+  EXPECT_TRUE(ping.sent);
+  EXPECT_FALSE(ping.answered);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the fake drains its socket
+  // Resent every 0.05 s for 0.4 s: the PING arrives several times (so the fake hears resends),
+  // the unanswered TARE exactly once.
+  EXPECT_GE(daemon.count(DaemonCommand::kPing), 3);
+  EXPECT_EQ(daemon.count(DaemonCommand::kTare), 1);
+  ::unlink(key.c_str());
+}
+
+TEST(DaemonClient, TheAckOffsetsReachTheCaller) {
+  const std::string key = writeKey("offsets.key");
+  const DaemonClientOptions o = privateOptions(key);
+  FakeDaemon daemon(o.lcm_url, /*answer=*/true);
+  if (!daemon.good()) GTEST_SKIP() << "no udpm multicast here (" << o.lcm_url << ")";
+  DaemonClient client(o);
+  const CommandAck a = client.sendCommand(DaemonCommand::kTare, 2.0);
+  ASSERT_TRUE(a.answered) << a.describe();
+  EXPECT_TRUE(a.sent);
+  EXPECT_TRUE(a.ok);
+  EXPECT_EQ(a.describe(), "");
+  EXPECT_EQ(a.message, "tared");
+  EXPECT_EQ(a.param_version, 7);
+  for (int i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(a.offsets[static_cast<std::size_t>(i)], 0.5 * (i + 1));
+  EXPECT_EQ(daemon.count(DaemonCommand::kTare), 1);
   ::unlink(key.c_str());
 }
 
