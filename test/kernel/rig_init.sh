@@ -17,7 +17,8 @@ export PATH=/bin:/sbin:/usr/bin:/usr/sbin
 /bin/busybox mount -t devtmpfs dev /dev
 /bin/busybox mkdir -p /dev/shm
 /bin/busybox mount -t tmpfs shm /dev/shm
-/bin/busybox mount -t tmpfs tmp /tmp
+# /tmp stays part of the initramfs (already RAM): a checkout under /tmp puts the build tree there.
+/bin/busybox chmod 1777 /tmp
 /bin/busybox mount -t tmpfs run /run
 /bin/busybox --install -s /bin
 . /rig/env
@@ -82,12 +83,11 @@ if [ -n "${RIG_SYSTEMD:-}" ] && [ -x /lib/systemd/systemd ]; then
   mount -t tmpfs -o mode=755 newroot /newroot
   set +f
   for d in /*; do
-    case "$d" in /proc|/sys|/dev|/run|/tmp|/newroot|/init) ;; *) cp -a "$d" /newroot/ ;; esac
+    case "$d" in /proc|/sys|/dev|/run|/newroot|/init) ;; *) cp -a "$d" /newroot/ ;; esac
   done
-  mkdir -p /newroot/proc /newroot/sys /newroot/dev /newroot/run /newroot/tmp
-  chmod 1777 /newroot/tmp
+  mkdir -p /newroot/proc /newroot/sys /newroot/dev /newroot/run
   cd /
-  umount /dev/shm /dev /sys /proc /tmp /run 2>/dev/null
+  umount /dev/shm /dev /sys /proc /run 2>/dev/null
   exec switch_root /newroot /lib/systemd/systemd --log-level=warning --show-status=false \
     --crash-reboot=yes
 fi
