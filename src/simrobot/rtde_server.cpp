@@ -164,23 +164,17 @@ void RtdeServer::read(Connection* c) {
   flush(c);
 }
 
-void RtdeServer::close(Connection* c) {
+// Before a marked connection's socket is closed (net::closeMarked): its input registers are free
+// again, and the log says who left.
+void RtdeServer::forget(const Connection* c) {
   for (auto it = input_owner_.begin(); it != input_owner_.end();) {
     it = it->second == c->id ? input_owner_.erase(it) : std::next(it);
   }
-  ::close(c->fd);
   controller_.log("RTDE client " + std::to_string(c->id) + " disconnected");
 }
 
 void RtdeServer::closeMarked() {
-  for (auto it = conns_.begin(); it != conns_.end();) {
-    if ((*it)->close) {
-      close(it->get());
-      it = conns_.erase(it);
-    } else {
-      ++it;
-    }
-  }
+  net::closeMarked(&conns_, [this](const Connection* c) { forget(c); });
 }
 
 void RtdeServer::disconnectAll() {

@@ -52,7 +52,7 @@ class RtdeServer {
   void reply(Connection* c, drivers::ur::rtde::PackageType type, const std::vector<std::uint8_t>& payload);
   void applyInput(const InField& f, const std::uint8_t* p);
   void appendValue(std::vector<std::uint8_t>* out, const OutField& f) const;
-  void close(Connection* c);
+  void forget(const Connection* c);  // frees its input registers, logs (before closeMarked closes it)
 
   Controller& controller_;
   int listen_fd_;
