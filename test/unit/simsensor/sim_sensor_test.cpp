@@ -123,10 +123,13 @@ TEST(SimSensorConfig, ErrorsNameFileLineAndKey) {
       EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
     }
   };
-  expectError("output:\n  rate_hz: fast\n", ":2: key 'output.rate_hz': expected a number");
-  expectError("effects:\n  cabel: {enabled: true}\n", "key 'effects.cabel': unknown key");
-  expectError("tilt_deg: [1, 2, 3]\n", "key 'tilt_deg': expected a list of 2 numbers");
-  expectError("faults:\n  - {at_s: 1, kind: explode}\n", "faults[0].kind");
+  expectError("output:\n  rate_hz: fast\n", ":2:12: key 'output.rate_hz': expected a number");
+  expectError("output:\n  rate_hz: 20000\n", ":2:12: key 'output.rate_hz': must be in (0, 10000], got 20000");
+  expectError("effects:\n  cabel: {enabled: true}\n", ":2:3: key 'effects.cabel': unknown key");
+  expectError("tilt_deg: [1, 2, 3]\n", ":1:11: key 'tilt_deg': expected a list of 2 numbers");
+  expectError("faults:\n  - {at_s: 1, kind: explode}\n", ":2:21: key 'faults[0].kind'");
+  expectError("faults:\n  - {kind: drop}\n", ":2:5: key 'faults[0].at_s': missing");
+  expectError("seed: -3\n", ":1:7: key 'seed': must be a non-negative integer");
   expectError("output: [\n", "YAML syntax error");
   SimSensorConfig c = defaultSimSensorConfig();
   {
