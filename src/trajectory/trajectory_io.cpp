@@ -13,13 +13,12 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
-#include <type_traits>
 
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/fileio/yaml_emit.hpp"
-#include "ftid/fileio/yaml_strict.hpp"
+#include "ftid/fileio/yaml_reader.hpp"
 
 namespace ftid::trajectory {
 
@@ -44,82 +43,6 @@ void writeAtomically(const std::string& path, const std::string& text) {
     throw ConfigError(e.what());
   }
 }
-
-// ---------------------------------------------------------------- reading
-
-class Reader {
- public:
-  explicit Reader(std::string path) : path_(std::move(path)) {}
-
-  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw ConfigError(path_ + ": key '" + key + "': " + what);
-  }
-
-  YAML::Node require(const YAML::Node& parent, const std::string& key,
-                     const std::string& full) const {
-    if (!parent.IsMap()) fail(full, "expected a mapping containing it");
-    YAML::Node n = parent[key];
-    if (!n) fail(full, "missing");
-    return n;
-  }
-
-  double number(const YAML::Node& n, const std::string& full) const {
-    if (!n.IsScalar()) fail(full, "expected a number");
-    double v = 0.0;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      fail(full, "expected a number, got '" + n.Scalar() + "'");
-    }
-    if (!std::isfinite(v)) fail(full, "must be finite");
-    return v;
-  }
-
-  double number(const YAML::Node& parent, const std::string& key, const std::string& full) const {
-    return number(require(parent, key, full), full);
-  }
-
-  int integer(const YAML::Node& n, const std::string& full) const {
-    if (!n.IsScalar()) fail(full, "expected an integer");
-    try {
-      return n.as<int>();
-    } catch (const YAML::Exception&) {
-      fail(full, "expected an integer, got '" + n.Scalar() + "'");
-    }
-  }
-
-  std::vector<double> numbers(const YAML::Node& n, const std::string& full,
-                              std::size_t expected) const {
-    if (!n.IsSequence()) fail(full, "expected a list of " + std::to_string(expected) + " numbers");
-    if (n.size() != expected) {
-      fail(full,
-           "expected " + std::to_string(expected) + " numbers, got " + std::to_string(n.size()));
-    }
-    std::vector<double> out;
-    for (std::size_t i = 0; i < n.size(); ++i) {
-      out.push_back(number(n[i], full + "[" + std::to_string(i) + "]"));
-    }
-    return out;
-  }
-
-  JointVector joints(const YAML::Node& parent, const std::string& key,
-                     const std::string& full) const {
-    const auto v = numbers(require(parent, key, full), full, kNumJoints);
-    JointVector out;
-    for (int i = 0; i < kNumJoints; ++i) out[i] = v[static_cast<std::size_t>(i)];
-    return out;
-  }
-
-  Vec3 vec3(const YAML::Node& parent, const std::string& key, const std::string& full) const {
-    const auto v = numbers(require(parent, key, full), full, 3);
-    return Vec3(v[0], v[1], v[2]);
-  }
-
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-};
 
 }  // namespace
 
@@ -244,13 +167,13 @@ TrajectoryFile readTrajectoryFile(const std::string& path) {
 }
 
 namespace {
-TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& path);
+TrajectoryFile parseTrajectoryNode(const YamlValue& root, const std::string& path);
 }  // namespace
 
 TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& path) {
-  const YAML::Node root = loadYamlStrict(text, path);
+  const YamlFile file = YamlFile::parse(text, path);
   try {
-    return parseTrajectoryNode(root, path);
+    return parseTrajectoryNode(file.root(), path);
   } catch (const YAML::Exception& e) {
     // A node of an unexpected kind (found by fuzzing: a scalar where a mapping belongs).
     throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": unexpected structure: " + e.msg);
@@ -258,126 +181,109 @@ TrajectoryFile parseTrajectoryText(const std::string& text, const std::string& p
 }
 
 namespace {
-TrajectoryFile parseTrajectoryNode(const YAML::Node& root, const std::string& path) {
-  Reader r(path);
-  if (!root.IsMap()) r.fail("format", "file is not a YAML mapping");
-  const YAML::Node fmt = r.require(root, "format", "format");
-  if (!fmt.IsScalar() || fmt.Scalar() != kFormatTag) {
-    r.fail("format", std::string("expected '") + kFormatTag + "'");
-  }
+TrajectoryFile parseTrajectoryNode(const YamlValue& root, const std::string& path) {
+  root.expectMap("not a trajectory file (expected a YAML mapping)");
+  const YamlValue fmt = root.required("format");
+  if (!fmt.isScalar() || fmt.text() != kFormatTag) fmt.fail(std::string("expected '") + kFormatTag + "'");
   TrajectoryFile f;
-  if (root["robot"]) f.robot = resolveRelativeTo(path, root["robot"].as<std::string>());
+  if (const YamlValue robot = root["robot"]) f.robot = resolveRelativeTo(path, robot.text());
 
-  const YAML::Node joints = r.require(root, "joints", "joints");
-  if (!joints.IsSequence() || joints.size() == 0)
-    r.fail("joints", "expected a non-empty list of joint numbers 1..6");
-  for (std::size_t i = 0; i < joints.size(); ++i) {
-    const int j = r.integer(joints[i], "joints[" + std::to_string(i) + "]");
-    if (j < 1 || j > kNumJoints)
-      r.fail("joints[" + std::to_string(i) + "]", "joint numbers are 1..6");
-    f.joints.push_back(j);
+  const YamlValue joints = root.required("joints");
+  if (!joints.isSequence() || joints.size() == 0) joints.fail("expected a non-empty list of joint numbers 1..6");
+  for (const YamlValue& j : joints.elements()) {
+    f.joints.push_back(static_cast<int>(j.integer(1, kNumJoints, "joint numbers are 1..6")));
   }
-  f.q0 = r.joints(root, "q0", "q0");
-  f.base_frequency_hz = r.number(root, "base_frequency_hz", "base_frequency_hz");
-  if (f.base_frequency_hz <= 0.0) r.fail("base_frequency_hz", "must be positive");
-  f.harmonics = r.integer(r.require(root, "harmonics", "harmonics"), "harmonics");
-  if (f.harmonics < 1 || f.harmonics > FourierTrajectory::kMaxHarmonics) {
-    r.fail("harmonics", "must be 1.." + std::to_string(FourierTrajectory::kMaxHarmonics));
-  }
-  f.duration_s = r.number(root, "duration_s", "duration_s");
-  if (f.duration_s <= 0.0) r.fail("duration_s", "must be positive");
-  f.servo_rate_hz = r.number(root, "servo_rate_hz", "servo_rate_hz");
-  if (f.servo_rate_hz <= 0.0) r.fail("servo_rate_hz", "must be positive");
+  f.q0 = root.required("q0").vector<kNumJoints>();
+  const NumberRange positive = NumberRange::positive("must be positive");
+  f.base_frequency_hz = root.required("base_frequency_hz").number(positive);
+  f.harmonics = static_cast<int>(root.required("harmonics").integer(
+      1, FourierTrajectory::kMaxHarmonics, "must be 1.." + std::to_string(FourierTrajectory::kMaxHarmonics)));
+  f.duration_s = root.required("duration_s").number(positive);
+  f.servo_rate_hz = root.required("servo_rate_hz").number(positive);
 
-  const YAML::Node coeff = r.require(root, "coefficients", "coefficients");
+  const YamlValue coeff = root.required("coefficients");
   for (const char* which : {"a", "b"}) {
-    const std::string key = std::string("coefficients.") + which;
-    const YAML::Node rows = r.require(coeff, which, key);
-    if (!rows.IsSequence() || rows.size() != static_cast<std::size_t>(kNumJoints)) {
-      r.fail(key, "expected 6 rows (one per joint)");
+    const YamlValue rows = coeff.required(which);
+    if (!rows.isSequence() || rows.size() != static_cast<std::size_t>(kNumJoints)) {
+      rows.fail("expected 6 rows (one per joint)");
     }
     auto& dst = (which[0] == 'a') ? f.a : f.b;
     for (int j = 0; j < kNumJoints; ++j) {
       const auto ju = static_cast<std::size_t>(j);
-      const auto row = r.numbers(rows[ju], key + "[" + std::to_string(j) + "]",
-                                 static_cast<std::size_t>(f.harmonics));
-      for (int l = 0; l < f.harmonics; ++l)
-        dst[ju][static_cast<std::size_t>(l)] = row[static_cast<std::size_t>(l)];
+      const auto row = rows.at(ju).numbers(static_cast<std::size_t>(f.harmonics));
+      for (int l = 0; l < f.harmonics; ++l) dst[ju][static_cast<std::size_t>(l)] = row[static_cast<std::size_t>(l)];
     }
   }
+  coeff.onlyKeys({"a", "b"});
 
-  if (const YAML::Node c = root["constraints"]) {
+  if (const YamlValue c = root["constraints"]) {
     auto& k = f.constraints;
-    k.position_lower = r.joints(c, "position_lower", "constraints.position_lower");
-    k.position_upper = r.joints(c, "position_upper", "constraints.position_upper");
-    k.velocity = r.joints(c, "velocity", "constraints.velocity");
-    k.acceleration = r.joints(c, "acceleration", "constraints.acceleration");
-    k.floor_z_B = r.number(c, "floor_z", "constraints.floor_z");
-    if (const YAML::Node tool = c["tool"]) {
-      if (!tool.IsSequence()) r.fail("constraints.tool", "expected a list of {center, radius}");
-      for (std::size_t i = 0; i < tool.size(); ++i) {
-        const std::string key = "constraints.tool[" + std::to_string(i) + "]";
+    k.position_lower = c.required("position_lower").vector<kNumJoints>();
+    k.position_upper = c.required("position_upper").vector<kNumJoints>();
+    k.velocity = c.required("velocity").vector<kNumJoints>();
+    k.acceleration = c.required("acceleration").vector<kNumJoints>();
+    k.floor_z_B = c.required("floor_z").number();
+    const NumberRange radius = NumberRange::nonNegative("must not be negative");
+    if (const YamlValue tool = c["tool"]) {
+      tool.expectSequence("expected a list of {center, radius}");
+      for (const YamlValue& t : tool.elements()) {
+        t.expectMap("expected {center, radius}");
         ToolSphere s;
-        s.center_S = r.vec3(tool[i], "center", key + ".center");
-        s.radius = r.number(tool[i], "radius", key + ".radius");
-        if (s.radius < 0.0) r.fail(key + ".radius", "must not be negative");
+        s.center_S = t.required("center").vector<3>();
+        s.radius = t.required("radius").number(radius);
+        t.onlyKeys({"center", "radius"});
         k.tool.push_back(s);
       }
     }
-    if (const YAML::Node ko = c["keep_out"]) {
-      if (!ko.IsSequence())
-        r.fail("constraints.keep_out", "expected a list of {name, center, radius}");
-      for (std::size_t i = 0; i < ko.size(); ++i) {
-        const std::string key = "constraints.keep_out[" + std::to_string(i) + "]";
+    if (const YamlValue ko = c["keep_out"]) {
+      ko.expectSequence("expected a list of {name, center, radius}");
+      for (const YamlValue& o : ko.elements()) {
+        o.expectMap("expected {name, center, radius}");
         KeepOutSphere s;
-        if (!ko[i].IsMap()) r.fail(key, "expected {name, center, radius}");
-        if (ko[i]["name"]) s.name = ko[i]["name"].as<std::string>();
-        s.center_B = r.vec3(ko[i], "center", key + ".center");
-        s.radius = r.number(ko[i], "radius", key + ".radius");
-        if (s.radius < 0.0) r.fail(key + ".radius", "must not be negative");
+        s.name = o["name"].textOr("");
+        s.center_B = o.required("center").vector<3>();
+        s.radius = o.required("radius").number(radius);
+        o.onlyKeys({"name", "center", "radius"});
         k.keep_out.push_back(s);
       }
     }
-    if (const YAML::Node m = c["sensor_mount"]) {
-      const auto rot = r.numbers(r.require(m, "rotation", "constraints.sensor_mount.rotation"),
-                                 "constraints.sensor_mount.rotation", 9);
+    if (const YamlValue m = c["sensor_mount"]) {
+      const YamlValue rotation = m.required("rotation");
+      const auto rot = rotation.numbers(9);
       for (int i = 0; i < 9; ++i) k.R_FS(i / 3, i % 3) = rot[static_cast<std::size_t>(i)];
-      if ((k.R_FS.transpose() * k.R_FS - Mat3::Identity()).norm() > 1e-6 ||
-          k.R_FS.determinant() < 0.0) {
-        r.fail("constraints.sensor_mount.rotation", "is not a rotation matrix");
+      if ((k.R_FS.transpose() * k.R_FS - Mat3::Identity()).norm() > 1e-6 || k.R_FS.determinant() < 0.0) {
+        rotation.fail("is not a rotation matrix");
       }
-      k.p_FS_F = r.vec3(m, "translation", "constraints.sensor_mount.translation");
+      k.p_FS_F = m.required("translation").vector<3>();
+      m.onlyKeys({"rotation", "translation"});
     }
+    c.onlyKeys({"position_lower", "position_upper", "velocity", "acceleration", "floor_z", "tool", "keep_out",
+                "sensor_mount"});
   }
-  auto readMap = [&](const char* key, auto& dst, bool numeric) {
-    const YAML::Node m = root[key];
-    if (!m || m.IsNull()) return;
-    if (!m.IsMap()) r.fail(key, "expected a mapping");
-    for (const auto& kv : m) {
-      const std::string name = kv.first.as<std::string>();
-      if constexpr (std::is_same_v<std::decay_t<decltype(dst)>, std::map<std::string, double>>) {
-        (void)numeric;
-        dst[name] = r.number(kv.second, std::string(key) + "." + name);
-      } else {
-        if (!kv.second.IsScalar()) r.fail(std::string(key) + "." + name, "expected a scalar");
-        dst[name] = kv.second.Scalar();
-      }
-    }
-  };
-  readMap("design", f.design, false);
-  readMap("metrics", f.metrics, true);
-  readMap("predicted_std", f.predicted_std, true);
+  // Provenance: free keys (what the designer recorded); `key:` without entries is allowed.
+  const auto present = [&](const char* key) { return root[key].present() && !root[key].isNull(); };
+  if (present("design")) {
+    for (const auto& [name, v] : root["design"].entries()) f.design[name] = v.text();
+  }
+  for (const char* key : {"metrics", "predicted_std"}) {
+    if (!present(key)) continue;
+    auto& dst = key[0] == 'm' ? f.metrics : f.predicted_std;
+    for (const auto& [name, v] : root[key].entries()) dst[name] = v.number();
+  }
+  // Unknown keys last, so that a misspelt required key is reported as missing.
+  root.onlyKeys({"format", "robot", "joints", "q0", "base_frequency_hz", "harmonics", "duration_s", "servo_rate_hz",
+                 "coefficients", "constraints", "design", "metrics", "predicted_std"});
 
   // Rest-to-rest needs a whole number of base periods; reject files that cannot be rest-to-rest.
   const double periods = f.periods();
   if (std::abs(periods - std::round(periods)) > 1e-9 || std::round(periods) < 1.0) {
-    r.fail("duration_s", "duration * base_frequency_hz = " + yamlNumberText(periods) +
-                             " is not a whole number of base periods (rest-to-rest needs one)");
+    root["duration_s"].fail("duration * base_frequency_hz = " + yamlNumberText(periods) +
+                            " is not a whole number of base periods (rest-to-rest needs one)");
   }
   try {
     (void)f.toTrajectory();
   } catch (const std::invalid_argument& e) {
-    r.fail("coefficients", e.what());
+    coeff.fail(e.what());
   }
   return f;
 }

@@ -2,6 +2,8 @@
 #include "ftid/trajectory/trajectory_io.hpp"
 
 #include <gtest/gtest.h>
+
+#include <algorithm>
 #include <sys/stat.h>
 
 #include <filesystem>
@@ -168,6 +170,30 @@ std::string replaceOnce(std::string s, const std::string& from, const std::strin
   EXPECT_NE(p, std::string::npos) << from;
   if (p != std::string::npos) s.replace(p, from.size(), to);
   return s;
+}
+
+/// 1-based line of the first line of `text` containing `what`.
+int lineOf(const std::string& text, const std::string& what) {
+  const auto p = text.find(what);
+  EXPECT_NE(p, std::string::npos) << what;
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(p), '\n'));
+}
+
+TEST(TrajectoryIo, ReaderErrorsNameFileLineColumnAndKey) {
+  const std::string good_path = tempPath("good_lines.yaml");
+  writeTrajectoryFile(good_path, sampleFile());
+  const std::string good = readText(good_path);
+  const std::string bad_path = tempPath("bad.yaml");  // expectConfigError's file
+  std::string bad = replaceOnce(good, "duration_s: 7.0", "duration_s: abc");
+  expectConfigError(bad, bad_path + ":" + std::to_string(lineOf(bad, "duration_s: abc")) +
+                             ":13: key 'duration_s': expected a number, got 'abc'");
+  bad = replaceOnce(good, "harmonics: 4", "harmonics: 4\nharmonix: 5");
+  expectConfigError(bad, bad_path + ":" + std::to_string(lineOf(bad, "harmonix")) + ":1: key 'harmonix': unknown key");
+  bad = replaceOnce(good, "  floor_z: ", "  flor_z: 1\n  floor_z: ");
+  expectConfigError(bad, bad_path + ":" + std::to_string(lineOf(bad, "flor_z")) + ":3: key 'constraints.flor_z': unknown key");
+  bad = replaceOnce(good, "harmonics: 4", "harmonics: 4.5");
+  expectConfigError(bad, bad_path + ":" + std::to_string(lineOf(bad, "harmonics: 4.5")) +
+                             ":12: key 'harmonics': expected an integer, got '4.5'");
 }
 
 TEST(TrajectoryIo, ReaderErrorsNameFileAndKey) {
