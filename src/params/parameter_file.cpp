@@ -22,7 +22,7 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/fileio/yaml_emit.hpp"
-#include "ftid/fileio/yaml_strict.hpp"
+#include "ftid/fileio/yaml_reader.hpp"
 
 namespace ftid::params {
 
@@ -44,34 +44,15 @@ std::string nowUtc() {
   return buf;
 }
 
-[[noreturn]] void fail(const std::string& path, const std::string& key, const std::string& what,
-                       const YAML::Node* node = nullptr) {
-  std::string where = path;
-  if (node != nullptr && node->Mark().line >= 0) where += ":" + std::to_string(node->Mark().line + 1);
-  throw ConfigError(where + ": key '" + key + "': " + what);
-}
-
-double readNumber(const YAML::Node& node, const std::string& path, const std::string& key) {
-  if (!node || !node.IsScalar()) fail(path, key, "missing or not a number", &node);
-  double v = 0.0;
-  try {
-    v = node.as<double>();
-  } catch (const YAML::Exception&) {
-    fail(path, key, "'" + node.Scalar() + "' is not a number", &node);
-  }
-  if (!std::isfinite(v)) fail(path, key, "value is not finite", &node);
-  return v;
-}
-
-NamedValue readEntry(const YAML::Node& node, const std::string& name, const std::string& path,
-                     const std::string& prefix) {
-  const std::string key = prefix + "." + name;
-  if (!node.IsMap()) fail(path, key, "expected {value, std, unit}", &node);
+/// One `{value, std, unit}` entry.
+NamedValue readEntry(const YamlValue& entry, const std::string& name) {
+  entry.expectMap("expected {value, std, unit}");
+  entry.onlyKeys({"value", "std", "unit"});
   NamedValue nv;
   nv.name = name;
-  nv.value = readNumber(node["value"], path, key + ".value");
-  if (node["std"]) nv.std = readNumber(node["std"], path, key + ".std");
-  if (node["unit"]) nv.unit = node["unit"].as<std::string>();
+  nv.value = entry.required("value").number();
+  if (const YamlValue std_dev = entry["std"]) nv.std = std_dev.number();
+  nv.unit = entry["unit"].textOr(nv.unit);
   return nv;
 }
 
@@ -165,67 +146,59 @@ ParameterSet readParameterFile(const std::string& path) {
 }
 
 ParameterSet parseParameterText(const std::string& text, const std::string& path) {
-  const YAML::Node root = loadYamlStrict(text, path);
-  if (!root.IsMap()) throw ConfigError(path + ": not a parameter file (expected a YAML mapping)");
+  const YamlFile file = YamlFile::parse(text, path);
+  const YamlValue root = file.root();
+  root.expectMap("not a parameter file (expected a YAML mapping)");
+  root.onlyKeys({"model", "parameters", "derived", "tilt", "provenance"});
   ParameterSet set;
-  try {
-    const YAML::Node model = root["model"];
-    if (!model || !model.IsScalar()) fail(path, "model", "missing (e.g. 'model: paper')");
-    set.model = model.as<std::string>();
-    const YAML::Node params = root["parameters"];
-    if (!params || !params.IsMap()) fail(path, "parameters", "missing or not a mapping");
-    for (const auto& kv : params) {
-      set.params.push_back(readEntry(kv.second, kv.first.as<std::string>(), path, "parameters"));
+  const YamlValue model = root["model"];
+  if (!model.isScalar()) model.fail("missing (e.g. 'model: paper')");
+  set.model = model.text();
+  // Parameter names are checked against the model where the set is used (thetaFor).
+  for (const auto& [name, entry] : root.required("parameters").expectMap().entries()) {
+    set.params.push_back(readEntry(entry, name));
+  }
+  if (const YamlValue derived = root["derived"]) {
+    for (const auto& [name, entry] : derived.entries()) set.derived.push_back(readEntry(entry, name));
+  }
+  if (const YamlValue tilt = root["tilt"]) {
+    tilt.expectMap().onlyKeys({"estimated", "u", "v"});
+    set.tilt_estimated = tilt["estimated"].booleanOr(set.tilt_estimated);
+    const NamedValue u = readEntry(tilt.required("u"), "u");
+    const NamedValue v = readEntry(tilt.required("v"), "v");
+    set.tilt_u_rad = u.value;
+    set.tilt_u_std = u.std;
+    set.tilt_v_rad = v.value;
+    set.tilt_v_std = v.std;
+  }
+  if (const YamlValue prov = root["provenance"]) {
+    prov.onlyKeys({"date", "data_file", "model", "method", "trajectory", "n_samples", "residual_rms",
+                   "condition_number"});
+    auto& p = set.provenance;
+    p.date_utc = prov["date"].textOr(p.date_utc);
+    p.data_file = prov["data_file"].textOr(p.data_file);
+    p.method = prov["method"].textOr(p.method);
+    p.trajectory = prov["trajectory"].textOr(p.trajectory);
+    if (const YamlValue n = prov["n_samples"]) p.n_samples = static_cast<int>(n.integer(0, 2147483647));
+    if (const YamlValue rms = prov["residual_rms"]) {
+      rms.onlyKeys({"fx", "fy", "fz", "tx", "ty", "tz"});
+      for (int a = 0; a < 6; ++a) set.residual_rms(a) = rms[kWrenchAxisNames[a]].numberOr(set.residual_rms(a));
     }
-    if (const YAML::Node derived = root["derived"]) {
-      if (!derived.IsMap()) fail(path, "derived", "not a mapping", &derived);
-      for (const auto& kv : derived) {
-        set.derived.push_back(readEntry(kv.second, kv.first.as<std::string>(), path, "derived"));
-      }
-    }
-    if (const YAML::Node tilt = root["tilt"]) {
-      if (!tilt.IsMap()) fail(path, "tilt", "not a mapping", &tilt);
-      if (tilt["estimated"]) set.tilt_estimated = tilt["estimated"].as<bool>();
-      const NamedValue u = readEntry(tilt["u"], "u", path, "tilt");
-      const NamedValue v = readEntry(tilt["v"], "v", path, "tilt");
-      set.tilt_u_rad = u.value;
-      set.tilt_u_std = u.std;
-      set.tilt_v_rad = v.value;
-      set.tilt_v_std = v.std;
-    }
-    if (const YAML::Node prov = root["provenance"]) {
-      if (prov["date"]) set.provenance.date_utc = prov["date"].as<std::string>();
-      if (prov["data_file"]) set.provenance.data_file = prov["data_file"].as<std::string>();
-      if (prov["method"]) set.provenance.method = prov["method"].as<std::string>();
-      if (prov["trajectory"]) set.provenance.trajectory = prov["trajectory"].as<std::string>();
-      if (prov["n_samples"]) set.provenance.n_samples = prov["n_samples"].as<int>();
-      if (const YAML::Node rms = prov["residual_rms"]) {
-        for (int a = 0; a < 6; ++a) {
-          if (rms[kWrenchAxisNames[a]]) {
-            set.residual_rms(a) = readNumber(rms[kWrenchAxisNames[a]], path,
-                                             std::string("provenance.residual_rms.") + kWrenchAxisNames[a]);
-          }
-        }
-      }
-      if (prov["condition_number"]) {
-        set.condition_number = prov["condition_number"].as<double>();
-      }
-    }
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+    set.condition_number = prov["condition_number"].numberOr(set.condition_number);
   }
   if (const auto problem = findParameterProblem(set)) {
-    // Name the line of the offending key when it is in the file.
-    std::string where = path;
-    const auto dot = problem->key.find('.');
-    if (dot != std::string::npos) {
-      const YAML::Node section = root[problem->key.substr(0, dot)];
-      if (section && section.IsMap()) {
-        const YAML::Node entry = section[problem->key.substr(dot + 1)];
-        if (entry && entry.Mark().line >= 0) where += ":" + std::to_string(entry.Mark().line + 1);
-      }
+    // Name the offending key's position when it is in the file ("parameters.mass", "tilt.u").
+    YamlValue at = root;
+    std::size_t begin = 0;
+    while (at.isMap() && begin <= problem->key.size()) {
+      const std::size_t dot = problem->key.find('.', begin);
+      const std::string part = problem->key.substr(begin, dot == std::string::npos ? std::string::npos : dot - begin);
+      at = at[part];
+      if (dot == std::string::npos) break;
+      begin = dot + 1;
     }
-    throw ConfigError(where + ": key '" + problem->key + "': " + problem->message);
+    if (at.present() && at.key() == problem->key) at.fail(problem->message);
+    throw ConfigError(path + ": key '" + problem->key + "': " + problem->message);
   }
   return set;
 }

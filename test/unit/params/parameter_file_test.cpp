@@ -122,13 +122,34 @@ TEST(ParameterFile, NonPositiveMassAndNonFiniteValuesAreRefused) {
   const std::string p = scratch("neg.yaml");
   spit(p, "model: paper\nparameters:\n  f0_x: {value: 0.1}\n  mass: {value: -0.5, std: 0.01}\n");
   const std::string m = errorOf(p);
-  EXPECT_NE(m.find(p + ":4: key 'parameters.mass': mass -0.5 kg is not positive"), std::string::npos) << m;
+  EXPECT_NE(m.find(p + ":4:9: key 'parameters.mass': mass -0.5 kg is not positive"), std::string::npos) << m;
   spit(p, "model: paper\nparameters:\n  mass: {value: 0}\n");
   EXPECT_NE(errorOf(p).find("not positive"), std::string::npos);
   spit(p, "model: paper\nparameters:\n  mass: {value: .nan}\n");
-  EXPECT_NE(errorOf(p).find("not finite"), std::string::npos) << errorOf(p);
+  EXPECT_NE(errorOf(p).find(p + ":3:17: key 'parameters.mass.value': must be finite"), std::string::npos) << errorOf(p);
   spit(p, "model: paper\nparameters:\n  mass: {value: 1, std: .inf}\n");
   EXPECT_NE(errorOf(p).find("parameters.mass.std"), std::string::npos) << errorOf(p);
+  std::filesystem::remove(p);
+}
+
+TEST(ParameterFile, BadValuesAndUnknownKeysNameFileLineColumnAndKey) {
+  const std::string p = scratch("bad.yaml");
+  const auto expectError = [&](const std::string& text, const std::string& fragment) {
+    spit(p, text);
+    const std::string m = errorOf(p);
+    EXPECT_NE(m.find(p + fragment), std::string::npos) << m;
+  };
+  expectError("model: paper\nparameters:\n  mass: {value: heavy}\n",
+              ":3:17: key 'parameters.mass.value': expected a number, got 'heavy'");
+  expectError("model: paper\nparameters:\n  mass: {value: 1, sdt: 0.1}\n",
+              ":3:20: key 'parameters.mass.sdt': unknown key (known keys here: value, std, unit)");
+  expectError("model: paper\nparameters:\n  mass: {std: 0.1}\n", ":3:9: key 'parameters.mass.value': missing");
+  expectError("model: paper\nparameters:\n  mass: {value: 1}\ntilt:\n  estimated: maybe\n",
+              ":5:14: key 'tilt.estimated': expected true or false, got 'maybe'");
+  expectError("model: paper\nparameters:\n  mass: {value: 1}\nprovenance:\n  n_samples: 12.5\n",
+              ":5:14: key 'provenance.n_samples': expected an integer, got '12.5'");
+  expectError("model: paper\nparamters:\n  mass: {value: 1}\n", ":2:1: key 'paramters': unknown key");
+  expectError("model: paper\n", ": key 'parameters': missing");
   std::filesystem::remove(p);
 }
 
