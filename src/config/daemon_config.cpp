@@ -18,123 +18,27 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/input_file.hpp"
-#include "ftid/fileio/yaml_strict.hpp"
+#include "ftid/fileio/yaml_reader.hpp"
 
 namespace ftid::config {
 namespace {
 
 // ---------------------------------------------------------------------------------------------
-// Reading typed values with messages "FILE:LINE: key 'a.b': problem".
+// Reading: fileio's YamlValue ("FILE:LINE:COLUMN: key 'a.b': problem"), one handler per key.
 
-class Reader {
- public:
-  Reader(std::string source, std::string base_dir)
-      : source_(std::move(source)), base_dir_(std::move(base_dir)) {}
+using Handler = std::function<void(const YamlValue&)>;
 
-  [[noreturn]] void fail(const YAML::Node& node, const std::string& key,
-                         const std::string& what) const {
-    std::ostringstream os;
-    os << source_;
-    if (node.IsDefined() && node.Mark().line >= 0) os << ':' << node.Mark().line + 1;
-    os << ": key '" << key << "': " << what;
-    throw ConfigError(os.str());
-  }
-
-  std::string scalarText(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsScalar()) fail(node, key, "expected a single value");
-    return node.Scalar();
-  }
-
-  double number(const YAML::Node& node, const std::string& key) const {
-    const std::string text = scalarText(node, key);
-    double v = 0.0;
-    try {
-      std::size_t used = 0;
-      v = std::stod(text, &used);
-      if (used != text.size()) throw std::invalid_argument(text);
-    } catch (const std::exception&) {
-      fail(node, key, "expected a number, got '" + text + "'");
-    }
-    if (!std::isfinite(v)) fail(node, key, "must be finite, got '" + text + "'");
-    return v;
-  }
-
-  int integer(const YAML::Node& node, const std::string& key) const {
-    const std::string text = scalarText(node, key);
-    long v = 0;
-    try {
-      std::size_t used = 0;
-      v = std::stol(text, &used);
-      if (used != text.size()) throw std::invalid_argument(text);
-    } catch (const std::exception&) {
-      fail(node, key, "expected an integer, got '" + text + "'");
-    }
-    if (v < -1000000000L || v > 1000000000L) fail(node, key, "integer out of range: " + text);
-    return static_cast<int>(v);
-  }
-
-  bool boolean(const YAML::Node& node, const std::string& key) const {
-    const std::string text = scalarText(node, key);
-    if (text == "true" || text == "yes" || text == "on") return true;
-    if (text == "false" || text == "no" || text == "off") return false;
-    fail(node, key, "expected true or false, got '" + text + "'");
-  }
-
-  std::string string(const YAML::Node& node, const std::string& key) const {
-    const std::string text = scalarText(node, key);
-    if (text.empty()) fail(node, key, "must not be empty");
-    return text;
-  }
-
-  std::string path(const YAML::Node& node, const std::string& key) const {
-    std::string p = string(node, key);
-    if (p[0] != '/' && !base_dir_.empty()) p = base_dir_ + "/" + p;
-    return p;
-  }
-
-  Vec3 vec3(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsSequence() || node.size() != 3) fail(node, key, "expected a list of 3 numbers");
-    Vec3 v;
-    for (std::size_t i = 0; i < 3; ++i) v(static_cast<int>(i)) = number(node[i], key);
-    return v;
-  }
-
-  Vec6 vec6(const YAML::Node& node, const std::string& key) const {
-    if (!node.IsSequence() || node.size() != 6) fail(node, key, "expected a list of 6 numbers");
-    Vec6 v;
-    for (std::size_t i = 0; i < 6; ++i) v(static_cast<int>(i)) = number(node[i], key);
-    return v;
-  }
-
-  const std::string& source() const { return source_; }
-
- private:
-  std::string source_;
-  std::string base_dir_;
-};
-
-using Handler = std::function<void(const YAML::Node&, const std::string& key)>;
-
-// Applies handlers to the keys of a map; unknown keys are errors listing the known ones.
-void readSection(const Reader& r, const YAML::Node& map, const std::string& prefix,
-                 const std::vector<std::pair<std::string, Handler>>& handlers) {
-  if (!map.IsMap()) r.fail(map, prefix, "expected a mapping of keys");
-  for (const auto& kv : map) {
-    const std::string name = kv.first.Scalar();
-    const std::string key = prefix.empty() ? name : prefix + "." + name;
-    bool found = false;
+// Applies handlers to the keys of a mapping; unknown keys are errors listing the known ones, and a
+// key without a value is an error (never silently the default).
+void readSection(const YamlValue& map, const std::vector<std::pair<std::string, Handler>>& handlers) {
+  std::vector<std::string> known;
+  known.reserve(handlers.size());
+  for (const auto& h : handlers) known.push_back(h.first);
+  map.onlyKeys(known);
+  for (const auto& [name, value] : map.entries()) {
+    if (value.isNull()) value.fail("has no value");
     for (const auto& h : handlers) {
-      if (h.first == name) {
-        if (kv.second.IsNull()) r.fail(kv.first, key, "has no value");
-        h.second(kv.second, key);
-        found = true;
-        break;
-      }
-    }
-    if (!found) {
-      std::string known;
-      for (const auto& h : handlers) known += (known.empty() ? "" : ", ") + h.first;
-      r.fail(kv.first, key, "unknown key (known keys here: " + known + ")");
+      if (h.first == name) h.second(value);
     }
   }
 }
@@ -405,125 +309,119 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
 namespace {
 DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std::string& source_name,
                                         const std::string& base_dir) {
-  const YAML::Node root = loadYamlStrict(yaml_text, source_name);  // duplicate keys are errors
+  const YamlFile file = YamlFile::parse(yaml_text, source_name);  // duplicate keys are errors
   DaemonConfig c;
   c.source = source_name;
-  const Reader r(source_name, base_dir);
-  std::map<std::string, int> lines;  // key -> line, for validation messages
-  auto mark = [&](const YAML::Node& n, const std::string& key) { lines[key] = n.Mark().line + 1; };
+  std::map<std::string, std::string> where;  // key -> FILE:LINE:COLUMN, for validation messages
 
-  if (root.IsNull()) {
-    // empty file: all defaults
-  } else {
-    auto S = [&](auto&& fn) {  // wraps a setter so that the key's line is remembered
-      return [&, fn](const YAML::Node& n, const std::string& key) {
-        mark(n, key);
-        fn(n, key);
-      };
+  // Setters: each reads one typed value and remembers where it was.
+  const auto at = [&](const YamlValue& v) { where[v.key()] = v.where(); };
+  const auto number = [&](double& dst) -> Handler {
+    return [&at, &dst](const YamlValue& v) { at(v); dst = v.number(); };
+  };
+  const auto integer = [&](int& dst) -> Handler {
+    return [&at, &dst](const YamlValue& v) {
+      at(v);
+      dst = static_cast<int>(v.integer(-1000000000, 1000000000, "integer out of range"));
     };
-    readSection(r, root, "", {
-      {"robot", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"host", S([&](const YAML::Node& v, const std::string& key) { c.robot.host = r.string(v, key); })},
-          {"rtde_port", S([&](const YAML::Node& v, const std::string& key) { c.robot.rtde_port = r.integer(v, key); })},
-          {"dashboard_port", S([&](const YAML::Node& v, const std::string& key) { c.robot.dashboard_port = r.integer(v, key); })},
-          {"rtde_frequency_hz", S([&](const YAML::Node& v, const std::string& key) { c.robot.rtde_frequency_hz = r.number(v, key); })},
-          {"urdf_path", S([&](const YAML::Node& v, const std::string& key) { c.robot.urdf_path = r.path(v, key); })},
-          {"base_link", S([&](const YAML::Node& v, const std::string& key) { c.robot.base_link = r.string(v, key); })},
-          {"tip_link", S([&](const YAML::Node& v, const std::string& key) { c.robot.tip_link = r.string(v, key); })},
-          {"receive_timeout_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.receive_timeout_ms = r.number(v, key); })},
-          {"silent_publish_after_ms", S([&](const YAML::Node& v, const std::string& key) { c.robot.silent_publish_after_ms = r.number(v, key); })},
-          {"watchdog_silence_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.watchdog_silence_s = r.number(v, key); })},
-          {"reconnect_after_silence_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.reconnect_after_silence_s = r.number(v, key); })},
-          {"reconnect_backoff_min_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.reconnect_backoff_min_s = r.number(v, key); })},
-          {"reconnect_backoff_max_s", S([&](const YAML::Node& v, const std::string& key) { c.robot.reconnect_backoff_max_s = r.number(v, key); })},
-        });
-      }},
-      {"sensor", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"transport", S([&](const YAML::Node& v, const std::string& key) { c.sensor.transport = r.string(v, key); })},
-          {"socket_path", S([&](const YAML::Node& v, const std::string& key) { c.sensor.socket_path = r.path(v, key); })},
-          {"can_interface", S([&](const YAML::Node& v, const std::string& key) { c.sensor.can_interface = r.string(v, key); })},
-          {"dbc_path", S([&](const YAML::Node& v, const std::string& key) { c.sensor.dbc_path = r.path(v, key); })},
-          {"stale_timeout_ms", S([&](const YAML::Node& v, const std::string& key) { c.sensor.stale_timeout_ms = r.number(v, key); })},
-          {"mount_xyz", S([&](const YAML::Node& v, const std::string& key) { c.sensor.mount_xyz = r.vec3(v, key); })},
-          {"mount_rpy", S([&](const YAML::Node& v, const std::string& key) { c.sensor.mount_rpy = r.vec3(v, key); })},
-        });
-      }},
-      {"parameters", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"path", S([&](const YAML::Node& v, const std::string& key) { c.parameters.path = r.path(v, key); })},
-          {"required", S([&](const YAML::Node& v, const std::string& key) { c.parameters.required = r.boolean(v, key); })},
-          {"tare_window_s", S([&](const YAML::Node& v, const std::string& key) { c.parameters.tare_window_s = r.number(v, key); })},
-          {"tare_max_qd", S([&](const YAML::Node& v, const std::string& key) { c.parameters.tare_max_qd = r.number(v, key); })},
-          {"tare_max_qdd", S([&](const YAML::Node& v, const std::string& key) { c.parameters.tare_max_qdd = r.number(v, key); })},
-        });
-      }},
-      {"lcm", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"url", S([&](const YAML::Node& v, const std::string& key) { c.lcm.url = r.string(v, key); })},
-          {"publish_cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.publish_cycle = r.boolean(v, key); })},
-          {"stats_period_s", S([&](const YAML::Node& v, const std::string& key) { c.lcm.stats_period_s = r.number(v, key); })},
-          {"command_key_path", S([&](const YAML::Node& v, const std::string& key) { c.lcm.command_key_path = r.path(v, key); })},
-          {"accept_remote", S([&](const YAML::Node& v, const std::string& key) { c.lcm.accept_remote = r.boolean(v, key); })},
-          {"channels", [&](const YAML::Node& cn, const std::string& ck) {
-            readSection(r, cn, ck, {
-              {"cycle", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.cycle = r.string(v, key); })},
-              {"wrench", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.wrench = r.string(v, key); })},
-              {"stats", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.stats = r.string(v, key); })},
-              {"command", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.command = r.string(v, key); })},
-              {"ack", S([&](const YAML::Node& v, const std::string& key) { c.lcm.channels.ack = r.string(v, key); })},
-            });
-          }},
-        });
-      }},
-      {"rt", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"require_rt", S([&](const YAML::Node& v, const std::string& key) { c.rt.require_rt = r.boolean(v, key); })},
-          {"lock_memory", S([&](const YAML::Node& v, const std::string& key) { c.rt.lock_memory = r.boolean(v, key); })},
-          {"priority", S([&](const YAML::Node& v, const std::string& key) { c.rt.priority = r.integer(v, key); })},
-          {"cpu", S([&](const YAML::Node& v, const std::string& key) { c.rt.cpu = r.integer(v, key); })},
-          {"overrun_budget_ms", S([&](const YAML::Node& v, const std::string& key) { c.rt.overrun_budget_ms = r.number(v, key); })},
-        });
-      }},
-      {"output", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"frame", S([&](const YAML::Node& v, const std::string& key) { c.output.frame = r.string(v, key); })},
-          {"tool_xyz", S([&](const YAML::Node& v, const std::string& key) { c.output.tool_xyz = r.vec3(v, key); })},
-          {"tool_rpy", S([&](const YAML::Node& v, const std::string& key) { c.output.tool_rpy = r.vec3(v, key); })},
-          {"lowpass_hz", S([&](const YAML::Node& v, const std::string& key) { c.output.lowpass_hz = r.number(v, key); })},
-        });
-      }},
-      {"export", [&](const YAML::Node& n, const std::string& k) {
-        auto part = [&](RigidPartConfig& p) {
-          return [&](const YAML::Node& pn, const std::string& pk) {
-            readSection(r, pn, pk, {
-              {"mass", S([&](const YAML::Node& v, const std::string& key) { p.mass = r.number(v, key); })},
-              {"com", S([&](const YAML::Node& v, const std::string& key) { p.com_F = r.vec3(v, key); })},
-              {"inertia", S([&](const YAML::Node& v, const std::string& key) { p.inertia_C_F = r.vec6(v, key); })},
-            });
-          };
-        };
-        readSection(r, n, k, {
-          {"world_frame", S([&](const YAML::Node& v, const std::string& key) { c.exports.world_frame = r.string(v, key); })},
-          {"sensor_frame", S([&](const YAML::Node& v, const std::string& key) { c.exports.sensor_frame = r.string(v, key); })},
-          {"sensor_name", S([&](const YAML::Node& v, const std::string& key) { c.exports.sensor_name = r.string(v, key); })},
-          {"adapter", part(c.exports.adapter)},
-          {"sensor_body", part(c.exports.sensor_body)},
-        });
-      }},
-      {"record", [&](const YAML::Node& n, const std::string& k) {
-        readSection(r, n, k, {
-          {"enabled", S([&](const YAML::Node& v, const std::string& key) { c.record.enabled = r.boolean(v, key); })},
-          {"path", S([&](const YAML::Node& v, const std::string& key) { c.record.path = r.path(v, key); })},
-        });
-      }},
+  };
+  const auto boolean = [&](bool& dst) -> Handler { return [&at, &dst](const YamlValue& v) { at(v); dst = v.boolean(); }; };
+  const auto text = [&](std::string& dst) -> Handler {
+    return [&at, &dst](const YamlValue& v) { at(v); dst = v.nonEmptyText(); };
+  };
+  const auto path = [&](std::string& dst) -> Handler {  // relative to the config file's directory
+    return [&at, &dst, &base_dir](const YamlValue& v) {
+      at(v);
+      dst = v.nonEmptyText();
+      if (dst[0] != '/' && !base_dir.empty()) dst = base_dir + "/" + dst;
+    };
+  };
+  const auto vec3 = [&](Vec3& dst) -> Handler { return [&at, &dst](const YamlValue& v) { at(v); dst = v.vector<3>(); }; };
+  const auto vec6 = [&](Vec6& dst) -> Handler { return [&at, &dst](const YamlValue& v) { at(v); dst = v.vector<6>(); }; };
+  const auto section = [](std::vector<std::pair<std::string, Handler>> handlers) -> Handler {
+    return [handlers = std::move(handlers)](const YamlValue& v) { readSection(v, handlers); };
+  };
+  const auto part = [&](RigidPartConfig& p) -> Handler {
+    return section({{"mass", number(p.mass)}, {"com", vec3(p.com_F)}, {"inertia", vec6(p.inertia_C_F)}});
+  };
+
+  const YamlValue root = file.root();
+  if (!root.isNull()) {  // an empty file: all defaults
+    readSection(root, {
+      {"robot", section({
+        {"host", text(c.robot.host)},
+        {"rtde_port", integer(c.robot.rtde_port)},
+        {"dashboard_port", integer(c.robot.dashboard_port)},
+        {"rtde_frequency_hz", number(c.robot.rtde_frequency_hz)},
+        {"urdf_path", path(c.robot.urdf_path)},
+        {"base_link", text(c.robot.base_link)},
+        {"tip_link", text(c.robot.tip_link)},
+        {"receive_timeout_ms", number(c.robot.receive_timeout_ms)},
+        {"silent_publish_after_ms", number(c.robot.silent_publish_after_ms)},
+        {"watchdog_silence_s", number(c.robot.watchdog_silence_s)},
+        {"reconnect_after_silence_s", number(c.robot.reconnect_after_silence_s)},
+        {"reconnect_backoff_min_s", number(c.robot.reconnect_backoff_min_s)},
+        {"reconnect_backoff_max_s", number(c.robot.reconnect_backoff_max_s)},
+      })},
+      {"sensor", section({
+        {"transport", text(c.sensor.transport)},
+        {"socket_path", path(c.sensor.socket_path)},
+        {"can_interface", text(c.sensor.can_interface)},
+        {"dbc_path", path(c.sensor.dbc_path)},
+        {"stale_timeout_ms", number(c.sensor.stale_timeout_ms)},
+        {"mount_xyz", vec3(c.sensor.mount_xyz)},
+        {"mount_rpy", vec3(c.sensor.mount_rpy)},
+      })},
+      {"parameters", section({
+        {"path", path(c.parameters.path)},
+        {"required", boolean(c.parameters.required)},
+        {"tare_window_s", number(c.parameters.tare_window_s)},
+        {"tare_max_qd", number(c.parameters.tare_max_qd)},
+        {"tare_max_qdd", number(c.parameters.tare_max_qdd)},
+      })},
+      {"lcm", section({
+        {"url", text(c.lcm.url)},
+        {"publish_cycle", boolean(c.lcm.publish_cycle)},
+        {"stats_period_s", number(c.lcm.stats_period_s)},
+        {"command_key_path", path(c.lcm.command_key_path)},
+        {"accept_remote", boolean(c.lcm.accept_remote)},
+        {"channels", section({
+          {"cycle", text(c.lcm.channels.cycle)},
+          {"wrench", text(c.lcm.channels.wrench)},
+          {"stats", text(c.lcm.channels.stats)},
+          {"command", text(c.lcm.channels.command)},
+          {"ack", text(c.lcm.channels.ack)},
+        })},
+      })},
+      {"rt", section({
+        {"require_rt", boolean(c.rt.require_rt)},
+        {"lock_memory", boolean(c.rt.lock_memory)},
+        {"priority", integer(c.rt.priority)},
+        {"cpu", integer(c.rt.cpu)},
+        {"overrun_budget_ms", number(c.rt.overrun_budget_ms)},
+      })},
+      {"output", section({
+        {"frame", text(c.output.frame)},
+        {"tool_xyz", vec3(c.output.tool_xyz)},
+        {"tool_rpy", vec3(c.output.tool_rpy)},
+        {"lowpass_hz", number(c.output.lowpass_hz)},
+      })},
+      {"export", section({
+        {"world_frame", text(c.exports.world_frame)},
+        {"sensor_frame", text(c.exports.sensor_frame)},
+        {"sensor_name", text(c.exports.sensor_name)},
+        {"adapter", part(c.exports.adapter)},
+        {"sensor_body", part(c.exports.sensor_body)},
+      })},
+      {"record", section({
+        {"enabled", boolean(c.record.enabled)},
+        {"path", path(c.record.path)},
+      })},
     });
   }
   validate(c, [&](const std::string& key) {
-    const auto it = lines.find(key);
-    if (it == lines.end()) return source_name + " (default value)";
-    return source_name + ":" + std::to_string(it->second);
+    const auto it = where.find(key);
+    return it == where.end() ? source_name + " (default value)" : it->second;
   }, &c.warnings);
   return c;
 }

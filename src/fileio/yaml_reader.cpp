@@ -2,6 +2,7 @@
 // (include/ftid/fileio/yaml_reader.hpp).
 #include "ftid/fileio/yaml_reader.hpp"
 
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -15,19 +16,21 @@ namespace ftid {
 
 namespace {
 
-/// YAML's special floats (.inf, -.Inf, .NaN, ...): numbers, but never finite ones.
+/// YAML's special floats (.inf, -.Inf, .NaN, ...) and C's (inf, -Infinity, nan): numbers, but
+/// never finite ones (so the message says "must be finite", not "expected a number").
 bool specialFloat(const std::string& t, double& out) {
-  std::string s = t;
+  std::string s;
+  for (const char ch : t) s += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   double sign = 1.0;
   if (!s.empty() && (s[0] == '+' || s[0] == '-')) {
     sign = s[0] == '-' ? -1.0 : 1.0;
     s.erase(0, 1);
   }
-  if (s == ".inf" || s == ".Inf" || s == ".INF") {
+  if (s == ".inf" || s == "inf" || s == "infinity") {
     out = sign * std::numeric_limits<double>::infinity();
     return true;
   }
-  if (t == ".nan" || t == ".NaN" || t == ".NAN") {
+  if (s == ".nan" || s == "nan") {
     out = std::numeric_limits<double>::quiet_NaN();
     return true;
   }

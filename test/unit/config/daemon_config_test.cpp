@@ -155,6 +155,20 @@ TEST_F(DaemonConfigTest, ReconnectKeys) {
               "robot.reconnect_backoff_max_s", 4, "reconnect_backoff_min_s..300");
 }
 
+// The exact position: FILE:LINE:COLUMN of the value, then the full key path.
+TEST_F(DaemonConfigTest, ErrorsNameLineColumnAndFullKey) {
+  const std::string robot = "robot:\n  urdf_path: robot.urdf\n";
+  const std::string sensor = "sensor:\n  dbc_path: sensor.dbc\n";
+  expectError(robot + "  reconnect_backoff_min_s: 2\n  reconnect_backoff_max_s: 1\n" + sensor,
+              "robot.reconnect_backoff_max_s", 4,
+              "test.yaml:4:28: key 'robot.reconnect_backoff_max_s': must be in robot.reconnect_backoff_min_s..300 s");
+  expectError(robot + "  rtde_port: 3e4\n" + sensor, "robot.rtde_port", 3,
+              "test.yaml:3:14: key 'robot.rtde_port': expected an integer, got '3e4'");
+  expectError(base() + "export:\n  adapter:\n    com: [0, 0, x]\n", "export.adapter.com[2]", 7,
+              "test.yaml:7:17: key 'export.adapter.com[2]': expected a number, got 'x'");
+  expectError(base() + "  mount_rpy: [0, 0, 7]\n", "sensor.mount_rpy", 5, "test.yaml:5:14: key 'sensor.mount_rpy': must be");
+}
+
 TEST_F(DaemonConfigTest, MissingFilesNameTheKey) {
   expectError("robot:\n  urdf_path: nope.urdf\nsensor:\n  dbc_path: sensor.dbc\n", "robot.urdf_path", 2,
               "nope.urdf");

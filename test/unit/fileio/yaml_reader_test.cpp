@@ -116,11 +116,11 @@ TEST_F(YamlReader, UnknownKeyIsNamedWithTheKnownOnes) {
 
 TEST_F(YamlReader, NonFiniteNumbersAreRefused) {
   EXPECT_HAS(errorOf([&] { (void)root_["mount"].vector<3>(); }), "cfg/x.yaml:7:19: key 'mount[2]': must be finite, got '.nan'");
-  for (const char* bad : {".inf", "-.Inf", ".NaN", "1e999", "inf", "nan"}) {
+  for (const char* bad : {".inf", "-.Inf", ".NaN", "1e999", "inf", "-Infinity", "nan", "NaN"}) {
     const YamlFile f = YamlFile::parse(std::string("x: ") + bad + "\n", "n.yaml");
     const std::string m = errorOf([&] { (void)f.root()["x"].number(); });
     EXPECT_HAS(m, "n.yaml:1:4: key 'x': ");
-    EXPECT_TRUE(m.find("must be finite") != std::string::npos || m.find("expected a number") != std::string::npos) << m;
+    EXPECT_HAS(m, std::string("must be finite, got '") + bad + "'");
   }
   for (const char* bad : {"0x10", "1.5abc", "1,5", "''", "1e", "."}) {
     const YamlFile f = YamlFile::parse(std::string("x: ") + bad + "\n", "n.yaml");
