@@ -7,14 +7,16 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <sstream>
+#include <vector>
 
 #include "ftid/common/error.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/fileio/yaml_emit.hpp"
-#include "ftid/fileio/yaml_strict.hpp"
+#include "ftid/fileio/yaml_reader.hpp"
 #include "ftid/transport/hmac_sha256.hpp"
 
 namespace ftid::daemon {
@@ -83,32 +85,19 @@ void writeTareState(const std::string& path, const TareState& state) {
 std::optional<TareState> readTareState(const std::string& path) {
   struct stat st {};
   if (::lstat(path.c_str(), &st) != 0 && errno == ENOENT) return std::nullopt;
-  const YAML::Node root = loadYamlFileStrict(path, "tare state file");
-  if (!root.IsMap()) throw ConfigError(path + ": expected a mapping (tare state file)");
-  auto need = [&](const YAML::Node& parent, const std::string& key, const std::string& full) {
-    const YAML::Node n = parent[key];
-    if (!n || !n.IsScalar()) throw ConfigError(path + ": key '" + full + "': missing or not a value");
-    return n;
-  };
+  const YamlFile file = YamlFile::load(path, "tare state file");
+  const YamlValue root = file.root();
+  root.expectMap("expected a mapping (tare state file)");
+  root.onlyKeys({"parameter_sha256", "utime", "cycles", "offsets"});
   TareState s;
-  try {
-    s.parameter_sha256 = need(root, "parameter_sha256", "parameter_sha256").as<std::string>();
-    if (s.parameter_sha256.size() != 64) {
-      throw ConfigError(path + ": key 'parameter_sha256': expected 64 hex digits");
-    }
-    s.utime = need(root, "utime", "utime").as<std::int64_t>();
-    s.cycles = need(root, "cycles", "cycles").as<std::uint32_t>();
-    const YAML::Node off = root["offsets"];
-    if (!off || !off.IsMap()) throw ConfigError(path + ": key 'offsets': missing or not a mapping");
-    for (int i = 0; i < 6; ++i) {
-      const std::string full = std::string("offsets.") + kOffsetNames[i];
-      const double v = need(off, kOffsetNames[i], full).as<double>();
-      if (!std::isfinite(v)) throw ConfigError(path + ": key '" + full + "': must be finite");
-      s.offsets(i) = v;
-    }
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
-  }
+  const YamlValue sha = root.required("parameter_sha256");
+  s.parameter_sha256 = sha.text();
+  if (s.parameter_sha256.size() != 64) sha.fail("expected 64 hex digits");
+  s.utime = root.required("utime").integer();
+  s.cycles = static_cast<std::uint32_t>(root.required("cycles").integer(0, 4294967295LL));
+  const YamlValue off = root.required("offsets").expectMap();
+  off.onlyKeys(std::vector<std::string>(std::begin(kOffsetNames), std::end(kOffsetNames)));
+  for (int i = 0; i < 6; ++i) s.offsets(i) = off.required(kOffsetNames[i]).number();
   return s;
 }
 

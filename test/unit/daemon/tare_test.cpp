@@ -236,7 +236,13 @@ TEST(Tare, MalformedStateFilesNameTheKey) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
   }
   write("parameter_sha256: " + digest + "\nutime: 1\ncycles: 3\noffsets: {f0_x: 1, f0_y: .nan, f0_z: 3, t0_x: 4, t0_y: 5, t0_z: 6}\n");
-  EXPECT_THROW(readTareState(path), ConfigError);
+  try {  // the file, line, column and key of the bad value
+    readTareState(path);
+    FAIL() << "non-finite offset accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ":4:26: key 'offsets.f0_y': must be finite"), std::string::npos)
+        << e.what();
+  }
   write("parameter_sha256: abc\nutime: 1\ncycles: 3\n");
   EXPECT_THROW(readTareState(path), ConfigError);
   // A broken state never stops the parameters from loading; it is ignored and said.
