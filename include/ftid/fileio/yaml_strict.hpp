@@ -3,6 +3,8 @@
 // one from operator[], so `mass: 1` followed by `mass: -2` would silently be read as 1; the strict
 // loader walks the whole document and refuses any mapping that repeats a key, naming both lines.
 // It also bounds the nesting depth (ftid's files are at most a few levels deep).
+// Readers of ftid's files do not use these directly: they load through YamlFile and read typed
+// values through YamlValue (ftid/fileio/yaml_reader.hpp), which builds on this loader.
 #include <yaml-cpp/yaml.h>
 
 #include <string>

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <vector>
 
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/yaml_reader.hpp"
@@ -155,6 +156,47 @@ TEST_F(YamlReader, EmptyTextAndEmptyDocument) {
   EXPECT_FALSE(empty.root()["x"].present());
   EXPECT_EQ(empty.root()["x"].numberOr(2.0), 2.0);
   EXPECT_HAS(errorOf([&] { (void)empty.root().expectMap(); }), "empty.yaml: key '(top level)': has no value");
+}
+
+// Whatever the document's shape, every getter either returns or throws ConfigError (never a
+// yaml-cpp exception, which a reader would let escape as a crash).
+TEST(YamlReaderShapes, EveryGetterOnEveryShapeThrowsOnlyConfigError) {
+  const char* const docs[] = {"", "3", "[1, 2]", "~", "a:", "a: ~", "a: [1, {b: 2}]", "a: {b: [x]}", "? [1, 2]\n: 3\n",
+                              "a: &x {b: 1}\nc: *x\n", "a: !!binary aGk=\n", "a: {? {k: 1} : v}\n", "- - - 1\n"};
+  for (const char* text : docs) {
+    const YamlFile f = YamlFile::parse(text, "s.yaml");
+    const std::vector<std::function<void(const YamlValue&)>> getters = {
+        [](const YamlValue& v) { (void)v.text(); },         [](const YamlValue& v) { (void)v.nonEmptyText(); },
+        [](const YamlValue& v) { (void)v.number(); },       [](const YamlValue& v) { (void)v.integer(); },
+        [](const YamlValue& v) { (void)v.boolean(); },      [](const YamlValue& v) { (void)v.numbers(); },
+        [](const YamlValue& v) { (void)v.vector<2>(); },    [](const YamlValue& v) { (void)v.entries(); },
+        [](const YamlValue& v) { (void)v.elements(); },     [](const YamlValue& v) { v.onlyKeys({"a"}); },
+        [](const YamlValue& v) { (void)v.required("a"); },  [](const YamlValue& v) { (void)v.at(0); },
+        [](const YamlValue& v) { (void)v.size(); },         [](const YamlValue& v) { (void)v.numberOr(1.0); }};
+    std::vector<YamlValue> values = {f.root()};
+    for (std::size_t k = 0; k < values.size() && k < 50; ++k) {  // the document's values, breadth first
+      const YamlValue v = values[k];
+      if (v.isMap()) {
+        try {
+          for (const auto& e : v.entries()) values.push_back(e.second);
+        } catch (const ConfigError&) {
+        }
+        values.push_back(v["a"]);
+        values.push_back(v["missing"]);
+      } else if (v.isSequence()) {
+        for (const auto& e : v.elements()) values.push_back(e);
+      }
+    }
+    for (const YamlValue& v : values) {
+      for (const auto& g : getters) {
+        const std::string m = errorOf([&] { g(v); });
+        EXPECT_EQ(m.find("(not a ConfigError)"), std::string::npos) << text << " / " << v.key() << ": " << m;
+        if (m != "(no error)") {
+          EXPECT_EQ(m.rfind("s.yaml", 0), 0u) << m;
+        }
+      }
+    }
+  }
 }
 
 TEST(YamlFileLoad, NamesTheFileAndKeepsTheStrictChecks) {
