@@ -237,7 +237,9 @@ std::int64_t YamlValue::integer(std::int64_t min, std::int64_t max, const std::s
 bool YamlValue::boolean() const {
   const std::string& t = scalar("true or false");
   bool v = false;
-  if (!YAML::convert<bool>::decode(node_, v)) fail("expected true or false, got '" + t + "'");
+  // YAML 1.1's words (true/yes/on, false/no/off, as lower, Title or UPPER case), but not its
+  // single letters y/n: a stray letter is more likely a mistake than a decision.
+  if (t.size() < 2 || !YAML::convert<bool>::decode(node_, v)) fail("expected true or false, got '" + t + "'");
   return v;
 }
 

@@ -105,7 +105,7 @@ class YamlValue {
   std::int64_t integer(std::int64_t min = std::numeric_limits<std::int64_t>::min(),
                        std::int64_t max = std::numeric_limits<std::int64_t>::max(),
                        const std::string& what = {}) const;
-  /// true/false (also YAML 1.1's yes/no/on/off, any capitalisation yaml-cpp accepts).
+  /// true/false (also YAML 1.1's yes/no/on/off; lower, Title or UPPER case; not y/n).
   bool boolean() const;
 
   // ---- with a default when absent (a present value must still be valid)
@@ -113,6 +113,10 @@ class YamlValue {
   double numberOr(double fallback) const { return present() ? number() : fallback; }
   double numberOr(double fallback, const NumberRange& range) const { return present() ? number(range) : fallback; }
   bool booleanOr(bool fallback) const { return present() ? boolean() : fallback; }
+  std::int64_t integerOr(std::int64_t fallback, std::int64_t min = std::numeric_limits<std::int64_t>::min(),
+                         std::int64_t max = std::numeric_limits<std::int64_t>::max(), const std::string& what = {}) const {
+    return present() ? integer(min, max, what) : fallback;
+  }
 
   // ---- lists of numbers
   /// A list of exactly `n` finite numbers.

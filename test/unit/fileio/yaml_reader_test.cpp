@@ -60,12 +60,28 @@ TEST_F(YamlReader, ReadsTypedValues) {
   EXPECT_EQ(v, Eigen::Vector3d(1.0, -0.25, 3.0));
 }
 
+TEST(YamlReaderBoolean, WordsButNotLetters) {
+  for (const char* t : {"true", "True", "TRUE", "yes", "on", "ON"}) {
+    EXPECT_TRUE(YamlFile::parse(std::string("b: ") + t + "\n", "b.yaml").root()["b"].boolean()) << t;
+  }
+  for (const char* f : {"false", "False", "no", "NO", "off"}) {
+    EXPECT_FALSE(YamlFile::parse(std::string("b: ") + f + "\n", "b.yaml").root()["b"].boolean()) << f;
+  }
+  for (const char* bad : {"y", "n", "1", "0", "tru", "'yes please'"}) {
+    const YamlFile file = YamlFile::parse(std::string("b: ") + bad + "\n", "b.yaml");
+    EXPECT_HAS(errorOf([&] { (void)file.root()["b"].boolean(); }), "b.yaml:1:4: key 'b': expected true or false, got");
+  }
+}
+
 TEST_F(YamlReader, DefaultsOnlyForAbsentKeys) {
   const YamlValue robot = root_["robot"];
   EXPECT_FALSE(robot["nope"].present());
   EXPECT_DOUBLE_EQ(robot["nope"].numberOr(7.0), 7.0);
   EXPECT_EQ(robot["nope"].textOr("d"), "d");
   EXPECT_FALSE(robot["nope"].booleanOr(false));
+  EXPECT_EQ(robot["nope"].integerOr(-4, -10, 10), -4);
+  EXPECT_EQ(robot["rtde_port"].integerOr(-4), 30004);
+  EXPECT_HAS(errorOf([&] { (void)robot["rtde_port"].integerOr(1, 1, 10); }), "cfg/x.yaml:3:14: key 'robot.rtde_port': must be in 1..10");
   EXPECT_DOUBLE_EQ(robot["backoff_s"].numberOr(7.0), 0.5);
   // A key written without a value is present, and not a valid number.
   EXPECT_HAS(errorOf([&] { (void)robot["empty"].numberOr(7.0); }),
