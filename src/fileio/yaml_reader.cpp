@@ -43,10 +43,9 @@ bool parseNumber(const std::string& t, double& out) {
   if (t.empty()) return false;
   for (const char ch : t) {
     const bool ok = (ch >= '0' && ch <= '9') || ch == '.' || ch == '+' || ch == '-' || ch == 'e' || ch == 'E';
-    if (!ok) return false;  // also refuses "0x10", "inf", " 1"
+    if (!ok) return false;  // refuses "0x10", " 1", "1_000", "1,5"
   }
   char* end = nullptr;
-  errno = 0;
   out = std::strtod(t.c_str(), &end);
   return end == t.c_str() + t.size();  // an overflow (1e999) is inf: "must be finite"
 }
@@ -106,7 +105,8 @@ std::string YamlValue::childKey(std::string_view name) const {
 YamlValue YamlValue::operator[](std::string_view name) const {
   if (!present() || node_.IsNull()) {
     // Nothing here: the child is absent too (a `section:` without entries has no keys).
-    return YamlValue(file_, YAML::Node(YAML::NodeType::Undefined), childKey(name), present() ? mark_ : YAML::Mark::null_mark());
+    // Its position is this value's (or, when this is absent too, that of the mapping it is missing from).
+    return YamlValue(file_, YAML::Node(YAML::NodeType::Undefined), childKey(name), mark_);
   }
   if (!node_.IsMap()) fail("expected a mapping (containing '" + std::string(name) + "')");
   const YAML::Node& n = node_;  // const access: never inserts

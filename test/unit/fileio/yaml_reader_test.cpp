@@ -119,6 +119,8 @@ TEST_F(YamlReader, MissingKeyNamesTheMappingItIsMissingFrom) {
   // At the top level there is no line to name: the file and the key.
   EXPECT_EQ(errorOf([&] { (void)root_.required("duration_s"); }), "cfg/x.yaml: key 'duration_s': missing");
   EXPECT_EQ(errorOf([&] { (void)root_["a"]["b"].number(); }), "cfg/x.yaml: key 'a.b': missing");
+  // Below an absent key: still the mapping where the chain leaves the file.
+  EXPECT_EQ(errorOf([&] { (void)root_["robot"]["tcp"]["x"].number(); }), "cfg/x.yaml:2:3: key 'robot.tcp.x': missing");
 }
 
 TEST_F(YamlReader, UnknownKeyIsNamedWithTheKnownOnes) {
