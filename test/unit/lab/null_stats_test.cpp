@@ -27,6 +27,7 @@
 #include "../identify/seed_study.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/lab/analyze.hpp"
+#include "ftid/trajectory/trajectory_io.hpp"
 #include "lab_sim.hpp"
 
 namespace ftid::lab {
@@ -40,6 +41,8 @@ struct NullCounts {
   int below_005 = 0;         ///< of them below 0.05
   double per_seed_var = 0.0; ///< variance over seeds of the per-seed count below 0.05
   int family_alarms = 0;     ///< rankings with a candidate below family_alpha / tested
+  double phi_mean = 0.0;     ///< reported lag-1 noise correlation, mean over seeds and axes
+  double phi_sd = 0.0;       ///< its spread over seeds and axes
 };
 
 NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
@@ -69,6 +72,10 @@ NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
     for (const auto& c : r.candidates) {
       if (!c.skipped && c.added_params > 0 && c.p_value < o.family_alpha / std::max(1, tested)) alarm = true;
     }
+    for (int a = 0; a < 6; ++a) {
+      out.phi_mean += r.noise_ar1(a);
+      out.phi_sd += r.noise_ar1(a) * r.noise_ar1(a);
+    }
     ++out.seeds;
     out.p_values += tested;
     out.below_005 += below;
@@ -78,6 +85,8 @@ NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
   double mean = 0.0;
   for (int b : per_seed) mean += static_cast<double>(b) / kSeeds;
   for (int b : per_seed) out.per_seed_var += (b - mean) * (b - mean) / (kSeeds - 1);
+  out.phi_mean /= 6.0 * kSeeds;
+  out.phi_sd = std::sqrt(std::max(0.0, out.phi_sd / (6.0 * kSeeds) - out.phi_mean * out.phi_mean));
   return out;
 }
 
@@ -87,8 +96,9 @@ void expectNullHolds(const NullCounts& c, const char* label) {
   // of one ranking share the noise draw).
   const double var = std::max(0.05 * 0.95 * c.p_values, c.seeds * c.per_seed_var);
   const double z = (c.below_005 - expected) / std::sqrt(var);
-  std::printf("  %s: %d p-values, %d below 0.05 (expected %.1f, z %.2f); %d of %d rankings alarm at 0.05\n", label,
-              c.p_values, c.below_005, expected, z, c.family_alarms, c.seeds);
+  std::printf("  %s: %d p-values, %d below 0.05 (expected %.1f, z %.2f); %d of %d rankings alarm at 0.05; "
+              "phi %.3f +- %.3f\n",
+              label, c.p_values, c.below_005, expected, z, c.family_alarms, c.seeds, c.phi_mean, c.phi_sd);
   EXPECT_GE(c.p_values, 8 * c.seeds) << label << ": too few candidates tested";
   EXPECT_LT(std::abs(z), 4.0) << label << ": " << c.below_005 << " of " << c.p_values
                               << " candidate p-values below 0.05 under the null";
@@ -99,6 +109,22 @@ TEST(LabNull, CandidatePValuesHoldOnFilteredNoise) {
   sim::CellSimConfig cfg = labtest::baseConfig(1);
   cfg.noise.wrench_lowpass_hz = 10.0;
   expectNullHolds(runNull(cfg, 15000), "filtered");
+}
+
+TEST(LabNull, CandidatePValuesHoldOnAShortFilteredRun) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  cfg.noise.wrench_lowpass_hz = 10.0;
+  cfg.duration_s = 4.0;
+  expectNullHolds(runNull(cfg, 17000), "filtered 4 s");
+}
+
+TEST(LabNull, CandidatePValuesHoldOnTheShipped3sTrajectory) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  const trajectory::TrajectoryFile file = trajectory::readTrajectoryFile(FTID_SOURCE_DIR "/config/excitation_ur10.yaml");
+  cfg.trajectory = file.toTrajectory();
+  cfg.duration_s = file.duration_s;
+  cfg.noise.wrench_lowpass_hz = 10.0;
+  expectNullHolds(runNull(cfg, 18000), "shipped 3 s");
 }
 
 TEST(LabNull, CandidatePValuesHoldOnAStaticPoseSetWithFilteredNoise) {
