@@ -144,6 +144,17 @@ std::vector<double> whittleCost(const std::vector<double>& P, int L, int k_lo) {
   return cost;
 }
 
+/// Standard error of the phi minimising `cost` (grid index g) when the log-likelihood is
+/// -info x cost: 1 / sqrt(info x curvature), the curvature over +-0.01 (inside the grid).
+double curvatureStd(const std::vector<double>& cost, int g, double info) {
+  constexpr int kStep = 5;
+  const int c = std::clamp(g, kStep, kPhiGrid - kStep);
+  const double h = kStep * 2e-3;
+  const double curv = (cost[static_cast<std::size_t>(c + kStep)] - 2.0 * cost[static_cast<std::size_t>(c)] +
+                       cost[static_cast<std::size_t>(c - kStep)]) / (h * h);
+  return curv > 0.0 ? 1.0 / std::sqrt(info * curv) : 1.0;
+}
+
 /// Grid index of the smallest cost.
 int argmin(const std::vector<double>& cost) {
   return static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
@@ -498,28 +509,34 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
   // filtered gauges): phi is fitted jointly (six times the data) unless the axes' own fits differ
   // beyond chance (likelihood ratio, 5 degrees of freedom, level 0.001).
   bool common = false;
-  Vec6 phi = Vec6::Zero();
+  Vec6 phi = Vec6::Zero(), phi_std = Vec6::Zero();
   if (spectra) {
+    // The cost is a log-likelihood in units of `info`: averaged segments (Hann, 50 % overlap:
+    // 1.056 segments' worth of overlap each) sharpen it, the taper's correlation of neighbouring
+    // bins blunts it (Hann: sum w^4 L / (sum w^2)^2 = 35/18; Dahlhaus 1988).
+    const double info = (averaged > 1 ? averaged / 1.0556 : 1.0) / (35.0 / 18.0);
     std::vector<double> joint(kPhiGrid + 1, 0.0);
     double separate = 0.0;
     for (int a = 0; a < 6; ++a) {
       const int g = argmin(cost[a]);
       phi(a) = g * 2e-3;
+      phi_std(a) = curvatureStd(cost[a], g, info);
       separate += cost[a][static_cast<std::size_t>(g)];
       for (int k = 0; k <= kPhiGrid; ++k) joint[static_cast<std::size_t>(k)] += cost[a][static_cast<std::size_t>(k)];
     }
     const int gc = argmin(joint);
-    // Whittle log-likelihood of averaged, Hann-tapered bins: about averaged / 2 times the cost.
-    const double lr = (joint[static_cast<std::size_t>(gc)] - separate) * std::max(1, averaged) * 0.5 * 2.0;
+    const double lr = 2.0 * info * (joint[static_cast<std::size_t>(gc)] - separate);
     if (lr < kHomogeneityChi2) {
       common = true;
       phi.setConstant(gc * 2e-3);
+      phi_std.setConstant(curvatureStd(joint, gc, info));
     }
   }
   for (int a = 0; a < 6; ++a) {
     double ph = spectra ? phi(a) : ar1FromDifferences(segs[a]);  // too short for a spectrum
     if (ph < kColouredPhi) ph = 0.0;
     f.ar1(a) = ph;
+    f.ar1_std(a) = ph > 0.0 ? phi_std(a) : 0.0;
     // White: today's estimator; coloured: the spectral level above the motion's band.
     if (spectra) {
       f.std(a) = spectralLevel(P[a], L, k_lo, ph);  // phi = 0: the flat level of white noise
@@ -530,7 +547,8 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
   if (f.ar1.maxCoeff() > 0.0) {
     f.method = NoiseMethod::kColoured;
     f.detail = "coloured (low-pass filtered) noise: lag-1 correlation " +
-               (common ? fmt(f.ar1.maxCoeff()) + " common to the six axes" : "up to " + fmt(f.ar1.maxCoeff())) +
+               (common ? fmt(f.ar1.maxCoeff()) + " +- " + fmt(f.ar1_std.maxCoeff()) + " common to the six axes"
+                       : "up to " + fmt(f.ar1.maxCoeff())) +
                (spectra ? " (AR(1) fitted to the residual's spectrum above the motion's band)"
                         : " (from the residual's differences)");
   } else {

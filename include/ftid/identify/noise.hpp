@@ -37,6 +37,8 @@ struct NoiseFloor {
   NoiseMethod method = NoiseMethod::kWhite;
   Vec6 std = Vec6::Zero();        ///< marginal noise std per axis [N, Nm] (0: not observable)
   Vec6 ar1 = Vec6::Zero();        ///< lag-1 correlation of the noise per axis (0 = white)
+  /// Standard error of ar1 where it was fitted to a spectrum (refineNoiseFloor; 0 otherwise).
+  Vec6 ar1_std = Vec6::Zero();
   int pose_groups = 0;            ///< static data: number of poses found
   Vec6 difference_std = Vec6::Zero();  ///< dense data: the stride-1 4th-difference estimate
   std::string detail;             ///< how it was estimated, in words (one line)

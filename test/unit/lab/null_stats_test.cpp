@@ -43,6 +43,7 @@ struct NullCounts {
   int family_alarms = 0;     ///< rankings with a candidate below family_alpha / tested
   double phi_mean = 0.0;     ///< reported lag-1 noise correlation, mean over seeds and axes
   double phi_sd = 0.0;       ///< its spread over seeds and axes
+  double phi_reported = 0.0; ///< RMS of the reported standard error of phi
 };
 
 NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
@@ -75,6 +76,7 @@ NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
     for (int a = 0; a < 6; ++a) {
       out.phi_mean += r.noise_ar1(a);
       out.phi_sd += r.noise_ar1(a) * r.noise_ar1(a);
+      out.phi_reported += r.noise_ar1_std(a) * r.noise_ar1_std(a);
     }
     ++out.seeds;
     out.p_values += tested;
@@ -86,6 +88,7 @@ NullCounts runNull(const sim::CellSimConfig& noisy, std::uint64_t first_seed) {
   for (int b : per_seed) mean += static_cast<double>(b) / kSeeds;
   for (int b : per_seed) out.per_seed_var += (b - mean) * (b - mean) / (kSeeds - 1);
   out.phi_mean /= 6.0 * kSeeds;
+  out.phi_reported = std::sqrt(out.phi_reported / (6.0 * kSeeds));
   out.phi_sd = std::sqrt(std::max(0.0, out.phi_sd / (6.0 * kSeeds) - out.phi_mean * out.phi_mean));
   return out;
 }
@@ -97,12 +100,18 @@ void expectNullHolds(const NullCounts& c, const char* label) {
   const double var = std::max(0.05 * 0.95 * c.p_values, c.seeds * c.per_seed_var);
   const double z = (c.below_005 - expected) / std::sqrt(var);
   std::printf("  %s: %d p-values, %d below 0.05 (expected %.1f, z %.2f); %d of %d rankings alarm at 0.05; "
-              "phi %.3f +- %.3f\n",
-              label, c.p_values, c.below_005, expected, z, c.family_alarms, c.seeds, c.phi_mean, c.phi_sd);
+              "phi %.3f, spread %.3f, reported %.3f\n",
+              label, c.p_values, c.below_005, expected, z, c.family_alarms, c.seeds, c.phi_mean, c.phi_sd,
+              c.phi_reported);
   EXPECT_GE(c.p_values, 8 * c.seeds) << label << ": too few candidates tested";
   EXPECT_LT(std::abs(z), 4.0) << label << ": " << c.below_005 << " of " << c.p_values
                               << " candidate p-values below 0.05 under the null";
   EXPECT_LE(c.family_alarms, 8) << label << ": family-wise false alarms above family_alpha = 0.05";
+  if (c.phi_reported > 0.0) {
+    // The reported standard error of phi (it sets the p-values' scale uncertainty) is the spread.
+    EXPECT_NEAR(c.phi_sd / c.phi_reported, 1.0, 0.3) << label << ": phi spread " << c.phi_sd << ", reported "
+                                                     << c.phi_reported;
+  }
 }
 
 TEST(LabNull, CandidatePValuesHoldOnFilteredNoise) {
