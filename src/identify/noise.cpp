@@ -2,6 +2,7 @@
 #include "ftid/identify/noise.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -14,6 +15,8 @@ namespace {
 constexpr double kMadToStd = 1.482602218505602;
 constexpr double kColouredPhi = 0.2;  // below: white (the stride-1 estimate is used unchanged)
 constexpr int kMaxStride = 3;
+constexpr int kWelchSegment = 256;
+constexpr double kHomogeneityChi2 = 20.515;  // chi-square(5) quantile 0.999
 
 double median(std::vector<double>& v) {
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
@@ -64,7 +67,7 @@ double correlationSum(double phi, std::size_t m) {
 /// Welch periodogram of the segments (Hann window, 50 % overlap, segment length L), normalised so
 /// that white noise of variance s^2 gives s^2 at every frequency. Frequencies k / L cycles a
 /// sample, k = 0..L/2. Returns an empty vector if no segment is long enough.
-std::vector<double> welch(const std::vector<std::vector<double>>& segments, int L) {
+std::vector<double> welch(const std::vector<std::vector<double>>& segments, int L, int* averaged = nullptr) {
   std::vector<double> P(static_cast<std::size_t>(L / 2 + 1), 0.0);
   std::vector<double> w(static_cast<std::size_t>(L));
   double wsum = 0.0;
@@ -98,6 +101,7 @@ std::vector<double> welch(const std::vector<std::vector<double>>& segments, int 
       ++count;
     }
   }
+  if (averaged != nullptr) *averaged = count;
   if (count == 0) return {};
   for (double& v : P) v /= count;
   return P;
@@ -115,19 +119,19 @@ double spectralLevel(const std::vector<double>& P, int L, int k_lo, double phi) 
   return std::sqrt(s2 / (1.0 - phi * phi));
 }
 
-/// AR(1) fit to the Welch spectrum over bins [k_lo, L/2): phi by least squares on the log
-/// spectrum against log(1 / (1 - 2 phi cos w + phi^2)) (level profiled out), the innovation
-/// variance by the mean of P / shape (unbiased). Returns phi < 0 if too few bins.
-Ar1Noise ar1FromSpectrum(const std::vector<double>& P, int L, int k_lo) {
-  Ar1Noise out{0.0, -1.0};
-  const int k_hi = L / 2;  // Nyquist bin excluded (real-valued, half the averaging)
-  if (k_hi - k_lo < 12) return out;
-  // Whittle likelihood over the band, the innovation variance profiled out:
-  //   minimise  nb log(mean(P_k / g_k)) + sum log g_k,   g_k = 1 / (1 - 2 phi cos w_k + phi^2).
-  double best = 1e300;
+constexpr int kPhiGrid = 495;  // phi = 0, 0.002, ..., 0.99
+
+/// Profiled Whittle cost of AR(1) noise on the spectrum P over bins [k_lo, L/2) for every phi of
+/// the grid (phi = 0.002 g): nb log(mean_k(P_k / g_k)) + sum_k log g_k with
+/// g_k = 1 / (1 - 2 phi cos w_k + phi^2) (the innovation variance profiled out). The Nyquist bin
+/// is excluded (real-valued, half the averaging). Empty if fewer than 12 bins.
+std::vector<double> whittleCost(const std::vector<double>& P, int L, int k_lo) {
+  const int k_hi = L / 2;
+  if (k_hi - k_lo < 12) return {};
   const int nb = k_hi - k_lo;
-  for (int g = 0; g <= 990; g += 2) {
-    const double phi = g * 1e-3;
+  std::vector<double> cost(kPhiGrid + 1);
+  for (int g = 0; g <= kPhiGrid; ++g) {
+    const double phi = g * 2e-3;
     double mean = 0.0, logg = 0.0;
     for (int k = k_lo; k < k_hi; ++k) {
       const double wk = 2.0 * 3.141592653589793 * k / L;
@@ -135,14 +139,25 @@ Ar1Noise ar1FromSpectrum(const std::vector<double>& P, int L, int k_lo) {
       mean += P[static_cast<std::size_t>(k)] * inv_shape / nb;
       logg -= std::log(inv_shape);
     }
-    const double cost = nb * std::log(std::max(mean, 1e-300)) + logg;
-    if (cost < best) {
-      best = cost;
-      out.phi = phi;
-    }
+    cost[static_cast<std::size_t>(g)] = nb * std::log(std::max(mean, 1e-300)) + logg;
   }
-  out.std = spectralLevel(P, L, k_lo, out.phi);
-  return out;
+  return cost;
+}
+
+/// Standard error of the phi minimising `cost` (grid index g) when the log-likelihood is
+/// -info x cost: 1 / sqrt(info x curvature), the curvature over +-0.01 (inside the grid).
+double curvatureStd(const std::vector<double>& cost, int g, double info) {
+  constexpr int kStep = 5;
+  const int c = std::clamp(g, kStep, kPhiGrid - kStep);
+  const double h = kStep * 2e-3;
+  const double curv = (cost[static_cast<std::size_t>(c + kStep)] - 2.0 * cost[static_cast<std::size_t>(c)] +
+                       cost[static_cast<std::size_t>(c - kStep)]) / (h * h);
+  return curv > 0.0 ? 1.0 / std::sqrt(info * curv) : 1.0;
+}
+
+/// Grid index of the smallest cost.
+int argmin(const std::vector<double>& cost) {
+  return static_cast<int>(std::min_element(cost.begin(), cost.end()) - cost.begin());
 }
 
 std::string fmt(double v) {
@@ -412,13 +427,18 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
   const int n = static_cast<int>(std::min<Eigen::Index>(residual.cols(), static_cast<Eigen::Index>(ctx.size())));
   std::vector<int> starts = segment_starts.empty() ? std::vector<int>{0} : segment_starts;
   starts.push_back(n);
-  int L = 256;
-  while (L > 32 && L > n / 4) L /= 2;
+  // The spectrum: Welch with 256-sample segments when there are at least four of them; a shorter
+  // run gets one Hann-tapered periodogram of its longest segment, whose finer frequency resolution
+  // lets the band above the motion start lower and hold many more bins (a 4 s run at 125 Hz: the
+  // band from 3-4 Hz instead of 21 Hz with 64-sample segments).
+  int longest = 0;
+  for (std::size_t s = 0; s + 1 < starts.size(); ++s) longest = std::max(longest, starts[s + 1] - starts[s]);
+  const int L = n >= 4 * kWelchSegment ? kWelchSegment : longest - longest % 2;
   // The motion's band: 99.9 % of the joint-velocity power lies below bin k_motion; the model error
   // is made of the motion (and its products: a few times its frequencies), so the noise is fitted
   // above 3 k_motion.
   int k_lo = 2;
-  {
+  if (L >= 2) {
     std::vector<double> total;
     for (int j = 0; j < kNumJoints; ++j) {
       std::vector<std::vector<double>> segs;
@@ -444,21 +464,23 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
     }
     if (sum > 0.0) k_lo = std::max(k_lo, 3 * k_motion + 2);
   }
-  bool used_spectrum = false;
   const Outliers glitches = detectOutliers(residual.leftCols(n), true, 6.0, segment_starts);
   std::vector<char> bad(static_cast<std::size_t>(n), 0);
   for (int i : glitches.samples) bad[static_cast<std::size_t>(i)] = 1;
+  std::array<std::vector<std::vector<double>>, 6> segs;
+  std::array<std::vector<double>, 6> P, cost;
+  int averaged = 0;
+  bool spectra = L >= 2;
   for (int a = 0; a < 6; ++a) {
-    std::vector<std::vector<double>> segs;
     for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
       std::vector<double> seg;
       for (int i = starts[s]; i < starts[s + 1]; ++i) seg.push_back(residual(a, i));
-      segs.push_back(std::move(seg));
+      segs[a].push_back(std::move(seg));
     }
     // Glitches would add a white floor to the spectrum: each run of them is replaced by the line
     // between its nearest good neighbours.
     for (std::size_t s = 0; s + 1 < starts.size(); ++s) {
-      auto& seg = segs[s];
+      auto& seg = segs[a][s];
       const int len = static_cast<int>(seg.size());
       int j = 0;
       while (j < len) {
@@ -477,32 +499,62 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
         j = e;
       }
     }
-    const auto P = welch(segs, L);
-    const Ar1Noise e = P.empty() ? Ar1Noise{0.0, -1.0} : ar1FromSpectrum(P, L, k_lo);
-    double phi = e.phi;
-    if (phi < 0.0) {
-      phi = ar1FromDifferences(segs);  // too short for a spectrum
-    } else {
-      used_spectrum = true;
+    if (spectra) {
+      P[a] = welch(segs[a], L, &averaged);
+      if (!P[a].empty()) cost[a] = whittleCost(P[a], L, k_lo);
     }
-    if (phi < kColouredPhi) phi = 0.0;
-    f.ar1(a) = phi;
+    spectra = spectra && !cost[a].empty();
+  }
+  // One sensor filter colours all six axes alike (each axis is a fixed combination of the same
+  // filtered gauges): phi is fitted jointly (six times the data) unless the axes' own fits differ
+  // beyond chance (likelihood ratio, 5 degrees of freedom, level 0.001).
+  bool common = false;
+  Vec6 phi = Vec6::Zero(), phi_std = Vec6::Zero();
+  if (spectra) {
+    // The cost is a log-likelihood in units of `info`: averaged segments (Hann, 50 % overlap:
+    // 1.056 segments' worth of overlap each) sharpen it, the taper's correlation of neighbouring
+    // bins blunts it (Hann: sum w^4 L / (sum w^2)^2 = 35/18; Dahlhaus 1988).
+    const double info = (averaged > 1 ? averaged / 1.0556 : 1.0) / (35.0 / 18.0);
+    std::vector<double> joint(kPhiGrid + 1, 0.0);
+    double separate = 0.0;
+    for (int a = 0; a < 6; ++a) {
+      const int g = argmin(cost[a]);
+      phi(a) = g * 2e-3;
+      phi_std(a) = curvatureStd(cost[a], g, info);
+      separate += cost[a][static_cast<std::size_t>(g)];
+      for (int k = 0; k <= kPhiGrid; ++k) joint[static_cast<std::size_t>(k)] += cost[a][static_cast<std::size_t>(k)];
+    }
+    const int gc = argmin(joint);
+    const double lr = 2.0 * info * (joint[static_cast<std::size_t>(gc)] - separate);
+    if (lr < kHomogeneityChi2) {
+      common = true;
+      phi.setConstant(gc * 2e-3);
+      phi_std.setConstant(curvatureStd(joint, gc, info));
+    }
+  }
+  for (int a = 0; a < 6; ++a) {
+    double ph = spectra ? phi(a) : ar1FromDifferences(segs[a]);  // too short for a spectrum
+    if (ph < kColouredPhi) ph = 0.0;
+    f.ar1(a) = ph;
+    f.ar1_std(a) = ph > 0.0 ? phi_std(a) : 0.0;
     // White: today's estimator; coloured: the spectral level above the motion's band.
-    if (e.phi >= 0.0) {
-      f.std(a) = spectralLevel(P, L, k_lo, phi);  // phi = 0: the flat level of white noise
+    if (spectra) {
+      f.std(a) = spectralLevel(P[a], L, k_lo, ph);  // phi = 0: the flat level of white noise
     } else {
-      f.std(a) = f.difference_std(a) * std::sqrt(70.0 / differenceVarianceFactor(phi, 1));
+      f.std(a) = f.difference_std(a) * std::sqrt(70.0 / differenceVarianceFactor(ph, 1));
     }
   }
   if (f.ar1.maxCoeff() > 0.0) {
     f.method = NoiseMethod::kColoured;
-    f.detail = "coloured (low-pass filtered) noise: lag-1 correlation up to " + fmt(f.ar1.maxCoeff()) +
-               (used_spectrum ? " (AR(1) fitted to the residual's spectrum above the motion's band)"
-                              : " (from the residual's differences)");
+    f.detail = "coloured (low-pass filtered) noise: lag-1 correlation " +
+               (common ? fmt(f.ar1.maxCoeff()) + " +- " + fmt(f.ar1_std.maxCoeff()) + " common to the six axes"
+                       : "up to " + fmt(f.ar1.maxCoeff())) +
+               (spectra ? " (AR(1) fitted to the residual's spectrum above the motion's band)"
+                        : " (from the residual's differences)");
   } else {
     f.method = NoiseMethod::kWhite;
-    f.detail = used_spectrum ? "white noise: flat spectrum of the residual above the motion's band"
-                             : "white noise: robust spread of the 4th-order differences of the readings";
+    f.detail = spectra ? "white noise: flat spectrum of the residual above the motion's band"
+                       : "white noise: robust spread of the 4th-order differences of the readings";
   }
 }
 

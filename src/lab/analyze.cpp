@@ -326,9 +326,27 @@ void checkConfounds(const Fitted& base, const Model& cand, const Linearization& 
   c.separating_motion = motion;
 }
 
+/// The scale uncertainty of a candidate's F statistic that the estimated noise colour brings. The
+/// candidates (and the model) vary at the motion's frequencies, far below the band where phi is
+/// fitted; whitened with an estimate phi^ of the true phi, noise there keeps the factor
+/// r = S_true(0) / S_phi^(0) = ((1 - phi^) / (1 - phi))^2 of its variance, which the F test's
+/// denominator (the whole band, where the factor averages to 1) does not see:
+/// sd(ln r) = 2 sd(phi^) / (1 - phi^). Axes with their own phi: the mean of the variances (an
+/// upper bound for a statistic that pools them).
+double colourScaleSd(const Vec6& ar1, const Vec6& ar1_std) {
+  double v = 0.0;
+  for (int a = 0; a < 6; ++a) {
+    if (ar1(a) > 0.0 && ar1_std(a) > 0.0) v += std::pow(2.0 * ar1_std(a) / std::max(1e-3, 1.0 - ar1(a)), 2) / 6.0;
+  }
+  return std::sqrt(v);
+}
+
 /// Ranks the candidates against the fitted model `base`.
+/// log_scale_sd: the uncertainty of the F statistic's scale from the noise colour's estimate
+/// (colourScaleSd).
 std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& base, const std::vector<std::string>& menu,
-                                            const AnalyzeOptions& options, const std::string& log_cmd) {
+                                            const AnalyzeOptions& options, const std::string& log_cmd,
+                                            double log_scale_sd) {
   std::vector<CandidateResult> out;
   std::vector<std::string> todo;
   for (const auto& name : menu) {
@@ -407,7 +425,7 @@ std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& bas
     }
     const double dof2 = std::max(1, s.rows_fit - s.rank);
     c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
-    c.p_value = chiSquareSurvival(c.f_statistic * c.added_params, c.added_params);
+    c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, log_scale_sd);
     c.significant = c.p_value < alpha_each && rr >= options.min_relative_reduction;
     if (c.significant) checkConfounds(base, cand, lin, s, c);
   }
@@ -532,6 +550,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.noise_method = identify::toString(nf.method);
   result.noise_detail = nf.detail;
   result.noise_ar1 = nf.ar1;
+  result.noise_ar1_std = nf.ar1_std;
   result.noise_floor = nf.std;
   d.ar1 = nf.ar1;
   (void)identify::poseGroups(fit, &d.static_data);
@@ -606,6 +625,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
         result.noise_method = identify::toString(nf.method);
         result.noise_detail = nf.detail;
         result.noise_ar1 = nf.ar1;
+        result.noise_ar1_std = nf.ar1_std;
         result.noise_floor = nf.std;
         d.ar1 = nf.ar1;
         const Vec6 inn = nf.innovationStd();
@@ -703,7 +723,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // Which effect is missing.
   const auto menu = candidateMenu(options);
-  result.candidates = rankCandidates(engine, base, menu, options, log_cmd);
+  const double scale_sd = colourScaleSd(result.noise_ar1, result.noise_ar1_std);
+  result.candidates = rankCandidates(engine, base, menu, options, log_cmd, scale_sd);
 
   if (options.explain) {
     ExplainStep s0;
@@ -728,7 +749,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       st.total_ratio = totalRatio(st.residual_rms, result.noise_floor);
       st.p_value = best.p_value;
       result.steps.push_back(st);
-      ranking = rankCandidates(engine, cur, menu, options, log_cmd);
+      ranking = rankCandidates(engine, cur, menu, options, log_cmd, scale_sd);
     }
     result.final_report = makeReport(engine, cur.model, cur.lin, cur.sol);
     result.final_residual = cur.sol.heldout_residual;

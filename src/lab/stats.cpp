@@ -69,4 +69,22 @@ double chiSquareSurvival(double statistic, double dof) {
   return std::clamp(gammaContinuedFraction(a, x), 0.0, 1.0);
 }
 
+double chiSquareSurvivalUncertainScale(double statistic, double dof, double log_scale_sd) {
+  if (!(log_scale_sd > 0.0)) return chiSquareSurvival(statistic, dof);
+  if (!(dof > 0.0) || !(statistic > 0.0)) return 1.0;
+  if (!std::isfinite(statistic)) return 0.0;
+  // E_z[Q(statistic exp(-s z))], z standard normal: the trapezoid rule over |z| <= 8 in steps of
+  // 0.05 (the integrand is smooth; the normal weights sum to 1 within 1e-12).
+  constexpr double kStep = 0.05;
+  constexpr int kHalf = 160;
+  double p = 0.0, wsum = 0.0;
+  for (int i = -kHalf; i <= kHalf; ++i) {
+    const double z = i * kStep;
+    const double w = std::exp(-0.5 * z * z);
+    p += w * chiSquareSurvival(statistic * std::exp(-log_scale_sd * z), dof);
+    wsum += w;
+  }
+  return std::clamp(p / wsum, 0.0, 1.0);
+}
+
 }  // namespace ftid::lab

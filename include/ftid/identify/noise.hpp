@@ -37,6 +37,8 @@ struct NoiseFloor {
   NoiseMethod method = NoiseMethod::kWhite;
   Vec6 std = Vec6::Zero();        ///< marginal noise std per axis [N, Nm] (0: not observable)
   Vec6 ar1 = Vec6::Zero();        ///< lag-1 correlation of the noise per axis (0 = white)
+  /// Standard error of ar1 where it was fitted to a spectrum (refineNoiseFloor; 0 otherwise).
+  Vec6 ar1_std = Vec6::Zero();
   int pose_groups = 0;            ///< static data: number of poses found
   Vec6 difference_std = Vec6::Zero();  ///< dense data: the stride-1 4th-difference estimate
   std::string detail;             ///< how it was estimated, in words (one line)
@@ -75,10 +77,13 @@ NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx);
 
 /// Dense data (white/coloured; others unchanged): the noise's AR(1) model from a model residual
 /// (6 x n, time order, segments by start index; ctx: the same samples, for the motion's band).
-/// The residual's Welch spectrum (Hann, 256-sample segments) is fitted above the motion's band
-/// (3x the frequency below which 99.9 % of the joint-velocity power lies), where model error,
-/// made of the motion, does not reach: S(w) = s_e^2 / (1 - 2 phi cos w + phi^2). phi < 0.2
-/// counts as white (std = today's 4th-difference estimate); else std = s_e / sqrt(1 - phi^2).
+/// The residual's spectrum (Welch, Hann, 256-sample segments from 1024 samples on; shorter runs:
+/// one Hann-tapered periodogram of the longest segment) is fitted above the motion's band (3x the
+/// frequency below which 99.9 % of the joint-velocity power lies), where model error, made of the
+/// motion, does not reach: S(w) = s_e^2 / (1 - 2 phi cos w + phi^2), by the Whittle likelihood.
+/// phi is common to the six axes (one sensor filter) unless their own fits differ beyond chance
+/// (likelihood ratio, chi-square(5) at 0.001); ar1_std is its standard error. phi < 0.2 counts as
+/// white (std = the flat spectral level); else std = s_e / sqrt(1 - phi^2).
 void refineNoiseFloor(NoiseFloor& floor, const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual,
                       const std::vector<SampleContext>& ctx, const std::vector<int>& segment_starts = {});
 

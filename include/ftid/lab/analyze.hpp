@@ -58,6 +58,12 @@ double estimateNoiseStd(const std::vector<double>& x);
 /// p-value of a chi-square statistic with `dof` degrees of freedom (upper tail).
 double chiSquareSurvival(double statistic, double dof);
 
+/// The same when the statistic's scale is itself uncertain: statistic = r x chi2(dof) with
+/// ln r normal (0, log_scale_sd^2), i.e. E[chiSquareSurvival(statistic / r, dof)]. The noise's
+/// estimated colour makes the scale of a slow candidate's F statistic uncertain (docs/analyze.md,
+/// "Significance without false alarms"). log_scale_sd = 0: chiSquareSurvival.
+double chiSquareSurvivalUncertainScale(double statistic, double dof, double log_scale_sd);
+
 struct ParamEstimate {
   std::string name;
   std::string unit;
@@ -139,6 +145,7 @@ struct AnalysisResult {
   std::string noise_method;              ///< white, coloured, static_poses, not_observable, data_sheet
   std::string noise_detail;              ///< how, in words
   Vec6 noise_ar1 = Vec6::Zero();         ///< lag-1 noise correlation per axis (prewhitening)
+  Vec6 noise_ar1_std = Vec6::Zero();     ///< its standard error (0: not fitted to a spectrum)
   OutlierReport outliers;
   std::vector<std::string> warnings;     ///< one line each
   ModelReport report;                    ///< the starting model

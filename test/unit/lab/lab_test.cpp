@@ -4,7 +4,9 @@
 // the simulator's truth within 4 reported standard errors. Clean runs must raise no alarm.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <random>
+#include <utility>
 
 #include "ftid/common/error.hpp"
 
@@ -63,6 +65,36 @@ TEST(Statistics, ChiSquareSurvivalMatchesTables) {
   EXPECT_NEAR(lab::chiSquareSurvival(50.89218131151707, 30), 0.01, 1e-9);
   EXPECT_NEAR(lab::chiSquareSurvival(2.0, 2), std::exp(-1.0), 1e-12);
   EXPECT_EQ(lab::chiSquareSurvival(0.0, 3), 1.0);
+}
+
+// The p-value with an uncertain scale, against draws of its own model (independent: a simulation,
+// not the quadrature): statistic = exp(s z) chi2(q), z standard normal. Its p-values are uniform
+// (the fractions below 0.05 and 0.01 within 4 binomial standard deviations), where the plain
+// chi-square tail's are not for many degrees of freedom (q = 12: about 7 % below 0.05; for q = 1 the
+// scale matters little).
+TEST(Statistics, UncertainScaleSurvivalIsUniformUnderItsModel) {
+  EXPECT_EQ(lab::chiSquareSurvivalUncertainScale(7.0, 3, 0.0), lab::chiSquareSurvival(7.0, 3));
+  std::mt19937_64 rng(2026);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const int draws = 4000;
+  for (const auto& [q, s] : {std::pair<int, double>{1, 0.3}, {12, 0.2}}) {
+    std::chi_squared_distribution<double> chi2(q);
+    int below05 = 0, below01 = 0, plain05 = 0;
+    for (int k = 0; k < draws; ++k) {
+      const double x = std::exp(s * n01(rng)) * chi2(rng);
+      const double p = lab::chiSquareSurvivalUncertainScale(x, q, s);
+      below05 += p < 0.05 ? 1 : 0;
+      below01 += p < 0.01 ? 1 : 0;
+      plain05 += lab::chiSquareSurvival(x, q) < 0.05 ? 1 : 0;
+    }
+    std::printf("  q %d, s %.2f: %d / %d below 0.05 (plain chi-square: %d), %d below 0.01\n", q, s, below05, draws,
+                plain05, below01);
+    EXPECT_LT(std::abs(below05 - 0.05 * draws), 4.0 * std::sqrt(0.05 * 0.95 * draws)) << "q " << q;
+    EXPECT_LT(std::abs(below01 - 0.01 * draws), 4.0 * std::sqrt(0.01 * 0.99 * draws)) << "q " << q;
+    if (q >= 12) {
+      EXPECT_GT(plain05 - 0.05 * draws, 4.0 * std::sqrt(0.05 * 0.95 * draws)) << "q " << q;
+    }
+  }
 }
 
 TEST(Analyze, CleanRunsRaiseNoAlarm) {
