@@ -7,25 +7,25 @@
 // N P^2 (10 s at 1 kHz: 60,000 rows). Solves are identify::solveGram (ftid/identify/normal_equations.hpp):
 // the column-equilibrated normal matrix with an eigen-decomposition (pseudo-inverse: directions
 // below 1e-12 of the largest eigenvalue, i.e. a condition number of 1e6 of the scaled regressor,
-// count as not determined). Time derivatives and the initial tilt are identify's as well
-// (identify::timeDerivative, identify::initialTilt).
+// count as not determined).
 //
-// Two quantities are not linear: the base tilt (U, V) and the signals derived from the modelled
-// wrench (its time derivative for sensor_delay, the wrench itself for crosstalk). fitFully() finds
-// them by Gauss-Newton (tilt columns dY/dU theta, dY/dV theta appended to the regressor) and by
-// re-computing the derived signals from the prediction. Folds then re-fit every linear parameter
-// plus a first-order tilt correction, holding the linearisation point of the full fit.
+// The stacking (prewhitening, exclusions), the nonlinear parameters (tilt, mounting, delay) and
+// the signals derived from the modelled wrench are identify's fitting core
+// (identify::NonlinearFit, ftid/identify/nonlinear_fit.hpp): fitFully() runs its Gauss-Newton and
+// then the folds, which re-fit every linear parameter plus a first-order correction of the
+// nonlinear ones, holding the linearisation point of the full fit.
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
 
 #include "ftid/effects/model.hpp"
+#include "ftid/identify/nonlinear_fit.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace ftid::lab::detail {
 
-using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+using identify::Mat6X;
 
 struct Block {
   int begin = 0;   ///< first sample
@@ -56,27 +56,8 @@ struct Dataset {
   }
 };
 
-/// The linearisation point: the nonlinear parameters (effects/nonlinear.hpp) and the
-/// model-derived signals.
-struct Linearization {
-  double u = 0.0, v = 0.0;
-  bool tilt_columns = false;    ///< append dY/dU theta, dY/dV theta
-  Mat6X j_u, j_v;               ///< per sample (6 x N), when tilt_columns
-  Vec3 mount = Vec3::Zero();    ///< mounting roll, pitch, yaw [rad]
-  bool mount_columns = false;   ///< append d(Y theta)/d mount (3 columns)
-  Mat6X j_m[3];
-  double delay = 0.0;           ///< [s] the reading lags the kinematics
-  bool delay_column = false;    ///< append d(Y theta)/d delay = -d/dt of the prediction
-  Mat6X j_d;
-  /// Samples whose delayed kinematics lie inside their log (empty: all); the others get zero rows.
-  std::vector<char> active;
-  /// Columns appended after the model's parameters: tilt (2), mounting (3), delay (1).
-  int extraColumns() const { return (tilt_columns ? 2 : 0) + (mount_columns ? 3 : 0) + (delay_column ? 1 : 0); }
-  int mountColumn(int p) const { return p + (tilt_columns ? 2 : 0); }
-  int delayColumn(int p) const { return mountColumn(p) + (mount_columns ? 3 : 0); }
-  Mat6X w_model;                ///< modelled wrench without derivative-reading effects (6 x N)
-  Mat6X dw_dt;                  ///< its time derivative (6 x N)
-};
+/// The linearisation point (identify's fitting core, ftid/identify/nonlinear_fit.hpp).
+using identify::Linearization;
 
 /// Result of solving one design on the blocks.
 struct Solution {
@@ -98,54 +79,59 @@ struct Solution {
   int n_heldout = 0;            ///< test samples not excluded
 };
 
+/// The lab's folds and held-out sums over identify's fitting core (identify::NonlinearFit: the
+/// stacking, the nonlinear parameters, the derived signals). The core's filter runs are the blocks.
 class Engine {
  public:
   explicit Engine(Dataset data);
   const Dataset& data() const { return data_; }
+  const identify::NonlinearFit& core() const { return core_; }
 
-  /// Weighted regressor of the model at the linearisation (plus tilt columns if lin says so) with
-  /// the weighted measurement as its last column. Row-major; rows ordered block by block, inside a
-  /// block axis by axis (rowOf()), so every (block, axis) is a contiguous row range.
-  using Design = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  Design design(const effects::Model& model, const Linearization& lin) const;
+  /// Weighted regressor of the model at the linearisation (plus the Jacobian columns lin asks for)
+  /// with the weighted measurement as its last column, prewhitened, excluded samples' rows zero.
+  /// Row-major; rows ordered block by block, inside a block axis by axis, so every (block, axis)
+  /// is a contiguous row range (identify::NonlinearFit::rowOf).
+  using Design = identify::NonlinearFit::Design;
+  Design design(const effects::Model& model, const Linearization& lin) const { return core_.design(model, lin); }
   /// Same without prewhitening and exclusions (for the reported residual series).
-  Design rawDesign(const effects::Model& model, const Linearization& lin) const;
-  /// with_folds = false skips the held-out part (inner iterations); with `raw` (rawDesign of the
-  /// same model) fills Solution::heldout_residual in N / Nm and takes the per-axis held-out sums
-  /// from it (needed only for the reported model). Without it the per-axis sums are the whitened
-  /// ones scaled by 1 / (1 - phi^2) (the marginal scale of AR(1) noise).
+  Design rawDesign(const effects::Model& model, const Linearization& lin) const {
+    return core_.rawDesign(model, lin);
+  }
+  /// with_folds = false skips the held-out part; with `raw` (rawDesign of the same model) fills
+  /// Solution::heldout_residual in N / Nm and takes the per-axis held-out sums from it (needed only
+  /// for the reported model). Without it the per-axis sums are the whitened ones scaled by
+  /// 1 / (1 - phi^2) (the marginal scale of AR(1) noise).
   Solution solve(const Design& X, bool with_folds = true, const Design* raw = nullptr) const;
   /// Contexts with g_S and the derived signals of the linearisation filled in.
-  std::vector<SampleContext> prepared(const Linearization& lin) const;
-  /// Design of `cand` = `base` + more effects, from the base design (same linearisation, same tilt
-  /// columns): copies the base columns and adds only the new effects' contributions (regressors
-  /// are additive). Falls back to design() if the base columns are not a prefix of cand's.
+  std::vector<SampleContext> prepared(const Linearization& lin) const { return core_.prepared(lin); }
+  /// Design of `cand` = `base` + more effects, from the base design (identify::NonlinearFit::designExtended).
   Design designExtended(const effects::Model& base, const Design& base_design, const effects::Model& cand,
-                        const Linearization& lin, const std::vector<SampleContext>& prepared_ctx) const;
-  /// Row of (sample i, axis a) in a design.
-  int rowOf(int i, int a) const;
+                        const Linearization& lin, const std::vector<SampleContext>& prepared_ctx) const {
+    return core_.designExtended(base, base_design, cand, lin, prepared_ctx);
+  }
 
-  /// Full nonlinear fit (tilt, derived signals); start from `start` (tilt, reference prediction).
-  /// Returns the converged linearisation (tilt columns for the fitted theta) and its solution.
+  /// Full nonlinear fit (identify::NonlinearFit::fit) from `start`, then the folds at the
+  /// converged linearisation. Returns that linearisation (Jacobian columns of the model's nonlinear
+  /// parameters at the fitted theta, derived signals) and its solution.
   std::pair<Linearization, Solution> fitFully(const effects::Model& model, const Linearization& start) const;
-
-  /// Initial linearisation: the fit's initial tilt (identify::initialTilt, if the model estimates
-  /// tilt), derived signals zero.
-  Linearization initial(const effects::Model& model) const;
+  /// Initial linearisation (identify::NonlinearFit::initial).
+  Linearization initial(const effects::Model& model) const { return core_.initial(model); }
 
   /// Modelled wrench (unweighted, 6 x N) of theta (first P entries) at the linearisation.
   Mat6X predict(const effects::Model& model, const Linearization& lin, const Eigen::VectorXd& theta,
-                bool exclude_derived) const;
-  /// Central differences along time, within each log segment (identify::timeDerivative).
-  Mat6X timeDerivative(const Mat6X& w) const;
-  /// Tilt Jacobian columns J_U, J_V (6 x N) of the model with theta.
-  void tiltColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
-  /// Mounting Jacobian columns (central differences of the prediction in roll, pitch, yaw).
-  void mountColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
-  /// Delay Jacobian column: -d/dt of the prediction (the exact shift's first-order change).
-  void delayColumn(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const;
-  /// Marks the samples whose kinematics at t - lin.delay lie inside their own log.
-  void updateActive(Linearization& lin) const;
+                bool exclude_derived) const {
+    return core_.predict(model, lin, theta, exclude_derived);
+  }
+  /// Jacobian columns of the nonlinear parameters at the linearisation (identify::NonlinearFit).
+  void tiltColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
+    core_.tiltColumns(model, lin, theta);
+  }
+  void mountColumns(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
+    core_.mountColumns(model, lin, theta);
+  }
+  void delayColumn(const effects::Model& model, Linearization& lin, const Eigen::VectorXd& theta) const {
+    core_.delayColumn(model, lin, theta);
+  }
 
   /// Indices of the evaluated (test) samples in order.
   const std::vector<int>& testSamples() const { return test_samples_; }
@@ -154,16 +140,9 @@ class Engine {
   }
 
  private:
-  /// Prewhitens columns [c0, c1) of X in place and zeroes the rows an excluded sample touches.
-  void whiten(Design& X, int c0, int c1) const;
-  SampleContext contextAt(int i, const Linearization& lin) const;
-  /// Sample i prepared for lin (delay shift within its log, mounting, gravity g_B).
-  SampleContext prepare(int i, const Linearization& lin, const Vec3& g_B, const Mat3& R_SM) const;
-  int segmentOf(int i) const;
   Dataset data_;
+  identify::NonlinearFit core_;
   std::vector<int> test_samples_;
-  std::vector<int> block_of_;  ///< block index of every sample
-  std::vector<double> times_;  ///< t of every sample
 };
 
 }  // namespace ftid::lab::detail
