@@ -28,6 +28,7 @@
 #include "ftid/compensate/compensate_log.hpp"
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
+#include "ftid/identify/offline.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/params/parameter_set.hpp"
@@ -151,8 +152,10 @@ struct DriftRun {
 
 /// 3 sessions of 40 cycles at rest at random poses: start, reconnect after a 2.5 s outage,
 /// controller reboot after 40 s (robot_time restarts at 0.5 s). The readings carry the drift
-/// since reading_origin_s (NaN: since the first cycle's receive time).
-void runOnline(Compensation* comp, double reading_origin_s, DriftRun* run) {
+/// since reading_origin_s (NaN: since the first cycle's receive time). With receive-time jitter
+/// the cycle's pairing may blend a reading with the previous pose's (the tests then compare with
+/// the paired reading); without it each state is paired with its own reading.
+void runOnline(Compensation* comp, double reading_origin_s, DriftRun* run, int jitter_us = 300) {
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
   KinematicsMotionModel motion(kin);
   rt::OwnedSwapSlot<Compensation> slot{std::unique_ptr<Compensation>(comp)};
@@ -177,7 +180,7 @@ void runOnline(Compensation* comp, double reading_origin_s, DriftRun* run) {
       for (int j = 0; j < 6; ++j) arm.state.q(j) = 2.5 * u(rng);
       arm.state.qd.setZero();
       arm.state.qdd.setZero();
-      test::g_fake_now_us += 8000 + static_cast<int>(300 * u(rng));  // receive-time jitter
+      test::g_fake_now_us += 8000 + static_cast<int>(jitter_us * u(rng));  // receive-time jitter
       const double host_s = hostTimeSeconds(test::g_fake_now_us);     // FakeArm: recv_utime = now
       if (std::isnan(reading_origin_s)) reading_origin_s = host_s;
       const Mat3 R_BS = kin.computeSensorMotion(arm.state.q, arm.state.qd, arm.state.qdd).R_BS;
@@ -257,6 +260,61 @@ TEST(TimeOrigin, WithoutOriginTheTimeRunsFromTheFirstValidCycleOnTheHostClock) {
   expectOnlineModel(*run, hostTimeSeconds(run->sink.records[0].robot.recv_utime));
   expectSame(offline(run->sink, 0, run->reboot_at, dir.path, params_path, "old_before_reboot"), *run, 0,
              run->reboot_at);
+}
+
+// Identified in one run, applied in the next: the fit of the recording stores its first host_time
+// as the time origin, its offsets hold at that instant (the true offsets plus the drift since the
+// true origin), and ftidd with the identified file compensates a later run to zero.
+TEST(TimeOrigin, IdentificationStoresTheRecordingsFirstHostTime) {
+  Dir dir;
+  const double true_origin_s = hostTimeSeconds(test::g_fake_now_us) - 600.0;
+  const std::string true_path = dir.path + "/true.yaml";
+  params::writeParameterFile(true_path, driftSet(true_origin_s));
+  auto first = std::make_unique<DriftRun>();
+  runOnline(new ParameterFileCompensation(params::readParameterFile(true_path), true_path), true_origin_s,
+            first.get(), 0);
+  // The recording of the first two sessions (80 cycles at rest, random poses, over 3 s).
+  transport::CycleLogBuilder builder("identification run");
+  for (int k = 0; k < first->reboot_at; ++k) {
+    ftid_lcm::cycle_sample_t msg{};
+    transport::toLcm(first->sink.records[static_cast<std::size_t>(k)], &msg);
+    CycleRecord rec;
+    transport::fromLcm(msg, &rec);
+    ASSERT_TRUE(builder.add(rec));
+  }
+  const std::string log_path = dir.path + "/run.csv";
+  logio::writeLog(log_path, builder.finish());
+  identify::IdentifyRequest req;
+  req.log_path = log_path;
+  req.model = "paper+time_drift";
+  req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+  params::ParameterSet fitted = identify::identifyLogFile(req);
+  const double host0_s = hostTimeSeconds(first->sink.records[0].robot.recv_utime);
+  EXPECT_EQ(fitted.time_origin_unix_s, host0_s);  // exactly the recorded value
+  const double since = host0_s - true_origin_s;
+  const char* f0[3] = {"f0_x", "f0_y", "f0_z"};
+  const char* df[3] = {"f0_dt_x", "f0_dt_y", "f0_dt_z"};
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_NE(fitted.find(f0[k]), nullptr);
+    EXPECT_NEAR(fitted.find(f0[k])->value, kF0(k) + kRateF(k) * since, 1e-6) << f0[k];
+    EXPECT_NEAR(fitted.find(df[k])->value, kRateF(k), 1e-7) << df[k];
+  }
+  // A later run (its readings drift since the true origin) with the identified file: zero contact.
+  const std::string fitted_path = dir.path + "/fitted.yaml";
+  params::writeParameterFile(fitted_path, fitted);
+  test::g_fake_now_us += 3'600'000'000;  // an hour later
+  auto later = std::make_unique<DriftRun>();
+  runOnline(new ParameterFileCompensation(params::readParameterFile(fitted_path), fitted_path), true_origin_s,
+            later.get(), 0);
+  for (int k = 0; k < later->sink.count; ++k) {
+    const CycleRecord& r = later->sink.records[static_cast<std::size_t>(k)];
+    const Mat3 R_BS = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf")
+                          .computeSensorMotion(r.robot.q, r.robot.qd, r.robot.qdd)
+                          .R_BS;
+    const Wrench expected =
+        r.sensor.wrench_S - readingAtRest(R_BS, hostTimeSeconds(r.robot.recv_utime), true_origin_s);
+    EXPECT_LT((r.contact_S - expected).cwiseAbs().maxCoeff(), 1e-4) << "record " << k;
+  }
 }
 
 // A negative or infinite origin is refused with the file and key.
