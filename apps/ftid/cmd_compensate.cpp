@@ -44,6 +44,7 @@ int runCompensate(const std::vector<std::string>& argv) {
     std::printf("%d samples left out: with the identified sensor delay their kinematics lie outside the log\n",
                 s.n_without_kinematics);
   }
+  if (!s.time_note.empty()) std::fprintf(stderr, "warning: %s\n", s.time_note.c_str());
   std::printf("%-6s %12s %12s\n", "axis", "raw RMS", "contact RMS");
   const char* axes[6] = {"fx", "fy", "fz", "tx", "ty", "tz"};
   for (int a = 0; a < 6; ++a) std::printf("%-6s %12.4g %12.4g\n", axes[a], s.raw_rms(a), s.contact_rms(a));

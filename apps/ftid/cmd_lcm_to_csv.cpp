@@ -16,9 +16,10 @@ const char* const kUsage =
     "lcm-logger) and writes the robot state and raw sensor sample of every cycle_sample_t on the\n"
     "channel as one CSV row (docs/log-format.md): t = robot controller time [s], q, qd, qdd,\n"
     "wrench, and the IMU and temperature columns when every sample has them; extra columns\n"
-    "cycle, sensor_age_ms, fault_bits. Cycles with an invalid robot state or a stale/invalid\n"
-    "sensor sample are dropped (a stale reading does not belong to that robot state) unless\n"
-    "--keep-invalid is given. The CSV is written atomically.\n"
+    "cycle, sensor_age_ms, fault_bits, host_time (the robot state's receive time on ftidd's host,\n"
+    "UTC seconds: the clock of time_drift, docs/conventions.md \"Time and logs\"). Cycles with an\n"
+    "invalid robot state or a stale/invalid sensor sample are dropped (a stale reading does not\n"
+    "belong to that robot state) unless --keep-invalid is given. The CSV is written atomically.\n"
     "\n"
     "  --out FILE        the CSV to write (required)\n"
     "  --channel NAME    channel with cycle_sample_t (default FTID_CYCLE)\n"
@@ -49,7 +50,7 @@ int runLcmToCsv(const std::vector<std::string>& argv) {
                 report.skipped_invalid, report.skipped_non_monotonic, report.skipped_non_finite,
                 report.decode_errors);
   }
-  std::printf("columns: t, q, qd, qdd, wrench%s%s, cycle, sensor_age_ms, fault_bits\n",
+  std::printf("columns: t, q, qd, qdd, wrench%s%s, cycle, sensor_age_ms, fault_bits, host_time\n",
               log.has_imu ? ", imu" : "", log.has_temp ? ", temp" : "");
   return 0;
 }

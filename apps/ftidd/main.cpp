@@ -36,8 +36,10 @@ void printHelp() {
       "  --check-config       load and validate the configuration, print it, exit 0 (or 2)\n"
       "  --record FILE        record every published message to an LCM log (strftime patterns\n"
       "                       allowed); convert it with `ftid lcm-to-csv FILE --out run.csv`\n"
-      "  --connect-timeout S  at start, keep retrying the robot and sensor connections for S\n"
-      "                       seconds (10), with robot.reconnect_backoff_min_s/_max_s between tries\n"
+      "  --connect-timeout S  at start, keep retrying to open the sensor for S seconds (10), with\n"
+      "                       robot.reconnect_backoff_min_s/_max_s between tries, then exit 1. The\n"
+      "                       robot is not waited for: ftidd starts without it (valid = false) and\n"
+      "                       connects when it answers, with the same backoff\n"
       "  --version            print the version and exit\n"
       "  --help               this text\n"
       "\n"
@@ -50,9 +52,10 @@ void printHelp() {
       "robot.reconnect_after_silence_s) or a closed sensor transport is renewed in-process with\n"
       "backoff; meanwhile FTID_WRENCH carries valid = false at 20 Hz (docs/operations.md,\n"
       "\"Link loss and reconnect\").\n"
-      "systemd: Type=notify; READY, WATCHDOG (only while the loop, link and supervisor threads\n"
+      "systemd: Type=notify; READY (set-up done and the loop running; the robot link may still be\n"
+      "down, STATUS says so and why), WATCHDOG (only while the loop, link and supervisor threads\n"
       "make progress, and robot.watchdog_silence_s if set), RELOADING, STOPPING, STATUS.\n"
-      "exit codes: 0 stopped by a signal, 1 runtime failure (robot or sensor unreachable at start,\n"
+      "exit codes: 0 stopped by a signal, 1 runtime failure (sensor unreachable at start,\n"
       "device or real-time set-up error), 2 bad command line or configuration.\n",
       kDefaultConfig);
 }

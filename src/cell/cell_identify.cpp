@@ -463,6 +463,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     set = identify::toParameterSet(fit);
     set.provenance.date_utc = utcStamp(true);
     set.provenance.data_file = result.data_csv;
+    set.time_origin_unix_s = contexts.time_origin_unix_s;  // the recording's first host_time
     set.provenance.method = "fit";
     set.provenance.trajectory = traj_path;
     set.provenance.n_samples = static_cast<int>(contexts.samples.size());

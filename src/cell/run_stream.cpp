@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 
+#include "ftid/common/clock.hpp"
 #include "ftid/common/error.hpp"
 
 namespace ftid::cell {
@@ -95,7 +96,7 @@ void RunStreamWriter::append(const CycleRecord& r) noexcept {
       pending_ += "# ftid --identify: cycle samples as received from ftidd (raw capture, streamed)\n";
       pending_ += "t,q1,q2,q3,q4,q5,q6,qd1,qd2,qd3,qd4,qd5,qd6,qdd1,qdd2,qdd3,qdd4,qdd5,qdd6,fx,fy,fz,tx,ty,tz";
       if (imu_) pending_ += ",ax,ay,az,wx,wy,wz,alx,aly,alz";
-      pending_ += ",cycle,sensor_age_ms\n";
+      pending_ += ",cycle,sensor_age_ms,host_time\n";  // host_time: docs/conventions.md, "Time and logs"
       header_written_ = true;
     }
     if (imu_ && (!r.sensor.has_imu || !r.sensor.imu_acc_S.allFinite() || !r.sensor.imu_w_S.allFinite() ||
@@ -126,6 +127,8 @@ void RunStreamWriter::append(const CycleRecord& r) noexcept {
     number(pending_, static_cast<double>(r.cycle));
     pending_ += ',';
     number(pending_, static_cast<double>(r.sensor_age_us) / 1000.0);
+    pending_ += ',';
+    number(pending_, hostTimeSeconds(r.robot.recv_utime));
     pending_ += '\n';
     last_t_ = r.robot.robot_time;
     ++rows_;

@@ -1,6 +1,7 @@
 // Compensation of a whole log file (include/ftid/compensate/compensate_log.hpp).
 #include "ftid/compensate/compensate_log.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <sstream>
@@ -18,10 +19,23 @@ CompensateSummary compensateLogFile(const CompensateRequest& request) {
   const params::ParameterSet set = params::readParameterFile(request.params_path);
   const effects::Model model = effects::Model::fromName(set.model);
   const Eigen::VectorXd theta = params::thetaFor(model, set, request.params_path);
-  const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context);
+  // The model's time from the set's time origin, as ftidd does (docs/conventions.md).
+  samples::ContextOptions context = request.context;
+  context.time_origin_unix_s = set.time_origin_unix_s;
+  const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, context);
   Compensator comp(model, theta, params::nonlinearFor(model, set, request.params_path));
 
   CompensateSummary summary;
+  if ((model.signals() & effects::kSignalTime) != 0) {
+    if (!std::isfinite(contexts.time_origin_unix_s)) {
+      summary.time_note = request.log_path + " has no host_time column: the model's time (" + set.model +
+                          ") runs from the log's first sample, not from the parameter set's time origin "
+                          "(docs/conventions.md, \"Time and logs\")";
+    } else if (!std::isfinite(set.time_origin_unix_s)) {
+      summary.time_note = request.params_path + " has no time_origin (written before time origins): the model's "
+                          "time runs from the log's first sample, as ftidd's runs from its first valid cycle";
+    }
+  }
   std::ostringstream os;
   os << "t,fx,fy,fz,tx,ty,tz,model_fx,model_fy,model_fz,model_tx,model_ty,model_tz\n";
   char buf[64];

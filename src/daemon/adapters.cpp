@@ -198,6 +198,7 @@ ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet&
   }
   tilt_u_ = set.tilt_u_rad;
   tilt_v_ = set.tilt_v_rad;
+  time_origin_unix_s_ = set.time_origin_unix_s;
   model_name_ = model.name();
   compensator_ = std::make_unique<compensate::Compensator>(model, theta,
                                                            params::nonlinearFor(model, set, path));

@@ -78,7 +78,7 @@ int Daemon::run() {
   LoopOwner owner(setup.cycle.get(), setup.loop_stats.get(), setup.armConnector(), setup.sensorLink(),
                   setup.loopOwnerOptions(), &logLine);
   setup.outbox->start();
-  owner.start(std::move(setup.first_arm));
+  owner.start(nullptr);  // the link thread connects the robot (docs/daemon.md, "Running")
   Supervisor supervisor(&setup, &owner, signals, options_);
   const int exit_code = supervisor.run();
 

@@ -216,10 +216,24 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   if (comp == nullptr) {
     counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
   } else if (robot_ok && rec.sensor.valid) {
-    if (!have_first_time_) {
+    // Sample time t: the robot clock since the session's anchor, re-anchored when the controller
+    // clock goes back (a controller reboot) so it never runs negative (the compensator restarts
+    // its delay line when t does not advance).
+    if (!have_first_time_ || !(robot.robot_time > last_robot_time_)) {
       first_robot_time_ = robot.robot_time;
       have_first_time_ = true;
     }
+    last_robot_time_ = robot.robot_time;
+    // The model's time (docs/conventions.md, "Time and logs"): the host's UTC receive time of the
+    // state minus the parameter set's time origin, else minus the first valid cycle's (kept over
+    // reconnects and controller reboots: the host clock does not reset with the controller).
+    const double host_time_s = hostTimeSeconds(robot.recv_utime);
+    if (!have_first_host_time_) {
+      first_host_time_s_ = host_time_s;
+      have_first_host_time_ = true;
+    }
+    const double origin_s = comp->timeOriginUnixS();
+    const double t_model = host_time_s - (std::isfinite(origin_s) ? origin_s : first_host_time_s_);
     const model::SensorMotion m = motion_->computeSensorMotion(robot.q, robot.qd, robot.qdd);
     samples::SensorReading reading;
     reading.wrench_S = rec.sensor.wrench_S;
@@ -229,7 +243,7 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     reading.imu_alpha_S = rec.sensor.imu_alpha_S;
     reading.has_temp = rec.sensor.has_temp;
     reading.temp_degC = rec.sensor.temp_degC;
-    samples::makeSampleContext(robot.robot_time - first_robot_time_, robot.q, robot.qd, m, reading,
+    samples::makeSampleContext(robot.robot_time - first_robot_time_, t_model, robot.q, robot.qd, m, reading,
                                model::gravityInBase(comp->tiltU(), comp->tiltV()), &ctx_);
     Wrench contact;
     Wrench modelled;

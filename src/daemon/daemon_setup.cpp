@@ -7,6 +7,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/daemon/backoff.hpp"
+#include "ftid/effects/model.hpp"
 #include "ftid/transport/source_filter.hpp"
 
 namespace ftid::daemon {
@@ -78,6 +79,12 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   const CompensationFactory factory = [this](const std::string& path) -> std::unique_ptr<Compensation> {
     LoadedParameters lp = loadParameters(path, apply_tare);
     auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path);
+    if ((effects::Model::fromName(lp.set.model).signals() & effects::kSignalTime) != 0 &&
+        !std::isfinite(lp.set.time_origin_unix_s)) {
+      logLine(path + ": model '" + lp.set.model + "' reads time but the file has no time_origin (written "
+              "before time origins, or identified from a log without host_time): its time runs from ftidd's "
+              "first valid cycle (docs/conventions.md, \"Time and logs\")");
+    }
     built = std::move(lp);
     return comp;
   };
@@ -127,7 +134,10 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   outbox->setCommandHandler(&CommandQueue::push, &commands);
   if (!out_opt.record_path.empty()) logLine("recording to " + out_opt.record_path);
 
-  // Devices: retried for --connect-timeout with the reconnect backoff.
+  // Devices. The sensor (a local device or socket) is retried for --connect-timeout with the
+  // reconnect backoff and is required at start. The robot is not: the loop owner's link thread
+  // connects to it (the same checks and backoff as for a reconnect), so a cell PC that boots
+  // before the controller runs ftidd, publishing valid = false until the robot answers.
   const BackoffPolicy backoff{cfg.robot.reconnect_backoff_min_s, cfg.robot.reconnect_backoff_max_s, 2.0};
   can_cfg.endpoint = cfg.sensor.transport == "socketcan" ? "socketcan:" + cfg.sensor.can_interface
                                                           : "seqpacket:" + cfg.sensor.socket_path;
@@ -137,18 +147,14 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
       retryUntil(options.connect_timeout_s, backoff, "the sensor at " + can_cfg.endpoint,
                  [&] { return drivers::can::openCanSensor(can_cfg); }),
       can_cfg.health);
-  first_arm = retryUntil(options.connect_timeout_s, backoff,
-                         "the robot at " + cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port),
-                         armConnector());
-  logLine("connected: robot " + cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port) +
-          " (controller " + static_cast<RtdeArmSource*>(first_arm.get())->controllerVersion().toString() +
-          "), sensor " + can_cfg.endpoint + ", LCM " + cfg.lcm.url);
+  logLine("sensor " + can_cfg.endpoint + " open, LCM " + cfg.lcm.url + "; the robot " + cfg.robot.host +
+          ":" + std::to_string(cfg.robot.rtde_port) + " is connected by the link thread");
 
   // The loop.
   sink = std::make_unique<OutboxSink>(outbox.get());
   CycleOptions cycle_opt;
   cycle_opt.stale_timeout_us = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1000.0);
-  cycle = std::make_unique<DaemonCycle>(first_arm.get(), sensor.get(), motion.get(), &params,
+  cycle = std::make_unique<DaemonCycle>(nullptr, sensor.get(), motion.get(), &params,
                                         sink.get(), cycle_opt);
   OutputStageConfig out_cfg;
   out_cfg.frame = parseOutputFrame(cfg.output.frame);
@@ -184,7 +190,10 @@ ArmConnector DaemonSetup::armConnector() const {
   const int port = cfg.robot.rtde_port;
   const double hz = cfg.robot.rtde_frequency_hz;
   return [host, port, hz]() -> std::unique_ptr<ArmStateSource> {
-    return std::make_unique<RtdeArmSource>(host, port, hz);
+    auto arm = std::make_unique<RtdeArmSource>(host, port, hz);
+    logLine("connected: robot " + host + ":" + std::to_string(port) + " (controller " +
+            arm->controllerVersion().toString() + ")");
+    return arm;
   };
 }
 

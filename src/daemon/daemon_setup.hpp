@@ -5,6 +5,7 @@
 //
 //   DaemonSetup s(cfg, options);   // math, parameters, LCM, commands, sensor, robot, the cycle
 //   LoopOwner owner(s.cycle.get(), s.loop_stats.get(), s.armConnector(), s.sensorLink(), ...);
+//   owner.start(nullptr);  // the link thread connects the robot
 //   Supervisor sup(s, owner, ...);
 #include <cstdint>
 #include <deque>
@@ -44,7 +45,8 @@ struct CommandQueue {
 struct DaemonSetup {
   DaemonSetup(const config::DaemonConfig& config, const DaemonRunOptions& options);
 
-  /// Connects and validates the robot (RtdeArmSource): at start and for every reconnect.
+  /// Connects and validates the robot (RtdeArmSource), on the loop owner's link thread: the
+  /// first connection and every reconnect (set-up does not wait for the robot).
   ArmConnector armConnector() const;
   /// The sensor transport for the loop owner's link thread (reopen the same endpoint).
   SensorLink sensorLink();
@@ -74,7 +76,6 @@ struct DaemonSetup {
   // Devices.
   drivers::can::CanSensorConfig can_cfg;
   std::unique_ptr<CanSensorSource> sensor;
-  std::unique_ptr<ArmStateSource> first_arm;  ///< handed to the loop owner
 
   // The loop.
   std::unique_ptr<OutboxSink> sink;

@@ -71,7 +71,11 @@ void LoopOwner::start(std::unique_ptr<ArmStateSource> first_arm) {
     std::lock_guard<std::mutex> l(mutex_);
     offered_ = arm_.get();
     status_.robot_up = arm_ != nullptr;
-    if (arm_ == nullptr) down_since_ = Clock::now();
+    status_.robot_ever_up = arm_ != nullptr;
+    if (arm_ == nullptr) {
+      down_since_ = Clock::now();
+      status_.robot_last_error = "not connected yet";
+    }
   }
   beat();
   launcher_ = std::thread([this] { loopThread(); });
@@ -212,7 +216,75 @@ void LoopOwner::serviceSensor() {
   }
 }
 
+// Connects with backoff until a connection is validated (or stop); false if stopping. Used for
+// the first connection when ftidd started without a robot and after every lost session.
+bool LoopOwner::connectWithBackoff() {
+  Backoff backoff(options_.backoff);
+  std::string last_msg;
+  std::unique_ptr<ArmStateSource> fresh;
+  while (fresh == nullptr) {
+    if (stopping()) return false;
+    beat();
+    try {
+      fresh = connect_();
+    } catch (const std::exception& e) {
+      const std::string msg = e.what();
+      std::uint32_t attempts = 0;
+      bool ever_up = false;
+      {
+        std::lock_guard<std::mutex> l(mutex_);
+        attempts = ++status_.robot_attempts;
+        status_.robot_last_error = msg;
+        ever_up = status_.robot_ever_up;
+      }
+      if (msg != last_msg) {  // one line per distinct reason, not per attempt
+        log_(std::string(ever_up ? "reconnect" : "robot connection") + " attempt " +
+             std::to_string(attempts) + " failed: " + msg + " (retrying with backoff)");
+        last_msg = msg;
+      }
+    }
+    beat();
+    if (fresh == nullptr && !pause(backoff.next())) return false;
+  }
+  double outage_s = 0.0;
+  std::uint32_t failed = 0;
+  bool first = false;
+  {
+    std::lock_guard<std::mutex> l(mutex_);
+    first = !status_.robot_ever_up;
+    arm_ = std::move(fresh);
+    outage_s = std::chrono::duration<double>(Clock::now() - down_since_).count();
+    status_.robot_down_total_s += outage_s;
+    status_.robot_up = true;
+    status_.robot_ever_up = true;
+    failed = status_.robot_attempts;
+    if (!first) ++status_.robot_reconnects;
+    offered_ = arm_.get();
+  }
+  cv_.notify_all();
+  if (first) {
+    log_("robot link to " + options_.robot_name + " up after " + seconds(outage_s) + " s (" +
+         std::to_string(failed) + " failed attempts); the loop starts");
+  } else {
+    log_("robot link to " + options_.robot_name + " restored after " + seconds(outage_s) + " s (" +
+         std::to_string(failed) + " failed attempts); the loop resumes");
+  }
+  return true;
+}
+
 void LoopOwner::linkThread() {
+  // Started without a robot (ftidd came up before the controller): connect first.
+  bool connected = false;
+  {
+    std::lock_guard<std::mutex> l(mutex_);
+    connected = arm_ != nullptr;
+  }
+  if (!connected) {
+    log_("no robot link to " + options_.robot_name + " yet; connecting (backoff " +
+         seconds(options_.backoff.min_s) + " s doubling to " + seconds(options_.backoff.max_s) +
+         " s), publishing valid = false meanwhile");
+    if (!connectWithBackoff()) return;
+  }
   for (;;) {
     // While a session runs: wait for its end, keeping the sensor link.
     rt::LoopExit exit = rt::LoopExit::kStopRequested;
@@ -245,46 +317,7 @@ void LoopOwner::linkThread() {
     log_("robot link to " + options_.robot_name + " lost: " + why + "; reconnecting (backoff " +
          seconds(options_.backoff.min_s) + " s doubling to " + seconds(options_.backoff.max_s) + " s)");
     old.reset();  // closes the connection (outside the lock: it may wait for the socket)
-
-    Backoff backoff(options_.backoff);
-    std::string last_msg;
-    std::unique_ptr<ArmStateSource> fresh;
-    while (fresh == nullptr) {
-      if (stopping()) return;
-      beat();
-      try {
-        fresh = connect_();
-      } catch (const std::exception& e) {
-        const std::string msg = e.what();
-        std::uint32_t attempts = 0;
-        {
-          std::lock_guard<std::mutex> l(mutex_);
-          attempts = ++status_.robot_attempts;
-          status_.robot_last_error = msg;
-        }
-        if (msg != last_msg) {  // one line per distinct reason, not per attempt
-          log_("reconnect attempt " + std::to_string(attempts) + " failed: " + msg);
-          last_msg = msg;
-        }
-      }
-      beat();
-      if (fresh == nullptr && !pause(backoff.next())) return;
-    }
-    double outage_s = 0.0;
-    std::uint32_t failed = 0;
-    {
-      std::lock_guard<std::mutex> l(mutex_);
-      arm_ = std::move(fresh);
-      outage_s = std::chrono::duration<double>(Clock::now() - down_since_).count();
-      status_.robot_down_total_s += outage_s;
-      status_.robot_up = true;
-      failed = status_.robot_attempts;
-      ++status_.robot_reconnects;
-      offered_ = arm_.get();
-    }
-    cv_.notify_all();
-    log_("robot link to " + options_.robot_name + " restored after " + seconds(outage_s) + " s (" +
-         std::to_string(failed) + " failed attempts); the loop resumes");
+    if (!connectWithBackoff()) return;
   }
 }
 

@@ -325,10 +325,14 @@ void Supervisor::publishStats() {
                 static_cast<long long>(s.stale_sensor_cycles), static_cast<long long>(s.missed_cycles),
                 s.param_version, link.robot_up ? "up" : "DOWN", link.robot_reconnects,
                 link.robot_down_total_s);
-  notifySystemd(status);
+  std::string status_line = status;
+  if (!link.robot_up && !link.robot_last_error.empty()) {
+    status_line += ": " + link.robot_last_error.substr(0, 200);
+  }
+  notifySystemd(status_line);
   if (options_.status_period_s > 0.0 && Clock::now() >= next_status_) {
     next_status_ = Clock::now() + toClock(std::chrono::duration<double>(options_.status_period_s));
-    logLine(std::string(status + 7) + ", compute p99.9 " +
+    logLine(status_line.substr(7) + ", compute p99.9 " +
             std::to_string(static_cast<int>(s.compute_p999_us)) + " us");
   }
 }
@@ -366,9 +370,17 @@ int Supervisor::run() {
 
     const CycleCounters& c = s_.cycle->counters();
     trackRobotLink(c.cycles.load());
-    if (!ready_sent_ && c.cycles.load() > 0) {
+    // READY=1 (docs/daemon.md, "systemd"): set-up done (parameters, LCM, commands, sensor) and
+    // the loop thread running (its real-time set-up passed; it cycles or waits parked for the
+    // robot link). The robot need not be connected: ftidd is then serving valid = false.
+    if (!ready_sent_ && owner_.loopHeartbeat() > 0) {
       ready_sent_ = true;
       notifySystemd("READY=1");
+      notifySystemd(std::string("STATUS=") + (owner_.status().robot_up ? "running" : "waiting for the robot at ") +
+                    (owner_.status().robot_up ? "" : cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port)));
+    }
+    if (!running_logged_ && c.cycles.load() > 0) {
+      running_logged_ = true;
       const bool locked = s_.rt_report.memory_locked || !cfg.rt.lock_memory;
       char hz[32];
       std::snprintf(hz, sizeof hz, "%g", cfg.robot.rtde_frequency_hz);

@@ -63,6 +63,7 @@ class Supervisor {
   Clock::time_point last_cycle_time_;
   bool robot_silent_ = false;
   bool ready_sent_ = false;
+  bool running_logged_ = false;  ///< "running at N Hz" logged (the first cycle)
   std::int32_t reloads_applied_ = 0;
   std::uint64_t tare_id_ = 0;
   std::int32_t tares_done_ = 0;     // loop_stats_t.tares_done / tares_refused

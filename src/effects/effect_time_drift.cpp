@@ -1,5 +1,6 @@
-// The `time_drift` effect: sensor offsets drifting linearly with time since the first sample,
-//   f += dF0/dt t,   t += dT0/dt t
+// The `time_drift` effect: sensor offsets drifting linearly with the model's time t_model
+// (seconds since the parameter set's time origin; docs/conventions.md, "Time and logs"),
+//   f += dF0/dt t_model,   t += dT0/dt t_model
 #include <memory>
 #include <string>
 #include <vector>
@@ -34,7 +35,7 @@ class TimeDriftEffect final : public Effect {
     for (int i = 0; i < 6; ++i) col_[i] = requireColumn(index, p[static_cast<std::size_t>(i)].name, name());
   }
   void addRegressor(const SampleContext& ctx, RegressorRef Y) const noexcept override {
-    for (int i = 0; i < 6; ++i) Y(i, col_[i]) += ctx.t;
+    for (int i = 0; i < 6; ++i) Y(i, col_[i]) += ctx.t_model;
   }
   std::unique_ptr<Effect> clone() const override { return std::make_unique<TimeDriftEffect>(*this); }
 

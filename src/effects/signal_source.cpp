@@ -42,7 +42,7 @@ SignalSource SignalSource::parse(const std::string& name) {
 
 double SignalSource::read(const SampleContext& ctx) const noexcept {
   switch (kind_) {
-    case Kind::kTime: return ctx.t;
+    case Kind::kTime: return ctx.t_model;
     case Kind::kTemp: return ctx.temp_degC;
     case Kind::kJointAngle: return ctx.q(index_);
     case Kind::kJointVelocity: return ctx.qd(index_);

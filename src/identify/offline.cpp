@@ -86,6 +86,7 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
   }
   out.set = identifyContexts(contexts.samples, request);
   out.set.provenance.data_file = request.log_path;
+  out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
   if (check) {
     say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
     const std::string model = request.model.empty() ? out.set.model : request.model;

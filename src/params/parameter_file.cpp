@@ -44,6 +44,19 @@ std::string nowUtc() {
   return buf;
 }
 
+/// ISO 8601 UTC with milliseconds (informational beside the number).
+std::string utcText(double unix_s) {
+  const auto secs = static_cast<std::time_t>(std::floor(unix_s));
+  std::tm tm{};
+  gmtime_r(&secs, &tm);
+  char buf[48];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%S", &tm);
+  char out[64];
+  std::snprintf(out, sizeof(out), "%s.%03dZ", buf,
+                std::min(999, static_cast<int>((unix_s - std::floor(unix_s)) * 1000.0)));
+  return out;
+}
+
 /// One `{value, std, unit}` entry.
 NamedValue readEntry(const YamlValue& entry, const std::string& name) {
   entry.expectMap("expected {value, std, unit}");
@@ -94,6 +107,9 @@ std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set) {
     }
   }
   if (!std::isfinite(set.condition_number)) return bad("provenance.condition_number", "not finite");
+  if (std::isinf(set.time_origin_unix_s) || set.time_origin_unix_s < 0.0) {
+    return bad("time_origin.unix_s", "not a finite, non-negative Unix time");
+  }
   const auto findParam = [&](const char* name) -> const NamedValue* {
     for (const auto& p : set.params) {
       if (p.name == name) return &p;
@@ -149,7 +165,7 @@ ParameterSet parseParameterText(const std::string& text, const std::string& path
   const YamlFile file = YamlFile::parse(text, path);
   const YamlValue root = file.root();
   root.expectMap("not a parameter file (expected a YAML mapping)");
-  root.onlyKeys({"model", "parameters", "derived", "tilt", "provenance"});
+  root.onlyKeys({"model", "parameters", "derived", "tilt", "time_origin", "provenance"});
   ParameterSet set;
   const YamlValue model = root["model"];
   if (!model.isScalar()) model.fail("missing (e.g. 'model: paper')");
@@ -170,6 +186,11 @@ ParameterSet parseParameterText(const std::string& text, const std::string& path
     set.tilt_u_std = u.std;
     set.tilt_v_rad = v.value;
     set.tilt_v_std = v.std;
+  }
+  if (const YamlValue origin = root["time_origin"]) {  // optional: older files have none
+    origin.expectMap("expected {unix_s, utc}");
+    origin.onlyKeys({"unix_s", "utc"});
+    set.time_origin_unix_s = origin.required("unix_s").number(NumberRange::nonNegative("a Unix time"));
   }
   if (const YamlValue prov = root["provenance"]) {
     prov.onlyKeys({"date", "data_file", "model", "method", "trajectory", "n_samples", "residual_rms",
@@ -229,6 +250,13 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
   yamlEntry(out, {"u", set.tilt_u_rad, set.tilt_u_std, "rad"});
   yamlEntry(out, {"v", set.tilt_v_rad, set.tilt_v_std, "rad"});
   out << YAML::EndMap;
+  if (std::isfinite(set.time_origin_unix_s)) {
+    out << YAML::Key << "time_origin" << YAML::Value
+        << YAML::Comment("time_drift and the t signal: seconds since this instant (docs/conventions.md)")
+        << YAML::Flow << YAML::BeginMap << YAML::Key << "unix_s" << YAML::Value
+        << YamlNumber{set.time_origin_unix_s} << YAML::Key << "utc" << YAML::Value << YAML::DoubleQuoted
+        << utcText(set.time_origin_unix_s) << YAML::EndMap;
+  }
   out << YAML::Key << "provenance" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "date" << YAML::Value << YAML::DoubleQuoted
       << (set.provenance.date_utc.empty() ? nowUtc() : set.provenance.date_utc);

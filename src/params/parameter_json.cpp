@@ -55,6 +55,7 @@ Json parameterSetJson(const ParameterSet& set) {
   for (const auto& e : set.extras) extras[e.name] = jsonNumber(e.value);
   j["extras"] = std::move(extras);
   j["data_file"] = set.provenance.data_file;
+  j["time_origin_unix_s"] = jsonNumber(set.time_origin_unix_s);  // null: no time origin
   return j;
 }
 

@@ -17,6 +17,7 @@ namespace ftid::samples {
 ContextSet::ContextSet(const ContextSet& other)
     : source(other.source),
       t_origin(other.t_origin),
+      time_origin_unix_s(other.time_origin_unix_s),
       samples(other.samples),
       extra_names(other.extra_names),
       extra_rows(other.extra_rows),
@@ -28,6 +29,7 @@ ContextSet::ContextSet(const ContextSet& other)
 ContextSet::ContextSet(ContextSet&& other) noexcept
     : source(std::move(other.source)),
       t_origin(other.t_origin),
+      time_origin_unix_s(other.time_origin_unix_s),
       samples(std::move(other.samples)),
       extra_names(std::move(other.extra_names)),
       extra_rows(std::move(other.extra_rows)),
@@ -41,6 +43,7 @@ ContextSet& ContextSet::operator=(ContextSet&& other) noexcept {
   if (this != &other) {
     source = std::move(other.source);
     t_origin = other.t_origin;
+    time_origin_unix_s = other.time_origin_unix_s;
     samples = std::move(other.samples);
     extra_names = std::move(other.extra_names);
     extra_rows = std::move(other.extra_rows);
@@ -221,10 +224,25 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
   set.samples.resize(n);
   const double t0 = log.samples.front().t;
   set.t_origin = t0;
+  // The model's time (docs/conventions.md, "Time and logs"): with a host_time column, seconds
+  // since the time origin (the parameter set's, else the first sample's host_time), exactly as
+  // ftidd computes it from the same recorded value; without one, since the log's first sample.
+  const std::vector<double>* host_time = column(log, kHostTimeColumn);
+  if (host_time != nullptr) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!std::isfinite((*host_time)[i])) {
+        throw DataError(log.source + ": sample " + std::to_string(i + 1) + " (t = " +
+                        std::to_string(log.samples[i].t) + "): column '" + kHostTimeColumn + "' is not finite");
+      }
+    }
+    set.time_origin_unix_s =
+        std::isfinite(options.time_origin_unix_s) ? options.time_origin_unix_s : host_time->front();
+  }
   if (!log.has_joints) posesToContexts(log, options, set.samples);
   for (std::size_t i = 0; i < n; ++i) {
     const logio::LogSample& s = log.samples[i];
     SampleContext& c = set.samples[i];
+    const double t_model = host_time != nullptr ? (*host_time)[i] - set.time_origin_unix_s : s.t - t0;
     SensorReading reading;
     reading.wrench_S = s.wrench_S;
     reading.has_imu = log.has_imu;
@@ -234,11 +252,11 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
     reading.has_temp = log.has_temp;
     reading.temp_degC = s.temp_degC;
     if (log.has_joints) {
-      makeSampleContext(s.t - t0, s.q, s.qd, kin.computeSensorMotion(s.q, s.qd, s.qdd), reading, g_B, &c);
+      makeSampleContext(s.t - t0, t_model, s.q, s.qd, kin.computeSensorMotion(s.q, s.qd, s.qdd), reading, g_B, &c);
     } else {
       // Pose logs: the motion posesToContexts derived from the pose columns; no joint state.
       const model::SensorMotion motion{c.R_BS, c.p_BS_B, c.w_S, c.alpha_S, c.a_S};
-      makeSampleContext(s.t - t0, JointVector::Zero(), JointVector::Zero(), motion, reading, g_B, &c);
+      makeSampleContext(s.t - t0, t_model, JointVector::Zero(), JointVector::Zero(), motion, reading, g_B, &c);
       c.has_joints = false;
     }
     if (options.wrench_in_base) {

@@ -3,11 +3,12 @@
 
 namespace ftid::samples {
 
-void makeSampleContext(double t, const JointVector& q, const JointVector& qd,
+void makeSampleContext(double t, double t_model, const JointVector& q, const JointVector& qd,
                        const model::SensorMotion& motion, const SensorReading& reading,
                        const Vec3& g_B, SampleContext* out) noexcept {
   SampleContext& c = *out;
   c.t = t;
+  c.t_model = t_model;
   c.q = q;
   c.qd = qd;
   c.R_BS = motion.R_BS;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "ftid/common/clock.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
@@ -21,8 +22,10 @@ CycleLogBuilder::CycleLogBuilder(std::string source, bool keep_invalid)
     : keep_invalid_(keep_invalid), last_t_(-std::numeric_limits<double>::infinity()) {
   log_.source = std::move(source);
   log_.has_wrench = true;
-  log_.extra_names = {"cycle", "sensor_age_ms", "fault_bits"};
-  log_.extra_columns.assign(3, {});
+  // host_time: the robot state's receive time on the host's UTC clock [s], the clock of the
+  // model's time (docs/conventions.md, "Time and logs"); the same double ftidd computes.
+  log_.extra_names = {"cycle", "sensor_age_ms", "fault_bits", "host_time"};
+  log_.extra_columns.assign(4, {});
 }
 
 bool CycleLogBuilder::add(const CycleRecord& rec) {
@@ -60,6 +63,7 @@ bool CycleLogBuilder::add(const CycleRecord& rec) {
   log_.extra_columns[0].push_back(static_cast<double>(rec.cycle));
   log_.extra_columns[1].push_back(static_cast<double>(rec.sensor_age_us) * 1e-3);
   log_.extra_columns[2].push_back(static_cast<double>(rec.fault_bits));
+  log_.extra_columns[3].push_back(hostTimeSeconds(rec.robot.recv_utime));
   ++report_.converted;
   return true;
 }

@@ -22,4 +22,9 @@ inline std::int64_t realtimeNs() noexcept {
 
 inline std::int64_t realtimeUs() noexcept { return realtimeNs() / 1000; }
 
+/// A record's recv_utime [us since the epoch] as seconds since the epoch: the clock of the model's
+/// time (docs/conventions.md, "Time and logs"). ftidd and the logs' host_time column use this one
+/// conversion, so the same recorded value gives the same double on both paths.
+inline double hostTimeSeconds(std::int64_t utime_us) noexcept { return static_cast<double>(utime_us) * 1e-6; }
+
 }  // namespace ftid

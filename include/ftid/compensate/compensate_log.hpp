@@ -22,6 +22,9 @@ struct CompensateSummary {
   int n_without_kinematics = 0;     ///< samples left out: their delayed kinematics lie outside the log
   Vec6 raw_rms = Vec6::Zero();      ///< RMS of the reading
   Vec6 contact_rms = Vec6::Zero();  ///< RMS of the compensated (contact) wrench
+  /// For a model that reads time (time_drift, the t signal) whose time cannot be placed as ftidd
+  /// places it: why (the log has no host_time column, or the set has no time origin); else empty.
+  std::string time_note;
 };
 
 /// Writes OUT.csv (atomically) with columns t, fx..tz (contact wrench = reading - modelled) and

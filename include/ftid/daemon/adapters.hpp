@@ -7,6 +7,7 @@
 #include <array>
 #include <atomic>
 #include <chrono>
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -131,6 +132,7 @@ class ParameterFileCompensation final : public Compensation {
   ParameterFileCompensation(const params::ParameterSet& set, const std::string& source);
   double tiltU() const noexcept override { return tilt_u_; }
   double tiltV() const noexcept override { return tilt_v_; }
+  double timeOriginUnixS() const noexcept override { return time_origin_unix_s_; }
   bool compute(const effects::SampleContext& ctx, Wrench* contact,
                Wrench* modelled) noexcept override;
   const std::string& modelName() const noexcept { return model_name_; }
@@ -139,6 +141,7 @@ class ParameterFileCompensation final : public Compensation {
   std::unique_ptr<compensate::Compensator> compensator_;
   double tilt_u_ = 0.0;
   double tilt_v_ = 0.0;
+  double time_origin_unix_s_ = std::numeric_limits<double>::quiet_NaN();
   std::string model_name_;
 };
 

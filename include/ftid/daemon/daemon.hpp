@@ -7,7 +7,8 @@
 //
 // run() is three parts (docs/architecture.md, "ftidd's structure"):
 //  - set-up (src/daemon/daemon_setup.*): kinematics, parameters, LCM outbox, command verifier,
-//    sensor and robot connections (retried for connect_timeout_s), the DaemonCycle; throws;
+//    the sensor (retried for connect_timeout_s), the DaemonCycle; throws (the robot is connected
+//    by the loop owner's link thread, never waited for at set-up);
 //  - the loop owner (ftid/daemon/loop_owner.hpp): the real-time loop thread (SCHED_FIFO if
 //    permitted, DaemonCycle under the device-clocked executor) and the link thread that renews a
 //    lost robot connection or sensor transport in-process, with backoff;
@@ -39,8 +40,8 @@ struct DaemonRunOptions {
   std::string record_path;
   /// Print a one-line status every this many seconds to stderr (0 = never).
   double status_period_s = 10.0;
-  /// How long to keep retrying to connect to the robot and the sensor at start [s] (with the
-  /// reconnect backoff, robot.reconnect_backoff_*_s).
+  /// How long to keep retrying to open the sensor at start [s] (with the reconnect backoff,
+  /// robot.reconnect_backoff_*_s). The robot is not waited for (docs/daemon.md, "Running").
   double connect_timeout_s = 10.0;
 };
 
@@ -49,7 +50,7 @@ class Daemon {
   explicit Daemon(config::DaemonConfig config, DaemonRunOptions options = {});
   /// Runs until SIGTERM/SIGINT (exit code 0) or a fatal loop error (real-time set-up of the loop
   /// thread failed with rt.require_rt: exit code 1). A lost robot link is renewed in-process.
-  /// Set-up errors (also: robot or sensor not reachable within connect_timeout_s) throw.
+  /// Set-up errors (also: the sensor not reachable within connect_timeout_s) throw.
   int run();
 
  private:

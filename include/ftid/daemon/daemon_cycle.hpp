@@ -217,8 +217,11 @@ class DaemonCycle {
   std::uint32_t stats_every_ = 1;
   std::uint32_t since_stats_ = 0;
   std::int64_t cycle_number_ = 0;
-  double first_robot_time_ = 0.0;
+  double first_robot_time_ = 0.0;  ///< anchor of the sample time t (re-anchored on a clock reset)
+  double last_robot_time_ = 0.0;
   bool have_first_time_ = false;
+  double first_host_time_s_ = 0.0;  ///< host time of the first valid cycle [s since the epoch]
+  bool have_first_host_time_ = false;
 };
 
 }  // namespace ftid::daemon

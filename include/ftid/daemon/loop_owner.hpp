@@ -70,6 +70,7 @@ struct LoopOwnerOptions {
 /// A snapshot for the supervisor (statistics, watchdog, messages).
 struct LinkStatus {
   bool robot_up = false;               ///< a session runs or is about to run on a connection
+  bool robot_ever_up = false;          ///< a connection was validated at least once
   std::int32_t robot_reconnects = 0;   ///< successful reconnects since start
   double robot_down_total_s = 0.0;     ///< time without a robot connection since start [s]
   double robot_down_current_s = 0.0;   ///< of the current outage [s] (0 while up)
@@ -91,7 +92,10 @@ class LoopOwner {
   LoopOwner(const LoopOwner&) = delete;
   LoopOwner& operator=(const LoopOwner&) = delete;
 
-  /// Starts both threads; the loop begins a session on first_arm (already connected).
+  /// Starts both threads; the loop begins a session on first_arm (already connected). With
+  /// first_arm == nullptr (ftidd started before the controller) the loop thread parks and the
+  /// link thread connects with the same backoff and checks as for a reconnect; the first
+  /// connection is not counted in robot_reconnects.
   void start(std::unique_ptr<ArmStateSource> first_arm);
   /// Ends the session, both threads, and closes the connection. Idempotent.
   void stop();
@@ -114,6 +118,9 @@ class LoopOwner {
   void linkThread();
   /// Link thread: waits up to `d` in ticks (beating, servicing the sensor); false if stopping.
   bool pause(std::chrono::nanoseconds d);
+  /// Link thread: connects (ArmConnector) with backoff and offers the connection to the loop;
+  /// false if stopping.
+  bool connectWithBackoff();
   void serviceSensor();
   void beat() noexcept;
   bool stopping() const;

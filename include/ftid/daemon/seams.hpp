@@ -6,6 +6,7 @@
 // noexcept, allocation-free and non-blocking (except waitForState, which is the loop's clock).
 #include <chrono>
 #include <cstdint>
+#include <limits>
 
 #include "ftid/common/status.hpp"
 #include "ftid/common/types.hpp"
@@ -75,6 +76,9 @@ class Compensation {
   /// Base tilt (U, V) [rad] of the parameter set: the cycle fills ctx.g_S with it.
   virtual double tiltU() const noexcept = 0;
   virtual double tiltV() const noexcept = 0;
+  /// The parameter set's time origin [s, Unix time] (params::ParameterSet::time_origin_unix_s):
+  /// the cycle's model time is host time minus this; NaN (none): since the first valid cycle.
+  virtual double timeOriginUnixS() const noexcept { return std::numeric_limits<double>::quiet_NaN(); }
   /// contact = ctx.wrench_S - modelled. Returns false if the result is unusable (non-finite).
   virtual bool compute(const effects::SampleContext& ctx, Wrench* contact,
                        Wrench* modelled) noexcept = 0;

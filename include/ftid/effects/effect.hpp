@@ -33,7 +33,12 @@ enum Signal : std::uint32_t {
 /// Everything an effect may read for one sample. Built from a log row and the robot kinematics
 /// (ftid/samples/sample_builder.hpp, ftid/samples/context.hpp). Frames and units as in docs/conventions.md.
 struct SampleContext {
-  double t = 0.0;                        ///< [s] since the first sample of the log
+  double t = 0.0;                        ///< [s] sample time: since the first sample of the log
+                                         ///< (ftidd: of the session); orders and interpolates samples
+  /// [s] the model's time, read by `time_drift` and the `t` signal: seconds since the parameter
+  /// set's time origin on the host's UTC clock (docs/conventions.md, "Time and logs"). Equal to
+  /// `t` for logs without a `host_time` column.
+  double t_model = 0.0;
   JointVector q = JointVector::Zero();   ///< [rad]
   JointVector qd = JointVector::Zero();  ///< [rad/s]
   Mat3 R_BS = Mat3::Identity();          ///< sensor orientation in the robot base

@@ -1,6 +1,7 @@
 #pragma once
 // The identified parameters in a form that outlives the fit: what a parameter file holds
 // (docs/identification.md) and what `ftid identify --json` prints.
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -40,6 +41,12 @@ struct ParameterSet {
   Vec6 residual_rms = Vec6::Zero();  ///< fx..tz
   double condition_number = 0.0;
   std::vector<NamedValue> extras;    ///< e.g. per-stage condition numbers (JSON "extras")
+  /// The time origin of the model's time [s, Unix time, UTC] (docs/conventions.md, "Time and
+  /// logs"): `time_drift` and the `t` signal read seconds since this instant, the offsets hold at
+  /// it. The host_time of the identification log's first sample; NaN if the log had no host_time
+  /// column (and in files written before time origins: the drift then runs from the start of
+  /// the run, ftidd's first valid cycle or the log's first sample). File key `time_origin`.
+  double time_origin_unix_s = std::numeric_limits<double>::quiet_NaN();
   Provenance provenance;
 
   /// Finds a parameter in params, derived or tilt ("tilt_u"/"tilt_v"); nullptr if absent.

@@ -11,6 +11,7 @@
 //                                      and to the set's column names (generic effects such as
 //                                      poly(<column>,n) read them)
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -39,7 +40,15 @@ struct ContextOptions {
   /// Pose logs without motion columns: half-width [samples] of the local least-squares windows
   /// that differentiate the pose (smoothed finite differences).
   int derivative_half_window = 3;
+  /// The parameter set's time origin [s, Unix time, UTC] (ParameterSet::time_origin_unix_s):
+  /// for a log with a `host_time` column, SampleContext::t_model = host_time - this. NaN (no
+  /// origin): the log's first host_time. Ignored for logs without `host_time`.
+  double time_origin_unix_s = std::numeric_limits<double>::quiet_NaN();
 };
+
+/// The log column with the host's receive time of each robot state [s, Unix time, UTC]
+/// (`ftid lcm-to-csv`, `ftid --identify`; docs/log-format.md): the clock of the model's time.
+inline constexpr const char* kHostTimeColumn = "host_time";
 
 /// Parses `--wrench-frame sensor|base` (throws ConfigError naming the option otherwise).
 bool parseWrenchFrame(const std::string& text);
@@ -50,6 +59,9 @@ bool parseWrenchFrame(const std::string& text);
 struct ContextSet {
   std::string source;                    ///< log file (for messages)
   double t_origin = 0.0;                 ///< log t of the first sample (SampleContext::t is relative)
+  /// The time origin of SampleContext::t_model [s, Unix time]: ContextOptions::time_origin_unix_s
+  /// or the first sample's host_time; NaN for a log without `host_time` (t_model = t).
+  double time_origin_unix_s = std::numeric_limits<double>::quiet_NaN();
   std::vector<SampleContext> samples;
   std::vector<std::string> extra_names;  ///< names of the extra columns, in order
   std::vector<double> extra_rows;        ///< extra_rows[i * extra_names.size() + k]

@@ -26,14 +26,16 @@ struct SensorReading {
 };
 
 /// Fills every field of *out:
-///   t, q, qd                          = the arguments (t [s] since the first sample)
+///   t, t_model, q, qd                 = the arguments (t [s] since the first sample; t_model [s]
+///                                       the model's time, since the parameter set's time origin:
+///                                       docs/conventions.md, "Time and logs")
 ///   R_BS, p_BS_B, w_S, alpha_S, a_S   = motion (RobotKinematics::computeSensorMotion(q, qd, qdd))
 ///   g_S                               = R_BS^T g_B
 ///   wrench_S, has_imu, has_temp       = reading
 ///   imu_*, temp_degC                  = reading if it has them, else zero
 ///   has_joints = true; extra, extra_names = nullptr; wrench_model_S = 0 (their owners set them).
 /// Real-time safe (no allocation, no throw).
-void makeSampleContext(double t, const JointVector& q, const JointVector& qd,
+void makeSampleContext(double t, double t_model, const JointVector& q, const JointVector& qd,
                        const model::SensorMotion& motion, const SensorReading& reading,
                        const Vec3& g_B, SampleContext* out) noexcept;
 

@@ -45,9 +45,11 @@ TEST(RecordsToLog, KeepsOnlyValidSamplesInsideTheWindow) {
   EXPECT_TRUE(log.has_imu);
   EXPECT_TRUE(log.has_temp);
   EXPECT_DOUBLE_EQ(log.samples[2].temp_degC, 25.032);
-  ASSERT_EQ(log.extra_names.size(), 3u);
+  ASSERT_EQ(log.extra_names.size(), 4u);
   EXPECT_EQ(log.extra_names[0], "cycle");
+  EXPECT_EQ(log.extra_names[3], "host_time");  // the clock of the model's time (docs/conventions.md)
   EXPECT_EQ(log.extra_columns[0].size(), 4u);
+  EXPECT_EQ(log.extra_columns[3].size(), 4u);
 }
 
 TEST(RecordsToLog, NonMonotonicRobotTimeIsDropped) {

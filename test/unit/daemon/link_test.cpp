@@ -202,6 +202,38 @@ TEST(LoopOwner, ReconnectsWithBackoffAfterAFaultAndTheSameCycleResumes) {
   EXPECT_TRUE(rig.logged("restored after"));
 }
 
+// ftidd started before the controller (docs/daemon.md, "Running"): no first connection; the link
+// thread connects with the backoff while the loop is parked, then the loop starts. The first
+// connection is not a reconnect.
+TEST(LoopOwner, StartedWithoutARobotConnectsWithBackoffAndTheLoopStarts) {
+  Rig rig;
+  ArmConnector connect = [&rig]() -> std::unique_ptr<ArmStateSource> {
+    if (++rig.connects <= 3) throw DriverError("RTDE scripted:1: connection refused");
+    return std::make_unique<ScriptedArm>(1'000'000, ScriptedArm::Then::kStream, &rig.robot_time);
+  };
+  LoopOwner owner(&rig.cycle, &rig.stats, connect, SensorLink{}, rig.options(0.05, 0.5), rig.logger());
+  owner.start(nullptr);
+  const LinkStatus down = owner.status();
+  EXPECT_FALSE(down.robot_up);
+  EXPECT_FALSE(down.robot_ever_up);
+  ASSERT_TRUE(waitFor([&] { return owner.loopHeartbeat() > 0; }, 2000ms));  // parked, alive
+  EXPECT_EQ(rig.cycle.counters().cycles.load(), 0u);
+  ASSERT_TRUE(waitFor([&] { return rig.cycle.counters().cycles.load() >= 50; }, 5000ms));
+  const LinkStatus st = owner.status();
+  owner.stop();
+  EXPECT_EQ(rig.connects.load(), 4);
+  EXPECT_TRUE(st.robot_up);
+  EXPECT_TRUE(st.robot_ever_up);
+  EXPECT_EQ(st.robot_reconnects, 0);  // the first connection is not a reconnect
+  EXPECT_EQ(st.robot_attempts, 3u);
+  // Backoff after each failed attempt: 0.05 + 0.1 + 0.2 s.
+  EXPECT_GE(st.robot_down_total_s, 0.35 - 0.01);
+  EXPECT_TRUE(rig.logged("no robot link to scripted:1 yet"));
+  EXPECT_TRUE(rig.logged("robot connection attempt 1 failed: RTDE scripted:1: connection refused"));
+  EXPECT_TRUE(rig.logged("robot link to scripted:1 up after"));
+  EXPECT_FALSE(rig.logged("restored"));
+}
+
 TEST(LoopOwner, ASilentConnectionIsRenewedAfterTheSilenceLimit) {
   Rig rig;
   ArmConnector connect = [&rig]() -> std::unique_ptr<ArmStateSource> {

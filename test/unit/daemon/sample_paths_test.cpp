@@ -48,6 +48,7 @@ bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) =
 void expectIdentical(const effects::SampleContext& on, const effects::SampleContext& off, std::size_t i) {
   SCOPED_TRACE("cycle " + std::to_string(i));
   EXPECT_TRUE(sameBits(on.t, off.t)) << on.t << " vs " << off.t;
+  EXPECT_TRUE(sameBits(on.t_model, off.t_model)) << on.t_model << " vs " << off.t_model;
   EXPECT_TRUE(sameBits(on.q, off.q));
   EXPECT_TRUE(sameBits(on.qd, off.qd));
   EXPECT_TRUE(sameBits(on.R_BS, off.R_BS));
@@ -66,7 +67,7 @@ void expectIdentical(const effects::SampleContext& on, const effects::SampleCont
   EXPECT_EQ(on.has_temp, off.has_temp);
   EXPECT_EQ(on.has_joints, off.has_joints);
   // extra/extra_names differ by design: the recorded log carries its bookkeeping columns
-  // (cycle, sensor_age_ms, fault_bits); the loop has none.
+  // (cycle, sensor_age_ms, fault_bits, host_time); the loop has none.
 }
 
 TEST(SamplePaths, OnlineAndOfflineContextsAreIdenticalBitForBit) {

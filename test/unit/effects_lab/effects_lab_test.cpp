@@ -34,6 +34,7 @@ struct Rng {
 SampleContext randomContext(Rng& rng) {
   SampleContext c;
   c.t = rng.uni(0.0, 10.0);
+  c.t_model = rng.uni(-10.0, 3600.0);  // the model's time: its own origin, not the sample time
   for (int j = 0; j < 6; ++j) {
     c.q(j) = rng.uni(-3.0, 3.0);
     c.qd(j) = rng.uni(-1.0, 1.0);
@@ -202,7 +203,7 @@ TEST(DriftEffects, TemperatureAndTimeAreLinearOffsets) {
     for (int a = 0; a < 6; ++a) {
       const std::string pre = a < 3 ? "f0" : "t0";
       const double expected = idx(pre + "_" + fa[a]) + idx(pre + "_dtemp_" + fa[a]) * (ctx.temp_degC - 20.0) +
-                              idx(pre + "_dt_" + fa[a]) * ctx.t;
+                              idx(pre + "_dt_" + fa[a]) * ctx.t_model;
       EXPECT_NEAR(got(a), expected, 1e-12);
     }
   }

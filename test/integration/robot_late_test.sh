@@ -1,0 +1,238 @@
+#!/bin/bash
+# ftidd started before the robot controller (a cell PC that boots first; docs/daemon.md "Running",
+# docs/operations.md "Robot not there at start").
+#
+#   robot_late_test.sh FTID FTIDD SRC_DIR
+#
+# In a private network namespace (unshare -rn; LCM multicast on lo), with a NOTIFY_SOCKET:
+#   1. the sensor simulator and ftidd start, no controller listens on 30004. ftidd must come up
+#      anyway: READY=1, valid = false wrenches (cycle -1) at 20 Hz, still running after twice its
+#      --connect-timeout, the failed connection attempts in its log, the watchdog fed (a healthy
+#      process waiting for its robot);
+#   2. `ftid sim-robot` starts: the same ftidd process connects (log), valid compensated wrenches
+#      follow (|contact| small), loop_stats_t reports the link up with 0 reconnects;
+#   3. a second ftidd asks that CB3 controller (125 Hz at most) for 500 Hz: the controller check
+#      refuses every connection. ftidd reports the reason (log and systemd STATUS), keeps retrying
+#      with backoff, publishes only valid = false, never sends a program (the simulator's log shows
+#      no script connection) and stops with status 0 on SIGTERM.
+# Exit status: 0 pass, 1 fail, 77 skip (namespaces or lcm-gen not available).
+set -u
+FTID=${1:?usage: robot_late_test.sh FTID FTIDD SRC_DIR}
+FTIDD=${2:?}
+SRC=${3:?}
+SKIP=77
+
+if [ -z "${FTID_LATE_TEST_IN_NS:-}" ]; then
+  if [ "$(id -u)" -eq 0 ]; then flags=-n; else flags=-rn; fi
+  unshare $flags true 2>/dev/null || { echo "SKIP: cannot create a network namespace"; exit $SKIP; }
+  FTID_LATE_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
+fi
+for tool in python3 lcm-gen; do
+  command -v $tool >/dev/null || { echo "SKIP: $tool not found"; exit $SKIP; }
+done
+
+FAILED=0
+fail() { echo "FAIL: $*"; FAILED=1; }
+WORK=$(mktemp -d /tmp/ftid-late-test.XXXXXX)
+PIDS=""
+cleanup() {
+  for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
+  for p in $PIDS; do wait "$p" 2>/dev/null; done
+  if [ $FAILED -eq 0 ]; then rm -rf "$WORK"; else echo "logs kept in $WORK"; fi
+}
+trap cleanup EXIT
+
+ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit $SKIP; }
+lcm-gen -p --ppath "$WORK/gen" "$SRC"/lcmtypes/*.lcm >/dev/null || { fail "lcm-gen failed"; exit 1; }
+
+"$FTID" sim-sensor --socket "$WORK/ft.sock" --robot-host 127.0.0.1 --urdf "$SRC/config/ur10.urdf" \
+  --dbc "$SRC/config/ftsensor.dbc" > "$WORK/sensor.log" 2>&1 &
+PIDS="$PIDS $!"
+
+# The simulator's true payload (config/sim_sensor.yaml: the paper's Table 2).
+python3 - "$WORK/params.yaml" <<'PY'
+import math, sys
+m = 8.862 / 9.80665
+c = (0.005, 0.002, 0.051)
+f0 = (-0.6672, 0.8565, 0.3538)
+t0 = (0.0228, 0.0084, 0.0080)
+p = lambda v: "{value: %.9g, std: 0, unit: \"\"}" % v
+rows = ["model: \"paper\"", "parameters:"]
+for n, v in zip(("f0_x", "f0_y", "f0_z"), f0): rows.append("  %s: %s" % (n, p(v)))
+for n, v in zip(("t0_x", "t0_y", "t0_z"), t0): rows.append("  %s: %s" % (n, p(v)))
+rows.append("  mass: %s" % p(m))
+for n, v in zip(("mass_com_x", "mass_com_y", "mass_com_z"), c): rows.append("  %s: %s" % (n, p(m * v)))
+rows += ["tilt:", "  estimated: true",
+         "  u: {value: %.9g, std: 0, unit: \"rad\"}" % math.radians(-9.8716),
+         "  v: {value: %.9g, std: 0, unit: \"rad\"}" % math.radians(-5.3709)]
+open(sys.argv[1], "w").write("\n".join(rows) + "\n")
+PY
+
+write_config() {  # write_config FILE HZ
+  cat > "$1" <<YAML
+robot:
+  host: 127.0.0.1
+  rtde_frequency_hz: $2
+  urdf_path: $SRC/config/ur10.urdf
+  silent_publish_after_ms: 50
+  reconnect_backoff_min_s: 0.2
+  reconnect_backoff_max_s: 1.0
+sensor:
+  socket_path: $WORK/ft.sock
+  dbc_path: $SRC/config/ftsensor.dbc
+parameters:
+  path: $WORK/params.yaml
+  required: true
+lcm:
+  url: "udpm://239.255.76.67:7667?ttl=0"
+  command_key_path: $WORK/no.key
+  stats_period_s: 0.5
+rt:
+  lock_memory: false
+YAML
+}
+write_config "$WORK/ftidd.yaml" 125
+write_config "$WORK/ftidd500.yaml" 500
+
+# Listener: systemd notifications, the wrench and the stats channels, with monotonic time stamps.
+python3 - "$WORK" > "$WORK/events.log" 2>&1 <<'PY' &
+import os, select, socket, struct, sys, time
+work = sys.argv[1]
+sys.path.insert(0, work + "/gen")
+from ftid_lcm.compensated_wrench_t import compensated_wrench_t
+from ftid_lcm.loop_stats_t import loop_stats_t
+n = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+n.bind(work + "/notify.sock")
+w = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+w.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+w.bind(("", 7667))
+w.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
+             struct.pack("4s4s", socket.inet_aton("239.255.76.67"), socket.inet_aton("0.0.0.0")))
+open(work + "/listener.ready", "w").close()
+end = time.monotonic() + 100
+while time.monotonic() < end and not os.path.exists(work + "/listener.stop"):
+    r, _, _ = select.select([n, w], [], [], 0.2)
+    for s in r:
+        data = s.recv(65536)
+        t = time.monotonic()
+        if s is n:
+            for line in data.decode(errors="replace").split("\n"):
+                if line.startswith(("WATCHDOG=1", "READY=1", "STATUS=")):
+                    print("%.3f notify %s" % (t, line.replace(" ", "_")), flush=True)
+        elif data[:4] == b"LC02":
+            end0 = data.index(b"\0", 8)
+            channel = data[8:end0]
+            if channel == b"FTID_WRENCH":
+                m = compensated_wrench_t.decode(data[end0 + 1:])
+                f = max(abs(x) for x in m.contact[:3])
+                print("%.3f wrench cycle %d valid %d contact %.4f" % (t, m.cycle, int(m.valid), f), flush=True)
+            elif channel == b"FTID_STATS":
+                m = loop_stats_t.decode(data[end0 + 1:])
+                print("%.3f stats up %d reconnects %d" % (t, int(m.robot_link_up), m.robot_reconnects), flush=True)
+PY
+LISTENER=$!; PIDS="$PIDS $LISTENER"
+for _ in $(seq 1 50); do [ -e "$WORK/listener.ready" ] && break; sleep 0.1; done
+now() { python3 -c 'import time; print("%.3f" % time.monotonic())'; }
+# wait_log FILE PID PATTERN SECONDS: until FILE matches (0) or the time is up / PID died (1).
+wait_log() {
+  local i=0 limit=$(( $4 * 5 ))
+  until grep -Eq "$3" "$1" 2>/dev/null; do
+    sleep 0.2; i=$((i + 1))
+    if [ $i -gt $limit ] || ! kill -0 "$2" 2>/dev/null; then return 1; fi
+  done
+}
+
+# 1. ftidd first, no controller.
+T_START=$(now)
+NOTIFY_SOCKET="$WORK/notify.sock" WATCHDOG_USEC=400000 \
+  "$FTIDD" --config "$WORK/ftidd.yaml" --connect-timeout 2 > "$WORK/ftidd.log" 2>&1 &
+DAEMON=$!; PIDS="$PIDS $DAEMON"
+wait_log "$WORK/ftidd.log" $DAEMON "robot connection attempt 1 failed" 15 ||
+  fail "ftidd did not report a failed robot connection attempt"
+sleep 4   # twice --connect-timeout: the old ftidd would have exited with status 1 by now
+kill -0 $DAEMON 2>/dev/null || { fail "ftidd exited without a robot"; cat "$WORK/ftidd.log"; exit 1; }
+T_ROBOT=$(now)
+
+# 2. The controller appears.
+"$FTID" sim-robot --model ur10 --host 127.0.0.1 --verbose > "$WORK/robot.log" 2>&1 &
+ROBOT=$!; PIDS="$PIDS $ROBOT"
+wait_log "$WORK/ftidd.log" $DAEMON "robot link to 127.0.0.1:30004 up" 20 || fail "ftidd did not connect to the late robot"
+wait_log "$WORK/ftidd.log" $DAEMON "running at" 10 || fail "ftidd's loop did not start"
+sleep 3
+T_END1=$(now)
+kill -0 $DAEMON 2>/dev/null || fail "ftidd is not running any more (it must connect in-process)"
+kill -TERM $DAEMON; wait $DAEMON; RC1=$?
+[ $RC1 -eq 0 ] || fail "ftidd exit status $RC1 after SIGTERM, expected 0"
+T_SECOND=$(now)
+ROBOT_LINES=$(wc -l < "$WORK/robot.log")
+
+# 3. A controller that refuses the check (CB3: at most 125 Hz; asked for 500 Hz).
+NOTIFY_SOCKET="$WORK/notify.sock" \
+  "$FTIDD" --config "$WORK/ftidd500.yaml" --connect-timeout 2 > "$WORK/ftidd500.log" 2>&1 &
+DAEMON2=$!; PIDS="$PIDS $DAEMON2"
+wait_log "$WORK/ftidd500.log" $DAEMON2 "robot connection attempt 1 failed: .*at most 125 Hz" 15 ||
+  fail "ftidd did not report the refused controller check"
+sleep 5
+kill -0 $DAEMON2 2>/dev/null || fail "ftidd stopped instead of retrying the refused controller"
+kill -TERM $DAEMON2; wait $DAEMON2; RC2=$?
+[ $RC2 -eq 0 ] || fail "ftidd (refused controller) exit status $RC2 after SIGTERM, expected 0"
+T_END2=$(now)
+touch "$WORK/listener.stop"; wait $LISTENER 2>/dev/null
+echo "--- ftidd (late robot) log:"; cat "$WORK/ftidd.log"
+echo "--- ftidd (refused controller) log:"; cat "$WORK/ftidd500.log"
+
+grep -q "running at" "$WORK/ftidd500.log" && fail "the refused controller's ftidd ran cycles"
+# Never moves the arm: no script or dashboard traffic at the simulator (only RTDE connections),
+# and the refused controller was asked again and again (the backoff: 0.2, 0.4, 0.8, 1, 1 s ...).
+MOVES=$(grep -v "listening on" "$WORK/robot.log" | grep -Ei "script|program|dashboard")
+[ -z "$MOVES" ] || fail "ftidd talked to the script or dashboard server: $MOVES"
+N_RETRIES=$(tail -n +$((ROBOT_LINES + 1)) "$WORK/robot.log" | grep -c "RTDE client .* connected")
+echo "refused controller: $N_RETRIES RTDE connection attempts in 5 s"
+[ "$N_RETRIES" -ge 4 ] || fail "ftidd did not keep retrying the refused controller ($N_RETRIES attempts)"
+N_ATTEMPTS=$(grep -c "connected: robot" "$WORK/ftidd500.log")
+[ "$N_ATTEMPTS" -eq 0 ] || fail "the refused controller was reported connected"
+
+python3 - "$WORK/events.log" "$T_START" "$T_ROBOT" "$T_END1" "$T_SECOND" "$T_END2" <<'PY' || FAILED=1
+import sys
+events = [l.split() for l in open(sys.argv[1]) if l[:1].isdigit()]
+t_start, t_robot, t_end1, t_second, t_end2 = (float(x) for x in sys.argv[2:7])
+bad = []
+def between(kind, a, b):
+    return [e for e in events if e[1] == kind and a <= float(e[0]) < b]
+ready = [float(e[0]) for e in between("notify", t_start, t_robot) if e[2] == "READY=1"]
+print("READY=1 %s s after start (no robot)" % ("%.2f" % (ready[0] - t_start) if ready else "never"))
+if not ready: bad.append("no READY=1 while waiting for the robot")
+wd = [e for e in between("notify", t_start, t_robot) if e[2] == "WATCHDOG=1"]
+if len(wd) < 5: bad.append("the watchdog was not fed while waiting for the robot (%d)" % len(wd))
+st = [e for e in between("notify", t_start, t_robot) if e[2].startswith("STATUS=cycles")]
+if not st or "DOWN" not in st[-1][2]: bad.append("systemd STATUS does not say the robot link is down")
+else: print("STATUS while waiting: " + st[-1][2].replace("_", " "))
+w = between("wrench", t_start + 1.0, t_robot)
+invalid = [e for e in w if e[3] == "-1" and e[5] == "0"]
+rate = (len(invalid) - 1) / (float(invalid[-1][0]) - float(invalid[0][0])) if len(invalid) > 1 else 0.0
+print("waiting: %d wrench messages, %d valid=false (cycle -1), %.1f per s" % (len(w), len(invalid), rate))
+if len(invalid) < 40 or not (15.0 <= rate <= 25.0): bad.append("valid=false not published at 20 Hz while waiting")
+if any(e[5] == "1" for e in w): bad.append("valid wrenches without a robot")
+after = [e for e in between("wrench", t_robot, t_end1) if e[5] == "1" and int(e[3]) >= 0]
+print("robot up: %d valid wrenches, first %.2f s after the simulator started" %
+      (len(after), float(after[0][0]) - t_robot if after else -1))
+if len(after) < 200: bad.append("too few valid wrenches after the robot appeared (%d)" % len(after))
+big = [e for e in after if float(e[7]) > 2.0]
+if big: bad.append("contact force up to %s N (not compensated?)" % max(e[7] for e in big))
+s = between("stats", t_robot + 2.0, t_end1)
+if not s or s[-1][3] != "1" or s[-1][5] != "0":
+    bad.append("loop_stats_t after the late connection: %s (expected up 1, reconnects 0)" % (s[-1][2:] if s else "none"))
+w2 = between("wrench", t_second + 1.0, t_end2)
+print("refused controller: %d wrench messages, %d valid" % (len(w2), sum(e[5] == "1" for e in w2)))
+if len(w2) < 40: bad.append("no valid=false stream while the controller refuses the check")
+if any(e[5] == "1" for e in w2): bad.append("valid wrenches from a refused controller")
+st2 = [e for e in between("notify", t_second, t_end2) if e[2].startswith("STATUS=cycles")]
+if not st2 or "125_Hz" not in st2[-1][2]: bad.append("systemd STATUS does not name the refused check")
+for b in bad: print("FAIL: " + b)
+sys.exit(1 if bad else 0)
+PY
+N2=$(grep -c "attempt" "$WORK/ftidd500.log")
+[ "$N2" -eq 1 ] || fail "$N2 log lines for one repeated reason (expected one per distinct reason)"
+
+[ $FAILED -eq 0 ] && echo "PASS" && exit 0
+exit 1
