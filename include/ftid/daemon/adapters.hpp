@@ -48,7 +48,7 @@ class RtdeArmSource final : public ArmStateSource {
  private:
   drivers::ur::RtdeClient client_;
   drivers::ur::rtde::ControllerVersion version_{};
-  drivers::ur::RobotState state_;
+  drivers::ur::RtdeStatePackage state_;
   JointVector prev_qd_ = JointVector::Zero();
   double prev_time_ = 0.0;
   bool have_prev_ = false;
