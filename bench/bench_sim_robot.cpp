@@ -36,7 +36,7 @@ void run(ftid::simrobot::RobotModel model, double seconds, bool fifo) {
   const double period = sim.period();
   c.setupOutputs(1.0 / period, {"timestamp", "actual_q", "actual_qd", "target_qdd"});
   c.start();
-  ftid::drivers::ur::RobotState s;
+  ftid::drivers::ur::RtdeStatePackage s;
   std::vector<double> dev_us;
   std::int64_t prev_ns = 0;
   double prev_ts = 0.0;

@@ -21,7 +21,8 @@ const char* kUsage =
     "per complete sample:\n"
     "  t,counter,fx,fy,fz,tx,ty,tz,ax,ay,az,wx,wy,wz,alx,aly,alz,temp,status,valid,flags\n"
     "t is the receive time of the frame completing the sample [s]; valid/flags apply the health\n"
-    "rules of docs/sensor.md (flags: SampleFlag bits in hex). A health summary goes to stderr.\n"
+    "rules of docs/sensor.md; flags are the sensor health bits in hex, the same bits ftidd\n"
+    "publishes (docs/daemon.md). A health summary goes to stderr.\n"
     "\n"
     "options:\n"
     "  --dbc FILE        CAN layout (default: the shipped ftsensor.dbc)\n"
@@ -64,7 +65,7 @@ int runDecodeCandump(const std::vector<std::string>& argv) {
     for (int i = 0; i < 6; ++i) std::fprintf(out, ",%.6g", s.wrench_S[i]);
     for (const auto* v : {&s.acc_S, &s.w_S, &s.alpha_S})
       for (int i = 0; i < 3; ++i) std::fprintf(out, ",%.6g", (*v)[i]);
-    std::fprintf(out, ",%.4g,%u,%d,0x%x\n", s.temp_degC, s.status_word, s.valid ? 1 : 0, s.flags);
+    std::fprintf(out, ",%.4g,%u,%d,0x%x\n", s.temp_degC, s.status_word, s.valid ? 1 : 0, s.health_flags);
     ++rows;
   }
   if (out != stdout) {
@@ -73,7 +74,7 @@ int runDecodeCandump(const std::vector<std::string>& argv) {
     std::free(text_buf);
     ftid::writeFileAtomically(output, text);
   }
-  const SensorHealth& h = assembler.health();
+  const SensorHealthCounters& h = assembler.health();
   std::fprintf(stderr,
                "decode-candump: %" PRIu64 " samples from %" PRIu64 " frames; incomplete %" PRIu64
                ", counter gaps %" PRIu64 " (%" PRIu64 " samples lost), repeats %" PRIu64

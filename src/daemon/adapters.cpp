@@ -92,24 +92,27 @@ void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* ou
   out->has_temp = in.has_temperature;
   out->temp_degC = in.has_temperature ? in.temp_degC : 0.0;
   out->status_word = static_cast<std::int32_t>(in.status_word);
-  std::uint32_t h = kHealthOk;
-  if ((in.flags & (drivers::can::kSampleFlagNoData | drivers::can::kSampleFlagStale)) != 0) h |= kHealthStale;
-  if ((in.flags & (drivers::can::kSampleFlagCounterGap | drivers::can::kSampleFlagCounterRepeat)) != 0) {
-    h |= kHealthCounterGap;
-  }
-  if ((in.flags & (drivers::can::kSampleFlagErrorFrame | drivers::can::kSampleFlagBusOff)) != 0) {
-    h |= kHealthErrorFrame;
-  }
-  if ((in.flags & drivers::can::kSampleFlagOutOfRange) != 0) h |= kHealthOutOfRange;
-  if ((in.flags & drivers::can::kSampleFlagStatusFault) != 0) h |= kHealthStatusError;
-  if ((in.flags & drivers::can::kSampleFlagTransportDown) != 0) h |= kHealthTransportDown;
-  out->health_flags = h;
+  out->health_flags = in.health_flags;  // the driver sets the published bits (sensor_health.hpp)
   out->valid = in.valid;
 }
 
 CanSensorSource::CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
                                  const drivers::can::SensorHealthOptions& health)
     : sensor_(std::move(sensor)), options_(health), assembler_(sensor_->layout(), health) {}
+
+namespace {
+// The events of one per-sample read that belong to the interval since the previous cycle: lost
+// samples (a counter gap) and error frames. A repeated counter also sets kHealthCounterGap, but it
+// is that sample's own flag, not an event of the interval (the read right after each completed
+// sample consumes the driver's pending gap, so a repeat never carries one).
+std::uint32_t intervalEvents(std::uint32_t flags) noexcept {
+  std::uint32_t events = flags & kHealthErrorFrame;
+  if ((flags & kHealthCounterGap) != 0 && (flags & kHealthCounterRepeat) == 0) {
+    events |= kHealthCounterGap;
+  }
+  return events;
+}
+}  // namespace
 
 // The drain loop of CanFtImuSensor::tryReadLatest, except that every complete sample is read
 // (at its own receive time, so that it is never stale there) and appended to the history. The
@@ -123,7 +126,6 @@ drivers::can::CanTransport& CanSensorSource::bus() noexcept {
 }
 
 void CanSensorSource::pump(SensorHistory* history) noexcept {
-  constexpr std::uint32_t kIntervalFlags = drivers::can::kSampleFlagCounterGap | drivers::can::kSampleFlagErrorFrame;
   drivers::can::CanTransport& bus = this->bus();
   int total = 0;
   while (total < drivers::can::CanFtImuSensor::kMaxFramesPerRead) {
@@ -132,7 +134,7 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
     for (int i = 0; i < n; ++i) {
       if (!assembler_.feed(batch_[static_cast<std::size_t>(i)])) continue;
       assembler_.readLatest(sample_, assembler_.latest().rx_time_ns);
-      interval_flags_ |= sample_.flags & kIntervalFlags;
+      interval_flags_ |= intervalEvents(sample_.health_flags);
       toSensorRecord(sample_, &record_);
       history->push(record_);
     }
@@ -150,9 +152,9 @@ void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
                             SensorSampleRecord* latest) noexcept {
   pump(history);
   assembler_.readLatest(sample_, now_utime * 1000);
-  sample_.flags |= interval_flags_;
-  if (((interval_flags_ & drivers::can::kSampleFlagCounterGap) != 0 && options_.counter_gap_invalidates) ||
-      ((interval_flags_ & drivers::can::kSampleFlagErrorFrame) != 0 && options_.error_frame_invalidates)) {
+  sample_.health_flags |= interval_flags_;
+  if (((interval_flags_ & kHealthCounterGap) != 0 && options_.counter_gap_invalidates) ||
+      ((interval_flags_ & kHealthErrorFrame) != 0 && options_.error_frame_invalidates)) {
     sample_.valid = false;
   }
   interval_flags_ = 0;

@@ -369,7 +369,7 @@ void SimSensor::run(const std::atomic<bool>& stop,
         say("connected to RTDE " + config_.robot_host + ":" + std::to_string(config_.rtde_port) +
             " (controller " + std::to_string(version.major) + "." + std::to_string(version.minor) +
             ", " + std::to_string(static_cast<int>(freq)) + " Hz)");
-        drivers::ur::RobotState st;
+        drivers::ur::RtdeStatePackage st;
         while (!reader_stop.load() && !stop.load()) {
           const Status s = client.tryReceiveState(std::chrono::milliseconds(100), &st);
           if (s == Status::kTimeout) continue;

@@ -202,7 +202,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
     do {
       sensor->tryReadLatest(s, 0);
-      step_flags |= s.flags;
+      step_flags |= s.health_flags;
       if (sensor->health().frames_received >= sent) break;
       sensor->transport().waitReadable(std::chrono::milliseconds(20));
     } while (std::chrono::steady_clock::now() < deadline);
@@ -217,10 +217,10 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   for (int i = 0; i < 5; ++i) EXPECT_EQ(step(), 0);
   sensor->tryReadLatest(s, s.rx_time_ns + 5'000'000);  // 5 ms without a sample
   EXPECT_FALSE(s.valid);  // stale after 3.5 ms of silence
-  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagStale);
+  EXPECT_TRUE(s.health_flags & kHealthStale);
   step();
   EXPECT_TRUE(s.valid);
-  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagCounterGap);
+  EXPECT_TRUE(step_flags & kHealthCounterGap);
   EXPECT_EQ(sensor->health().samples_lost, 5u);
 
   src.inject(SensorFault::kCounterGap, 7);
@@ -230,7 +230,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kOutOfRange, 2);
   step();
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagOutOfRange);
+  EXPECT_TRUE(s.health_flags & kHealthOutOfRange);
   EXPECT_NEAR(s.wrench_S[0], 360.0, 0.03);
   step();
   step();
@@ -239,7 +239,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kStuckCounter, 1);
   step();
   step();
-  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagCounterRepeat);
+  EXPECT_TRUE(step_flags & kHealthCounterRepeat);
   EXPECT_FALSE(s.valid);
   step();
   EXPECT_TRUE(s.valid);
@@ -253,7 +253,7 @@ TEST(SocketCanSensor, InjectedFaultsArriveOverVcanAsOnTheStandIn) {
   src.inject(SensorFault::kErrorFrame, 2);
   EXPECT_EQ(step(), 8);
   EXPECT_EQ(sensor->health().error_frames, 2u);
-  EXPECT_TRUE(step_flags & drivers::can::kSampleFlagErrorFrame);
+  EXPECT_TRUE(step_flags & kHealthErrorFrame);
   src.inject(SensorFault::kBusOff, 1);
   step();
   EXPECT_EQ(sensor->health().bus_off_events, 1u);

@@ -12,7 +12,7 @@
 #include "ftid/drivers/ur/rtde_client.hpp"
 #include "ftid/drivers/ur/rtde_protocol.hpp"
 #include "ftid/motion/motion_runner.hpp"
-#include "../support/fake_servo_program.hpp"
+#include "../support/fake_arm.hpp"
 #include "ftid/rt/mailbox.hpp"
 #include "ftid/rt/spsc_queue.hpp"
 #include "ftid/simrobot/sim_robot.hpp"
@@ -25,87 +25,33 @@ namespace ur = ftid::drivers::ur;
 
 namespace {
 
-/// A fake controller: never blocks, time advances one period per state, follows the target
-/// exactly one tick late; every 500th wait times out (a missed cycle). Counts allocations on the
-/// loop thread from its first call there until the run drains.
-class FakeArm final : public ur::Arm {
+/// The shared fake controller (test/support/fake_arm.hpp) at a fixed start pose, counting
+/// allocations on the loop thread from its first call there until the run drains (the fake's
+/// kFault after the stop); every 500th wait there times out (a missed cycle).
+class FakeArm final : public ftid::test::FakeArm {
  public:
-  explicit FakeArm(double period) : period_(period) {
-    q_ << 0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0;
-    target_ = q_;
+  explicit FakeArm(double period) : ftid::test::FakeArm(period, startPose()) {}
+  Status waitForState(std::chrono::nanoseconds timeout, ur::ArmState* out) noexcept override {
+    if (std::this_thread::get_id() == main_) return ftid::test::FakeArm::waitForState(timeout, out);
+    if (!counter_) counter_.emplace();
+    loop_allocations_ = counter_->count();
+    ++loop_calls_;
+    if (++calls_ % 500 == 0) return Status::kTimeout;
+    const Status s = ftid::test::FakeArm::waitForState(timeout, out);
+    if (s == Status::kFault) counter_.reset();  // end of the drain: release the counter here
+    return s;
   }
-  Status waitForState(std::chrono::nanoseconds, ur::ArmState* out) noexcept override {
-    if (std::this_thread::get_id() != main_) {
-      if (!counter_) counter_.emplace();
-      loop_allocations_ = counter_->count();
-      ++loop_calls_;
-      if (stopping_ && ++stop_calls_ > 5) {  // end of the drain: release the counter here
-        counter_.reset();
-        return Status::kFault;
-      }
-      if (++calls_ % 500 == 0) return Status::kTimeout;
-    }
-    ts_ += period_;
-    out->timestamp = ts_;
-    out->qd = (target_ - q_) / period_;
-    q_ = target_;
-    out->q = q_;
-    out->target_q = q_;
-    out->robot_mode = ur::rtde::kRobotModeRunning;
-    out->safety_mode = ur::rtde::kSafetyModeNormal;
-    out->runtime_state = ur::rtde::kRuntimePlaying;
-    program.step();
-    out->script_state = program.script;
-    out->speed_scaling = 1.0;
-    return Status::kOk;
-  }
-  Status sendServoTarget(const JointVector& q) noexcept override {
-    target_ = q;
-    program.command = 11;
-    if (!program.watchdog_armed) ++targets_before_watchdog;
-    ++targets_;
-    return Status::kOk;
-  }
-  Status sendHold() noexcept override {
-    if (!reference_set) {  // like RtdeArm: no servo reference yet, so only clear the register
-      program.command = 0;
-      return Status::kOk;
-    }
-    program.command = 11;  // re-sends the servo package
-    if (!program.watchdog_armed) ++targets_before_watchdog;
-    return Status::kOk;
-  }
-  Status sendArmWatchdog() noexcept override {
-    program.command = 35;
-    return Status::kOk;
-  }
-  Status sendClearCommand() noexcept override {
-    program.command = 0;
-    return Status::kOk;
-  }
-  Status sendServoStop() noexcept override {
-    program.command = 16;
-    stopping_ = true;
-    return Status::kOk;
-  }
-  void resetServoReference(const JointVector&, const JointVector&) noexcept override { reference_set = true; }
-  double period() const noexcept override { return period_; }
-  ftid::test::FakeServoProgram program;
-  bool reference_set = false;
-  std::size_t targets_before_watchdog = 0;  ///< servo targets or holds sent before command 35 ran
-
   std::size_t loop_allocations_ = 0;
   std::size_t loop_calls_ = 0;
-  std::size_t targets_ = 0;
 
  private:
+  static JointVector startPose() {
+    JointVector q;
+    q << 0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0;
+    return q;
+  }
   std::thread::id main_ = std::this_thread::get_id();
   std::optional<ftid::test::ScopedAllocationCounter> counter_;
-  double period_;
-  double ts_ = 100.0;
-  JointVector q_, target_;
-  bool stopping_ = false;
-  int stop_calls_ = 0;
   std::size_t calls_ = 0;
 };
 
@@ -146,7 +92,7 @@ TEST(RtRobotLoop, MotionRunnerCycleDoesNotAllocate) {
   ASSERT_EQ(r.status, ftid::motion::RunStatus::kCompleted) << r.message;
   EXPECT_GT(arm.loop_calls_, 4000u);  // 8 s at 500 Hz plus approach/settle
   EXPECT_GT(r.stats.missed, 5u);      // the missed-cycle path ran too
-  EXPECT_GT(arm.targets_, 4000u);
+  EXPECT_GT(arm.targets, 4000u);
   // The loop armed the program's watchdog itself (its first cycles are counted too).
   EXPECT_EQ(arm.program.watchdog_requests, 1);
   EXPECT_EQ(arm.targets_before_watchdog, 0u);

@@ -7,21 +7,10 @@
 // docs/conventions.md.
 #include <cstdint>
 
+#include "ftid/common/sensor_health.hpp"
 #include "ftid/common/types.hpp"
 
 namespace ftid {
-
-/// Sensor health flags (bit set = problem); sensor_sample_t.health_flags on the wire.
-enum SensorHealth : std::uint32_t {
-  kHealthOk = 0,
-  kHealthStale = 1u << 0,         ///< no frame within the stale timeout
-  kHealthCounterGap = 1u << 1,    ///< rolling counter skipped values
-  kHealthErrorFrame = 1u << 2,    ///< CAN error frame seen
-  kHealthOutOfRange = 1u << 3,    ///< a value outside the DBC/configured range
-  kHealthNonFinite = 1u << 4,     ///< NaN or inf in a value
-  kHealthStatusError = 1u << 5,   ///< the sensor's status word reports an error
-  kHealthTransportDown = 1u << 6, ///< the CAN transport failed or closed
-};
 
 /// Robot joint state that clocked one cycle (robot_state_t).
 struct RobotStateRecord {
@@ -45,7 +34,7 @@ struct SensorSampleRecord {
   bool has_imu = false;
   bool has_temp = false;
   std::int32_t status_word = 0;
-  std::uint32_t health_flags = kHealthOk;  ///< SensorHealth bits
+  std::uint32_t health_flags = kHealthOk;  ///< SensorHealth bits (common/sensor_health.hpp)
   bool valid = false;
 };
 

@@ -49,7 +49,7 @@ class RtdeArmSource final : public ArmStateSource {
  private:
   drivers::ur::RtdeClient client_;
   drivers::ur::rtde::ControllerVersion version_{};
-  drivers::ur::RobotState state_;
+  drivers::ur::RtdeStatePackage state_;
   JointVector prev_qd_ = JointVector::Zero();
   double prev_time_ = 0.0;
   bool have_prev_ = false;
@@ -57,7 +57,8 @@ class RtdeArmSource final : public ArmStateSource {
   std::atomic<std::uint64_t> skipped_{0};
 };
 
-/// Converts a drivers::can::SensorSample (the CAN driver's) into the published record.
+/// Converts a drivers::can::SensorSample (the CAN driver's) into the published record. The
+/// health flags are copied unchanged: the driver sets the published bits.
 void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* out) noexcept;
 
 /// The CAN sensor, drained each cycle with every complete sample handed to the history.
@@ -93,7 +94,7 @@ class CanSensorSource final : public SensorSource {
   /// timeout passes (no waiting for a transport without a descriptor, e.g. a candump replay).
   bool waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,
                      SensorHistory* history) noexcept override;
-  const drivers::can::SensorHealth& health() const noexcept { return assembler_.health(); }
+  const drivers::can::SensorHealthCounters& health() const noexcept { return assembler_.health(); }
 
  private:
   /// Receives pending frames; every complete sample goes to the history (see adapters.cpp).

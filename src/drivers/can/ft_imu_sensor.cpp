@@ -10,8 +10,8 @@ namespace ftid::drivers::can {
 
 Status statusOf(const SensorSample& s) noexcept {
   if (s.valid) return Status::kOk;
-  if (s.flags & (kSampleFlagBusOff | kSampleFlagTransportDown)) return Status::kFault;
-  if (s.flags & (kSampleFlagNoData | kSampleFlagStale)) return Status::kStale;
+  if (s.health_flags & (kHealthBusOff | kHealthTransportDown)) return Status::kFault;
+  if (s.health_flags & kHealthStale) return Status::kStale;  // kHealthNoData comes with it
   return Status::kInvalidInput;
 }
 

@@ -21,10 +21,11 @@ std::uint32_t lookupKey(const can_frame& f) {
   return isExtendedFrame(f) ? ((f.can_id & CAN_EFF_MASK) | CAN_EFF_FLAG) : (f.can_id & CAN_SFF_MASK);
 }
 
-constexpr std::uint32_t kAlwaysInvalid = kSampleFlagNoData | kSampleFlagStale |
-                                         kSampleFlagOutOfRange | kSampleFlagStatusFault |
-                                         kSampleFlagCounterRepeat | kSampleFlagBusOff |
-                                         kSampleFlagTransportDown;
+// Bits that always make a sample invalid. A counter gap and an error frame alone do not (unless
+// the options say so); their refinements, a repeated counter and bus-off, do.
+constexpr std::uint32_t kAlwaysInvalid = kHealthStale | kHealthNoData | kHealthOutOfRange |
+                                         kHealthStatusError | kHealthCounterRepeat |
+                                         kHealthBusOff | kHealthTransportDown;
 
 }  // namespace
 
@@ -171,7 +172,7 @@ bool SampleAssembler::feed(const ReceivedFrame& rf) noexcept {
   if (isErrorFrame(f)) {
     ++health_.error_frames;
     health_.last_error_class = f.can_id & CAN_ERR_MASK;
-    pending_flags_ |= kSampleFlagErrorFrame;
+    pending_flags_ |= kHealthErrorFrame;
     if (f.can_id & CAN_ERR_BUSOFF) {
       ++health_.bus_off_events;
       bus_off_ = true;
@@ -235,10 +236,11 @@ void SampleAssembler::completeGroup(Group& g) noexcept {
     const std::uint32_t mod = layout_.counterModulus();
     const std::uint32_t step = (g.counter + mod - s.counter) % mod;
     if (step == 0) {
-      flags |= kSampleFlagCounterRepeat;
+      flags |= kHealthCounterRepeat | kHealthCounterGap;  // a repeat is this sample's own flag
       ++health_.counter_repeats;
     } else if (step != 1) {
-      flags |= kSampleFlagCounterGap;
+      // The gap flag accumulates until the next read (a read may skip samples).
+      pending_flags_ |= kHealthCounterGap;
       ++health_.counter_gaps;
       health_.samples_lost += step - 1;
     }
@@ -257,12 +259,12 @@ void SampleAssembler::completeGroup(Group& g) noexcept {
     const double st = v[kFieldStatus];
     s.status_word = st >= 0.0 && st < 4294967296.0 ? static_cast<std::uint32_t>(st) : 0xFFFFFFFFu;
     if (s.status_word & options_.status_fault_mask) {
-      flags |= kSampleFlagStatusFault;
+      flags |= kHealthStatusError;
       ++health_.status_faults;
     }
   }
   if (g.out_of_range) {
-    flags |= kSampleFlagOutOfRange;
+    flags |= kHealthOutOfRange;
     ++health_.out_of_range;
   }
   bus_off_ = false;          // a complete sample after bus-off: the bus is back
@@ -271,10 +273,7 @@ void SampleAssembler::completeGroup(Group& g) noexcept {
   s.counter = g.counter;
   s.rx_time_ns = g.last_rx_ns;
   s.sequence = health_.samples_complete;
-  // The gap flag accumulates until the next read (a read may skip samples); the others belong to
-  // this sample's values.
-  pending_flags_ |= flags & kSampleFlagCounterGap;
-  s.flags = flags & ~kSampleFlagCounterGap;
+  s.health_flags = flags;  // the flags of this sample's values (a gap is pending, above)
   have_sample_ = true;
 }
 
@@ -285,21 +284,22 @@ void SampleAssembler::noteTransportProblem() noexcept {
 
 void SampleAssembler::readLatest(SensorSample& out, std::int64_t now_ns) noexcept {
   out = latest_;
-  std::uint32_t flags = (have_sample_ ? latest_.flags : kSampleFlagNoData) | pending_flags_;
+  std::uint32_t flags =
+      (have_sample_ ? latest_.health_flags : kHealthStale | kHealthNoData) | pending_flags_;
   pending_flags_ = 0;  // gap and error-frame flags are reported by one read
   if (have_sample_ && now_ns - latest_.rx_time_ns > options_.stale_timeout_ns) {
-    flags |= kSampleFlagStale;
+    flags |= kHealthStale;
   }
-  if ((flags & (kSampleFlagStale | kSampleFlagNoData)) && !stale_reported_ && have_sample_) {
+  if ((flags & kHealthStale) && !stale_reported_ && have_sample_) {
     ++health_.stale_events;
     stale_reported_ = true;
   }
-  if (bus_off_) flags |= kSampleFlagBusOff;
-  if (transport_down_) flags |= kSampleFlagTransportDown;
+  if (bus_off_) flags |= kHealthBusOff | kHealthErrorFrame;
+  if (transport_down_) flags |= kHealthTransportDown;
   std::uint32_t invalid = kAlwaysInvalid;
-  if (options_.counter_gap_invalidates) invalid |= kSampleFlagCounterGap;
-  if (options_.error_frame_invalidates) invalid |= kSampleFlagErrorFrame;
-  out.flags = flags;
+  if (options_.counter_gap_invalidates) invalid |= kHealthCounterGap;
+  if (options_.error_frame_invalidates) invalid |= kHealthErrorFrame;
+  out.health_flags = flags;
   out.valid = (flags & invalid) == 0;
   out.fresh = have_sample_ && latest_.sequence != last_read_sequence_;
   last_read_sequence_ = latest_.sequence;

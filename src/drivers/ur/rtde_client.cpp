@@ -112,7 +112,7 @@ struct RtdeClient::Impl {
     }
   }
 
-  void decode(const std::uint8_t* p, RobotState* s) const noexcept {
+  void decode(const std::uint8_t* p, RtdeStatePackage* s) const noexcept {
     for (const SlotInfo& si : slots) {
       switch (si.slot) {
         case Slot::kSkip: break;
@@ -411,7 +411,8 @@ void RtdeClient::sendTextMessage(const std::string& message, const std::string& 
   }
 }
 
-Status RtdeClient::tryReceiveState(std::chrono::nanoseconds timeout, RobotState* out) noexcept {
+Status RtdeClient::tryReceiveState(std::chrono::nanoseconds timeout,
+                                   RtdeStatePackage* out) noexcept {
   Impl& im = *impl_;
   if (im.fd < 0) {
     last_error_ = "not connected";

@@ -1,7 +1,8 @@
 // CanSensorSource (ftid/daemon/adapters.hpp) over the SOCK_SEQPACKET stand-in: every complete
 // sample of a drain reaches the history in order with its values (not only the newest), the
 // newest one carries what happened since the previous drain (counter gap) exactly once, as one
-// CanFtImuSensor::tryReadLatest per cycle reports it, and waitForSample() waits only as needed.
+// CanFtImuSensor::tryReadLatest per cycle reports it, waitForSample() waits only as needed, and
+// the driver's health flags reach the published LCM messages unchanged.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -10,6 +11,7 @@
 
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
+#include "ftid/transport/codec.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -96,6 +98,101 @@ TEST(CanSensorSource, WaitForSampleReturnsAsSoonAsItIsThereAndTimesOutOtherwise)
   EXPECT_TRUE(b.source.waitForSample(after, std::chrono::seconds(5), &history));
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(4));
   EXPECT_EQ(history.newest().counter, 2);
+}
+
+// The one health-flag set (ftid/common/sensor_health.hpp): what the CAN driver flags a sample with
+// is what subscribers read in sensor_sample_t.health_flags and compensated_wrench_t's
+// sensor_health_flags, bit for bit. The reference is a second SampleAssembler (the driver alone)
+// fed the same frames; each step also states the bits it must show, so a renumbering or a
+// mapping anywhere between the driver and the wire fails here.
+TEST(CanSensorSource, DriverHealthFlagsReachThePublishedMessageUnchanged) {
+  namespace can = drivers::can;
+  can::SensorHealthOptions options;
+  options.stale_timeout_ns = 10'000'000'000;  // 10 s: a loaded machine never makes a step stale
+  const can::SensorLayout layout =
+      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+  can::SeqpacketPair pair = can::makeSeqpacketPair();
+  can::CanTransport* bus = pair.a.get();
+  CanSensorSource source{std::make_unique<can::CanFtImuSensor>(std::move(pair.b), layout), options};
+  can::SampleAssembler reference(layout, options);
+
+  auto sendFrame = [&](const can_frame& f) {
+    ASSERT_EQ(bus->trySend(f), can::IoResult::kOk);
+    can::ReceivedFrame rf;
+    rf.frame = f;
+    rf.rx_time_ns = can::realtimeNowNs();
+    reference.feed(rf);
+  };
+  auto sendSample = [&](std::uint32_t counter, double fx, std::uint32_t status_word) {
+    std::array<can_frame, can::SensorLayout::kMaxMessages> frames{};
+    can::SensorValues v;
+    v.wrench_S[0] = fx;
+    v.status_word = status_word;
+    const int n = can::encodeSample(layout, v, counter, frames);
+    for (int i = 0; i < n; ++i) sendFrame(frames[static_cast<std::size_t>(i)]);
+  };
+  auto sendErrorFrame = [&](std::uint32_t error_class) {
+    can_frame f{};
+    f.can_id = CAN_ERR_FLAG | error_class;
+    f.len = CAN_ERR_DLC;
+    sendFrame(f);
+  };
+  SensorHistory history;
+  // One cycle: drain, publish through the codec, decode as a subscriber does.
+  auto publishedAfterDrain = [&](std::int64_t now_ns, std::uint32_t expected_bits) {
+    CycleRecord rec;
+    source.drain(now_ns / 1000, &history, &rec.sensor);
+    can::SensorSample driver;
+    reference.readLatest(driver, now_ns);
+    EXPECT_EQ(driver.health_flags, expected_bits);
+
+    ftid_lcm::cycle_sample_t cycle_msg;
+    transport::toLcm(rec, &cycle_msg);
+    ftid_lcm::compensated_wrench_t wrench_msg;
+    transport::toLcm(rec, &wrench_msg);
+    std::array<std::uint8_t, 4096> buf{};
+    ftid_lcm::cycle_sample_t cycle_rx;
+    ftid_lcm::compensated_wrench_t wrench_rx;
+    const int n_cycle = transport::encodeInto(cycle_msg, buf.data(), buf.size());
+    EXPECT_GT(n_cycle, 0);
+    EXPECT_TRUE(transport::decodeFrom(buf.data(), static_cast<std::size_t>(n_cycle), &cycle_rx));
+    const int n_wrench = transport::encodeInto(wrench_msg, buf.data(), buf.size());
+    EXPECT_GT(n_wrench, 0);
+    EXPECT_TRUE(transport::decodeFrom(buf.data(), static_cast<std::size_t>(n_wrench), &wrench_rx));
+    EXPECT_EQ(static_cast<std::uint32_t>(cycle_rx.sensor.health_flags), driver.health_flags);
+    EXPECT_EQ(static_cast<std::uint32_t>(wrench_rx.sensor_health_flags), driver.health_flags);
+    EXPECT_EQ(cycle_rx.sensor.valid, driver.valid);
+  };
+  auto step = [&](const char* what, std::uint32_t expected_bits) {
+    SCOPED_TRACE(what);
+    publishedAfterDrain(can::realtimeNowNs(), expected_bits);
+  };
+
+  step("no sample yet", kHealthStale | kHealthNoData);
+  sendSample(1, 1.0, 0);
+  step("a clean sample", kHealthOk);
+  sendSample(1, 1.0, 0);
+  step("the same counter again", kHealthCounterGap | kHealthCounterRepeat);
+  sendSample(5, 1.0, 0);
+  step("samples 2..4 lost", kHealthCounterGap);
+  sendSample(6, 350.0, 0);  // rated Fx range +-300 N
+  step("Fx out of range", kHealthOutOfRange);
+  sendSample(7, 1.0, 0x0001);
+  step("status word fault", kHealthStatusError);
+  sendErrorFrame(CAN_ERR_CRTL);
+  sendSample(8, 1.0, 0);
+  step("an error frame", kHealthErrorFrame);
+  sendErrorFrame(CAN_ERR_BUSOFF);
+  step("bus-off", kHealthErrorFrame | kHealthBusOff);
+  sendSample(9, 1.0, 0);
+  step("back on the bus", kHealthOk);
+  sendSample(9, 1.0, 0);
+  sendSample(10, 1.0, 0);
+  step("a repeat followed by a clean sample in one cycle", kHealthOk);  // not an interval event
+  {
+    SCOPED_TRACE("stale");
+    publishedAfterDrain(can::realtimeNowNs() + 60'000'000'000, kHealthStale);
+  }
 }
 
 }  // namespace

@@ -58,7 +58,7 @@ namespace {
 struct Client {
   ur::RtdeClient c;
   ur::InputPackage servo, cmd;
-  ur::RobotState s;
+  ur::RtdeStatePackage s;
   explicit Client(std::uint16_t port) {
     c.connect("127.0.0.1", port);
     c.negotiateProtocolVersion();
@@ -111,14 +111,16 @@ TEST(SimRobot, UrRtdeProgramProtocol) {
   cl.next();
   EXPECT_EQ(cl.s.runtime_state, 1u);
   robot.runProgramText("def rtde_control():\n  textmsg(\"x\")\nend\n");
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.runtime_state == 2; }));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.runtime_state == 2; }));
   EXPECT_EQ(cl.s.output_int_register[0], 1);  // ready
   EXPECT_EQ(robot.snapshot().program_name, "rtde_control");
   cl.command(26);  // get step time (non-RT): done + out_double0
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.output_int_register[0] == 2; }));
+  ASSERT_TRUE(cl.waitFor(
+      [](const ur::RtdeStatePackage& s) { return s.output_int_register[0] == 2; }));
   EXPECT_DOUBLE_EQ(cl.s.output_double_register[0], 0.008);
   cl.command(0);
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.output_int_register[0] == 1; }));
+  ASSERT_TRUE(cl.waitFor(
+      [](const ur::RtdeStatePackage& s) { return s.output_int_register[0] == 1; }));
   // servoJ ramp of joint 1 by 0.2 rad over 1 s, then hold: the model converges to the target.
   JointVector q = robot.snapshot().q, q_end = q;
   q_end[0] += 0.2;
@@ -135,11 +137,13 @@ TEST(SimRobot, UrRtdeProgramProtocol) {
   EXPECT_NEAR(cl.s.target_qd[0], 0.0, 1e-2);
   // servoStop (16): done; then 255 stops the program.
   cl.command(16, 4.0);
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.output_int_register[0] == 2; }));
+  ASSERT_TRUE(cl.waitFor(
+      [](const ur::RtdeStatePackage& s) { return s.output_int_register[0] == 2; }));
   cl.command(0);
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.output_int_register[0] == 1; }));
+  ASSERT_TRUE(cl.waitFor(
+      [](const ur::RtdeStatePackage& s) { return s.output_int_register[0] == 1; }));
   cl.command(255);
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.runtime_state == 1; }));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.runtime_state == 1; }));
 }
 
 TEST(SimRobot, TooLargeServoStepIsAProtectiveStop) {
@@ -147,13 +151,13 @@ TEST(SimRobot, TooLargeServoStepIsAProtectiveStop) {
   robot.start();
   Client cl(robot.rtdePort());
   robot.runProgramText("def rtde_control():\nend\n");
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.runtime_state == 2; }));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.runtime_state == 2; }));
   JointVector q = robot.snapshot().q;
   q[2] += 0.1;  // 0.1 rad in 8 ms = 12.5 rad/s > 3.14
   cl.servoTo(q);
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.safety_mode == 3; }));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.safety_mode == 3; }));
   EXPECT_TRUE(cl.s.safety_status_bits & (1u << 2));
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.runtime_state == 1; }));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.runtime_state == 1; }));
   EXPECT_NE(robot.snapshot().last_event.find("protective stop"), std::string::npos);
 }
 
@@ -162,11 +166,11 @@ TEST(SimRobot, WatchdogStopsTheProgram) {
   robot.start();
   Client cl(robot.rtdePort());
   robot.runProgramText("def ftid_servo():\nend\n");
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.runtime_state == 2; }));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.runtime_state == 2; }));
   // 5 Hz: 200 ms (25 ticks) without an input package stops the program. This thread feeds it
   // once per tick, so only a 200 ms hold-up of this thread on a loaded machine could fire it.
   cl.command(35, 5.0);
-  ASSERT_TRUE(cl.waitFor([&](const ur::RobotState& s) {
+  ASSERT_TRUE(cl.waitFor([&](const ur::RtdeStatePackage& s) {
     cl.command(35, 5.0);
     return s.output_int_register[0] == 2;
   }));
@@ -177,7 +181,7 @@ TEST(SimRobot, WatchdogStopsTheProgram) {
   EXPECT_EQ(cl.s.runtime_state, 2u);
   EXPECT_FALSE(robot.snapshot().watchdog_fired);
   // Stop feeding: stopped after 25 ticks plus the stopping tick (each next() is >= 1 tick).
-  ASSERT_TRUE(cl.waitFor([](const ur::RobotState& s) { return s.runtime_state == 1; }, 60));
+  ASSERT_TRUE(cl.waitFor([](const ur::RtdeStatePackage& s) { return s.runtime_state == 1; }, 60));
   EXPECT_TRUE(robot.snapshot().watchdog_fired);
 }
 
@@ -191,7 +195,7 @@ TEST(SimRobot, TimestampsAdvanceByExactlyOnePeriodAndStartAbove40s) {
   c.negotiateProtocolVersion();
   c.setupOutputs(500, {"timestamp"});
   c.start();
-  ur::RobotState s;
+  ur::RtdeStatePackage s;
   double prev = -1;
   for (int i = 0; i < 200; ++i) {
     ASSERT_EQ(c.tryReceiveState(1000ms, &s), ftid::Status::kOk);

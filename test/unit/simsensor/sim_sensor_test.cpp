@@ -210,7 +210,7 @@ TEST_F(FrameSourceTest, FramesAtRestMatchIndependentStatics) {
     }
     drivers::can::SensorSample s;
     asm_.readLatest(s, 1000 + k);
-    ASSERT_TRUE(s.valid) << s.flags;
+    ASSERT_TRUE(s.valid) << s.health_flags;
     EXPECT_EQ(s.counter, static_cast<std::uint32_t>(k));
     const auto& c = config_.cell;
     const Vec3 g_S = gravityInSensor(q, c.tilt_u_rad, c.tilt_v_rad);
@@ -253,10 +253,10 @@ TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   src.inject(SensorFault::kSilent, 5);
   for (int i = 0; i < 5; ++i) EXPECT_EQ(step(), 0);
   EXPECT_FALSE(s.valid);  // stale after 3.5 ms of silence
-  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagStale);
+  EXPECT_TRUE(s.health_flags & kHealthStale);
   step();
   EXPECT_TRUE(s.valid);
-  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagCounterGap);
+  EXPECT_TRUE(s.health_flags & kHealthCounterGap);
   EXPECT_EQ(a.health().samples_lost, 5u);
 
   src.inject(SensorFault::kCounterGap, 7);
@@ -266,7 +266,7 @@ TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   src.inject(SensorFault::kOutOfRange, 2);
   step();
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagOutOfRange);
+  EXPECT_TRUE(s.health_flags & kHealthOutOfRange);
   EXPECT_NEAR(s.wrench_S[0], 360.0, 0.03);
   step();
   step();
@@ -275,7 +275,7 @@ TEST_F(FrameSourceTest, InjectedFaultsShowUpInTheFrames) {
   src.inject(SensorFault::kStuckCounter, 1);
   step();
   step();
-  EXPECT_TRUE(s.flags & drivers::can::kSampleFlagCounterRepeat);
+  EXPECT_TRUE(s.health_flags & kHealthCounterRepeat);
   EXPECT_FALSE(s.valid);
   step();
   EXPECT_TRUE(s.valid);

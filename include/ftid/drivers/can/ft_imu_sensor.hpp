@@ -35,7 +35,7 @@ class FtImuSensor {
   ///   kFault        bus-off or the transport failed/closed
   virtual Status tryReadLatest(SensorSample& out, std::int64_t now_ns) noexcept = 0;
   Status tryReadLatest(SensorSample& out) noexcept { return tryReadLatest(out, realtimeNowNs()); }
-  virtual const SensorHealth& health() const noexcept = 0;
+  virtual const SensorHealthCounters& health() const noexcept = 0;
 };
 
 /// Maps a sample's flags to the loop's Status (the rule tryReadLatest uses).
@@ -51,7 +51,7 @@ class CanFtImuSensor final : public FtImuSensor {
 
   Status tryReadLatest(SensorSample& out, std::int64_t now_ns) noexcept override;
   using FtImuSensor::tryReadLatest;
-  const SensorHealth& health() const noexcept override { return assembler_.health(); }
+  const SensorHealthCounters& health() const noexcept override { return assembler_.health(); }
   CanTransport& transport() noexcept { return *transport_; }
   const SensorLayout& layout() const noexcept { return assembler_.layout(); }
 

@@ -93,11 +93,11 @@ class SampleAssembler {
   /// same clock as rx timestamps). `fresh` is true once per new sample. Bus-off and transport
   /// problems are reflected as flags.
   void readLatest(SensorSample& out, std::int64_t now_ns) noexcept;
-  /// Marks the transport as down (sets kSampleFlagTransportDown until the next complete sample).
+  /// Marks the transport as down (sets kHealthTransportDown until the next complete sample).
   void noteTransportProblem() noexcept;
 
   const SensorSample& latest() const noexcept { return latest_; }
-  const SensorHealth& health() const noexcept { return health_; }
+  const SensorHealthCounters& health() const noexcept { return health_; }
   const SensorLayout& layout() const noexcept { return layout_; }
 
  private:
@@ -119,7 +119,7 @@ class SampleAssembler {
   std::array<Group, 16> groups_{};
   std::uint64_t group_age_ = 0;
   SensorSample latest_;
-  SensorHealth health_;
+  SensorHealthCounters health_;
   bool have_sample_ = false;
   std::uint32_t pending_flags_ = 0;  ///< gap / error-frame flags not yet reported by a read
   bool bus_off_ = false;

@@ -1,29 +1,15 @@
 #pragma once
 // One F/T+IMU sensor sample as delivered to the real-time loop, and the sensor's health counters.
+// The health flags are the project's one set, ftid::SensorHealth (common/sensor_health.hpp).
 // Frames, units and signs of the values are those of docs/conventions.md (wrench the payload
 // exerts on the sensor, in S; IMU specific force, angular velocity and acceleration, in S).
 #include <cstdint>
 #include <limits>
 
+#include "ftid/common/sensor_health.hpp"
 #include "ftid/common/types.hpp"
 
 namespace ftid::drivers::can {
-
-/// Why a sample is flagged. Bits marked (invalid) make SensorSample::valid false.
-enum SampleFlag : std::uint32_t {
-  kSampleFlagNone = 0,
-  kSampleFlagNoData = 1u << 0,         ///< (invalid) no complete sample received yet
-  kSampleFlagStale = 1u << 1,          ///< (invalid) no complete sample within stale_timeout
-  kSampleFlagOutOfRange = 1u << 2,     ///< (invalid) a value outside its DBC [min|max]
-  kSampleFlagStatusFault = 1u << 3,    ///< (invalid) status word has a bit of status_fault_mask
-  kSampleFlagCounterRepeat = 1u << 4,  ///< (invalid) same rolling counter as the previous sample
-  kSampleFlagCounterGap = 1u << 5,     ///< samples were lost before this one (invalid only if
-                                       ///< SensorHealthOptions::counter_gap_invalidates)
-  kSampleFlagErrorFrame = 1u << 6,     ///< error frame(s) since the previous sample (invalid
-                                       ///< only if error_frame_invalidates)
-  kSampleFlagBusOff = 1u << 7,         ///< (invalid) controller reported bus-off, no sample since
-  kSampleFlagTransportDown = 1u << 8,  ///< (invalid) transport closed or failing
-};
 
 struct SensorSample {
   Wrench wrench_S = Wrench::Zero();  ///< [N, Nm]
@@ -37,7 +23,9 @@ struct SensorSample {
   std::int64_t rx_time_ns = 0;
   /// Number of complete samples assembled so far, this one included (0 = none yet).
   std::uint64_t sequence = 0;
-  std::uint32_t flags = kSampleFlagNoData;  ///< SampleFlag bits
+  /// ftid::SensorHealth bits (common/sensor_health.hpp), the same bits ftidd publishes. Which of
+  /// them make `valid` false: docs/sensor.md, "The sensor object and the health rules".
+  std::uint32_t health_flags = kHealthStale | kHealthNoData;
   bool valid = false;      ///< safe to compensate: complete, fresh enough, in range, status ok
   bool fresh = false;      ///< a new complete sample arrived since the previous read
   bool has_imu = false;
@@ -46,7 +34,7 @@ struct SensorSample {
 };
 
 /// Counters since the sensor was opened (monotonic; read from the thread that reads samples).
-struct SensorHealth {
+struct SensorHealthCounters {
   std::uint64_t frames_received = 0;    ///< every frame the transport delivered
   std::uint64_t frames_ignored = 0;     ///< ids not in the layout, remote frames
   std::uint64_t frames_malformed = 0;   ///< layout ids with a too-short payload

@@ -89,7 +89,7 @@ class RtdeArm final : public Arm {
   ServoSafetyCheck safety_;
   ServoReject last_reject_ = ServoReject::kNone;
   FaultWord faults_;
-  RobotState raw_{};
+  RtdeStatePackage raw_{};
   double last_timestamp_ = -1.0;
   double accepted_timestamp_ = -1.0;  // robot time of the state the last accepted target followed
 };

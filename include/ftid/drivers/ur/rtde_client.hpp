@@ -11,7 +11,7 @@
 //   auto v = c.controllerVersion();
 //   c.setupOutputs(v.major >= 5 ? 500.0 : 125.0, RtdeClient::defaultOutputNames());
 //   c.start();
-//   RobotState s;
+//   RtdeStatePackage s;
 //   while (c.tryReceiveState(std::chrono::milliseconds(12), &s) == Status::kOk) { ... }
 //
 // One RtdeClient is used by one thread at a time (the loop thread while streaming).
@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "ftid/common/status.hpp"
-#include "ftid/drivers/ur/robot_state.hpp"
+#include "ftid/drivers/ur/rtde_state_package.hpp"
 #include "ftid/drivers/ur/rtde_protocol.hpp"
 
 namespace ftid::drivers::ur {
@@ -86,7 +86,8 @@ class RtdeClient {
   rtde::ControllerVersion controllerVersion();
 
   /// 'O': output recipe. Returns the types in request order. Throws DriverError listing every
-  /// NOT_FOUND variable. Names the decoder does not map into RobotState are received and skipped.
+  /// NOT_FOUND variable. Names the decoder does not map into RtdeStatePackage are received and
+  /// skipped.
   std::vector<std::string> setupOutputs(double frequency_hz, const std::vector<std::string>& names);
   /// 'I': input recipe. Throws DriverError on NOT_FOUND / IN_USE (reply id 0), naming the variables.
   InputRecipe setupInputs(const std::vector<std::string>& names);
@@ -101,7 +102,7 @@ class RtdeClient {
   /// Blocks until the next state package arrives or the timeout expires. If several packages are
   /// buffered, decodes the newest and counts the others in out->packages_skipped (drain-to-latest).
   /// Returns kOk, kTimeout, or kFault (connection closed or protocol error). Real-time safe.
-  Status tryReceiveState(std::chrono::nanoseconds timeout, RobotState* out) noexcept;
+  Status tryReceiveState(std::chrono::nanoseconds timeout, RtdeStatePackage* out) noexcept;
   /// Sends one input data package. Returns kOk or kFault. Real-time safe.
   Status trySendInputs(const InputPackage& package) noexcept;
 

@@ -73,10 +73,11 @@ TEST_F(AssemblerTest, CompleteSampleDecodesWithinOneQuantisationStep) {
   SensorSample s;
   a.readLatest(s, 1'000'000'000);
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & kSampleFlagNoData);
+  EXPECT_EQ(s.health_flags, kHealthStale | kHealthNoData);  // a refinement comes with its bit
+  EXPECT_EQ(statusOf(s), Status::kStale);
   EXPECT_TRUE(a.feed(fs.back()));
   a.readLatest(s, 1'000'010'000);
-  ASSERT_TRUE(s.valid) << s.flags;
+  ASSERT_TRUE(s.valid) << s.health_flags;
   EXPECT_TRUE(s.fresh);
   EXPECT_EQ(s.counter, 7u);
   EXPECT_EQ(s.sequence, 1u);
@@ -123,11 +124,11 @@ TEST_F(AssemblerTest, MissingFrameDropsTheSampleAndCountsIt) {
   EXPECT_EQ(a.health().samples_incomplete, 1u);
   EXPECT_EQ(a.health().counter_gaps, 1u);
   EXPECT_EQ(a.health().samples_lost, 1u);
-  EXPECT_TRUE(s.flags & kSampleFlagCounterGap);
+  EXPECT_EQ(s.health_flags, kHealthCounterGap);  // a gap, not a repeat
   EXPECT_TRUE(s.valid);  // default policy: the data itself is fine
   // The gap flag is reported once.
   a.readLatest(s, 1'002'020'000);
-  EXPECT_FALSE(s.flags & kSampleFlagCounterGap);
+  EXPECT_FALSE(s.health_flags & kHealthCounterGap);
   // The wrench is that of sample 3, never a mix with the incomplete sample 2.
   EXPECT_NEAR(s.wrench_S[2], someValues().wrench_S[2], 0.03);
 }
@@ -152,11 +153,15 @@ TEST_F(AssemblerTest, RepeatedCounterIsInvalid) {
   SensorSample s;
   a.readLatest(s, 1'001'010'000);
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & kSampleFlagCounterRepeat);
+  EXPECT_EQ(s.health_flags, kHealthCounterGap | kHealthCounterRepeat);
   EXPECT_EQ(a.health().counter_repeats, 1u);
+  EXPECT_EQ(a.health().counter_gaps, 0u);
+  a.readLatest(s, 1'001'020'000);  // the repeat is the sample's own flag, not reported once
+  EXPECT_EQ(s.health_flags, kHealthCounterGap | kHealthCounterRepeat);
   feedAll(a, frames(someValues(), 43, 1'002'000'000));
   a.readLatest(s, 1'002'010'000);
   EXPECT_TRUE(s.valid);
+  EXPECT_EQ(s.health_flags, kHealthOk);
 }
 
 TEST_F(AssemblerTest, OutOfRangeValueIsInvalid) {
@@ -166,7 +171,7 @@ TEST_F(AssemblerTest, OutOfRangeValueIsInvalid) {
   feedAll(a, frames(v, 1, 1'000'000'000));
   SensorSample s;
   EXPECT_EQ((a.readLatest(s, 1'000'010'000), statusOf(s)), Status::kInvalidInput);
-  EXPECT_TRUE(s.flags & kSampleFlagOutOfRange);
+  EXPECT_TRUE(s.health_flags & kHealthOutOfRange);
   EXPECT_NEAR(s.wrench_S[0], 350.0, 0.03);  // the value is shown, but flagged invalid
   EXPECT_EQ(a.health().out_of_range, 1u);
   v.temp_degC = 130.0;  // beyond [-40|125]
@@ -186,7 +191,7 @@ TEST_F(AssemblerTest, StatusFaultBitsInvalidateByMask) {
     a.readLatest(s, 1'000'010'000);
     EXPECT_FALSE(s.valid);
     EXPECT_EQ(s.status_word, 0x0010u);
-    EXPECT_TRUE(s.flags & kSampleFlagStatusFault);
+    EXPECT_TRUE(s.health_flags & kHealthStatusError);
   }
   SensorHealthOptions o;
   o.status_fault_mask = 0x000F;  // tare bit not a fault
@@ -227,13 +232,14 @@ TEST_F(AssemblerTest, ErrorFramesAreCountedBusOffInvalidates) {
   SensorSample s;
   a.readLatest(s, 1'000'200'000);
   EXPECT_TRUE(s.valid);  // error frame flagged, data still complete
-  EXPECT_TRUE(s.flags & kSampleFlagErrorFrame);
+  EXPECT_TRUE(s.health_flags & kHealthErrorFrame);
   EXPECT_EQ(a.health().error_frames, 1u);
   EXPECT_EQ(a.health().last_error_class, static_cast<std::uint32_t>(CAN_ERR_CRTL));
   err.frame.can_id = CAN_ERR_FLAG | CAN_ERR_BUSOFF;
   a.feed(err);
   a.readLatest(s, 1'000'300'000);
   EXPECT_FALSE(s.valid);
+  EXPECT_EQ(s.health_flags, kHealthErrorFrame | kHealthBusOff);
   EXPECT_EQ(statusOf(s), Status::kFault);
   EXPECT_EQ(a.health().bus_off_events, 1u);
   feedAll(a, frames(someValues(), 2, 1'001'000'000));

@@ -156,7 +156,7 @@ TEST(CanFtImuSensor, DrainsToLatestOverTheStandIn) {
   CanFtImuSensor sensor(std::move(pair.b), layout);
   SensorSample s;
   EXPECT_EQ(sensor.tryReadLatest(s), Status::kStale);  // nothing yet
-  EXPECT_TRUE(s.flags & kSampleFlagNoData);
+  EXPECT_TRUE(s.health_flags & kHealthNoData);
   std::array<can_frame, SensorLayout::kMaxMessages> f{};
   SensorValues v;
   for (std::uint32_t c = 0; c < 20; ++c) {
@@ -175,7 +175,7 @@ TEST(CanFtImuSensor, DrainsToLatestOverTheStandIn) {
   pair.a.reset();
   EXPECT_EQ(sensor.tryReadLatest(s), Status::kFault);
   EXPECT_FALSE(s.valid);
-  EXPECT_TRUE(s.flags & kSampleFlagTransportDown);
+  EXPECT_TRUE(s.health_flags & kHealthTransportDown);
 }
 
 TEST(CanSensorConfig, EndpointErrors) {

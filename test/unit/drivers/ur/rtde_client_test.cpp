@@ -53,7 +53,7 @@ TEST(RtdeClient, HandshakeAndStreamingCb3) {
   EXPECT_EQ(types[0], "DOUBLE");
   EXPECT_EQ(types[1], "VECTOR6D");
   c.start();
-  RobotState s;
+  RtdeStatePackage s;
   double last = -1;
   int gaps = 0;
   for (int i = 0; i < 50; ++i) {
@@ -82,7 +82,7 @@ TEST(RtdeClient, ESeriesDecimationAndDrainToLatest) {
   EXPECT_EQ(c.controllerVersion().major, 5u);
   c.setupOutputs(250.0, {"timestamp", "actual_q"});  // floor(500/250) = every 2nd tick
   c.start();
-  RobotState a, b;
+  RtdeStatePackage a, b;
   ASSERT_EQ(c.tryReceiveState(kNextPackage, &a), ftid::Status::kOk);
   ASSERT_EQ(c.tryReceiveState(kNextPackage, &b), ftid::Status::kOk);
   const double steps = std::round((b.timestamp - a.timestamp) / 0.004);
@@ -142,7 +142,7 @@ TEST(RtdeClient, ConnectionClosedIsAFault) {
   c.negotiateProtocolVersion();
   c.setupOutputs(125.0, {"timestamp"});
   c.start();
-  RobotState s;
+  RtdeStatePackage s;
   ASSERT_EQ(c.tryReceiveState(kNextPackage, &s), ftid::Status::kOk);
   sim.inject(ftid::simrobot::FaultKind::kDisconnect);
   ftid::Status st = ftid::Status::kOk;
@@ -158,7 +158,7 @@ TEST(RtdeClient, TimeoutWhenTheClockStalls) {
   c.negotiateProtocolVersion();
   c.setupOutputs(125.0, {"timestamp"});
   c.start();
-  RobotState s;
+  RtdeStatePackage s;
   ASSERT_EQ(c.tryReceiveState(kNextPackage, &s), ftid::Status::kOk);
   // 2 s without packages: far longer than this thread can be held up before it waits below.
   sim.inject(ftid::simrobot::FaultKind::kStallTicks, 250);

@@ -1,7 +1,11 @@
 #pragma once
-// The decoded RTDE state package: a fixed-size, trivially copyable struct (safe to hand to other
-// threads through ftid::rt::Mailbox / SpscQueue). Fields not in the output recipe keep their
-// default value; `present` says which groups were received.
+// The decoded RTDE state package: the wire format's data, every field an RTDE output recipe can
+// carry, as the controller sends it (doubles, registers by number, which fields were present).
+// Only the RTDE client and the code right above it read it; loops see their own view of a tick
+// (drivers::ur::ArmState, ftid::RobotStateRecord; docs/architecture.md, "Robot state types").
+// A fixed-size, trivially copyable struct (safe to hand to other threads through
+// ftid::rt::Mailbox / SpscQueue). Fields not in the output recipe keep their default value;
+// `present` says which groups were received.
 #include <array>
 #include <cstdint>
 
@@ -11,8 +15,8 @@ inline constexpr int kNumRegisters = 48;  ///< output/input int and double regis
 
 using Joint6 = std::array<double, 6>;
 
-/// Bits of RobotState::present.
-enum RobotStateField : std::uint32_t {
+/// Bits of RtdeStatePackage::present.
+enum RtdeStateField : std::uint32_t {
   kFieldTimestamp = 1u << 0,
   kFieldActualQ = 1u << 1,
   kFieldActualQd = 1u << 2,
@@ -35,7 +39,7 @@ enum RobotStateField : std::uint32_t {
   kFieldTargetSpeedFraction = 1u << 19,
 };
 
-struct RobotState {
+struct RtdeStatePackage {
   double timestamp = 0.0;        ///< controller time since boot [s] (advances one period per tick)
   Joint6 actual_q{};             ///< [rad]
   Joint6 actual_qd{};            ///< [rad/s]
@@ -58,7 +62,7 @@ struct RobotState {
   std::array<double, kNumRegisters> output_double_register{};      ///< by register number
   std::uint64_t output_int_present = 0;     ///< bit n: output_int_register_n was in the recipe
   std::uint64_t output_double_present = 0;  ///< bit n: output_double_register_n was in the recipe
-  std::uint32_t present = 0;                ///< RobotStateField bits that were in the recipe
+  std::uint32_t present = 0;                ///< RtdeStateField bits that were in the recipe
   std::int64_t host_receive_ns = 0;  ///< CLOCK_MONOTONIC time the package was read [ns]
   std::uint32_t packages_skipped = 0;  ///< older buffered packages dropped for this one (drain-to-latest)
 };
