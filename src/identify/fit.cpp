@@ -5,9 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -331,7 +329,8 @@ class GravityCompression {
     const int c_mass = index.column("mass");
     const int c_f0[3] = {index.column("f0_x"), index.column("f0_y"), index.column("f0_z")};
     bool force_stage = c_mass >= 0 && c_f0[0] >= 0 && c_f0[1] >= 0 && c_f0[2] >= 0;
-    std::vector<std::uint64_t> seen(static_cast<std::size_t>(entries));
+    Eigen::Array<double, 6, Eigen::Dynamic> left_out(6, 4 * p);  // 1 for an entry left out of B_a
+    std::vector<char> found(static_cast<std::size_t>(entries), 0);  // left out but non-zero somewhere
     for (int pass = 0; pass < 2; ++pass) {
       // Column maps: B_a's columns are the used entries of axis a in the order (k, j), then y.
       for (int a = 0; a < 6; ++a) {
@@ -348,25 +347,22 @@ class GravityCompression {
         map[static_cast<std::size_t>(m - 1)] = static_cast<int>(src.size());
         B_[static_cast<std::size_t>(a)].resize(n, static_cast<Eigen::Index>(src.size()) + 1);
       }
-      std::fill(seen.begin(), seen.end(), 0);
+      for (int e = 0; e < entries; ++e) left_out.data()[e] = used[static_cast<std::size_t>(e)] ? 0.0 : 1.0;
       for (int i = 0; i < n; ++i) {
         evaluate(i);
         const double* y4 = Y4.data();
         const Wrench& w = pb.at(i).wrench_S;
         for (int a = 0; a < 6; ++a) {
           const std::vector<int>& src = src_[static_cast<std::size_t>(a)];
-          Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
-          double* row = Ba.data() + i;
-          const Eigen::Index stride_col = Ba.rows();
+          RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+          double* row = Ba.data() + static_cast<Eigen::Index>(i) * Ba.cols();  // one sample's row, contiguous
           const std::size_t ns = src.size();
-          for (std::size_t j = 0; j < ns; ++j) row[static_cast<Eigen::Index>(j) * stride_col] = y4[src[j]];
-          row[static_cast<Eigen::Index>(ns) * stride_col] = w(a);
+          for (std::size_t j = 0; j < ns; ++j) row[j] = y4[src[j]];
+          row[ns] = w(a);
         }
-        // Bits of every entry (OR over the samples): an entry left out must stay zero (+-0).
-        for (int e = 0; e < entries; ++e) {
-          std::uint64_t b;
-          std::memcpy(&b, y4 + e, sizeof b);
-          seen[static_cast<std::size_t>(e)] |= b;
+        // An entry left out must stay zero in every sample (a sum of |entries|: zero iff all are).
+        if ((Y4.array().abs() * left_out).sum() != 0.0) {
+          for (int e = 0; e < entries; ++e) found[static_cast<std::size_t>(e)] |= left_out.data()[e] != 0.0 && y4[e] != 0.0 ? 1 : 0;
         }
         if (force_stage) {
           for (int a = 0; a < 3; ++a) {
@@ -379,7 +375,7 @@ class GravityCompression {
       }
       bool complete = true;
       for (int e = 0; e < entries; ++e) {
-        if (!used[static_cast<std::size_t>(e)] && (seen[static_cast<std::size_t>(e)] & ~(std::uint64_t{1} << 63)) != 0) {
+        if (!used[static_cast<std::size_t>(e)] && found[static_cast<std::size_t>(e)]) {
           used[static_cast<std::size_t>(e)] = 1;
           complete = false;
         }
@@ -398,7 +394,7 @@ class GravityCompression {
     gram_ = gram;
     rows_ = 0;
     for (int a = 0; a < 6; ++a) {
-      const Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
+      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
       Eigen::MatrixXd& Ra = R_[static_cast<std::size_t>(a)];
       if (gram) {
         const Eigen::Index ca = Ba.cols();
@@ -544,21 +540,26 @@ class GravityCompression {
     const Eigen::Index n = B_[0].rows();
     S->setZero(n, p_ + 2);
     residual_unweighted->resize(6, n);
-    Eigen::VectorXd ra(n), t(n);
+    Eigen::VectorXd ra(n), q(n), t(n);
     for (int a = 0; a < 6; ++a) {
-      const Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
+      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
       const Eigen::MatrixXd mix = jacobianMix(a, g_B, dg_u, dg_v, theta);
       ra.noalias() = Ba * residualMix(a, g_B, theta);
       residual_unweighted->row(a) = ra.transpose();
-      const double w2 = w(a) * w(a);
-      for (Eigen::Index bc = 0; bc < Ba.cols(); ++bc) {
-        bool any = false;
-        for (Eigen::Index j = 0; j < p_ + 2; ++j) {
-          const double mj = mix(bc, j);
-          if (mj == 0.0) continue;
-          if (!any) t = (w2 * ra).cwiseProduct(Ba.col(bc));
-          any = true;
-          S->col(j) += mj * t;
+      q = (w(a) * w(a)) * ra;
+      // Blocks of rows, so that B_a (row-major) passes through the cache once.
+      constexpr Eigen::Index kBlock = 256;
+      for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
+        const Eigen::Index len = std::min(kBlock, n - i0);
+        for (Eigen::Index bc = 0; bc < Ba.cols(); ++bc) {
+          bool any = false;
+          for (Eigen::Index j = 0; j < p_ + 2; ++j) {
+            const double mj = mix(bc, j);
+            if (mj == 0.0) continue;
+            if (!any) t.head(len) = q.segment(i0, len).cwiseProduct(Ba.block(i0, bc, len, 1));
+            any = true;
+            S->col(j).segment(i0, len) += mj * t.head(len);
+          }
         }
       }
     }
@@ -585,7 +586,10 @@ class GravityCompression {
 
   int p_ = 0;
   bool gram_ = false;
-  std::array<Eigen::MatrixXd, 6> B_;         ///< per axis, N x c_a
+  /// Row-major: a sample's row is written at once (column-major, its c_a entries would sit on c_a
+  /// pages, N * 8 bytes apart).
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  std::array<RowMatrix, 6> B_;               ///< per axis, N x c_a
   std::array<Eigen::MatrixXd, 6> R_;         ///< per axis, R_a^T R_a = B_a^T B_a (c_a or min(N, c_a) rows)
   std::array<std::vector<int>, 6> col_;      ///< (k p + j) or 4p (y) -> column of B_a, or -1
   std::array<std::vector<int>, 6> src_;      ///< column of B_a (not y) -> entry 6 (k p + j) + a of Y4
@@ -694,6 +698,17 @@ Mat6X unstack(const Eigen::VectorXd& v, int n) {
 }
 
 void checkFinite(const Problem& pb) {
+  // Fast pass: x * 0 is 0 for every finite x and NaN otherwise, so the sum is 0 iff all are finite.
+  double zero = 0.0;
+  for (int i = 0; i < pb.n; ++i) {
+    const SampleContext& c = pb.at(i);
+    zero += (c.wrench_S.array() * 0.0).sum() + (c.R_BS.array() * 0.0).sum() + (c.w_S.array() * 0.0).sum() +
+            (c.alpha_S.array() * 0.0).sum() + (c.a_S.array() * 0.0).sum() + (c.g_S.array() * 0.0).sum() +
+            c.t * 0.0 + (c.imu_acc_S.array() * 0.0).sum() + (c.imu_w_S.array() * 0.0).sum() +
+            (c.imu_alpha_S.array() * 0.0).sum() + c.temp_degC * 0.0;
+  }
+  if (zero == 0.0) return;
+  // Name the first sample with a non-finite value.
   for (int i = 0; i < pb.n; ++i) {
     const SampleContext& c = pb.at(i);
     const bool ok = c.wrench_S.allFinite() && c.R_BS.allFinite() && c.w_S.allFinite() &&
