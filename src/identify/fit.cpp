@@ -331,6 +331,7 @@ class GravityCompression {
     bool force_stage = c_mass >= 0 && c_f0[0] >= 0 && c_f0[1] >= 0 && c_f0[2] >= 0;
     Eigen::Array<double, 6, Eigen::Dynamic> left_out(6, 4 * p);  // 1 for an entry left out of B_a
     std::vector<char> found(static_cast<std::size_t>(entries), 0);  // left out but non-zero somewhere
+    constexpr int kGramBlock = 256;
     for (int pass = 0; pass < 2; ++pass) {
       // Column maps: B_a's columns are the used entries of axis a in the order (k, j), then y.
       for (int a = 0; a < 6; ++a) {
@@ -346,6 +347,7 @@ class GravityCompression {
         }
         map[static_cast<std::size_t>(m - 1)] = static_cast<int>(src.size());
         B_[static_cast<std::size_t>(a)].resize(n, static_cast<Eigen::Index>(src.size()) + 1);
+        G_[static_cast<std::size_t>(a)].setZero(static_cast<Eigen::Index>(src.size()) + 1, static_cast<Eigen::Index>(src.size()) + 1);
       }
       for (int e = 0; e < entries; ++e) left_out.data()[e] = used[static_cast<std::size_t>(e)] ? 0.0 : 1.0;
       for (int i = 0; i < n; ++i) {
@@ -370,6 +372,14 @@ class GravityCompression {
             for (int k = 0; k < 3; ++k) {
               force_stage = force_stage && Y4(a, (k + 1) * p + c_mass) == kStandardGravity * c.R_BS(k, a);
             }
+          }
+        }
+        // The Gram matrices, a block of rows at a time while it is in the cache.
+        if ((i + 1) % kGramBlock == 0 || i == n - 1) {
+          const int i0 = i - i % kGramBlock;
+          for (int a = 0; a < 6; ++a) {
+            G_[static_cast<std::size_t>(a)].selfadjointView<Eigen::Lower>().rankUpdate(
+                B_[static_cast<std::size_t>(a)].middleRows(i0, i - i0 + 1).transpose());
           }
         }
       }
@@ -398,18 +408,33 @@ class GravityCompression {
       Eigen::MatrixXd& Ra = R_[static_cast<std::size_t>(a)];
       if (gram) {
         const Eigen::Index ca = Ba.cols();
-        Eigen::MatrixXd G = Eigen::MatrixXd::Zero(ca, ca);
-        G.selfadjointView<Eigen::Lower>().rankUpdate(Ba.transpose());
+        Eigen::MatrixXd G = G_[static_cast<std::size_t>(a)];  // lower triangle, accumulated in build()
         G.triangularView<Eigen::StrictlyUpper>() = G.transpose();
         Eigen::VectorXd d(ca);  // column scaling
         for (Eigen::Index j = 0; j < ca; ++j) d(j) = G(j, j) > 0.0 ? std::sqrt(G(j, j)) : 1.0;
         const Eigen::MatrixXd Gs = d.cwiseInverse().asDiagonal() * G * d.cwiseInverse().asDiagonal();
-        // Pivoted LDLT (semidefinite allowed): Gs = P^T L D L^T P, so Gs = C^T C with C = sqrt(D) L^T P
-        // (Eigen's transpositionsP() applied from the right is P^T; checked by the fit tests).
-        const Eigen::LDLT<Eigen::MatrixXd> ldlt(Gs);
-        const Eigen::MatrixXd U = ldlt.matrixU();
-        Ra = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt().asDiagonal() * U;
-        Ra = Ra * ldlt.transpositionsP().transpose();
+        // The regressor columns (y, the last, apart): pivoted LDLT, semidefinite allowed,
+        // Gs_AA = P^T L D L^T P, so R_AA = sqrt(D) L^T P (Eigen's transpositionsP() from the right
+        // is P^T). Then R_AA^T r_Ay = Gs_Ay and rho^2 = Gs_yy - |r_Ay|^2: the part of y outside
+        // every column is the last pivot, a constant of the cost whatever its rounding, and the
+        // tilt search's cost and steps depend only on the well-conditioned rest.
+        const Eigen::Index cr = ca - 1;
+        if (cr == 0) {  // no regressor column on this axis
+          Ra = Eigen::MatrixXd::Constant(1, 1, std::sqrt(G(0, 0)));
+          offset_[static_cast<std::size_t>(a)] = rows_;
+          rows_ += 1;
+          continue;
+        }
+        const Eigen::LDLT<Eigen::MatrixXd> ldlt(Gs.topLeftCorner(cr, cr));
+        const Eigen::VectorXd sd = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt();
+        Ra = Eigen::MatrixXd::Zero(ca, ca);
+        Ra.topLeftCorner(cr, cr) = sd.asDiagonal() * Eigen::MatrixXd(ldlt.matrixU());
+        Ra.topLeftCorner(cr, cr) = Ra.topLeftCorner(cr, cr) * ldlt.transpositionsP().transpose();
+        Eigen::VectorXd x = ldlt.transpositionsP() * Gs.col(cr).head(cr);
+        ldlt.matrixL().solveInPlace(x);
+        for (Eigen::Index j = 0; j < cr; ++j) x(j) = sd(j) > 0.0 ? x(j) / sd(j) : 0.0;
+        Ra.col(cr).head(cr) = x;
+        Ra(cr, cr) = std::sqrt(std::max(0.0, Gs(cr, cr) - x.squaredNorm()));
         Ra = Ra * d.asDiagonal();
       } else {
         Eigen::MatrixXd D = Ba;  // thinR factors in place; B_a stays for the per-sample rows
@@ -590,6 +615,7 @@ class GravityCompression {
   /// pages, N * 8 bytes apart).
   using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   std::array<RowMatrix, 6> B_;               ///< per axis, N x c_a
+  std::array<Eigen::MatrixXd, 6> G_;         ///< per axis, B_a^T B_a (lower triangle)
   std::array<Eigen::MatrixXd, 6> R_;         ///< per axis, R_a^T R_a = B_a^T B_a (c_a or min(N, c_a) rows)
   std::array<std::vector<int>, 6> col_;      ///< (k p + j) or 4p (y) -> column of B_a, or -1
   std::array<std::vector<int>, 6> src_;      ///< column of B_a (not y) -> entry 6 (k p + j) + a of Y4
