@@ -52,9 +52,19 @@ Eigen::MatrixXd neweyWest(const Eigen::Ref<const Eigen::MatrixXd>& S, int lag) {
   if (L == 0) {
     omega.selfadjointView<Eigen::Lower>().rankUpdate(S.transpose());
   } else {
-    Eigen::MatrixXd C = Eigen::MatrixXd::Zero(n + L, k);
-    for (Eigen::Index l = 0; l <= L; ++l) C.middleRows(l, n) += S;
-    omega.selfadjointView<Eigen::Lower>().rankUpdate(C.transpose(), 1.0 / static_cast<double>(L + 1));
+    // The moving sums a block of rows at a time (no (n+L) x k temporary).
+    constexpr Eigen::Index kBlock = 256;
+    Eigen::MatrixXd C(kBlock, k);
+    for (Eigen::Index t0 = 0; t0 < n + L; t0 += kBlock) {
+      const Eigen::Index len = std::min(kBlock, n + L - t0);
+      C.topRows(len).setZero();
+      for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
+        const Eigen::Index lo = std::max(t0, l);
+        const Eigen::Index hi = std::min(t0 + len, n + l);
+        if (hi > lo) C.middleRows(lo - t0, hi - lo) += S.middleRows(lo - l, hi - lo);
+      }
+      omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
+    }
   }
   omega.triangularView<Eigen::StrictlyUpper>() = omega.transpose();
   return omega;

@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 
 #include "ftid/identify/uncertainty.hpp"
 
@@ -82,27 +83,30 @@ Eigen::MatrixXd laggedSumNeweyWest(const Eigen::MatrixXd& S, int lag) {
 }
 
 TEST(ScoreCovariance, NeweyWestEqualsTheLaggedSumFormula) {
-  // Correlated, non-zero-mean scores with a large first and last row (the edges matter).
-  const int n = 61;
-  std::mt19937_64 rng(11);
-  std::normal_distribution<double> n01(0.0, 1.0);
-  Eigen::MatrixXd S(n, 3);
-  Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
-  for (int i = 0; i < n; ++i) {
-    x = 0.7 * x + Eigen::RowVector3d(n01(rng) + 0.5, n01(rng), 2.0 * n01(rng) - 1.0);
-    S.row(i) = x;
-  }
-  S.row(0) *= 20.0;
-  S.row(n - 1) *= -15.0;
-  const Eigen::Matrix<double, 6, Eigen::Dynamic> R = Eigen::Matrix<double, 6, Eigen::Dynamic>::Ones(6, n);
-  const Eigen::MatrixXd bread = Eigen::MatrixXd::Identity(3, 3);
-  const double correction = 6.0 * n / (6.0 * n - 3.0);  // scoreCovariance's 6n / (6n - k)
-  for (int lag : {0, 1, 2, 7, 30, n - 1}) {
-    SCOPED_TRACE(lag);
-    const CovarianceReport rep = scoreCovariance(S, R, bread, lag);
-    ASSERT_EQ(rep.lag, lag);
-    const Eigen::MatrixXd ref = correction * laggedSumNeweyWest(S, lag);
-    EXPECT_LT((rep.covariance - ref).cwiseAbs().maxCoeff(), 1e-12 * ref.cwiseAbs().maxCoeff());
+  // Correlated, non-zero-mean scores with a large first and last row (the edges matter); 600 rows
+  // span several of the implementation's blocks of rows.
+  for (const int n : {61, 600}) {
+    std::mt19937_64 rng(11 + static_cast<std::uint64_t>(n));
+    std::normal_distribution<double> n01(0.0, 1.0);
+    Eigen::MatrixXd S(n, 3);
+    Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+    for (int i = 0; i < n; ++i) {
+      x = 0.7 * x + Eigen::RowVector3d(n01(rng) + 0.5, n01(rng), 2.0 * n01(rng) - 1.0);
+      S.row(i) = x;
+    }
+    S.row(0) *= 20.0;
+    S.row(n - 1) *= -15.0;
+    const Eigen::Matrix<double, 6, Eigen::Dynamic> R = Eigen::Matrix<double, 6, Eigen::Dynamic>::Ones(6, n);
+    const Eigen::MatrixXd bread = Eigen::MatrixXd::Identity(3, 3);
+    const double correction = 6.0 * n / (6.0 * n - 3.0);  // scoreCovariance's 6n / (6n - k)
+    for (int lag : {0, 1, 2, 7, 30, 300, n - 1}) {
+      if (lag > n - 1) continue;
+      SCOPED_TRACE("n " + std::to_string(n) + " lag " + std::to_string(lag));
+      const CovarianceReport rep = scoreCovariance(S, R, bread, lag);
+      ASSERT_EQ(rep.lag, lag);
+      const Eigen::MatrixXd ref = correction * laggedSumNeweyWest(S, lag);
+      EXPECT_LT((rep.covariance - ref).cwiseAbs().maxCoeff(), 1e-12 * ref.cwiseAbs().maxCoeff());
+    }
   }
 }
 
