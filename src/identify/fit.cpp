@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -244,8 +245,9 @@ LinearSolution solveLinear(const Eigen::MatrixXd& A, const Eigen::VectorXd& yw) 
 /// for the joint Jacobian [A(g_B), dA/dU theta, dA/dV theta] (its rank, condition number and
 /// (J^T J)^{-1}); only the Newey-West scores and the per-sample residual need the rows, one pass
 /// over B_a. R_a comes from the Gram matrix accumulated in one pass (pivoted LDLT of the
-/// column-scaled Gram: R_a = sqrt(D) L^T P) when the problem is well conditioned (rounding error
-/// ~ cond^2 eps, kGramConditionLimit), else from the thin Householder QR B_a = Q_a R_a
+/// column-scaled Gram of the regressor columns, the measurement column last) when the problem is
+/// well conditioned (rounding error ~ cond^2 eps, kGramConditionLimit: checked on the regressor at
+/// the start and on the final joint Jacobian), else from the thin Householder QR B_a = Q_a R_a
 /// (internal::thinR, rounding ~ cond eps).
 class GravityCompression {
  public:
@@ -1165,15 +1167,15 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   Eigen::VectorXd r_weighted;
   Eigen::MatrixXd scores;     // compressed: the Newey-West scores directly (no 6N-row Jacobian)
   Mat6X residual_compressed;  // compressed: the unweighted residual from the rows of B_a
+  // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
+  // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
+  const double h_tilt = 1e-5;
+  const Vec3 g_B = model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad);
+  const Vec3 dg_u = (model::gravityInBase(nl.tilt_u_rad + h_tilt, nl.tilt_v_rad) -
+                     model::gravityInBase(nl.tilt_u_rad - h_tilt, nl.tilt_v_rad)) / (2.0 * h_tilt);
+  const Vec3 dg_v = (model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad + h_tilt) -
+                     model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad - h_tilt)) / (2.0 * h_tilt);
   if (compressed) {
-    // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
-    // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
-    const double h = 1e-5;
-    const double u = nl.tilt_u_rad;
-    const double v = nl.tilt_v_rad;
-    const Vec3 g_B = model::gravityInBase(u, v);
-    const Vec3 dg_u = (model::gravityInBase(u + h, v) - model::gravityInBase(u - h, v)) / (2.0 * h);
-    const Vec3 dg_v = (model::gravityInBase(u, v + h) - model::gravityInBase(u, v - h)) / (2.0 * h);
     J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
     gc.scores(g_B, dg_u, dg_v, sol.theta, weights, &scores, &residual_compressed);
   } else {
@@ -1205,7 +1207,18 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   if (L.delay >= 0) all_names.push_back(effects::kDelayParamName);
   // One factorisation of J for the rank check, the condition number and the covariance.
-  const internal::ScaledQR qr_j(J, options.rank_tolerance);
+  std::optional<internal::ScaledQR> qr_j_storage;
+  qr_j_storage.emplace(J, options.rank_tolerance);
+  if (compressed && gc.gram() &&
+      (qr_j_storage->rank().rank < n_unknowns || qr_j_storage->rank().condition_number > kGramConditionLimit)) {
+    // The start's check saw only theta's columns: with the tilt's, J is too ill-conditioned for the
+    // Gram factor (or rank-deficient: name the columns from the exact one). Householder QR instead.
+    qr_j_storage.reset();
+    gc.factor(false);
+    J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
+    qr_j_storage.emplace(J, options.rank_tolerance);
+  }
+  const internal::ScaledQR& qr_j = *qr_j_storage;
   const internal::RankReport& rr = qr_j.rank();
   if (rr.rank < n_unknowns) {
     std::vector<std::string> bad;
