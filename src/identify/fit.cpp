@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -28,6 +29,10 @@ using effects::NonlinearParams;
 constexpr double kAngleStep = 1e-6;       // [rad] numeric-Jacobian step for tilt and mounting
 constexpr double kDelayStep = 1e-6;       // [s] numeric-Jacobian step for the delay
 constexpr double kStepConverged = 1e-10;  // a rejected Gauss-Newton step this small ends the search
+/// The compressed tilt search factors its per-axis data through the Gram matrix (rounding error
+/// ~ cond^2 eps, about 1e-10 relative at this bound) only while the column-scaled regressor at the
+/// start is at most this ill-conditioned; beyond it, Householder QR (rounding ~ cond eps).
+constexpr double kGramConditionLimit = 1e3;
 
 /// Which nonlinear parameters a model estimates, and where they sit in the vector phi.
 struct PhiLayout {
@@ -230,19 +235,24 @@ LinearSolution solveLinear(const Eigen::MatrixXd& A, const Eigen::VectorXd& yw) 
 ///   A_a(g_B) = A0_a + sum_k (g_B(k) / s) E_k,a      A0_a = A_a(g_S = 0), E_k,a = A_a(s R_BS^T e_k) - A0_a
 ///
 /// is a fixed combination M_a(g_B) of the columns of B_a = [A0_a E_0,a E_1,a E_2,a y_a] (N x c_a,
-/// columns that are zero in every sample left out). One thin QR B_a = Q_a R_a per axis (the exact
-/// row compression of linear_algebra.hpp, internal::thinR), and for the per-axis weights w_a
+/// columns that are zero in every sample left out). Any c_a x c_a factor R_a with
+/// R_a^T R_a = B_a^T B_a (the Gram matrix) gives, for the per-axis weights w_a,
 ///
 ///   sum_i |W (w_i - Y_i(g_B) theta)|^2 = sum_a w_a^2 |R_a (e_y - M_a(g_B) theta)|^2
 ///
-/// exactly (Q_a has orthonormal columns and y_a is one of them), so every solve of the variable
-/// projection is a QR of the stacked [w_a R_a M_a(g_B)] (sum_a c_a rows, p columns), independent of
-/// N; the residual vector is Q^T of the stacked one (same norm, same Gauss-Newton steps). The same
-/// holds for the joint Jacobian [A(g_B), dA/dU theta, dA/dV theta] (its rank, condition number and
-/// (J^T J)^{-1}); only the Newey-West scores need the per-sample rows, one pass over B_a.
+/// exactly, so every solve of the variable projection is a QR of the stacked [w_a R_a M_a(g_B)]
+/// (sum_a c_a rows, p columns), independent of N, with the same Gauss-Newton steps. The same holds
+/// for the joint Jacobian [A(g_B), dA/dU theta, dA/dV theta] (its rank, condition number and
+/// (J^T J)^{-1}); only the Newey-West scores and the per-sample residual need the rows, one pass
+/// over B_a. R_a comes from the Gram matrix accumulated in one pass (pivoted LDLT of the
+/// column-scaled Gram of the regressor columns, the measurement column last) when the problem is
+/// well conditioned (rounding error ~ cond^2 eps, kGramConditionLimit: checked on the regressor at
+/// the start and on the final joint Jacobian), else from the thin Householder QR B_a = Q_a R_a
+/// (internal::thinR, rounding ~ cond eps).
 class GravityCompression {
  public:
-  /// Builds the compression; false if the regressor is not affine in g_S (at g_check_B).
+  /// Evaluates B_a for every sample; false if the regressor is not affine in g_S (checked at
+  /// g_check_B on the probe samples).
   bool build(const Problem& pb, const Vec3& g_check_B) {
     const int n = pb.n;
     const int p = pb.p;
@@ -276,132 +286,215 @@ class GravityCompression {
         (reads_g ? gravity_effects : fixed_effects).push_back(e.get());
       }
     }
-    std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> Y;  // Y0, E0, E1, E2
-    for (auto& y : Y) y.resize(6, p);
+    // Y4 = [Y0 E0 E1 E2] (6 x 4p) of one sample.
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Y4(6, 4 * p);
     Eigen::Matrix<double, 6, Eigen::Dynamic> Yc(6, p);
     SampleContext c;
-    // Y and E of sample i (and the affine check on probe samples); false if not affine.
-    auto sampleRegressors = [&](int i) {
+    auto evaluate = [&](int i) {
       c = pb.at(i);
       c.wrench_model_S.setZero();
       c.g_S.setZero();
-      Y[0].setZero();
-      for (const auto* e : fixed_effects) e->addRegressor(c, Y[0]);
+      auto Y0 = Y4.leftCols(p);
+      Y0.setZero();
+      for (const auto* e : fixed_effects) e->addRegressor(c, Y0);
       Yc.setZero();
       for (const auto* e : gravity_effects) e->addRegressor(c, Yc);
-      Y[0] += Yc;
+      Y0 += Yc;
       for (int k = 0; k < 3; ++k) {
-        auto& Ek = Y[static_cast<std::size_t>(k + 1)];
+        auto Ek = Y4.middleCols((k + 1) * p, p);
         c.g_S = kStandardGravity * c.R_BS.row(k).transpose();  // R_BS^T (s e_k)
         Ek = -Yc;
         for (const auto* e : gravity_effects) e->addRegressor(c, Ek);
       }
-      if (i % stride != 0) return true;
-      // Affine in g_S: the full regressor at the start's gravity equals the combination.
+    };
+    // Affine in g_S: the full regressor at g_check_B equals the combination (after evaluate(i)).
+    auto affine = [&]() {
       c.g_S = c.R_BS.transpose() * g_check_B;
       pb.model.computeRegressor(c, Yc);
-      Eigen::Matrix<double, 6, Eigen::Dynamic> comb = Y[0];
-      for (int k = 0; k < 3; ++k) comb += (g_check_B(k) / kStandardGravity) * Y[static_cast<std::size_t>(k + 1)];
+      Eigen::Matrix<double, 6, Eigen::Dynamic> comb = Y4.leftCols(p);
+      for (int k = 0; k < 3; ++k) comb += (g_check_B(k) / kStandardGravity) * Y4.middleCols((k + 1) * p, p);
       const double scale = std::max(1.0, Yc.cwiseAbs().maxCoeff());
       return (Yc - comb).cwiseAbs().maxCoeff() <= 1e-9 * scale;
     };
-    // Non-zero columns per axis, first from the probe samples; a pass that meets another one adds
-    // it and runs again (the union after a full pass is exact).
-    std::array<std::vector<char>, 6> used;
-    for (auto& u : used) {
-      u.assign(static_cast<std::size_t>(m), 0);
-      u[static_cast<std::size_t>(m - 1)] = 1;  // y
-    }
-    auto markUsed = [&]() {
-      bool added = false;
-      for (int a = 0; a < 6; ++a) {
-        for (int k = 0; k < 4; ++k) {
-          for (int j = 0; j < p; ++j) {
-            char& u = used[static_cast<std::size_t>(a)][static_cast<std::size_t>(k * p + j)];
-            if (!u && Y[static_cast<std::size_t>(k)](a, j) != 0.0) {
-              u = 1;
-              added = true;
-            }
-          }
-        }
-      }
-      return added;
-    };
+    // Non-zero entries of Y4 (column-major index 6 col + a), first from the probe samples; a full
+    // pass that meets another one adds it and runs again (the union after a full pass is exact).
+    const int entries = 6 * 4 * p;
+    std::vector<char> used(static_cast<std::size_t>(entries), 0);
     for (int i = 0; i < n; i += stride) {
-      if (!sampleRegressors(i)) return false;
-      markUsed();
+      evaluate(i);
+      if (!affine()) return false;
+      for (int e = 0; e < entries; ++e) used[static_cast<std::size_t>(e)] |= Y4.data()[e] != 0.0 ? 1 : 0;
     }
+    // The data of the paper's static force stage (initialTilt): f0_a's column is 1 and the mass
+    // column's E_k is s R_BS(k, a) in every sample (the gravity and offsets effects alone).
+    const auto& index = pb.model.paramIndex();
+    const int c_mass = index.column("mass");
+    const int c_f0[3] = {index.column("f0_x"), index.column("f0_y"), index.column("f0_z")};
+    bool force_stage = c_mass >= 0 && c_f0[0] >= 0 && c_f0[1] >= 0 && c_f0[2] >= 0;
+    Eigen::Array<double, 6, Eigen::Dynamic> left_out(6, 4 * p);  // 1 for an entry left out of B_a
+    std::vector<char> found(static_cast<std::size_t>(entries), 0);  // left out but non-zero somewhere
+    constexpr int kGramBlock = 256;
     for (int pass = 0; pass < 2; ++pass) {
-      // Column maps and the mask of the columns left out (they must stay zero).
-      std::array<Eigen::Matrix<double, 6, Eigen::Dynamic>, 4> out_mask;
-      for (auto& mk : out_mask) mk.setZero(6, p);
+      // Column maps: B_a's columns are the used entries of axis a in the order (k, j), then y.
       for (int a = 0; a < 6; ++a) {
         std::vector<int>& map = col_[static_cast<std::size_t>(a)];
+        std::vector<int>& src = src_[static_cast<std::size_t>(a)];
         map.assign(static_cast<std::size_t>(m), -1);
-        int ca = 0;
-        for (int col = 0; col < m; ++col) {
-          if (used[static_cast<std::size_t>(a)][static_cast<std::size_t>(col)]) {
-            map[static_cast<std::size_t>(col)] = ca++;
-          } else {
-            out_mask[static_cast<std::size_t>(col / p)](a, col % p) = 1.0;
+        src.clear();
+        for (int col = 0; col < 4 * p; ++col) {
+          if (used[static_cast<std::size_t>(6 * col + a)]) {
+            map[static_cast<std::size_t>(col)] = static_cast<int>(src.size());
+            src.push_back(6 * col + a);
           }
         }
-        B_[static_cast<std::size_t>(a)].resize(n, ca);
+        map[static_cast<std::size_t>(m - 1)] = static_cast<int>(src.size());
+        B_[static_cast<std::size_t>(a)].resize(n, static_cast<Eigen::Index>(src.size()) + 1);
+        G_[static_cast<std::size_t>(a)].setZero(static_cast<Eigen::Index>(src.size()) + 1, static_cast<Eigen::Index>(src.size()) + 1);
       }
-      bool complete = true;
+      for (int e = 0; e < entries; ++e) left_out.data()[e] = used[static_cast<std::size_t>(e)] ? 0.0 : 1.0;
       for (int i = 0; i < n; ++i) {
-        if (!sampleRegressors(i)) return false;
+        evaluate(i);
+        const double* y4 = Y4.data();
         const Wrench& w = pb.at(i).wrench_S;
         for (int a = 0; a < 6; ++a) {
-          const std::vector<int>& map = col_[static_cast<std::size_t>(a)];
-          Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
-          for (int k = 0, col = 0; k < 4; ++k) {
-            for (int j = 0; j < p; ++j, ++col) {
-              const int bc = map[static_cast<std::size_t>(col)];
-              if (bc >= 0) Ba(i, bc) = Y[static_cast<std::size_t>(k)](a, j);
+          const std::vector<int>& src = src_[static_cast<std::size_t>(a)];
+          RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+          double* row = Ba.data() + static_cast<Eigen::Index>(i) * Ba.cols();  // one sample's row, contiguous
+          const std::size_t ns = src.size();
+          for (std::size_t j = 0; j < ns; ++j) row[j] = y4[src[j]];
+          row[ns] = w(a);
+        }
+        // An entry left out must stay zero in every sample (a sum of |entries|: zero iff all are).
+        if ((Y4.array().abs() * left_out).sum() != 0.0) {
+          for (int e = 0; e < entries; ++e) found[static_cast<std::size_t>(e)] |= left_out.data()[e] != 0.0 && y4[e] != 0.0 ? 1 : 0;
+        }
+        if (force_stage) {
+          for (int a = 0; a < 3; ++a) {
+            force_stage = force_stage && Y4(a, c_f0[a]) == 1.0;
+            for (int k = 0; k < 3; ++k) {
+              force_stage = force_stage && Y4(a, (k + 1) * p + c_mass) == kStandardGravity * c.R_BS(k, a);
             }
           }
-          Ba(i, map[static_cast<std::size_t>(m - 1)]) = w(a);
         }
-        bool clean = true;
-        for (int k = 0; k < 4; ++k) {
-          clean = clean && Y[static_cast<std::size_t>(k)].cwiseProduct(out_mask[static_cast<std::size_t>(k)]).cwiseAbs().maxCoeff() == 0.0;
+        // The Gram matrices, a block of rows at a time while it is in the cache.
+        if ((i + 1) % kGramBlock == 0 || i == n - 1) {
+          const int i0 = i - i % kGramBlock;
+          for (int a = 0; a < 6; ++a) {
+            G_[static_cast<std::size_t>(a)].selfadjointView<Eigen::Lower>().rankUpdate(
+                B_[static_cast<std::size_t>(a)].middleRows(i0, i - i0 + 1).transpose());
+          }
         }
-        if (!clean) {
-          markUsed();
+      }
+      bool complete = true;
+      for (int e = 0; e < entries; ++e) {
+        if (!used[static_cast<std::size_t>(e)] && found[static_cast<std::size_t>(e)]) {
+          used[static_cast<std::size_t>(e)] = 1;
           complete = false;
         }
       }
       if (complete) break;
       if (pass == 1) return false;  // cannot happen: the first full pass found every column
     }
+    force_stage_ = force_stage;
+    c_mass_ = c_mass;
+    for (int a = 0; a < 3; ++a) c_f0_[a] = c_f0[a];
+    return true;
+  }
+
+  /// Factors every B_a (R_a^T R_a = B_a^T B_a): from the Gram matrix (gram) or by Householder QR.
+  void factor(bool gram) {
+    gram_ = gram;
     rows_ = 0;
     for (int a = 0; a < 6; ++a) {
-      const Eigen::MatrixXd& Ba = B_[static_cast<std::size_t>(a)];
-      Eigen::MatrixXd D = Ba;  // thinR factors in place; B_a stays for the per-sample rows
-      R_[static_cast<std::size_t>(a)] = internal::thinR(D);
-      const int ra = static_cast<int>(R_[static_cast<std::size_t>(a)].rows());
+      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+      Eigen::MatrixXd& Ra = R_[static_cast<std::size_t>(a)];
+      if (gram) {
+        const Eigen::Index ca = Ba.cols();
+        Eigen::MatrixXd G = G_[static_cast<std::size_t>(a)];  // lower triangle, accumulated in build()
+        G.triangularView<Eigen::StrictlyUpper>() = G.transpose();
+        Eigen::VectorXd d(ca);  // column scaling
+        for (Eigen::Index j = 0; j < ca; ++j) d(j) = G(j, j) > 0.0 ? std::sqrt(G(j, j)) : 1.0;
+        const Eigen::MatrixXd Gs = d.cwiseInverse().asDiagonal() * G * d.cwiseInverse().asDiagonal();
+        // The regressor columns (y, the last, apart): pivoted LDLT, semidefinite allowed,
+        // Gs_AA = P^T L D L^T P, so R_AA = sqrt(D) L^T P (Eigen's transpositionsP() from the right
+        // is P^T). Then R_AA^T r_Ay = Gs_Ay and rho^2 = Gs_yy - |r_Ay|^2: the part of y outside
+        // every column is the last pivot, a constant of the cost whatever its rounding, and the
+        // tilt search's cost and steps depend only on the well-conditioned rest.
+        const Eigen::Index cr = ca - 1;
+        if (cr == 0) {  // no regressor column on this axis
+          Ra = Eigen::MatrixXd::Constant(1, 1, std::sqrt(G(0, 0)));
+          offset_[static_cast<std::size_t>(a)] = rows_;
+          rows_ += 1;
+          continue;
+        }
+        const Eigen::LDLT<Eigen::MatrixXd> ldlt(Gs.topLeftCorner(cr, cr));
+        const Eigen::VectorXd sd = ldlt.vectorD().cwiseMax(0.0).cwiseSqrt();
+        Ra = Eigen::MatrixXd::Zero(ca, ca);
+        Ra.topLeftCorner(cr, cr) = sd.asDiagonal() * Eigen::MatrixXd(ldlt.matrixU());
+        Ra.topLeftCorner(cr, cr) = Ra.topLeftCorner(cr, cr) * ldlt.transpositionsP().transpose();
+        Eigen::VectorXd x = ldlt.transpositionsP() * Gs.col(cr).head(cr);
+        ldlt.matrixL().solveInPlace(x);
+        for (Eigen::Index j = 0; j < cr; ++j) x(j) = sd(j) > 0.0 ? x(j) / sd(j) : 0.0;
+        Ra.col(cr).head(cr) = x;
+        Ra(cr, cr) = std::sqrt(std::max(0.0, Gs(cr, cr) - x.squaredNorm()));
+        Ra = Ra * d.asDiagonal();
+      } else {
+        Eigen::MatrixXd D = Ba;  // thinR factors in place; B_a stays for the per-sample rows
+        Ra = internal::thinR(D);
+      }
       offset_[static_cast<std::size_t>(a)] = rows_;
-      rows_ += ra;
+      rows_ += Ra.rows();
     }
     // Stacked column blocks P_k (rows x p): P_k's column j is R_a's column of (k, j) (zero if absent).
-    for (auto& P : P_) P = Eigen::MatrixXd::Zero(rows_, p);
+    for (auto& P : P_) P = Eigen::MatrixXd::Zero(rows_, p_);
     Py_ = Eigen::VectorXd::Zero(rows_);
     axis_of_row_.resize(rows_);
     for (int a = 0; a < 6; ++a) {
       const auto& Ra = R_[static_cast<std::size_t>(a)];
-      const int o = offset_[static_cast<std::size_t>(a)];
-      const int ra = static_cast<int>(Ra.rows());
+      const Eigen::Index o = offset_[static_cast<std::size_t>(a)];
+      const Eigen::Index ra = Ra.rows();
       axis_of_row_.segment(o, ra).setConstant(a);
       for (int k = 0; k < 4; ++k) {
-        for (int j = 0; j < p; ++j) {
-          const int bc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(k * p + j)];
+        for (int j = 0; j < p_; ++j) {
+          const int bc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(k * p_ + j)];
           if (bc >= 0) P_[static_cast<std::size_t>(k)].block(o, j, ra, 1) = Ra.col(bc);
         }
       }
-      const int yc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(4 * p)];
-      if (yc >= 0) Py_.segment(o, ra) = Ra.col(yc);
+      Py_.segment(o, ra) = Ra.col(col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(4 * p_)]);
     }
+  }
+  bool gram() const { return gram_; }
+
+  /// The fit's start (U, V): the paper's static force stage f_i = R_BS,i^T L + F0 (the same as
+  /// initialTilt(), paper_method.cpp) solved on the compressed force axes, whose columns hold its
+  /// data exactly. False (u, v untouched) if the model lacks those columns, the force stage is not
+  /// determined, or (Gram factor) too ill-conditioned for it: then initialTilt() decides.
+  bool initialTilt(double rank_tolerance, double* tilt_u_rad, double* tilt_v_rad) const {
+    if (!force_stage_) return false;
+    Eigen::Index rows = 0;
+    for (int a = 0; a < 3; ++a) rows += R_[static_cast<std::size_t>(a)].rows();
+    Eigen::MatrixXd K = Eigen::MatrixXd::Zero(rows, 6);  // unknowns [L, F0]
+    Eigen::VectorXd z(rows);
+    for (int a = 0, o = 0; a < 3; ++a) {
+      const auto& map = col_[static_cast<std::size_t>(a)];
+      const auto& Ra = R_[static_cast<std::size_t>(a)];
+      const Eigen::Index ra = Ra.rows();
+      for (int k = 0; k < 3; ++k) {
+        const int bc = map[static_cast<std::size_t>((k + 1) * p_ + c_mass_)];
+        if (bc < 0) return false;  // R_BS(k, a) = 0 in every sample: not determined
+        K.block(o, k, ra, 1) = Ra.col(bc) / kStandardGravity;
+      }
+      const int bf = map[static_cast<std::size_t>(c_f0_[a])];
+      if (bf < 0) return false;
+      K.block(o, 3 + a, ra, 1) = Ra.col(bf);
+      z.segment(o, ra) = Ra.col(map[static_cast<std::size_t>(4 * p_)]);
+      o += static_cast<int>(ra);
+    }
+    const internal::ScaledQR qr(K, rank_tolerance);
+    if (qr.rank().rank < 6 || (gram_ && qr.rank().condition_number > kGramConditionLimit)) return false;
+    const Eigen::VectorXd l = qr.solve(z);
+    double weight_N = 0.0;
+    gravityToWeightAndTilt(l.head<3>(), &weight_N, tilt_u_rad, tilt_v_rad);
     return true;
   }
 
@@ -417,21 +510,12 @@ class GravityCompression {
     }
   }
 
-  /// The projected residual (compressed: Q^T of the stacked one) and theta for the tilt in nl.
+  /// The projected residual (compressed: R_a (e_y - M_a theta) per axis) and theta for the tilt in nl.
   LinearSolution solve(const NonlinearParams& nl, const Vec6& w) const {
     Eigen::MatrixXd C;
     Eigen::VectorXd z;
     compressed(model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad), w, &C, &z);
     return solveLinear(C, z);
-  }
-
-  /// Sum of squares per axis of a compressed residual (the axes' rows are their own).
-  Vec6 axisSquaredNorms(const Eigen::VectorXd& r) const {
-    Vec6 out;
-    for (int a = 0; a < 6; ++a) {
-      out(a) = r.segment(offset_[static_cast<std::size_t>(a)], R_[static_cast<std::size_t>(a)].rows()).squaredNorm();
-    }
-    return out;
   }
 
   /// Mixing matrices of the joint Jacobian of axis a: B_a * mix = [A_a(g_B), dA_a theta(dg_u), dA_a theta(dg_v)]
@@ -467,21 +551,43 @@ class GravityCompression {
     return J;
   }
 
-  /// The stacked weighted Jacobian (6N x (p + 2), rows 6 i + a) and residual (6N) per sample.
-  void fullJacobian(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v, const Eigen::VectorXd& theta,
-                    const Vec6& w, Eigen::MatrixXd* J, Eigen::VectorXd* r) const {
+  /// Unweighted residual w_i - Y_i(g_B) theta per sample (6 x N), from the rows of B_a.
+  Mat6X residual(const Vec3& g_B, const Eigen::VectorXd& theta) const {
     const Eigen::Index n = B_[0].rows();
-    J->resize(6 * n, p_ + 2);
-    r->resize(6 * n);
+    Mat6X r(6, n);
+    for (int a = 0; a < 6; ++a) r.row(a) = (B_[static_cast<std::size_t>(a)] * residualMix(a, g_B, theta)).transpose();
+    return r;
+  }
+
+  /// Newey-West scores (N x (p + 2), row i = sum_a J_(6i+a)^T r_(6i+a) of the weighted joint
+  /// Jacobian and residual) and the unweighted residual (6 x N), column by column from B_a: the
+  /// Jacobian rows of axis a are w_a B_a(i, :) mix_a, so s_i = sum_a w_a^2 r_a(i) B_a(i, :) mix_a.
+  void scores(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v, const Eigen::VectorXd& theta, const Vec6& w,
+              Eigen::MatrixXd* S, Mat6X* residual_unweighted) const {
+    const Eigen::Index n = B_[0].rows();
+    S->setZero(n, p_ + 2);
+    residual_unweighted->resize(6, n);
+    Eigen::VectorXd ra(n), q(n), t(n);
     for (int a = 0; a < 6; ++a) {
-      const auto& Ba = B_[static_cast<std::size_t>(a)];
-      const Eigen::MatrixXd Ja = Ba * jacobianMix(a, g_B, dg_u, dg_v, theta);
-      const int yc = col_[static_cast<std::size_t>(a)][static_cast<std::size_t>(4 * p_)];
-      Eigen::VectorXd ra = -(Ja.leftCols(p_) * theta);
-      if (yc >= 0) ra += Ba.col(yc);
-      for (Eigen::Index i = 0; i < n; ++i) {
-        J->row(6 * i + a) = w(a) * Ja.row(i);
-        (*r)(6 * i + a) = w(a) * ra(i);
+      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+      const Eigen::MatrixXd mix = jacobianMix(a, g_B, dg_u, dg_v, theta);
+      ra.noalias() = Ba * residualMix(a, g_B, theta);
+      residual_unweighted->row(a) = ra.transpose();
+      q = (w(a) * w(a)) * ra;
+      // Blocks of rows, so that B_a (row-major) passes through the cache once.
+      constexpr Eigen::Index kBlock = 256;
+      for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
+        const Eigen::Index len = std::min(kBlock, n - i0);
+        for (Eigen::Index bc = 0; bc < Ba.cols(); ++bc) {
+          bool any = false;
+          for (Eigen::Index j = 0; j < p_ + 2; ++j) {
+            const double mj = mix(bc, j);
+            if (mj == 0.0) continue;
+            if (!any) t.head(len) = q.segment(i0, len).cwiseProduct(Ba.block(i0, bc, len, 1));
+            any = true;
+            S->col(j).segment(i0, len) += mj * t.head(len);
+          }
+        }
       }
     }
   }
@@ -489,15 +595,40 @@ class GravityCompression {
   Eigen::Index rows() const { return rows_; }
 
  private:
+  /// v with B_a v = y_a - A_a(g_B) theta.
+  Eigen::VectorXd residualMix(int a, const Vec3& g_B, const Eigen::VectorXd& theta) const {
+    const auto& map = col_[static_cast<std::size_t>(a)];
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(B_[static_cast<std::size_t>(a)].cols());
+    v(map[static_cast<std::size_t>(4 * p_)]) = 1.0;
+    for (int j = 0; j < p_; ++j) {
+      const int c0 = map[static_cast<std::size_t>(j)];
+      if (c0 >= 0) v(c0) -= theta(j);
+      for (int k = 0; k < 3; ++k) {
+        const int ck = map[static_cast<std::size_t>((k + 1) * p_ + j)];
+        if (ck >= 0) v(ck) -= g_B(k) / kStandardGravity * theta(j);
+      }
+    }
+    return v;
+  }
+
   int p_ = 0;
-  std::array<Eigen::MatrixXd, 6> B_;         ///< per axis, N x c_a
-  std::array<Eigen::MatrixXd, 6> R_;         ///< per axis, min(N, c_a) x c_a
+  bool gram_ = false;
+  /// Row-major: a sample's row is written at once (column-major, its c_a entries would sit on c_a
+  /// pages, N * 8 bytes apart).
+  using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  std::array<RowMatrix, 6> B_;               ///< per axis, N x c_a
+  std::array<Eigen::MatrixXd, 6> G_;         ///< per axis, B_a^T B_a (lower triangle)
+  std::array<Eigen::MatrixXd, 6> R_;         ///< per axis, R_a^T R_a = B_a^T B_a (c_a or min(N, c_a) rows)
   std::array<std::vector<int>, 6> col_;      ///< (k p + j) or 4p (y) -> column of B_a, or -1
-  std::array<int, 6> offset_{};              ///< first stacked row of each axis
+  std::array<std::vector<int>, 6> src_;      ///< column of B_a (not y) -> entry 6 (k p + j) + a of Y4
+  std::array<Eigen::Index, 6> offset_{};     ///< first stacked row of each axis
   Eigen::Index rows_ = 0;
   std::array<Eigen::MatrixXd, 4> P_;         ///< stacked R columns of A0, E0, E1, E2
   Eigen::VectorXd Py_;                       ///< stacked R column of y
   Eigen::VectorXi axis_of_row_;
+  bool force_stage_ = false;                 ///< B_a holds the static force stage's data (initialTilt)
+  int c_mass_ = -1;
+  int c_f0_[3] = {-1, -1, -1};
 };
 
 /// Variable-projection residual for the nonlinear parameters.
@@ -595,6 +726,17 @@ Mat6X unstack(const Eigen::VectorXd& v, int n) {
 }
 
 void checkFinite(const Problem& pb) {
+  // Fast pass: x * 0 is 0 for every finite x and NaN otherwise, so the sum is 0 iff all are finite.
+  double zero = 0.0;
+  for (int i = 0; i < pb.n; ++i) {
+    const SampleContext& c = pb.at(i);
+    zero += (c.wrench_S.array() * 0.0).sum() + (c.R_BS.array() * 0.0).sum() + (c.w_S.array() * 0.0).sum() +
+            (c.alpha_S.array() * 0.0).sum() + (c.a_S.array() * 0.0).sum() + (c.g_S.array() * 0.0).sum() +
+            c.t * 0.0 + (c.imu_acc_S.array() * 0.0).sum() + (c.imu_w_S.array() * 0.0).sum() +
+            (c.imu_alpha_S.array() * 0.0).sum() + c.temp_degC * 0.0;
+  }
+  if (zero == 0.0) return;
+  // Name the first sample with a non-finite value.
   for (int i = 0; i < pb.n; ++i) {
     const SampleContext& c = pb.at(i);
     const bool ok = c.wrench_S.allFinite() && c.R_BS.allFinite() && c.w_S.allFinite() &&
@@ -830,18 +972,28 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   PhiState st;
   st.fixed.tilt_u_rad = options.tilt_u_rad.value_or(0.0);
   st.fixed.tilt_v_rad = options.tilt_v_rad.value_or(0.0);
-  if (estimate_tilt && !(options.tilt_u_rad && options.tilt_v_rad)) {
-    // Not determinable by the paper's method: start level; the rank check below decides.
-    (void)initialTilt(contexts, indices, &st.fixed.tilt_u_rad, &st.fixed.tilt_v_rad);
-  }
-  st.phi = L.vector(st.fixed);
+  const bool tilt_given = options.tilt_u_rad && options.tilt_v_rad;
 
   // Tilt-only models: the compressed tilt search (GravityCompression), unless the regressor turns
-  // out not to be affine in gravity.
+  // out not to be affine in gravity (checked at the given tilt, else at a generic off-axis gravity).
   GravityCompression gc;
-  const bool compressed = options.compressed_tilt_search && L.tilt >= 0 && L.size == 2 && !pb.reads_wmodel &&
-                          gc.build(pb, model::gravityInBase(st.fixed.tilt_u_rad, st.fixed.tilt_v_rad));
+  const bool compressed =
+      options.compressed_tilt_search && L.tilt >= 0 && L.size == 2 && !pb.reads_wmodel &&
+      gc.build(pb, model::gravityInBase(tilt_given ? st.fixed.tilt_u_rad : 0.3, tilt_given ? st.fixed.tilt_v_rad : -0.2));
   const GravityCompression* gcp = compressed ? &gc : nullptr;
+  // The start: the paper's static force stage (not determinable: start level; the rank check below
+  // decides). The compressed search solves it on its own data (the same problem, no second pass).
+  auto startTilt = [&]() {
+    if (!estimate_tilt || tilt_given) return;
+    st.fixed.tilt_u_rad = 0.0;
+    st.fixed.tilt_v_rad = 0.0;
+    if (!compressed || !gc.initialTilt(PaperOptions().rank_tolerance, &st.fixed.tilt_u_rad, &st.fixed.tilt_v_rad)) {
+      (void)initialTilt(contexts, indices, &st.fixed.tilt_u_rad, &st.fixed.tilt_v_rad);
+    }
+  };
+  if (compressed) gc.factor(true);
+  startTilt();
+  st.phi = L.vector(st.fixed);
 
   const std::vector<std::string> names = paramNames(model);
   // Rank of the linear part at the initial point (the measured wrench stands in for the modelled
@@ -851,15 +1003,25 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
       for (int i = 0; i < pb.n; ++i) pb.wmodel[static_cast<std::size_t>(i)] = measured.col(i);
     }
     Eigen::MatrixXd A;
-    if (compressed) {
-      // Same column norms and singular values as the stacked regressor.
-      Eigen::VectorXd z;
-      const NonlinearParams nl0 = st.params(L);
-      gc.compressed(model::gravityInBase(nl0.tilt_u_rad, nl0.tilt_v_rad), Vec6::Ones(), &A, &z);
-    } else {
-      pb.buildRegressor(st.params(L), Vec6::Ones(), &A);
+    auto rankAtStart = [&]() {
+      if (compressed) {
+        // Same column norms and singular values as the stacked regressor.
+        Eigen::VectorXd z;
+        const NonlinearParams nl0 = st.params(L);
+        gc.compressed(model::gravityInBase(nl0.tilt_u_rad, nl0.tilt_v_rad), Vec6::Ones(), &A, &z);
+      } else {
+        pb.buildRegressor(st.params(L), Vec6::Ones(), &A);
+      }
+      return internal::analyzeRank(A, options.rank_tolerance);
+    };
+    internal::RankReport rr = rankAtStart();
+    if (compressed && (rr.rank < pb.p || rr.condition_number > kGramConditionLimit)) {
+      // Too ill-conditioned for the Gram factor (or rank-deficient: decide on the exact one).
+      gc.factor(false);
+      startTilt();
+      st.phi = L.vector(st.fixed);
+      rr = rankAtStart();
     }
-    const internal::RankReport rr = internal::analyzeRank(A, options.rank_tolerance);
     if (rr.rank < pb.p) {
       std::vector<std::string> bad;
       for (int j : rr.unexcited_columns) bad.push_back(names[static_cast<std::size_t>(j)]);
@@ -960,7 +1122,10 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   runFit(pb.reads_wmodel ? options.derivative_iterations : 0,
          options.axis_weights ? std::min(options.max_tilt_iterations, 4) : options.max_tilt_iterations);
   if (options.axis_weights) {
-    const Vec6 ss = compressed ? gc.axisSquaredNorms(sol.residual)
+    // Compressed: the per-axis sums of squares from the rows (exact; the factor's residual row
+    // carries the part of y outside every column only to rounding of the Gram matrix).
+    const Vec6 ss = compressed ? Vec6(gc.residual(model::gravityInBase(st.params(L).tilt_u_rad, st.params(L).tilt_v_rad),
+                                                  sol.theta).rowwise().squaredNorm())
                                : Vec6(unstack(sol.residual, pb.n).rowwise().squaredNorm());
     const Vec6 rms = (ss / std::max(1, pb.n_active)).cwiseSqrt();
     const double floor = std::max(1e-3 * rms.maxCoeff(), 1e-12);
@@ -1000,17 +1165,19 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   Eigen::MatrixXd J;
   Eigen::MatrixXd J_weighted;
   Eigen::VectorXd r_weighted;
+  Eigen::MatrixXd scores;     // compressed: the Newey-West scores directly (no 6N-row Jacobian)
+  Mat6X residual_compressed;  // compressed: the unweighted residual from the rows of B_a
+  // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
+  // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
+  const double h_tilt = 1e-5;
+  const Vec3 g_B = model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad);
+  const Vec3 dg_u = (model::gravityInBase(nl.tilt_u_rad + h_tilt, nl.tilt_v_rad) -
+                     model::gravityInBase(nl.tilt_u_rad - h_tilt, nl.tilt_v_rad)) / (2.0 * h_tilt);
+  const Vec3 dg_v = (model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad + h_tilt) -
+                     model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad - h_tilt)) / (2.0 * h_tilt);
   if (compressed) {
-    // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
-    // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
-    const double h = 1e-5;
-    const double u = nl.tilt_u_rad;
-    const double v = nl.tilt_v_rad;
-    const Vec3 g_B = model::gravityInBase(u, v);
-    const Vec3 dg_u = (model::gravityInBase(u + h, v) - model::gravityInBase(u - h, v)) / (2.0 * h);
-    const Vec3 dg_v = (model::gravityInBase(u, v + h) - model::gravityInBase(u, v - h)) / (2.0 * h);
     J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
-    gc.fullJacobian(g_B, dg_u, dg_v, sol.theta, weights, &J_weighted, &r_weighted);
+    gc.scores(g_B, dg_u, dg_v, sol.theta, weights, &scores, &residual_compressed);
   } else {
     J.resize(6 * pb.n, n_unknowns);
     Eigen::MatrixXd A;
@@ -1040,7 +1207,18 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   if (L.delay >= 0) all_names.push_back(effects::kDelayParamName);
   // One factorisation of J for the rank check, the condition number and the covariance.
-  const internal::ScaledQR qr_j(J, options.rank_tolerance);
+  std::optional<internal::ScaledQR> qr_j_storage;
+  qr_j_storage.emplace(J, options.rank_tolerance);
+  if (compressed && gc.gram() &&
+      (qr_j_storage->rank().rank < n_unknowns || qr_j_storage->rank().condition_number > kGramConditionLimit)) {
+    // The start's check saw only theta's columns: with the tilt's, J is too ill-conditioned for the
+    // Gram factor (or rank-deficient: name the columns from the exact one). Householder QR instead.
+    qr_j_storage.reset();
+    gc.factor(false);
+    J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
+    qr_j_storage.emplace(J, options.rank_tolerance);
+  }
+  const internal::ScaledQR& qr_j = *qr_j_storage;
   const internal::RankReport& rr = qr_j.rank();
   if (rr.rank < n_unknowns) {
     std::vector<std::string> bad;
@@ -1052,9 +1230,16 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   res.condition_number = rr.condition_number;
   const int dof = 6 * pb.n_active - n_unknowns;
-  res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
   // Autocorrelation-robust (Newey-West) covariance: holds for filtered noise (uncertainty.hpp).
-  res.covariance = robustCovariance(J_weighted, r_weighted, qr_j.inverseGram()).covariance;
+  if (compressed) {
+    // The same sandwich from the scores (robustCovariance is scoreCovariance of J's scores).
+    const Mat6X r_w = weights.asDiagonal() * residual_compressed;
+    res.sigma2 = dof > 0 ? r_w.squaredNorm() / dof : 0.0;
+    res.covariance = scoreCovariance(scores, r_w, qr_j.inverseGram()).covariance;
+  } else {
+    res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
+    res.covariance = robustCovariance(J_weighted, r_weighted, qr_j.inverseGram()).covariance;
+  }
   res.theta_std = res.covariance.diagonal().head(pb.p).cwiseMax(0.0).cwiseSqrt();
   auto sd = [&](int j) { return std::sqrt(std::max(res.covariance(pb.p + j, pb.p + j), 0.0)); };
   if (L.tilt >= 0) {
@@ -1066,8 +1251,9 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   }
   if (L.delay >= 0) res.delay_std = sd(L.delay);
 
-  // Unweighted residual (the compensator's evaluation); excluded samples count as zero.
-  res.residual = measured - pb.predict(sol.theta, nl);
+  // Unweighted residual (the compensator's evaluation; compressed: the same model from the rows of
+  // B_a, affine in g_S); excluded samples count as zero.
+  res.residual = compressed ? residual_compressed : Mat6X(measured - pb.predict(sol.theta, nl));
   for (int i = 0; i < pb.n; ++i) {
     if (!pb.active[static_cast<std::size_t>(i)]) res.residual.col(i).setZero();
   }

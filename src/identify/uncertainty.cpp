@@ -37,15 +37,36 @@ int automaticBandwidth(const Eigen::Ref<const Eigen::Matrix<double, 6, Eigen::Dy
 
 namespace {
 
-/// Newey-West (Bartlett) sum of the autocovariances of the rows of S up to lag L.
+/// Newey-West (Bartlett) sum of the autocovariances of the rows of S up to lag L,
+///   Omega = Gamma_0 + sum_{l=1..L} (1 - l/(L+1)) (Gamma_l + Gamma_l^T),  Gamma_l = sum_i s_i s_(i-l)^T,
+/// computed exactly as one product of moving sums (docs/identification.md, "Standard errors"):
+/// with s_i = 0 outside 0..n-1 and c_t = s_t + s_(t-1) + ... + s_(t-L) for t = 0..n-1+L,
+///   sum_t c_t c_t^T = sum_{l=-L..L} (L+1-|l|) Gamma_l = (L+1) Omega
+/// (the pair (s_u, s_v), u - v = l >= 0, meets in L+1-l of the sums), so one (n+L) x k product
+/// replaces L+1 lagged n x k products; the partial sums at both ends make it exact, no edge term.
 Eigen::MatrixXd neweyWest(const Eigen::Ref<const Eigen::MatrixXd>& S, int lag) {
   const Eigen::Index n = S.rows();
-  Eigen::MatrixXd omega = S.transpose() * S;
-  for (int l = 1; l <= lag && l < n; ++l) {
-    const double w = 1.0 - static_cast<double>(l) / (lag + 1);
-    const Eigen::MatrixXd g = S.bottomRows(n - l).transpose() * S.topRows(n - l);
-    omega += w * (g + g.transpose());
+  const Eigen::Index k = S.cols();
+  Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(k, k);
+  const Eigen::Index L = std::max(0, lag);  // lags >= n add nothing (no overlap), as in the sum
+  if (L == 0) {
+    omega.selfadjointView<Eigen::Lower>().rankUpdate(S.transpose());
+  } else {
+    // The moving sums a block of rows at a time (no (n+L) x k temporary).
+    constexpr Eigen::Index kBlock = 256;
+    Eigen::MatrixXd C(kBlock, k);
+    for (Eigen::Index t0 = 0; t0 < n + L; t0 += kBlock) {
+      const Eigen::Index len = std::min(kBlock, n + L - t0);
+      C.topRows(len).setZero();
+      for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
+        const Eigen::Index lo = std::max(t0, l);
+        const Eigen::Index hi = std::min(t0 + len, n + l);
+        if (hi > lo) C.middleRows(lo - t0, hi - lo) += S.middleRows(lo - l, hi - lo);
+      }
+      omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
+    }
   }
+  omega.triangularView<Eigen::StrictlyUpper>() = omega.transpose();
   return omega;
 }
 

@@ -5,7 +5,9 @@
 //
 // W = diag of per-axis weights (1 / residual RMS of that axis, estimated from an unweighted fit and
 // re-estimated once). theta is solved with Householder QR on the stacked regressor (never normal
-// equations); the tilt, when the model contains the `tilt` effect, by variable projection: an
+// equations; the compressed tilt search below compresses per axis through the Gram matrix only
+// when the column-scaled regressor is well conditioned); the tilt, when the model contains the
+// `tilt` effect, by variable projection: an
 // outer Levenberg-damped Gauss-Newton on (U, V) with a numeric Jacobian of the stacked residual,
 // started from the paper's force stage (direction of the identified gravity vector in B).
 // The other nonlinear parameters (effects/nonlinear.hpp) join the tilt in the same outer search:
@@ -43,8 +45,9 @@ struct FitOptions {
   /// a direction counts as not excited (rank deficiency).
   double rank_tolerance = 1e-9;
   /// Models whose only nonlinear parameters are the tilt: solve the tilt search on the per-axis
-  /// QR-compressed regressor (its cost per step independent of the number of samples; same
-  /// minimiser and statistics up to rounding, docs/identification.md). false: the general path
+  /// compressed regressor (Gram factor, or Householder QR when the condition number exceeds 1e3;
+  /// its cost per step independent of the number of samples; same minimiser and statistics up to
+  /// rounding, docs/identification.md). false: the general path
   /// (every step rebuilds and refactors the stacked regressor), kept as the reference.
   bool compressed_tilt_search = true;
 };

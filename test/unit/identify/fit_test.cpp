@@ -5,6 +5,10 @@
 
 #include <cstdio>
 #include <fstream>
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
 
 #include "ftid/common/error.hpp"
 #include "ftid/identify/fit.hpp"
@@ -256,6 +260,32 @@ TEST(FitModel, NonFiniteInputIsADataError) {
   std::vector<SampleContext> c = clean().samples;
   c[17].wrench_S(3) = std::nan("");
   EXPECT_THROW(fitModel(Model::fromName("paper"), c), DataError);
+}
+
+TEST(FitModel, NonFiniteInputNamesTheFirstBadSample) {
+  // Every field the check covers, with +inf, -inf and NaN, in two samples: the first is named.
+  const std::vector<std::function<void(SampleContext&, double)>> fields = {
+      [](SampleContext& x, double v) { x.wrench_S(4) = v; }, [](SampleContext& x, double v) { x.R_BS(1, 2) = v; },
+      [](SampleContext& x, double v) { x.w_S(0) = v; },      [](SampleContext& x, double v) { x.alpha_S(2) = v; },
+      [](SampleContext& x, double v) { x.a_S(1) = v; },      [](SampleContext& x, double v) { x.g_S(0) = v; },
+      [](SampleContext& x, double v) { x.t = v; },           [](SampleContext& x, double v) { x.imu_acc_S(2) = v; },
+      [](SampleContext& x, double v) { x.imu_w_S(1) = v; },  [](SampleContext& x, double v) { x.imu_alpha_S(0) = v; },
+      [](SampleContext& x, double v) { x.temp_degC = v; }};
+  const double inf = std::numeric_limits<double>::infinity();
+  for (std::size_t f = 0; f < fields.size(); ++f) {
+    for (const double bad : {inf, -inf, std::nan("")}) {
+      SCOPED_TRACE(std::to_string(f) + " " + std::to_string(bad));
+      std::vector<SampleContext> c = clean().samples;
+      fields[f](c[40], bad);
+      fields[f](c[90], bad);
+      try {
+        (void)fitModel(Model::fromName("paper"), c);
+        ADD_FAILURE() << "no DataError";
+      } catch (const DataError& e) {
+        EXPECT_NE(std::string(e.what()).find("sample 40 ("), std::string::npos) << e.what();
+      }
+    }
+  }
 }
 
 TEST(ParameterFile, RoundTripKeepsBackupAndNamesBadKeys) {

@@ -1,11 +1,14 @@
 // scoreCovariance (include/ftid/identify/uncertainty.hpp) against the closed form: for scores that
 // are an AR(1) series s_i = rho s_(i-1) + e_i (innovation variance q), the long-run variance of
 // their sum is n q / (1 - rho)^2, so with bread 1 the covariance must be about
-// 6n/(6n-1) n q / (1 - rho)^2. Also: robustCovariance is scoreCovariance of its own scores.
+// 6n/(6n-1) n q / (1 - rho)^2. Also: robustCovariance is scoreCovariance of its own scores, and the
+// Newey-West sum (computed as one product of moving sums) equals the lagged-sum formula written out
+// here, at every lag up to n - 1 (the ends of the series included).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
+#include <string>
 
 #include "ftid/identify/uncertainty.hpp"
 
@@ -63,6 +66,48 @@ TEST(ScoreCovariance, RobustCovarianceIsTheSandwichOfItsScores) {
   const CovarianceReport b = scoreCovariance(S, R, Ginv);
   EXPECT_LT((a.covariance - b.covariance).norm(), 1e-12 * b.covariance.norm());
   EXPECT_THROW(scoreCovariance(S.topRows(n - 1), R, Ginv), std::invalid_argument);
+}
+
+/// Omega = Gamma_0 + sum_{l=1..L} (1 - l/(L+1)) (Gamma_l + Gamma_l^T), Gamma_l = sum_i s_i s_(i-l)^T,
+/// term by term (the textbook formula; uncertainty.cpp computes it from moving sums).
+Eigen::MatrixXd laggedSumNeweyWest(const Eigen::MatrixXd& S, int lag) {
+  const Eigen::Index n = S.rows();
+  Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(S.cols(), S.cols());
+  for (int l = 0; l <= lag; ++l) {
+    Eigen::MatrixXd gamma = Eigen::MatrixXd::Zero(S.cols(), S.cols());
+    for (Eigen::Index i = l; i < n; ++i) gamma += S.row(i).transpose() * S.row(i - l);
+    const double w = 1.0 - static_cast<double>(l) / (lag + 1);
+    omega += l == 0 ? gamma : Eigen::MatrixXd(w * (gamma + gamma.transpose()));
+  }
+  return omega;
+}
+
+TEST(ScoreCovariance, NeweyWestEqualsTheLaggedSumFormula) {
+  // Correlated, non-zero-mean scores with a large first and last row (the edges matter); 600 rows
+  // span several of the implementation's blocks of rows.
+  for (const int n : {61, 600}) {
+    std::mt19937_64 rng(11 + static_cast<std::uint64_t>(n));
+    std::normal_distribution<double> n01(0.0, 1.0);
+    Eigen::MatrixXd S(n, 3);
+    Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+    for (int i = 0; i < n; ++i) {
+      x = 0.7 * x + Eigen::RowVector3d(n01(rng) + 0.5, n01(rng), 2.0 * n01(rng) - 1.0);
+      S.row(i) = x;
+    }
+    S.row(0) *= 20.0;
+    S.row(n - 1) *= -15.0;
+    const Eigen::Matrix<double, 6, Eigen::Dynamic> R = Eigen::Matrix<double, 6, Eigen::Dynamic>::Ones(6, n);
+    const Eigen::MatrixXd bread = Eigen::MatrixXd::Identity(3, 3);
+    const double correction = 6.0 * n / (6.0 * n - 3.0);  // scoreCovariance's 6n / (6n - k)
+    for (int lag : {0, 1, 2, 7, 30, 300, n - 1}) {
+      if (lag > n - 1) continue;
+      SCOPED_TRACE("n " + std::to_string(n) + " lag " + std::to_string(lag));
+      const CovarianceReport rep = scoreCovariance(S, R, bread, lag);
+      ASSERT_EQ(rep.lag, lag);
+      const Eigen::MatrixXd ref = correction * laggedSumNeweyWest(S, lag);
+      EXPECT_LT((rep.covariance - ref).cwiseAbs().maxCoeff(), 1e-12 * ref.cwiseAbs().maxCoeff());
+    }
+  }
 }
 
 }  // namespace
