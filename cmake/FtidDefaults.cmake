@@ -80,35 +80,3 @@ function(ftid_apply_sanitizer_exceptions)
   endforeach()
 endfunction()
 
-# Unity builds (the sanitizer build of scripts/test.sh and the package check use
-# -DCMAKE_UNITY_BUILD=ON; docs/testing.md "Time"): what may not share a translation unit.
-#  - the `ftid` CLI: every apps/ftid/cmd_*.cpp defines its own kUsage and Registrar `reg` in its
-#    anonymous namespace by design (apps/ftid/command.hpp);
-#  - files whose anonymous-namespace helpers share a name with another file of the same target, or
-#    (rtde_client.cpp) whose class has a member of an anonymous-namespace type, which GCC reports
-#    (-Wsubobject-linkage) whenever the class is not in the main file, as in a unity source.
-# Each entry is TARGET:SOURCE (relative to the repository root).
-set(FTID_UNITY_SKIP_SOURCES
-  ftid_drivers_ur:src/drivers/ur/rtde_client.cpp
-  ftid_design:src/design/parametrization.cpp
-  daemon_test:test/unit/daemon/link_test.cpp
-  identify_stats_test:test/unit/identify/identify_stats_test.cpp
-  ftid_sim_test:test/unit/sim/imperfections_test.cpp
-  transport_test:test/unit/transport/lcm_log_test.cpp)
-function(ftid_apply_unity_exceptions)
-  if(TARGET ftid)
-    set_target_properties(ftid PROPERTIES UNITY_BUILD OFF)
-  endif()
-  foreach(entry IN LISTS FTID_UNITY_SKIP_SOURCES)
-    string(REPLACE ":" ";" parts "${entry}")
-    list(GET parts 0 target)
-    list(GET parts 1 file)
-    if(NOT EXISTS ${PROJECT_SOURCE_DIR}/${file})
-      message(FATAL_ERROR "FTID_UNITY_SKIP_SOURCES (cmake/FtidDefaults.cmake): ${file} does not exist")
-    endif()
-    if(TARGET ${target})
-      set_source_files_properties(${PROJECT_SOURCE_DIR}/${file} TARGET_DIRECTORY ${target}
-                                  PROPERTIES SKIP_UNITY_BUILD_INCLUSION ON)
-    endif()
-  endforeach()
-endfunction()

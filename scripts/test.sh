@@ -30,12 +30,8 @@ if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   asan="$root/build-asan"
   echo "== test: AddressSanitizer + UBSan build of the unit tests ($asan)"
   # -g1 (line tables) is all the sanitizer reports need and compiles about 20 % faster than -g.
-  # A unity build (CMAKE_UNITY_BUILD, 8 sources per compiler run): at -O0 most of the time is
-  # parsing the same Eigen/GoogleTest/CLI11 headers again, so fewer, larger translation units
-  # compile in much less CPU time (docs/testing.md "Time"); the code and the checks are the same.
   cmake -S "$root" -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTID_SANITIZE=ON \
-        -DFTID_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_DEBUG="-O0 -g1" \
-        -DCMAKE_UNITY_BUILD=ON -DCMAKE_UNITY_BUILD_BATCH_SIZE=8 >/dev/null
+        -DFTID_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_DEBUG="-O0 -g1" >/dev/null
   cmake --build "$asan" -j"$jobs" --target ftid_unit_tests
   # Every unit test, DaemonClientOverLcm.* included (its LCM-facing files are built without the
   # vptr check only: cmake/FtidDefaults.cmake, docs/testing.md "Sanitizers").

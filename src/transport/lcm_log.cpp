@@ -14,7 +14,7 @@ namespace ftid::transport {
 namespace {
 
 constexpr std::uint32_t kSync = 0xEDA1DA01u;
-constexpr std::int32_t kMaxLogChannelLength = 4096;
+constexpr std::int32_t kMaxChannelLength = 4096;
 constexpr std::int32_t kMaxDataLength = 256 * 1024 * 1024;
 
 void putU32(std::uint8_t* p, std::uint32_t v) {
@@ -123,7 +123,7 @@ bool LcmLogReader::next(LcmLogEvent* event) {
   }
   const auto channel_length = static_cast<std::int32_t>(getU32(header + 20));
   const auto data_length = static_cast<std::int32_t>(getU32(header + 24));
-  if (channel_length <= 0 || channel_length > kMaxLogChannelLength || data_length < 0 ||
+  if (channel_length <= 0 || channel_length > kMaxChannelLength || data_length < 0 ||
       data_length > kMaxDataLength) {
     throw DataError(path_ + ": byte offset " + std::to_string(offset) +
                     ": implausible LCM event header (channel length " +
