@@ -7,6 +7,7 @@
 # Targets: csv_log parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet.
 # The seed corpus of each is fuzz/<target>/corpus/ (in git); inputs the fuzzer finds interesting are
 # kept in $FTID_FUZZ_BUILD_DIR/corpus/<target>/ (not in git) so later runs continue from them.
+# Targets run FTID_FUZZ_PARALLEL at a time (default: one per core), each for the full time.
 # A crash, sanitizer report, uncaught non-ftid exception, leak or 10 s hang fails the run: the
 # reproducer is saved as $FTID_FUZZ_BUILD_DIR/artifacts/<target>/crash-* (rerun the target binary
 # with that file as its only argument) and the script exits 1.
@@ -45,27 +46,50 @@ echo "fuzz.sh: built in $(( $(date +%s) - start )) s; running each target for $s
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1:allocator_may_return_null=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-failed=()
 for t in "${targets[@]}"; do
-  seeds="$root/fuzz/$t/corpus"
-  [ -d "$seeds" ] || { echo "fuzz.sh: unknown target '$t' (no $seeds)" >&2; exit 2; }
-  work="$build/corpus/$t"
-  art="$build/artifacts/$t"
+  [ -d "$root/fuzz/$t/corpus" ] || { echo "fuzz.sh: unknown target '$t' (no $root/fuzz/$t/corpus)" >&2; exit 2; }
+done
+# Each target is one single-threaded libFuzzer process; FTID_FUZZ_PARALLEL of them run at a time
+# (default: the number of cores), so every target still gets its full SECONDS of one core and the
+# whole run takes about targets/cores x SECONDS instead of targets x SECONDS.
+parallel=${FTID_FUZZ_PARALLEL:-$(nproc)}
+case "$parallel" in ''|*[!0-9]*|0) echo "fuzz.sh: FTID_FUZZ_PARALLEL must be a whole number >= 1, got '$parallel'" >&2; exit 2;; esac
+run_start=$(date +%s)
+fuzz_one() {  # TARGET: runs it and writes its verdict to $build/fuzz-TARGET.result
+  local t=$1 seeds="$root/fuzz/$1/corpus" work="$build/corpus/$1" art="$build/artifacts/$1"
+  local log="$build/fuzz-$1.log"
   mkdir -p "$work" "$art"
-  log="$build/fuzz-$t.log"
   if "$build/fuzz/fuzz_$t" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=65536 \
        -print_final_stats=1 -artifact_prefix="$art/" "$work" "$seeds" >"$log" 2>&1; then
+    local execs cov
     execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
     cov=$(grep -o 'cov: [0-9]*' "$log" | tail -1 | cut -d' ' -f2)
-    echo "fuzz.sh: $t: ok (${execs:-?} inputs, coverage ${cov:-?} edges, corpus $(ls "$work" | wc -l) files)"
+    echo "ok (${execs:-?} inputs, coverage ${cov:-?} edges, corpus $(ls "$work" | wc -l) files)" >"$build/fuzz-$t.result"
   else
-    echo "fuzz.sh: $t: FAILED; last lines of $log:" >&2
-    tail -40 "$log" >&2
-    ls "$art" >&2 || true
+    echo "FAILED" >"$build/fuzz-$t.result"
+  fi
+}
+running=0
+for t in "${targets[@]}"; do
+  rm -f "$build/fuzz-$t.result"
+  fuzz_one "$t" &
+  running=$((running + 1))
+  if [ "$running" -ge "$parallel" ]; then wait -n || true; running=$((running - 1)); fi
+done
+wait
+failed=()
+for t in "${targets[@]}"; do
+  verdict=$(cat "$build/fuzz-$t.result" 2>/dev/null || echo FAILED)
+  if [ "$verdict" = FAILED ]; then
+    echo "fuzz.sh: $t: FAILED; last lines of $build/fuzz-$t.log:" >&2
+    tail -40 "$build/fuzz-$t.log" >&2
+    ls "$build/artifacts/$t" >&2 || true
     failed+=("$t")
+  else
+    echo "fuzz.sh: $t: $verdict"
   fi
 done
-echo "fuzz.sh: total $(( $(date +%s) - start )) s"
+echo "fuzz.sh: ran ${#targets[@]} target(s) x $seconds s, $parallel at a time, in $(( $(date +%s) - run_start )) s; total $(( $(date +%s) - start )) s"
 if [ ${#failed[@]} -gt 0 ]; then
   echo "fuzz.sh: FAILED: ${failed[*]} (reproducers in $build/artifacts/)" >&2
   exit 1

@@ -28,7 +28,11 @@ const char* kUsage =
     "  --dbc FILE        CAN layout (default: the shipped ftsensor.dbc)\n"
     "  --interface IF    only frames of this interface (default: all)\n"
     "  --stale-ms MS     stale timeout for the health rules (default 20)\n"
-    "  --output FILE     write the CSV to FILE instead of stdout";
+    "  --output FILE     write the CSV to FILE instead of stdout\n"
+    "\n"
+    "Exit status: 0 decoded (incomplete samples, gaps and faults are counted in the summary, not\n"
+    "errors), 1 a bad DBC or candump log (the message names the file and line) or an --output that\n"
+    "cannot be written, 2 usage error (no log FILE, unknown option, bad number).";
 
 int runDecodeCandump(const std::vector<std::string>& argv) {
   using namespace ftid::drivers::can;

@@ -23,7 +23,11 @@ const char* const kUsage =
     "\n"
     "  --out FILE        the CSV to write (required)\n"
     "  --channel NAME    channel with cycle_sample_t (default FTID_CYCLE)\n"
-    "  --keep-invalid    keep cycles flagged invalid or stale";
+    "  --keep-invalid    keep cycles flagged invalid or stale\n"
+    "\n"
+    "Exit status: 0 written (skipped cycles are counted on stdout), 1 the log cannot be read or has\n"
+    "no usable cycle_sample_t on the channel, or the CSV cannot be written (the message names the\n"
+    "file), 2 usage error (not exactly one log, no --out, unknown option).";
 
 int runLcmToCsv(const std::vector<std::string>& argv) {
   ftid::transport::LcmToLogOptions options;

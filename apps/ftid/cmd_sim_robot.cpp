@@ -32,7 +32,11 @@ const char* kUsage =
     "\n"
     "Faults can also be injected at run time through the dashboard port, e.g.\n"
     "  echo 'sim protective_stop' | nc 127.0.0.1 29999     (also: sim drop 20, sim disconnect)\n"
-    "Tracking model, limits and protocol details: docs/robot.md.";
+    "Tracking model, limits and protocol details: docs/robot.md.\n"
+    "\n"
+    "Exit status: 0 stopped by SIGINT/SIGTERM, 1 an unknown --model or fault kind, a --host that is\n"
+    "not an IPv4 address or a port that cannot be listened on (the message says which), 2 usage\n"
+    "error (unknown option, bad number).";
 
 int runSimRobot(const std::vector<std::string>& argv) {
   namespace cli = ftid::cli;

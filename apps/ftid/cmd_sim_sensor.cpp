@@ -52,7 +52,12 @@ const char* kUsage =
     "At run time: SIGUSR1 injects one error frame, SIGUSR2 silences the sensor for 100 samples,\n"
     "SIGRTMIN+1 starts the configured contact push (effects.contact) now.\n"
     "Default payload: the paper's Table 2 (8.862 N, c = (0.5, 0.2, 5.1) cm, tilt -9.87/-5.37 deg).\n"
-    "Layout, health rules and the simulator: docs/sensor.md.";
+    "Layout, health rules and the simulator: docs/sensor.md.\n"
+    "\n"
+    "Exit status: 0 stopped by SIGINT/SIGTERM or after --duration, 1 a bad configuration, URDF or\n"
+    "DBC file (named), an unknown --effect or fault kind, or a socket, CAN interface or candump log\n"
+    "that cannot be opened or written (the message says which), 2 usage error (unknown option, bad\n"
+    "number). A robot that is not reachable is retried every second, not an exit.";
 
 int runSimSensor(const std::vector<std::string>& argv) {
   using namespace ftid::simsensor;

@@ -6,6 +6,8 @@
 #include <unistd.h>
 
 #include <array>
+#include <cctype>
+#include <fstream>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -127,11 +129,65 @@ TEST(FtidCli, EverySubCommandsHelpExitsZeroWithItsUsage) {
       std::string out;
       EXPECT_EQ(run(kFtid, name + " " + flag, &out), 0) << name << "\n" << out;
       EXPECT_EQ(out.rfind("usage: ftid ", 0), 0u) << name << "\n" << out;
+      // Every help text says what its exit codes mean ("Exit status: 0 ..., 1 ..., 2 ...").
+      std::string lower = out;
+      for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      EXPECT_NE(lower.find("exit"), std::string::npos) << name << " --help lists no exit codes\n" << out;
     }
   }
   std::string out;
   EXPECT_EQ(run(kFtid, "--identify --help", &out), 0) << out;
   EXPECT_EQ(out.rfind("usage: ftid --identify", 0), 0u) << out;
+}
+
+// The exit codes the --help texts of the simulators and converters promise, one per path that can
+// be reached without a robot or a recording: 2 usage, 1 a bad file / value / port, 0 a clean stop.
+TEST(FtidCli, SimulatorAndConverterExitCodes) {
+  if (!built()) GTEST_SKIP() << "ftid not built";
+  const std::string dir = ::testing::TempDir();
+  const std::string tag = std::to_string(::getpid());
+  const std::string bad_candump = dir + "/bad_" + tag + ".candump";
+  const std::string empty_candump = dir + "/empty_" + tag + ".candump";
+  std::ofstream(bad_candump) << "(1700000000.000000) can0 123#00\nnot a candump line\n";
+  std::ofstream{empty_candump};
+  const std::string csv = dir + "/out_" + tag + ".csv";
+  const std::string ports = " --rtde-port 0 --dashboard-port 0 --script-port 0";
+  const std::vector<std::pair<std::string, int>> cases = {
+      {"lcm-to-csv --out " + csv, 2},                                  // no log
+      {"lcm-to-csv /nonexistent.lcm", 2},                              // no --out
+      {"lcm-to-csv a.lcm b.lcm --out " + csv, 2},                      // two logs
+      {"lcm-to-csv /nonexistent.lcm --out " + csv, 1},                 // unreadable log
+      {"decode-candump", 2},                                           // no log
+      {"decode-candump " + empty_candump + " --bogus", 2},             // unknown option
+      {"decode-candump /nonexistent.candump", 1},                      // unreadable log
+      {"decode-candump " + bad_candump, 1},                            // malformed line
+      {"decode-candump " + empty_candump + " --dbc /nonexistent.dbc", 1},
+      {"decode-candump " + empty_candump + " --output /nonexistent/dir/x.csv", 1},
+      {"decode-candump " + empty_candump, 0},                          // nothing to decode is no error
+      {"sim-robot --model ur5" + ports, 1},                            // unknown model
+      {"sim-robot --fault-after 1:meteor" + ports, 1},                 // unknown fault kind
+      {"sim-robot --host localhost" + ports, 1},                       // not an IPv4 address
+      {"sim-robot --bogus", 2},
+      {"sim-sensor --config /nonexistent.yaml --socket " + dir + "/s_" + tag, 1},
+      {"sim-sensor --effect meteor --socket " + dir + "/s_" + tag, 1},
+      {"sim-sensor --fault 1:meteor --socket " + dir + "/s_" + tag, 1},
+      {"sim-sensor --bogus", 2},
+  };
+  for (const auto& [args, code] : cases) {
+    std::string out;
+    EXPECT_EQ(run(kFtid, args, &out), code) << args << "\n" << out;
+  }
+  // A clean stop: SIGTERM after 2 s (timeout --preserve-status returns the command's own status;
+  // a signal that arrived before the command blocked it would give 143, not 0).
+  for (const std::string& args : std::vector<std::string>{"sim-robot" + ports,
+                                 "sim-sensor --robot-host 127.0.0.1 --rtde-port 9 --socket " + dir + "/s_" + tag}) {
+    std::string out;
+    EXPECT_EQ(run("timeout --preserve-status -s TERM 2 " + kFtid, args, &out), 0) << args << "\n" << out;
+    EXPECT_NE(out.find("stopped"), std::string::npos) << args << "\n" << out;
+  }
+  std::remove(bad_candump.c_str());
+  std::remove(empty_candump.c_str());
+  std::remove(csv.c_str());
 }
 
 TEST(FtiddCli, BadNumbersUnknownOptionsAndHelp) {

@@ -116,14 +116,16 @@ TEST(DaemonClient, AnLcmThatCannotBeOpenedMeansNothingSent) {
 }
 
 // DaemonClientOverLcm.*: the client against a fake ftidd over real LCM udpm in this process.
-// Excluded from the AddressSanitizer + UBSan run (scripts/test.sh): there the fake's LCM
-// callback receives an invalid user_data pointer (UBSan: "member access within address ... which
-// does not point to an object of type 'LCMMHUntypedSubscription'"; with a typed subscription the
-// pointer is 0x1), inside liblcm's dispatch, which is not instrumented. A 12-line program using
-// only LCM's C++ API (one lcm::LCM, an untyped member-function subscription, publish, handle)
-// shows the same report under -fsanitize=undefined alone (Debian 12's liblcm 1.4, gcc 12), while
-// -fsanitize=address alone is clean: the finding is in LCM's header/library pairing, not in this
-// client. The release build runs these tests, and ftid tare / --identify use the client end to end.
+// They run in the AddressSanitizer + UBSan build too. This file and src/daemon/client.cpp use LCM's
+// member-function subscription, whose handler call `(subs->handler->*subs->handlerMethod)(...)`
+// (lcm-cpp-impl.hpp, cb_func) GCC 12 instruments wrongly under -fsanitize=vptr: the check reads an
+// uninitialised register and reports "member access within address ... which does not point to
+// an object of type 'LCMMHUntypedSubscription' ... invalid vptr" (or crashes) although the object
+// is valid. Reproducer: 12 lines of LCM's C++ API (one lcm::LCM, subscribe(&H::on, &h), publish,
+// handleTimeout) fail under g++ -fsanitize=vptr and pass under g++ -fsanitize=address,undefined
+// -fno-sanitize=vptr and clang++-14 -fsanitize=undefined; test/unit/transport/gcc_vptr_pmf_repro.cpp
+// shows it without LCM. So these files are built with -fno-sanitize=vptr only (cmake/FtidDefaults.cmake,
+// FTID_GCC_VPTR_PMF_SOURCES) and keep ASan and every other UBSan check (docs/testing.md "Sanitizers").
 // A fake ftidd on a private udpm port (this process's id: no other test hears it): counts the
 // commands it receives per kind and, if `answer`, acks each with fixed offsets.
 class FakeDaemon {
