@@ -261,12 +261,20 @@ class GravityCompression {
     // The probe samples: the affine check and the first guess of the non-zero columns.
     const int stride = std::max(1, n / 64);
     // Effects whose contribution changes with g_S on a probe sample are evaluated four times per
-    // sample (g_S = 0 and the three base axes), the others once. A misclassified effect would show
+    // sample (g_S = 0 and the three base axes), the others once. An effect with a constant gravity
+    // slope (Effect::constantGravitySlope, e.g. gravity) is evaluated once, at g_S = 0, and its
+    // slopes D_j (taken once) give E_k = sum_j s R_BS(k, j) D_j. A misclassified effect would show
     // in the affine check of the full regressor below.
     const auto& effect_list = pb.model.effectList();
     std::vector<const effects::Effect*> fixed_effects, gravity_effects;
+    // Non-zero entries e (of 6 x p, column-major) of sum_j g_S(j) D_j over the constant-slope
+    // effects, with their (D_0, D_1, D_2).
+    std::vector<int> slope_entry;
+    std::vector<Vec3> slope_value;
     {
       Eigen::Matrix<double, 6, Eigen::Dynamic> Z0(6, p), Zk(6, p);
+      Eigen::Matrix<double, 6, Eigen::Dynamic> D[3];
+      for (auto& Dj : D) Dj.setZero(6, p);
       SampleContext c;
       for (const auto& e : effect_list) {
         bool reads_g = false;
@@ -283,12 +291,36 @@ class GravityCompression {
             reads_g = Zk != Z0;
           }
         }
-        (reads_g ? gravity_effects : fixed_effects).push_back(e.get());
+        if (reads_g && e->constantGravitySlope()) {
+          c = pb.at(0);
+          c.wrench_model_S.setZero();
+          c.g_S.setZero();
+          Z0.setZero();
+          e->addRegressor(c, Z0);
+          for (int j = 0; j < 3; ++j) {
+            c.g_S = Vec3::Unit(j);
+            Zk.setZero();
+            e->addRegressor(c, Zk);
+            D[j] += Zk - Z0;
+          }
+          fixed_effects.push_back(e.get());  // its g_S = 0 part
+        } else {
+          (reads_g ? gravity_effects : fixed_effects).push_back(e.get());
+        }
+      }
+      for (int e = 0; e < 6 * p; ++e) {
+        const Vec3 d(D[0].data()[e], D[1].data()[e], D[2].data()[e]);
+        if (d.isZero(0.0)) continue;
+        slope_entry.push_back(e);
+        slope_value.push_back(d);
       }
     }
-    // Y4 = [Y0 E0 E1 E2] (6 x 4p) of one sample.
-    Eigen::Matrix<double, 6, Eigen::Dynamic> Y4(6, 4 * p);
+    // Y4 = [Y0 E0 E1 E2] (6 x 4p) of one sample. Without effects evaluated at every gravity
+    // direction, the entries of E_k outside slope_entry stay zero (set once here).
+    Eigen::Matrix<double, 6, Eigen::Dynamic> Y4 = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, 4 * p);
     Eigen::Matrix<double, 6, Eigen::Dynamic> Yc(6, p);
+    const bool general_gravity = !gravity_effects.empty();
+    const std::size_t n_slope = slope_entry.size();
     SampleContext c;
     auto evaluate = [&](int i) {
       c = pb.at(i);
@@ -297,14 +329,23 @@ class GravityCompression {
       auto Y0 = Y4.leftCols(p);
       Y0.setZero();
       for (const auto* e : fixed_effects) e->addRegressor(c, Y0);
-      Yc.setZero();
-      for (const auto* e : gravity_effects) e->addRegressor(c, Yc);
-      Y0 += Yc;
+      if (general_gravity) {
+        Yc.setZero();
+        for (const auto* e : gravity_effects) e->addRegressor(c, Yc);
+        Y0 += Yc;
+      }
       for (int k = 0; k < 3; ++k) {
         auto Ek = Y4.middleCols((k + 1) * p, p);
-        c.g_S = kStandardGravity * c.R_BS.row(k).transpose();  // R_BS^T (s e_k)
-        Ek = -Yc;
-        for (const auto* e : gravity_effects) e->addRegressor(c, Ek);
+        const Vec3 g_S = kStandardGravity * c.R_BS.row(k).transpose();  // R_BS^T (s e_k)
+        double* ek = Ek.data();
+        if (general_gravity) {
+          c.g_S = g_S;
+          Ek = -Yc;
+          for (const auto* e : gravity_effects) e->addRegressor(c, Ek);
+          for (std::size_t q = 0; q < n_slope; ++q) ek[slope_entry[q]] += g_S.dot(slope_value[q]);
+        } else {
+          for (std::size_t q = 0; q < n_slope; ++q) ek[slope_entry[q]] = g_S.dot(slope_value[q]);
+        }
       }
     };
     // Affine in g_S: the full regressor at g_check_B equals the combination (after evaluate(i)).
