@@ -998,12 +998,17 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   if (pb.delay && !(options.max_delay_s > 0.0 && std::isfinite(options.max_delay_s))) {
     throw ConfigError("fit: the delay search range must be positive (got " + std::to_string(options.max_delay_s) + " s)");
   }
-  pb.y.resize(6 * pb.n);
-  Mat6X measured(6, pb.n);
-  for (int i = 0; i < pb.n; ++i) {
-    pb.y.segment<6>(6 * i) = pb.at(i).wrench_S;
-    measured.col(i) = pb.at(i).wrench_S;
-  }
+  // The stacked and the 6 x n measurement: the general path's (the compressed search holds the
+  // measurement in its per-axis rows and needs neither).
+  Mat6X measured;
+  auto copyMeasurement = [&]() {
+    pb.y.resize(6 * pb.n);
+    measured.resize(6, pb.n);
+    for (int i = 0; i < pb.n; ++i) {
+      pb.y.segment<6>(6 * i) = pb.at(i).wrench_S;
+      measured.col(i) = pb.at(i).wrench_S;
+    }
+  };
   // First pass of models that read the modelled wrench: wrench_model_S = 0, so their columns
   // vanish and the solve is the other effects' fit with E = 0 (a calibration error is small; the
   // measured wrench as a stand-in is an errors-in-variables start that can end in a false minimum).
@@ -1022,6 +1027,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
       options.compressed_tilt_search && L.tilt >= 0 && L.size == 2 && !pb.reads_wmodel &&
       gc.build(pb, model::gravityInBase(tilt_given ? st.fixed.tilt_u_rad : 0.3, tilt_given ? st.fixed.tilt_v_rad : -0.2));
   const GravityCompression* gcp = compressed ? &gc : nullptr;
+  if (!compressed) copyMeasurement();
   // The start: the paper's static force stage (not determinable: start level; the rank check below
   // decides). The compressed search solves it on its own data (the same problem, no second pass).
   auto startTilt = [&]() {
