@@ -393,6 +393,12 @@ class GravityCompression {
         G_[static_cast<std::size_t>(a)].setZero(static_cast<Eigen::Index>(src.size()) + 1, static_cast<Eigen::Index>(src.size()) + 1);
       }
       for (int e = 0; e < entries; ++e) left_out.data()[e] = used[static_cast<std::size_t>(e)] ? 0.0 : 1.0;
+      std::vector<int> left_out_slope;  // entries of E_k from the slopes that are left out
+      for (int k = 0; k < 3; ++k) {
+        for (const int e : slope_entry) {
+          if (!used[static_cast<std::size_t>(6 * (k + 1) * p + e)]) left_out_slope.push_back(6 * (k + 1) * p + e);
+        }
+      }
       for (int i = 0; i < n; ++i) {
         evaluate(i);
         const double* y4 = Y4.data();
@@ -406,7 +412,16 @@ class GravityCompression {
           row[ns] = w(a);
         }
         // An entry left out must stay zero in every sample (a sum of |entries|: zero iff all are).
-        if ((Y4.array().abs() * left_out).sum() != 0.0) {
+        // Without effects evaluated at every gravity direction, E_k is zero outside the slope
+        // entries: Y0 and the slope entries left out suffice.
+        bool any_left = false;
+        if (general_gravity) {
+          any_left = (Y4.array().abs() * left_out).sum() != 0.0;
+        } else {
+          any_left = (Y4.leftCols(p).array().abs() * left_out.leftCols(p)).sum() != 0.0;
+          for (const int e : left_out_slope) any_left = any_left || y4[e] != 0.0;
+        }
+        if (any_left) {
           for (int e = 0; e < entries; ++e) found[static_cast<std::size_t>(e)] |= left_out.data()[e] != 0.0 && y4[e] != 0.0 ? 1 : 0;
         }
         if (force_stage) {
