@@ -607,12 +607,23 @@ class GravityCompression {
     return J;
   }
 
-  /// Unweighted residual w_i - Y_i(g_B) theta per sample (6 x N), from the rows of B_a.
-  Mat6X residual(const Vec3& g_B, const Eigen::VectorXd& theta) const {
+  /// Per-axis sums of squares of the unweighted residual w_i - Y_i(g_B) theta over the samples,
+  /// from the rows of B_a, a block at a time (no 6 x N temporary).
+  Vec6 residualSquares(const Vec3& g_B, const Eigen::VectorXd& theta) const {
     const Eigen::Index n = B_[0].rows();
-    Mat6X r(6, n);
-    for (int a = 0; a < 6; ++a) r.row(a) = (B_[static_cast<std::size_t>(a)] * residualMix(a, g_B, theta)).transpose();
-    return r;
+    constexpr Eigen::Index kBlock = 256;
+    Eigen::VectorXd ra(kBlock);
+    Vec6 ss = Vec6::Zero();
+    for (int a = 0; a < 6; ++a) {
+      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+      const Eigen::VectorXd v = residualMix(a, g_B, theta);
+      for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
+        const Eigen::Index len = std::min(kBlock, n - i0);
+        ra.head(len).noalias() = Ba.middleRows(i0, len) * v;
+        ss(a) += ra.head(len).squaredNorm();
+      }
+    }
+    return ss;
   }
 
   /// Newey-West scores (N x (p + 2), row i = sum_a J_(6i+a)^T r_(6i+a) of the weighted joint
@@ -623,23 +634,25 @@ class GravityCompression {
     const Eigen::Index n = B_[0].rows();
     S->setZero(n, p_ + 2);
     residual_unweighted->resize(6, n);
-    Eigen::VectorXd ra(n), q(n), t(n);
+    constexpr Eigen::Index kBlock = 256;
+    Eigen::VectorXd ra(kBlock), q(kBlock), t(kBlock);
     for (int a = 0; a < 6; ++a) {
       const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
       const Eigen::MatrixXd mix = jacobianMix(a, g_B, dg_u, dg_v, theta);
-      ra.noalias() = Ba * residualMix(a, g_B, theta);
-      residual_unweighted->row(a) = ra.transpose();
-      q = (w(a) * w(a)) * ra;
-      // Blocks of rows, so that B_a (row-major) passes through the cache once.
-      constexpr Eigen::Index kBlock = 256;
+      const Eigen::VectorXd v = residualMix(a, g_B, theta);
+      // Blocks of rows, so that B_a (row-major) passes through the cache once: the residual of
+      // the block, then the score columns from the same rows.
       for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
         const Eigen::Index len = std::min(kBlock, n - i0);
+        ra.head(len).noalias() = Ba.middleRows(i0, len) * v;
+        residual_unweighted->row(a).segment(i0, len) = ra.head(len).transpose();
+        q.head(len) = (w(a) * w(a)) * ra.head(len);
         for (Eigen::Index bc = 0; bc < Ba.cols(); ++bc) {
           bool any = false;
           for (Eigen::Index j = 0; j < p_ + 2; ++j) {
             const double mj = mix(bc, j);
             if (mj == 0.0) continue;
-            if (!any) t.head(len) = q.segment(i0, len).cwiseProduct(Ba.block(i0, bc, len, 1));
+            if (!any) t.head(len) = q.head(len).cwiseProduct(Ba.block(i0, bc, len, 1));
             any = true;
             S->col(j).segment(i0, len) += mj * t.head(len);
           }
@@ -1186,8 +1199,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   if (options.axis_weights) {
     // Compressed: the per-axis sums of squares from the rows (exact; the factor's residual row
     // carries the part of y outside every column only to rounding of the Gram matrix).
-    const Vec6 ss = compressed ? Vec6(gc.residual(model::gravityInBase(st.params(L).tilt_u_rad, st.params(L).tilt_v_rad),
-                                                  sol.theta).rowwise().squaredNorm())
+    const Vec6 ss = compressed ? gc.residualSquares(model::gravityInBase(st.params(L).tilt_u_rad, st.params(L).tilt_v_rad),
+                                                    sol.theta)
                                : Vec6(unstack(sol.residual, pb.n).rowwise().squaredNorm());
     const Vec6 rms = (ss / std::max(1, pb.n_active)).cwiseSqrt();
     const double floor = std::max(1e-3 * rms.maxCoeff(), 1e-12);
