@@ -611,7 +611,7 @@ class GravityCompression {
   /// from the rows of B_a, a block at a time (no 6 x N temporary).
   Vec6 residualSquares(const Vec3& g_B, const Eigen::VectorXd& theta) const {
     const Eigen::Index n = B_[0].rows();
-    constexpr Eigen::Index kBlock = 256;
+    constexpr Eigen::Index kBlock = 1024;
     Eigen::VectorXd ra(kBlock);
     Vec6 ss = Vec6::Zero();
     for (int a = 0; a < 6; ++a) {
@@ -634,7 +634,9 @@ class GravityCompression {
     const Eigen::Index n = B_[0].rows();
     S->setZero(n, p_ + 2);
     residual_unweighted->resize(6, n);
-    constexpr Eigen::Index kBlock = 256;
+    // 1024 rows of B_a (up to ~150 KB) stay in L2; 256 cost ~6 % on 1,251 samples (more
+    // small products), no gain measured on 10,001.
+    constexpr Eigen::Index kBlock = 1024;
     Eigen::VectorXd ra(kBlock), q(kBlock), t(kBlock);
     for (int a = 0; a < 6; ++a) {
       const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
