@@ -86,6 +86,7 @@ class GravityEffect final : public Effect {
   void addRegressor(const SampleContext& ctx, RegressorRef Y) const noexcept override {
     cols_.addForceAtCom(ctx.g_S, Y);
   }
+  bool constantGravitySlope() const override { return true; }  // linear in g_S, nothing else
   std::unique_ptr<Effect> clone() const override { return std::make_unique<GravityEffect>(*this); }
 
  private:

@@ -107,6 +107,13 @@ class Effect {
   /// True for `sensor_delay`: the fitter estimates the reading's delay (effects/nonlinear.hpp).
   virtual bool estimatesDelay() const { return false; }
 
+  /// True if this effect's regressor is Y(ctx) = Y(ctx with g_S = 0) + sum_j g_S(j) D_j with slopes
+  /// D_j that depend on no field of ctx (e.g. gravity: the force m g_S at the centre of mass). The
+  /// compressed tilt search (identify/fit.cpp) then evaluates the effect once per sample, at
+  /// g_S = 0, and forms its gravity columns from D_j (taken once from addRegressor at g_S = e_j).
+  /// Default false (the fitter evaluates the effect at g_S = 0 and at three gravity directions).
+  virtual bool constantGravitySlope() const { return false; }
+
   /// Resolve the columns this effect writes. Called once when the model is composed.
   /// Throws ConfigError if a parameter it needs is missing.
   virtual void bind(const ParamIndex& index) = 0;

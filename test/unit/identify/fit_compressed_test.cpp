@@ -197,6 +197,21 @@ TEST(CompressedTilt, FindsAColumnTheProbeSamplesMiss) {
                 "window offset");
 }
 
+TEST(CompressedTilt, FindsAGravityColumnTheProbeSamplesMiss) {
+  // On the probe samples (every 19th) the sensor's axes are the base's, permuted: R_BS has zeros,
+  // so entries of the gravity columns E_k (s R_BS(k, j) for the mass, its cross products for the
+  // first moments) are zero there and non-zero elsewhere; the pass must find them.
+  std::vector<SampleContext> s = data().samples;
+  ASSERT_EQ(s.size(), 1251u);  // the probe stride (19) assumes this
+  Mat3 perm;
+  perm << 0, 1, 0, 0, 0, 1, 1, 0, 0;
+  for (std::size_t i = 0; i < s.size(); i += 19) s[i].R_BS = perm;
+  for (const char* name : {"paper", "paper+poly(gz,1)"}) {
+    const Model model = Model::fromName(name);
+    expectSameFit(fitModel(model, s), fitModel(model, s, general()), std::string("permuted probes, ") + name);
+  }
+}
+
 TEST(CompressedTilt, StartsAtThePapersStaticForceStage) {
   // With no Gauss-Newton step the fit reports its start: the compressed search solves the paper's
   // static force stage on its own compressed data; initialTilt() runs the paper's method itself.
