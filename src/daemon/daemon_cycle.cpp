@@ -217,9 +217,9 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
   } else if (robot_ok && rec.sensor.valid) {
     // Sample time t: the robot clock since the session's anchor, re-anchored when the controller
-    // clock goes back (a controller reboot) so it never runs negative (the compensator restarts
-    // its delay line when t does not advance).
-    if (!have_first_time_ || !(robot.robot_time > last_robot_time_)) {
+    // clock goes back (a controller reboot; a repeated time keeps the anchor) so it never runs
+    // negative (the compensator restarts its delay line when t does not advance).
+    if (!have_first_time_ || !(robot.robot_time >= last_robot_time_)) {
       first_robot_time_ = robot.robot_time;
       have_first_time_ = true;
     }

@@ -1,5 +1,6 @@
 // File front end of the model laboratory (include/ftid/lab/analyze.hpp).
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -31,7 +32,11 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
   if (!request.validate_path.empty()) {
     say("reading " + request.validate_path);
     const logio::LogData vlog = logio::readLog(request.validate_path);
-    val = samples::buildContexts(vlog, kin, request.context);
+    // The model's time of the validation log counts from the fitted log's origin, as ftidd and
+    // `ftid compensate` would with the identified parameters (docs/conventions.md, "Time and logs").
+    samples::ContextOptions vopt = request.context;
+    if (std::isfinite(fit.time_origin_unix_s)) vopt.time_origin_unix_s = fit.time_origin_unix_s;
+    val = samples::buildContexts(vlog, kin, vopt);
     if (val.extra_names != fit.extra_names) {
       throw DataError(request.validate_path + ": its extra columns differ from those of " + request.log_path);
     }

@@ -55,18 +55,9 @@ if [ -z "${FTID_CELL_TEST_IN_NS:-}" ]; then
 fi
 
 fail() { echo "FAIL [$CASE]: $*"; FAILED=1; }
-FAILED=0
-WORK=$(mktemp -d /tmp/ftid-cell-test.XXXXXX)
-PIDS=""
-cleanup() {
-  for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
-  for p in $PIDS; do wait "$p" 2>/dev/null; done
-  [ "$CASE" = disk_full ] && umount "$WORK/pdir" 2>/dev/null
-  if [ $FAILED -eq 0 ]; then rm -rf "$WORK"; else echo "logs kept in $WORK"; fi
-}
-trap cleanup EXIT
-
-ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit $SKIP; }
+. "$SRC/test/integration/cell_lib.sh"
+cell_extra_cleanup() { [ "$CASE" = disk_full ] && umount "$WORK/pdir" 2>/dev/null; }
+cell_begin cell-test
 
 PDIR=$WORK/pdir
 mkdir -p "$PDIR" "$WORK/runs"

@@ -38,18 +38,9 @@ for tool in python3 nsenter lcm-gen; do
   command -v $tool >/dev/null || { echo "SKIP: $tool not found"; exit $SKIP; }
 done
 
-FAILED=0
 fail() { echo "FAIL: $*"; FAILED=1; }
-WORK=$(mktemp -d /tmp/ftid-cmd-test.XXXXXX)
-PIDS=""
-cleanup() {
-  for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
-  for p in $PIDS; do wait "$p" 2>/dev/null; done
-  if [ $FAILED -eq 0 ]; then rm -rf "$WORK"; else echo "logs kept in $WORK"; fi
-}
-trap cleanup EXIT
-
-ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit $SKIP; }
+. "$SRC/test/integration/cell_lib.sh"
+cell_begin cmd-test
 unshare -n sh -c "echo \$\$ > '$WORK/remote.pid'; exec sleep 600" &
 HOLDER=$!; PIDS="$PIDS $HOLDER"
 for _ in $(seq 1 50); do [ -s "$WORK/remote.pid" ] && break; sleep 0.1; done

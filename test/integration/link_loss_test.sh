@@ -42,18 +42,9 @@ for tool in python3 nsenter lcm-gen; do
   command -v $tool >/dev/null || { echo "SKIP: $tool not found"; exit $SKIP; }
 done
 
-FAILED=0
 fail() { echo "FAIL: $*"; FAILED=1; }
-WORK=$(mktemp -d /tmp/ftid-link-test.XXXXXX)
-PIDS=""
-cleanup() {
-  for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
-  for p in $PIDS; do wait "$p" 2>/dev/null; done
-  if [ $FAILED -eq 0 ]; then rm -rf "$WORK"; else echo "logs kept in $WORK"; fi
-}
-trap cleanup EXIT
-
-ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit $SKIP; }
+. "$SRC/test/integration/cell_lib.sh"
+cell_begin link-test
 
 # Namespace B: the robot controller.
 unshare -n sh -c "echo \$\$ > '$WORK/robot.pid'; exec sleep 600" &
@@ -122,43 +113,7 @@ rt:
 YAML
 
 # Listener: systemd notifications, the wrench and the stats channels, with monotonic time stamps.
-python3 - "$WORK" > "$WORK/events.log" 2>&1 <<'PY' &
-import os, select, socket, struct, sys, time
-work = sys.argv[1]
-sys.path.insert(0, work + "/gen")
-from ftid_lcm.compensated_wrench_t import compensated_wrench_t
-from ftid_lcm.loop_stats_t import loop_stats_t
-n = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
-n.bind(work + "/notify.sock")
-w = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-w.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-w.bind(("", 7667))
-w.setsockopt(socket.IPPROTO_IP, socket.IP_ADD_MEMBERSHIP,
-             struct.pack("4s4s", socket.inet_aton("239.255.76.67"), socket.inet_aton("0.0.0.0")))
-open(work + "/listener.ready", "w").close()
-end = time.monotonic() + 100
-while time.monotonic() < end and not os.path.exists(work + "/listener.stop"):
-    r, _, _ = select.select([n, w], [], [], 0.2)
-    for s in r:
-        data = s.recv(65536)
-        t = time.monotonic()
-        if s is n:
-            for line in data.decode(errors="replace").split("\n"):
-                if line.startswith("WATCHDOG=1") or line.startswith("READY=1"):
-                    print("%.3f notify %s" % (t, line), flush=True)
-        elif data[:4] == b"LC02":
-            end0 = data.index(b"\0", 8)
-            channel = data[8:end0]
-            if channel == b"FTID_WRENCH":
-                m = compensated_wrench_t.decode(data[end0 + 1:])
-                f = max(abs(x) for x in m.contact[:3])
-                print("%.3f wrench cycle %d valid %d contact %.4f" % (t, m.cycle, int(m.valid), f), flush=True)
-            elif channel == b"FTID_STATS":
-                m = loop_stats_t.decode(data[end0 + 1:])
-                print("%.3f stats up %d reconnects %d down %.3f sensor_reconnects %d" %
-                      (t, int(m.robot_link_up), m.robot_reconnects, m.robot_link_down_s, m.sensor_reconnects),
-                      flush=True)
-PY
+python3 "$SRC/test/integration/ftidd_events.py" "$WORK" > "$WORK/events.log" 2>&1 &
 LISTENER=$!; PIDS="$PIDS $LISTENER"
 for _ in $(seq 1 50); do [ -e "$WORK/listener.ready" ] && break; sleep 0.1; done
 

@@ -1,0 +1,23 @@
+# Shared set-up of the integration tests that run the cell's processes inside a private network
+# namespace (cell_identify, ftidd_commands, link_loss, robot_late). Sourced by bash after the
+# script has re-executed itself in the namespace and defined SKIP and fail().
+#
+# cell_begin NAME: WORK (a fresh /tmp/ftid-NAME.XXXXXX), FAILED=0, PIDS (background processes the
+# script starts; append with PIDS="$PIDS $!"), loopback up with the multicast route LCM needs.
+# On exit every process in PIDS gets SIGTERM and is waited for, then the optional function
+# cell_extra_cleanup runs, and WORK is removed if nothing failed (kept and named otherwise).
+
+cell_cleanup() {
+  for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
+  for p in $PIDS; do wait "$p" 2>/dev/null; done
+  if declare -F cell_extra_cleanup >/dev/null; then cell_extra_cleanup; fi
+  if [ "$FAILED" -eq 0 ]; then rm -rf "$WORK"; else echo "logs kept in $WORK"; fi
+}
+
+cell_begin() {
+  FAILED=0
+  WORK=$(mktemp -d "/tmp/ftid-$1.XXXXXX")
+  PIDS=""
+  trap cell_cleanup EXIT
+  ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit "$SKIP"; }
+}
