@@ -21,3 +21,33 @@ cell_begin() {
   trap cell_cleanup EXIT
   ip link set lo up && ip route add 224.0.0.0/4 dev lo || { echo "SKIP: cannot set up loopback multicast"; exit "$SKIP"; }
 }
+
+# write_ftidd_config FILE HOST HZ [ROBOT_LINE]: the ftidd configuration the link tests share (sensor
+# on WORK/ft.sock, parameters WORK/params.yaml, no command key, stats every 0.5 s, no memory lock,
+# fast reconnect backoff); ROBOT_LINE is one more `key: value` under robot.
+write_ftidd_config() {
+  local extra=""
+  [ -n "${4:-}" ] && extra="  $4
+"
+  cat > "$1" <<YAML
+robot:
+  host: $2
+  rtde_frequency_hz: $3
+  urdf_path: $SRC/config/ur10.urdf
+  silent_publish_after_ms: 50
+${extra}  reconnect_backoff_min_s: 0.2
+  reconnect_backoff_max_s: 1.0
+sensor:
+  socket_path: $WORK/ft.sock
+  dbc_path: $SRC/config/ftsensor.dbc
+parameters:
+  path: $WORK/params.yaml
+  required: true
+lcm:
+  url: "udpm://239.255.76.67:7667?ttl=0"
+  command_key_path: $WORK/no.key
+  stats_period_s: 0.5
+rt:
+  lock_memory: false
+YAML
+}

@@ -73,28 +73,7 @@ start_sensor
 # contact wrench at rest is then the sensor noise.
 python3 "$SRC/test/integration/sim_true_params.py" "$WORK/params.yaml"
 
-cat > "$WORK/ftidd.yaml" <<YAML
-robot:
-  host: 10.77.0.2
-  rtde_frequency_hz: 125
-  urdf_path: $SRC/config/ur10.urdf
-  silent_publish_after_ms: 50
-  watchdog_silence_s: 1.0
-  reconnect_backoff_min_s: 0.2
-  reconnect_backoff_max_s: 1.0
-sensor:
-  socket_path: $WORK/ft.sock
-  dbc_path: $SRC/config/ftsensor.dbc
-parameters:
-  path: $WORK/params.yaml
-  required: true
-lcm:
-  url: "udpm://239.255.76.67:7667?ttl=0"
-  command_key_path: $WORK/no.key
-  stats_period_s: 0.5
-rt:
-  lock_memory: false
-YAML
+write_ftidd_config "$WORK/ftidd.yaml" 10.77.0.2 125 "watchdog_silence_s: 1.0"
 
 # Listener: systemd notifications, the wrench and the stats channels, with monotonic time stamps.
 python3 "$SRC/test/integration/ftidd_events.py" "$WORK" > "$WORK/events.log" 2>&1 &

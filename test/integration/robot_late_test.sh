@@ -43,31 +43,8 @@ PIDS="$PIDS $!"
 # The simulator's true payload (config/sim_sensor.yaml: the paper's Table 2).
 python3 "$SRC/test/integration/sim_true_params.py" "$WORK/params.yaml"
 
-write_config() {  # write_config FILE HZ
-  cat > "$1" <<YAML
-robot:
-  host: 127.0.0.1
-  rtde_frequency_hz: $2
-  urdf_path: $SRC/config/ur10.urdf
-  silent_publish_after_ms: 50
-  reconnect_backoff_min_s: 0.2
-  reconnect_backoff_max_s: 1.0
-sensor:
-  socket_path: $WORK/ft.sock
-  dbc_path: $SRC/config/ftsensor.dbc
-parameters:
-  path: $WORK/params.yaml
-  required: true
-lcm:
-  url: "udpm://239.255.76.67:7667?ttl=0"
-  command_key_path: $WORK/no.key
-  stats_period_s: 0.5
-rt:
-  lock_memory: false
-YAML
-}
-write_config "$WORK/ftidd.yaml" 125
-write_config "$WORK/ftidd500.yaml" 500
+write_ftidd_config "$WORK/ftidd.yaml" 127.0.0.1 125
+write_ftidd_config "$WORK/ftidd500.yaml" 127.0.0.1 500
 
 # Listener: systemd notifications, the wrench and the stats channels, with monotonic time stamps.
 python3 "$SRC/test/integration/ftidd_events.py" "$WORK" > "$WORK/events.log" 2>&1 &
