@@ -796,25 +796,23 @@ Mat6X unstack(const Eigen::VectorXd& v, int n) {
   return Eigen::Map<const Mat6X>(v.data(), 6, n);
 }
 
+/// 0 if every field the fit reads is finite, NaN otherwise (x * 0 is 0 for every finite x and NaN
+/// for +-inf and NaN): the one list of the fields, for the fast pass and for naming the sample.
+double nonFiniteProbe(const SampleContext& c) {
+  return (c.wrench_S.array() * 0.0).sum() + (c.R_BS.array() * 0.0).sum() + (c.w_S.array() * 0.0).sum() +
+         (c.alpha_S.array() * 0.0).sum() + (c.a_S.array() * 0.0).sum() + (c.g_S.array() * 0.0).sum() +
+         c.t * 0.0 + c.t_model * 0.0 + (c.imu_acc_S.array() * 0.0).sum() + (c.imu_w_S.array() * 0.0).sum() +
+         (c.imu_alpha_S.array() * 0.0).sum() + c.temp_degC * 0.0;
+}
+
 void checkFinite(const Problem& pb) {
-  // Fast pass: x * 0 is 0 for every finite x and NaN otherwise, so the sum is 0 iff all are finite.
   double zero = 0.0;
-  for (int i = 0; i < pb.n; ++i) {
-    const SampleContext& c = pb.at(i);
-    zero += (c.wrench_S.array() * 0.0).sum() + (c.R_BS.array() * 0.0).sum() + (c.w_S.array() * 0.0).sum() +
-            (c.alpha_S.array() * 0.0).sum() + (c.a_S.array() * 0.0).sum() + (c.g_S.array() * 0.0).sum() +
-            c.t * 0.0 + (c.imu_acc_S.array() * 0.0).sum() + (c.imu_w_S.array() * 0.0).sum() +
-            (c.imu_alpha_S.array() * 0.0).sum() + c.temp_degC * 0.0;
-  }
+  for (int i = 0; i < pb.n; ++i) zero += nonFiniteProbe(pb.at(i));
   if (zero == 0.0) return;
   // Name the first sample with a non-finite value.
   for (int i = 0; i < pb.n; ++i) {
     const SampleContext& c = pb.at(i);
-    const bool ok = c.wrench_S.allFinite() && c.R_BS.allFinite() && c.w_S.allFinite() &&
-                    c.alpha_S.allFinite() && c.a_S.allFinite() && c.g_S.allFinite() &&
-                    std::isfinite(c.t) && c.imu_acc_S.allFinite() && c.imu_w_S.allFinite() &&
-                    c.imu_alpha_S.allFinite() && std::isfinite(c.temp_degC);
-    if (!ok) {
+    if (nonFiniteProbe(c) != 0.0) {
       throw DataError("sample " + std::to_string(pb.indices[static_cast<std::size_t>(i)]) +
                       " (t = " + std::to_string(c.t) + " s) has a non-finite value");
     }

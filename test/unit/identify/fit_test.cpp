@@ -268,7 +268,8 @@ TEST(FitModel, NonFiniteInputNamesTheFirstBadSample) {
       [](SampleContext& x, double v) { x.wrench_S(4) = v; }, [](SampleContext& x, double v) { x.R_BS(1, 2) = v; },
       [](SampleContext& x, double v) { x.w_S(0) = v; },      [](SampleContext& x, double v) { x.alpha_S(2) = v; },
       [](SampleContext& x, double v) { x.a_S(1) = v; },      [](SampleContext& x, double v) { x.g_S(0) = v; },
-      [](SampleContext& x, double v) { x.t = v; },           [](SampleContext& x, double v) { x.imu_acc_S(2) = v; },
+      [](SampleContext& x, double v) { x.t = v; },           [](SampleContext& x, double v) { x.t_model = v; },
+      [](SampleContext& x, double v) { x.imu_acc_S(2) = v; },
       [](SampleContext& x, double v) { x.imu_w_S(1) = v; },  [](SampleContext& x, double v) { x.imu_alpha_S(0) = v; },
       [](SampleContext& x, double v) { x.temp_degC = v; }};
   const double inf = std::numeric_limits<double>::infinity();
