@@ -1,5 +1,7 @@
 #include "ftid/daemon/loop_owner.hpp"
 
+#include "systemd_notify.hpp"
+
 #include <pthread.h>
 #include <sched.h>
 
@@ -228,7 +230,8 @@ bool LoopOwner::connectWithBackoff() {
     try {
       fresh = connect_();
     } catch (const std::exception& e) {
-      const std::string msg = e.what();
+      // One printable line: the text can quote bytes the controller sent (RTDE type names).
+      const std::string msg = printableLine(e.what(), 300);
       std::uint32_t attempts = 0;
       bool ever_up = false;
       {
@@ -302,8 +305,8 @@ void LoopOwner::linkThread() {
     if (!ended) continue;
 
     // The session ended: the robot link is lost.
-    const std::string why =
-        describeSessionEnd(exit, arm_ != nullptr ? arm_->lastError() : "", options_.exec);
+    const std::string why = printableLine(
+        describeSessionEnd(exit, arm_ != nullptr ? arm_->lastError() : "", options_.exec), 300);
     std::unique_ptr<ArmStateSource> old;
     {
       std::lock_guard<std::mutex> l(mutex_);

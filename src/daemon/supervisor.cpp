@@ -319,7 +319,7 @@ void Supervisor::publishStats() {
   faults_since_report_ = 0;
   char status[320];
   std::snprintf(status, sizeof status,
-                "STATUS=cycles %lld, valid %lld, stale %lld, missed %lld, params v%d, robot link %s "
+                "cycles %lld, valid %lld, stale %lld, missed %lld, params v%d, robot link %s "
                 "(%d reconnects, %.1f s down)",
                 static_cast<long long>(s.cycles), static_cast<long long>(s.valid_cycles),
                 static_cast<long long>(s.stale_sensor_cycles), static_cast<long long>(s.missed_cycles),
@@ -327,9 +327,9 @@ void Supervisor::publishStats() {
                 link.robot_down_total_s);
   std::string status_line = status;
   if (!link.robot_up && !link.robot_last_error.empty()) {
-    status_line += ": " + link.robot_last_error.substr(0, 200);
+    status_line += ": " + link.robot_last_error;
   }
-  notifySystemd(status_line);
+  notifySystemdStatus(status_line);
   if (options_.status_period_s > 0.0 && Clock::now() >= next_status_) {
     next_status_ = Clock::now() + toClock(std::chrono::duration<double>(options_.status_period_s));
     logLine(status_line.substr(7) + ", compute p99.9 " +
@@ -376,7 +376,7 @@ int Supervisor::run() {
     if (!ready_sent_ && owner_.loopHeartbeat() > 0) {
       ready_sent_ = true;
       notifySystemd("READY=1");
-      notifySystemd(std::string("STATUS=") + (owner_.status().robot_up ? "running" : "waiting for the robot at ") +
+      notifySystemdStatus(std::string(owner_.status().robot_up ? "running" : "waiting for the robot at ") +
                     (owner_.status().robot_up ? "" : cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port)));
     }
     if (!running_logged_ && c.cycles.load() > 0) {

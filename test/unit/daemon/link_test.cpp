@@ -30,6 +30,7 @@
 #include "ftid/daemon/loop_owner.hpp"
 #include "ftid/daemon/output_stage.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
+#include "systemd_notify.hpp"  // src/daemon (private header)
 
 namespace ftid::daemon {
 namespace {
@@ -386,3 +387,19 @@ TEST(CanSensorSourceLink, AReopenedTransportIsTakenByTheNextDrainAndSamplesResum
 
 }  // namespace
 }  // namespace ftid::daemon
+
+// The robot link's last error reaches systemd's STATUS= and the journal. It can quote bytes the
+// controller sent (RTDE type names), so it is made one printable line: a reply such as
+// "x\nWATCHDOG=1" must never become a second notification line.
+TEST(PrintableLine, ControlAndNonAsciiBytesBecomeQuestionMarksAndLongTextIsCut) {
+  EXPECT_EQ(ftid::daemon::printableLine("x\nWATCHDOG=1", 100), "x?WATCHDOG=1");
+  EXPECT_EQ(ftid::daemon::printableLine(std::string("a\0b\r\t\x7f\xc3\xa9", 8), 100), "a?b?????");
+  EXPECT_EQ(ftid::daemon::printableLine("plain text, kept", 100), "plain text, kept");
+  EXPECT_EQ(ftid::daemon::printableLine("0123456789", 10), "0123456789");
+  EXPECT_EQ(ftid::daemon::printableLine("0123456789abc", 10), "0123456...");
+  for (int c = 0; c < 256; ++c) {
+    const std::string one = ftid::daemon::printableLine(std::string(1, static_cast<char>(c)), 10);
+    ASSERT_EQ(one.size(), 1u);
+    EXPECT_TRUE(one[0] >= 0x20 && one[0] <= 0x7e) << "byte " << c;
+  }
+}
