@@ -190,7 +190,7 @@ ParameterSet parseParameterText(const std::string& text, const std::string& path
   if (const YamlValue origin = root["time_origin"]) {  // optional: older files have none
     origin.expectMap("expected {unix_s, utc}");
     origin.onlyKeys({"unix_s", "utc"});
-    set.time_origin_unix_s = origin.required("unix_s").number(NumberRange::nonNegative("a Unix time"));
+    set.time_origin_unix_s = origin.required("unix_s").number(NumberRange::nonNegative("must be a non-negative Unix time [s]"));
   }
   if (const YamlValue prov = root["provenance"]) {
     prov.onlyKeys({"date", "data_file", "model", "method", "trajectory", "n_samples", "residual_rms",
