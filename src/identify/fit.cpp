@@ -225,6 +225,29 @@ LinearSolution solveLinear(const Eigen::MatrixXd& A, const Eigen::VectorXd& yw) 
   return s;
 }
 
+/// 0 if every field the fit reads is finite, NaN otherwise (x * 0 is 0 for every finite x and NaN
+/// for +-inf and NaN): the one list of the fields, for the fast pass and for naming the sample.
+double nonFiniteProbe(const SampleContext& c) {
+  return (c.wrench_S.array() * 0.0).sum() + (c.R_BS.array() * 0.0).sum() + (c.w_S.array() * 0.0).sum() +
+         (c.alpha_S.array() * 0.0).sum() + (c.a_S.array() * 0.0).sum() + (c.g_S.array() * 0.0).sum() +
+         c.t * 0.0 + c.t_model * 0.0 + (c.imu_acc_S.array() * 0.0).sum() + (c.imu_w_S.array() * 0.0).sum() +
+         (c.imu_alpha_S.array() * 0.0).sum() + c.temp_degC * 0.0;
+}
+
+void checkFinite(const Problem& pb) {
+  double zero = 0.0;
+  for (int i = 0; i < pb.n; ++i) zero += nonFiniteProbe(pb.at(i));
+  if (zero == 0.0) return;
+  // Name the first sample with a non-finite value.
+  for (int i = 0; i < pb.n; ++i) {
+    const SampleContext& c = pb.at(i);
+    if (nonFiniteProbe(c) != 0.0) {
+      throw DataError("sample " + std::to_string(pb.indices[static_cast<std::size_t>(i)]) +
+                      " (t = " + std::to_string(c.t) + " s) has a non-finite value");
+    }
+  }
+}
+
 /// The compressed tilt search (FitOptions::compressed_tilt_search; docs/identification.md).
 ///
 /// For a model whose only nonlinear parameters are the tilt (no mounting, delay or effects that
@@ -252,7 +275,8 @@ LinearSolution solveLinear(const Eigen::MatrixXd& A, const Eigen::VectorXd& yw) 
 class GravityCompression {
  public:
   /// Evaluates B_a for every sample; false if the regressor is not affine in g_S (checked at
-  /// g_check_B on the probe samples).
+  /// g_check_B on the probe samples). Its pass over the data also runs checkFinite's test (throws
+  /// DataError naming the first non-finite sample); after false, the caller runs checkFinite.
   bool build(const Problem& pb, const Vec3& g_check_B) {
     const int n = pb.n;
     const int p = pb.p;
@@ -399,8 +423,10 @@ class GravityCompression {
           if (!used[static_cast<std::size_t>(6 * (k + 1) * p + e)]) left_out_slope.push_back(6 * (k + 1) * p + e);
         }
       }
+      double non_finite = 0.0;  // the finite check of the data (checkFinite) in the same pass
       for (int i = 0; i < n; ++i) {
         evaluate(i);
+        if (pass == 0) non_finite += nonFiniteProbe(pb.at(i));  // its cache lines were just read
         const double* y4 = Y4.data();
         const Wrench& w = pb.at(i).wrench_S;
         for (int a = 0; a < 6; ++a) {
@@ -441,6 +467,7 @@ class GravityCompression {
           }
         }
       }
+      if (non_finite != 0.0) checkFinite(pb);  // throws, naming the first such sample
       bool complete = true;
       for (int e = 0; e < entries; ++e) {
         if (!used[static_cast<std::size_t>(e)] && found[static_cast<std::size_t>(e)]) {
@@ -608,58 +635,64 @@ class GravityCompression {
   }
 
   /// Per-axis sums of squares of the unweighted residual w_i - Y_i(g_B) theta over the samples,
-  /// from the rows of B_a, a block at a time (no 6 x N temporary).
+  /// |B_a v|^2 = |R_a v|^2 (R_a^T R_a = B_a^T B_a): no pass over the rows. The Gram factor holds
+  /// y_a's part outside the columns to rounding of |y_a|^2, so a sum is exact to a relative
+  /// ~1e-16 |y_a|^2 / sum (1e-10 at a signal-to-noise power ratio of 1e6): ample for the axis
+  /// weights it sets (the fit's residual, sigma^2 and scores come from the rows).
   Vec6 residualSquares(const Vec3& g_B, const Eigen::VectorXd& theta) const {
-    const Eigen::Index n = B_[0].rows();
-    constexpr Eigen::Index kBlock = 1024;
-    Eigen::VectorXd ra(kBlock);
-    Vec6 ss = Vec6::Zero();
-    for (int a = 0; a < 6; ++a) {
-      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
-      const Eigen::VectorXd v = residualMix(a, g_B, theta);
-      for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
-        const Eigen::Index len = std::min(kBlock, n - i0);
-        ra.head(len).noalias() = Ba.middleRows(i0, len) * v;
-        ss(a) += ra.head(len).squaredNorm();
-      }
-    }
+    Vec6 ss;
+    for (int a = 0; a < 6; ++a) ss(a) = (R_[static_cast<std::size_t>(a)] * residualMix(a, g_B, theta)).squaredNorm();
     return ss;
   }
 
   /// Newey-West scores (N x (p + 2), row i = sum_a J_(6i+a)^T r_(6i+a) of the weighted joint
-  /// Jacobian and residual) and the unweighted residual (6 x N), column by column from B_a: the
-  /// Jacobian rows of axis a are w_a B_a(i, :) mix_a, so s_i = sum_a w_a^2 r_a(i) B_a(i, :) mix_a.
+  /// Jacobian and residual) and the unweighted residual (6 x N), in one pass over the rows of B_a:
+  /// the Jacobian rows of axis a are w_a B_a(i, :) mix_a, so s_i = sum_a w_a^2 r_a(i) B_a(i, :) mix_a
+  /// with r_a(i) = B_a(i, :) v_a. mix_a is sparse (a regressor column of theta_j feeds column j, a
+  /// gravity column also the two tilt columns), so each row costs c_a + nnz(mix_a) products.
   void scores(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v, const Eigen::VectorXd& theta, const Vec6& w,
               Eigen::MatrixXd* S, Mat6X* residual_unweighted) const {
     const Eigen::Index n = B_[0].rows();
-    S->setZero(n, p_ + 2);
+    const Eigen::Index k = p_ + 2;
+    S->resize(n, k);
     residual_unweighted->resize(6, n);
-    // 1024 rows of B_a (up to ~150 KB) stay in L2; 256 cost ~6 % on 1,251 samples (more
-    // small products), no gain measured on 10,001.
-    constexpr Eigen::Index kBlock = 1024;
-    Eigen::VectorXd ra(kBlock), q(kBlock), t(kBlock);
+    struct Term {
+      Eigen::Index from;  ///< column of B_a
+      Eigen::Index to;    ///< score column
+      double m;           ///< w_a^2 mix_a(from, to)
+    };
+    std::array<std::vector<Term>, 6> terms;
+    std::array<Eigen::VectorXd, 6> v;
     for (int a = 0; a < 6; ++a) {
-      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
       const Eigen::MatrixXd mix = jacobianMix(a, g_B, dg_u, dg_v, theta);
-      const Eigen::VectorXd v = residualMix(a, g_B, theta);
-      // Blocks of rows, so that B_a (row-major) passes through the cache once: the residual of
-      // the block, then the score columns from the same rows.
-      for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
-        const Eigen::Index len = std::min(kBlock, n - i0);
-        ra.head(len).noalias() = Ba.middleRows(i0, len) * v;
-        residual_unweighted->row(a).segment(i0, len) = ra.head(len).transpose();
-        q.head(len) = (w(a) * w(a)) * ra.head(len);
-        for (Eigen::Index bc = 0; bc < Ba.cols(); ++bc) {
-          bool any = false;
-          for (Eigen::Index j = 0; j < p_ + 2; ++j) {
-            const double mj = mix(bc, j);
-            if (mj == 0.0) continue;
-            if (!any) t.head(len) = q.head(len).cwiseProduct(Ba.block(i0, bc, len, 1));
-            any = true;
-            S->col(j).segment(i0, len) += mj * t.head(len);
-          }
+      for (Eigen::Index bc = 0; bc < mix.rows(); ++bc) {
+        for (Eigen::Index j = 0; j < k; ++j) {
+          if (mix(bc, j) != 0.0) terms[static_cast<std::size_t>(a)].push_back({bc, j, w(a) * w(a) * mix(bc, j)});
         }
       }
+      v[static_cast<std::size_t>(a)] = residualMix(a, g_B, theta);
+    }
+    // A block of scores row-major (a sample's k entries together), copied into S's columns.
+    constexpr Eigen::Index kBlock = 256;
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> T(kBlock, k);
+    for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
+      const Eigen::Index len = std::min(kBlock, n - i0);
+      T.topRows(len).setZero();
+      for (int a = 0; a < 6; ++a) {
+        const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+        const Eigen::Index ca = Ba.cols();
+        const double* va = v[static_cast<std::size_t>(a)].data();
+        const std::vector<Term>& ta = terms[static_cast<std::size_t>(a)];
+        const double* row = Ba.data() + i0 * ca;
+        for (Eigen::Index i = 0; i < len; ++i, row += ca) {
+          double r = 0.0;
+          for (Eigen::Index c = 0; c < ca; ++c) r += row[c] * va[c];
+          (*residual_unweighted)(a, i0 + i) = r;
+          double* t = T.data() + i * k;
+          for (const Term& term : ta) t[term.to] += r * term.m * row[term.from];
+        }
+      }
+      S->middleRows(i0, len) = T.topRows(len);
     }
   }
 
@@ -794,29 +827,6 @@ LinearSolution fitNonlinear(const Problem& pb, const PhiLayout& L, const Vec6& w
 
 Mat6X unstack(const Eigen::VectorXd& v, int n) {
   return Eigen::Map<const Mat6X>(v.data(), 6, n);
-}
-
-/// 0 if every field the fit reads is finite, NaN otherwise (x * 0 is 0 for every finite x and NaN
-/// for +-inf and NaN): the one list of the fields, for the fast pass and for naming the sample.
-double nonFiniteProbe(const SampleContext& c) {
-  return (c.wrench_S.array() * 0.0).sum() + (c.R_BS.array() * 0.0).sum() + (c.w_S.array() * 0.0).sum() +
-         (c.alpha_S.array() * 0.0).sum() + (c.a_S.array() * 0.0).sum() + (c.g_S.array() * 0.0).sum() +
-         c.t * 0.0 + c.t_model * 0.0 + (c.imu_acc_S.array() * 0.0).sum() + (c.imu_w_S.array() * 0.0).sum() +
-         (c.imu_alpha_S.array() * 0.0).sum() + c.temp_degC * 0.0;
-}
-
-void checkFinite(const Problem& pb) {
-  double zero = 0.0;
-  for (int i = 0; i < pb.n; ++i) zero += nonFiniteProbe(pb.at(i));
-  if (zero == 0.0) return;
-  // Name the first sample with a non-finite value.
-  for (int i = 0; i < pb.n; ++i) {
-    const SampleContext& c = pb.at(i);
-    if (nonFiniteProbe(c) != 0.0) {
-      throw DataError("sample " + std::to_string(pb.indices[static_cast<std::size_t>(i)]) +
-                      " (t = " + std::to_string(c.t) + " s) has a non-finite value");
-    }
-  }
 }
 
 void checkTimeOrder(const Problem& pb) {
@@ -1020,7 +1030,10 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
                               std::to_string(6 * pb.n) + " equations for " +
                               std::to_string(n_unknowns) + " unknowns of model '" + model.name() + "'");
   }
-  checkFinite(pb);
+  // Tilt-only models try the compressed tilt search (GravityCompression), whose pass over the data
+  // checks them for non-finite values as well.
+  const bool try_compressed = options.compressed_tilt_search && L.tilt >= 0 && L.size == 2 && !pb.reads_wmodel;
+  if (!try_compressed) checkFinite(pb);
   if (pb.delay) checkTimeOrder(pb);
   if (pb.delay) checkNotStatic(pb, model);
   if (pb.delay && !(options.max_delay_s > 0.0 && std::isfinite(options.max_delay_s))) {
@@ -1052,8 +1065,9 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   // out not to be affine in gravity (checked at the given tilt, else at a generic off-axis gravity).
   GravityCompression gc;
   const bool compressed =
-      options.compressed_tilt_search && L.tilt >= 0 && L.size == 2 && !pb.reads_wmodel &&
+      try_compressed &&
       gc.build(pb, model::gravityInBase(tilt_given ? st.fixed.tilt_u_rad : 0.3, tilt_given ? st.fixed.tilt_v_rad : -0.2));
+  if (try_compressed && !compressed) checkFinite(pb);
   const GravityCompression* gcp = compressed ? &gc : nullptr;
   if (!compressed) copyMeasurement();
   // The start: the paper's static force stage (not determinable: start level; the rank check below
@@ -1197,8 +1211,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   runFit(pb.reads_wmodel ? options.derivative_iterations : 0,
          options.axis_weights ? std::min(options.max_tilt_iterations, 4) : options.max_tilt_iterations);
   if (options.axis_weights) {
-    // Compressed: the per-axis sums of squares from the rows (exact; the factor's residual row
-    // carries the part of y outside every column only to rounding of the Gram matrix).
+    // Compressed: the per-axis sums of squares from the factor (GravityCompression::residualSquares).
     const Vec6 ss = compressed ? gc.residualSquares(model::gravityInBase(st.params(L).tilt_u_rad, st.params(L).tilt_v_rad),
                                                     sol.theta)
                                : Vec6(unstack(sol.residual, pb.n).rowwise().squaredNorm());

@@ -47,6 +47,50 @@ TEST(ScaledQR, ConditionNumberIsThatOfTheColumnScaledMatrix) {
   EXPECT_TRUE(qr.rank().unexcited_columns.empty());
 }
 
+TEST(ScaledQR, ConditionNumberAndRankMatchTheSvdFromWellToIllConditioned) {
+  // Well-conditioned matrices take the eigenvalue route (condition number below 1e4), the others
+  // the SVD: either way the condition number of the column-scaled matrix within 1e-7 relative and
+  // the rank of the SVD's count, across the boundary.
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> nd(0.0, 1.0);
+  for (const double target : {1.0, 30.0, 900.0, 8e3, 1.2e4, 1e6, 1e11}) {
+    SCOPED_TRACE(target);
+    const int rows = 80;
+    const int cols = 16;
+    Eigen::MatrixXd G(rows, cols), H(cols, cols);
+    for (int i = 0; i < rows; ++i) {
+      for (int j = 0; j < cols; ++j) G(i, j) = nd(rng);
+    }
+    for (int i = 0; i < cols; ++i) {
+      for (int j = 0; j < cols; ++j) H(i, j) = nd(rng);
+    }
+    // Orthonormal U (rows x cols) and V from the singular vectors of the random matrices.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> su(G, Eigen::ComputeThinU);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> sh(H, Eigen::ComputeFullU);
+    const Eigen::MatrixXd U = su.matrixU();
+    const Eigen::MatrixXd V = sh.matrixU();
+    Eigen::VectorXd s(cols);
+    for (int k = 0; k < cols; ++k) s(k) = std::pow(target, -static_cast<double>(k) / (cols - 1));
+    const Eigen::MatrixXd A = U * s.asDiagonal() * V.transpose();
+    const Eigen::VectorXd norms = A.colwise().norm().transpose();
+    const Eigen::MatrixXd scaled = A * norms.cwiseInverse().asDiagonal();
+    const Eigen::VectorXd sv = Eigen::JacobiSVD<Eigen::MatrixXd>(scaled).singularValues();
+    const double expected = sv.maxCoeff() / sv.minCoeff();
+    const int expected_rank = static_cast<int>((sv.array() > 1e-9 * sv.maxCoeff()).count());
+    Eigen::MatrixXd work = A;
+    const ScaledQR qr(work, 1e-9);
+    EXPECT_EQ(qr.rank().rank, expected_rank);
+    if (expected_rank == cols) {
+      EXPECT_NEAR(qr.rank().condition_number, expected, 1e-7 * expected);
+    }
+    const RankReport r = analyzeRank(A, 1e-9);
+    EXPECT_EQ(r.rank, expected_rank);
+    if (expected_rank == cols) {
+      EXPECT_NEAR(r.condition_number, expected, 1e-7 * expected);
+    }
+  }
+}
+
 TEST(ScaledQR, SolutionAndInverseGramMatchTheSvdOfA) {
   const Eigen::MatrixXd A = randomTall(300, 6, 2);
   const Eigen::VectorXd y = randomVector(300, 3);
