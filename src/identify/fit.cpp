@@ -7,9 +7,12 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
+#include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "linear_algebra.hpp"
 #include "ftid/common/error.hpp"
@@ -248,6 +251,60 @@ void checkFinite(const Problem& pb) {
   }
 }
 
+/// Scratch memory of the compressed tilt search (the rows of B_a and the scores, ~80 doubles per
+/// sample), kept per thread between calls. Fresh pages cost a page fault each (1-1.5 us on the
+/// development VM): at 1,251 samples the ~290 faults of a fit's transient matrices were a third of
+/// its time, paid again on every call once glibc returns the memory. A repeated fit
+/// (cross-validation, a cell that re-identifies, a benchmark) reuses the pages; capacity beyond
+/// kKeptDoubles (64 MB) is released when the call ends. A nested lease on the same thread (none
+/// today) gets memory of its own.
+class ThreadScratch {
+ public:
+  ThreadScratch() : arena_(threadArena()) {
+    if (arena_.in_use) {
+      own_ = true;
+    } else {
+      arena_.in_use = true;
+    }
+  }
+  ~ThreadScratch() {
+    if (own_) return;
+    arena_.in_use = false;
+    if (arena_.capacity > kKeptDoubles) {
+      arena_.data.reset();
+      arena_.capacity = 0;
+    }
+  }
+  ThreadScratch(const ThreadScratch&) = delete;
+  ThreadScratch& operator=(const ThreadScratch&) = delete;
+
+  /// At least `count` doubles, uninitialised contents (earlier contents are lost when it grows).
+  double* reserve(std::size_t count) {
+    Arena& a = own_ ? local_ : arena_;
+    if (a.capacity < count) {
+      a.data.reset();  // the old block first: peak memory is one block
+      a.data = std::make_unique<double[]>(count);
+      a.capacity = count;
+    }
+    return a.data.get();
+  }
+
+ private:
+  static constexpr std::size_t kKeptDoubles = std::size_t{8} << 20;  // 64 MB
+  struct Arena {
+    std::unique_ptr<double[]> data;
+    std::size_t capacity = 0;
+    bool in_use = false;
+  };
+  static Arena& threadArena() {
+    static thread_local Arena arena;
+    return arena;
+  }
+  Arena& arena_;
+  Arena local_;
+  bool own_ = false;
+};
+
 /// The compressed tilt search (FitOptions::compressed_tilt_search; docs/identification.md).
 ///
 /// For a model whose only nonlinear parameters are the tilt (no mounting, delay or effects that
@@ -413,9 +470,19 @@ class GravityCompression {
           }
         }
         map[static_cast<std::size_t>(m - 1)] = static_cast<int>(src.size());
-        B_[static_cast<std::size_t>(a)].resize(n, static_cast<Eigen::Index>(src.size()) + 1);
+        b_cols_[static_cast<std::size_t>(a)] = static_cast<Eigen::Index>(src.size()) + 1;
         G_[static_cast<std::size_t>(a)].setZero(static_cast<Eigen::Index>(src.size()) + 1, static_cast<Eigen::Index>(src.size()) + 1);
       }
+      // One block of scratch: B_0 .. B_5 (row-major, N x c_a each), then the scores (N x (p + 2)).
+      n_ = n;
+      std::size_t total = 0;
+      for (int a = 0; a < 6; ++a) {
+        b_offset_[static_cast<std::size_t>(a)] = total;
+        total += static_cast<std::size_t>(n) * static_cast<std::size_t>(b_cols_[static_cast<std::size_t>(a)]);
+      }
+      s_offset_ = total;
+      total += static_cast<std::size_t>(n) * static_cast<std::size_t>(p + 2);
+      data_ = scratch_.reserve(total);
       for (int e = 0; e < entries; ++e) left_out.data()[e] = used[static_cast<std::size_t>(e)] ? 0.0 : 1.0;
       std::vector<int> left_out_slope;  // entries of E_k from the slopes that are left out
       for (int k = 0; k < 3; ++k) {
@@ -431,8 +498,7 @@ class GravityCompression {
         const Wrench& w = pb.at(i).wrench_S;
         for (int a = 0; a < 6; ++a) {
           const std::vector<int>& src = src_[static_cast<std::size_t>(a)];
-          RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
-          double* row = Ba.data() + static_cast<Eigen::Index>(i) * Ba.cols();  // one sample's row, contiguous
+          double* row = rowOf(a, i);  // one sample's row, contiguous
           const std::size_t ns = src.size();
           for (std::size_t j = 0; j < ns; ++j) row[j] = y4[src[j]];
           row[ns] = w(a);
@@ -463,7 +529,7 @@ class GravityCompression {
           const int i0 = i - i % kGramBlock;
           for (int a = 0; a < 6; ++a) {
             G_[static_cast<std::size_t>(a)].selfadjointView<Eigen::Lower>().rankUpdate(
-                B_[static_cast<std::size_t>(a)].middleRows(i0, i - i0 + 1).transpose());
+                B(a).middleRows(i0, i - i0 + 1).transpose());
           }
         }
       }
@@ -489,7 +555,7 @@ class GravityCompression {
     gram_ = gram;
     rows_ = 0;
     for (int a = 0; a < 6; ++a) {
-      const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
+      const auto Ba = B(a);
       Eigen::MatrixXd& Ra = R_[static_cast<std::size_t>(a)];
       if (gram) {
         const Eigen::Index ca = Ba.cols();
@@ -606,7 +672,7 @@ class GravityCompression {
   Eigen::MatrixXd jacobianMix(int a, const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v,
                               const Eigen::VectorXd& theta) const {
     const auto& map = col_[static_cast<std::size_t>(a)];
-    const int ca = static_cast<int>(B_[static_cast<std::size_t>(a)].cols());
+    const int ca = static_cast<int>(b_cols_[static_cast<std::size_t>(a)]);
     Eigen::MatrixXd mix = Eigen::MatrixXd::Zero(ca, p_ + 2);
     for (int j = 0; j < p_; ++j) {
       const int c0 = map[static_cast<std::size_t>(j)];
@@ -648,52 +714,87 @@ class GravityCompression {
   /// Newey-West scores (N x (p + 2), row i = sum_a J_(6i+a)^T r_(6i+a) of the weighted joint
   /// Jacobian and residual) and the unweighted residual (6 x N), in one pass over the rows of B_a:
   /// the Jacobian rows of axis a are w_a B_a(i, :) mix_a, so s_i = sum_a w_a^2 r_a(i) B_a(i, :) mix_a
-  /// with r_a(i) = B_a(i, :) v_a. mix_a is sparse (a regressor column of theta_j feeds column j, a
-  /// gravity column also the two tilt columns), so each row costs c_a + nnz(mix_a) products.
-  void scores(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v, const Eigen::VectorXd& theta, const Vec6& w,
-              Eigen::MatrixXd* S, Mat6X* residual_unweighted) const {
-    const Eigen::Index n = B_[0].rows();
+  /// with r_a(i) = B_a(i, :) v_a. mix_a is sparse: column bc of B_a (A0 or E_k of theta_j) feeds
+  /// score column j with weight 1 or g_B(k) / s, and the two tilt columns through the dense
+  /// vectors mix_a(:, p) and mix_a(:, p + 1). So a row costs three dot products of length c_a and
+  /// one product per score column it feeds (the columns of B_a feeding theta_j summed first: a
+  /// store per score column, no chain of stores to one column).
+  /// The scores live in this object's scratch (valid while it lives, until the next call).
+  Eigen::Map<const Eigen::MatrixXd> scores(const Vec3& g_B, const Vec3& dg_u, const Vec3& dg_v,
+                                           const Eigen::VectorXd& theta, const Vec6& w,
+                                           Mat6X* residual_unweighted) {
+    const Eigen::Index n = n_;
     const Eigen::Index k = p_ + 2;
-    S->resize(n, k);
+    Eigen::Map<Eigen::MatrixXd> S(data_ + s_offset_, n, k);
     residual_unweighted->resize(6, n);
-    struct Term {
-      Eigen::Index from;  ///< column of B_a
-      Eigen::Index to;    ///< score column
-      double m;           ///< w_a^2 mix_a(from, to)
+    std::array<Eigen::Matrix<double, Eigen::Dynamic, 3>, 6> dots;  // columns v_a, mix_a(:, p), mix_a(:, p + 1)
+    struct Feed {
+      Eigen::Index to;     ///< score column j < p
+      Eigen::Index first;  ///< its terms in from/weight
+      Eigen::Index count;
     };
-    std::array<std::vector<Term>, 6> terms;
-    std::array<Eigen::VectorXd, 6> v;
+    std::array<std::vector<Feed>, 6> feeds;
+    std::array<std::vector<Eigen::Index>, 6> from;  // columns of B_a, grouped by the score column they feed
+    std::array<std::vector<double>, 6> weight;      // their mix_a entries
     for (int a = 0; a < 6; ++a) {
+      const std::size_t ua = static_cast<std::size_t>(a);
       const Eigen::MatrixXd mix = jacobianMix(a, g_B, dg_u, dg_v, theta);
-      for (Eigen::Index bc = 0; bc < mix.rows(); ++bc) {
-        for (Eigen::Index j = 0; j < k; ++j) {
-          if (mix(bc, j) != 0.0) terms[static_cast<std::size_t>(a)].push_back({bc, j, w(a) * w(a) * mix(bc, j)});
+      const Eigen::Index ca = mix.rows();
+      dots[ua].resize(ca, 3);
+      dots[ua].col(0) = residualMix(a, g_B, theta);
+      dots[ua].col(1) = mix.col(p_);
+      dots[ua].col(2) = mix.col(p_ + 1);
+      for (Eigen::Index j = 0; j < p_; ++j) {
+        const Eigen::Index first = static_cast<Eigen::Index>(from[ua].size());
+        for (Eigen::Index bc = 0; bc < ca; ++bc) {
+          if (mix(bc, j) == 0.0) continue;
+          from[ua].push_back(bc);
+          weight[ua].push_back(mix(bc, j));
         }
+        const Eigen::Index count = static_cast<Eigen::Index>(from[ua].size()) - first;
+        if (count > 0) feeds[ua].push_back({j, first, count});
       }
-      v[static_cast<std::size_t>(a)] = residualMix(a, g_B, theta);
     }
     // A block of scores row-major (a sample's k entries together), copied into S's columns.
     constexpr Eigen::Index kBlock = 256;
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> T(kBlock, k);
+    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> D(kBlock, 3);  // r, du, dv of the block's rows
     for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
       const Eigen::Index len = std::min(kBlock, n - i0);
       T.topRows(len).setZero();
       for (int a = 0; a < 6; ++a) {
-        const RowMatrix& Ba = B_[static_cast<std::size_t>(a)];
-        const Eigen::Index ca = Ba.cols();
-        const double* va = v[static_cast<std::size_t>(a)].data();
-        const std::vector<Term>& ta = terms[static_cast<std::size_t>(a)];
-        const double* row = Ba.data() + i0 * ca;
+        const std::size_t ua = static_cast<std::size_t>(a);
+        const Eigen::Index ca = b_cols_[ua];
+        const double* v = dots[ua].col(0).data();
+        const double* mu = dots[ua].col(1).data();
+        const double* mv = dots[ua].col(2).data();
+        const std::vector<Feed>& fa = feeds[ua];
+        const Eigen::Index* f = from[ua].data();
+        const double* m = weight[ua].data();
+        const double w2 = w(a) * w(a);
+        const double* row = rowOf(a, i0);
         for (Eigen::Index i = 0; i < len; ++i, row += ca) {
-          double r = 0.0;
-          for (Eigen::Index c = 0; c < ca; ++c) r += row[c] * va[c];
+          double r = 0.0, du = 0.0, dv = 0.0;
+          for (Eigen::Index c = 0; c < ca; ++c) {
+            r += row[c] * v[c];
+            du += row[c] * mu[c];
+            dv += row[c] * mv[c];
+          }
           (*residual_unweighted)(a, i0 + i) = r;
+          const double q = w2 * r;
           double* t = T.data() + i * k;
-          for (const Term& term : ta) t[term.to] += r * term.m * row[term.from];
+          t[p_] += q * du;
+          t[p_ + 1] += q * dv;
+          for (const Feed& feed : fa) {
+            double sum = 0.0;
+            for (Eigen::Index e = feed.first; e < feed.first + feed.count; ++e) sum += m[e] * row[f[e]];
+            t[feed.to] += q * sum;
+          }
         }
       }
-      S->middleRows(i0, len) = T.topRows(len);
+      S.middleRows(i0, len) = T.topRows(len);
     }
+    return {S.data(), n, k};
   }
 
   Eigen::Index rows() const { return rows_; }
@@ -702,7 +803,7 @@ class GravityCompression {
   /// v with B_a v = y_a - A_a(g_B) theta.
   Eigen::VectorXd residualMix(int a, const Vec3& g_B, const Eigen::VectorXd& theta) const {
     const auto& map = col_[static_cast<std::size_t>(a)];
-    Eigen::VectorXd v = Eigen::VectorXd::Zero(B_[static_cast<std::size_t>(a)].cols());
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(b_cols_[static_cast<std::size_t>(a)]);
     v(map[static_cast<std::size_t>(4 * p_)]) = 1.0;
     for (int j = 0; j < p_; ++j) {
       const int c0 = map[static_cast<std::size_t>(j)];
@@ -720,7 +821,21 @@ class GravityCompression {
   /// Row-major: a sample's row is written at once (column-major, its c_a entries would sit on c_a
   /// pages, N * 8 bytes apart).
   using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  std::array<RowMatrix, 6> B_;               ///< per axis, N x c_a
+  Eigen::Map<RowMatrix> B(int a) {
+    return {data_ + b_offset_[static_cast<std::size_t>(a)], n_, b_cols_[static_cast<std::size_t>(a)]};
+  }
+  Eigen::Map<const RowMatrix> B(int a) const {
+    return {data_ + b_offset_[static_cast<std::size_t>(a)], n_, b_cols_[static_cast<std::size_t>(a)]};
+  }
+  double* rowOf(int a, Eigen::Index i) {
+    return data_ + b_offset_[static_cast<std::size_t>(a)] + i * b_cols_[static_cast<std::size_t>(a)];
+  }
+  ThreadScratch scratch_;
+  double* data_ = nullptr;                   ///< the scratch: B_a per axis (N x c_a, row-major), scores
+  Eigen::Index n_ = 0;                       ///< samples (rows of B_a)
+  std::array<Eigen::Index, 6> b_cols_{};     ///< c_a
+  std::array<std::size_t, 6> b_offset_{};    ///< first double of B_a in data_
+  std::size_t s_offset_ = 0;                 ///< first double of the scores in data_
   std::array<Eigen::MatrixXd, 6> G_;         ///< per axis, B_a^T B_a (lower triangle)
   std::array<Eigen::MatrixXd, 6> R_;         ///< per axis, R_a^T R_a = B_a^T B_a (c_a or min(N, c_a) rows)
   std::array<std::vector<int>, 6> col_;      ///< (k p + j) or 4p (y) -> column of B_a, or -1
@@ -1253,7 +1368,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   Eigen::MatrixXd J;
   Eigen::MatrixXd J_weighted;
   Eigen::VectorXd r_weighted;
-  Eigen::MatrixXd scores;     // compressed: the Newey-West scores directly (no 6N-row Jacobian)
+  // Compressed: the Newey-West scores directly (no 6N-row Jacobian), in gc's scratch.
+  Eigen::Map<const Eigen::MatrixXd> scores(nullptr, 0, 0);
   Mat6X residual_compressed;  // compressed: the unweighted residual from the rows of B_a
   // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
   // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
@@ -1265,7 +1381,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
                      model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad - h_tilt)) / (2.0 * h_tilt);
   if (compressed) {
     J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
-    gc.scores(g_B, dg_u, dg_v, sol.theta, weights, &scores, &residual_compressed);
+    new (&scores) Eigen::Map<const Eigen::MatrixXd>(gc.scores(g_B, dg_u, dg_v, sol.theta, weights, &residual_compressed));
   } else {
     J.resize(6 * pb.n, n_unknowns);
     Eigen::MatrixXd A;
@@ -1341,7 +1457,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
 
   // Unweighted residual (the compensator's evaluation; compressed: the same model from the rows of
   // B_a, affine in g_S); excluded samples count as zero.
-  res.residual = compressed ? residual_compressed : Mat6X(measured - pb.predict(sol.theta, nl));
+  res.residual = compressed ? std::move(residual_compressed) : Mat6X(measured - pb.predict(sol.theta, nl));
   for (int i = 0; i < pb.n; ++i) {
     if (!pb.active[static_cast<std::size_t>(i)]) res.residual.col(i).setZero();
   }
