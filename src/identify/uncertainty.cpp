@@ -12,15 +12,21 @@ int automaticBandwidth(const Eigen::Ref<const Eigen::Matrix<double, 6, Eigen::Dy
   const Eigen::Index n = residual.cols();
   double num = 0.0, den = 0.0;
   Vec6 rho = Vec6::Zero();
+  // The lag-0 and lag-1 sums of every axis in one pass along the (contiguous) samples.
+  const Vec6 mean = n > 0 ? Vec6(residual.rowwise().mean()) : Vec6::Zero();
+  Vec6 c0_all = Vec6::Zero();
+  Vec6 c1_all = Vec6::Zero();
+  Vec6 prev = n > 0 ? Vec6(residual.col(0) - mean) : Vec6::Zero();
+  c0_all = prev.cwiseAbs2();
+  for (Eigen::Index i = 1; i < n; ++i) {
+    const Vec6 d = residual.col(i) - mean;
+    c0_all += d.cwiseAbs2();
+    c1_all += d.cwiseProduct(prev);
+    prev = d;
+  }
   for (int a = 0; a < 6; ++a) {
-    const auto x = residual.row(a);
-    const double mean = x.mean();
-    double c0 = 0.0, c1 = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const double d = x(i) - mean;
-      c0 += d * d;
-      if (i > 0) c1 += d * (x(i - 1) - mean);
-    }
+    const double c0 = c0_all(a);
+    const double c1 = c1_all(a);
     if (!(c0 > 0.0)) continue;
     const double r = std::clamp(c1 / c0, -0.97, 0.97);
     rho(a) = r;
@@ -37,57 +43,74 @@ int automaticBandwidth(const Eigen::Ref<const Eigen::Matrix<double, 6, Eigen::Dy
 
 namespace {
 
-/// Newey-West (Bartlett) sum of the autocovariances of the rows of S up to lag L,
+/// Newey-West (Bartlett) sum of the autocovariances of the rows s_0..s_(n-1) of a series up to lag L,
 ///   Omega = Gamma_0 + sum_{l=1..L} (1 - l/(L+1)) (Gamma_l + Gamma_l^T),  Gamma_l = sum_i s_i s_(i-l)^T,
 /// computed exactly as one product of moving sums (docs/identification.md, "Standard errors"):
 /// with s_i = 0 outside 0..n-1 and c_t = s_t + s_(t-1) + ... + s_(t-L) for t = 0..n-1+L,
 ///   sum_t c_t c_t^T = sum_{l=-L..L} (L+1-|l|) Gamma_l = (L+1) Omega
 /// (the pair (s_u, s_v), u - v = l >= 0, meets in L+1-l of the sums), so one (n+L) x k product
 /// replaces L+1 lagged n x k products; the partial sums at both ends make it exact, no edge term.
-Eigen::MatrixXd neweyWest(const Eigen::Ref<const Eigen::MatrixXd>& S, int lag) {
-  const Eigen::Index n = S.rows();
-  const Eigen::Index k = S.cols();
+/// The series is read through addRows(first, count, dest): dest (count x k) += its rows
+/// first..first+count-1, so a filtered series need not be stored; the moving sums are formed a
+/// block of rows at a time (no (n+L) x k temporary).
+template <class AddRows>
+Eigen::MatrixXd neweyWest(Eigen::Index n, Eigen::Index k, int lag, const AddRows& addRows) {
   Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(k, k);
   const Eigen::Index L = std::max(0, lag);  // lags >= n add nothing (no overlap), as in the sum
-  if (L == 0) {
-    omega.selfadjointView<Eigen::Lower>().rankUpdate(S.transpose());
-  } else {
-    // The moving sums a block of rows at a time (no (n+L) x k temporary).
-    constexpr Eigen::Index kBlock = 256;
-    Eigen::MatrixXd C(kBlock, k);
-    for (Eigen::Index t0 = 0; t0 < n + L; t0 += kBlock) {
-      const Eigen::Index len = std::min(kBlock, n + L - t0);
-      C.topRows(len).setZero();
-      for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
-        const Eigen::Index lo = std::max(t0, l);
-        const Eigen::Index hi = std::min(t0 + len, n + l);
-        if (hi > lo) C.middleRows(lo - t0, hi - lo) += S.middleRows(lo - l, hi - lo);
-      }
-      omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
+  constexpr Eigen::Index kBlock = 256;
+  Eigen::MatrixXd C(kBlock, k);
+  for (Eigen::Index t0 = 0; t0 < n + L; t0 += kBlock) {
+    const Eigen::Index len = std::min(kBlock, n + L - t0);
+    C.topRows(len).setZero();
+    for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
+      const Eigen::Index lo = std::max(t0, l);
+      const Eigen::Index hi = std::min(t0 + len, n + l);
+      if (hi > lo) addRows(lo - l, hi - lo, C.middleRows(lo - t0, hi - lo));
     }
+    omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
   }
   omega.triangularView<Eigen::StrictlyUpper>() = omega.transpose();
   return omega;
 }
 
-/// Andrews' AR(1) plug-in bandwidth over the columns of E, each column standardised (equal weight):
-/// alpha = mean_j 4 rho_j^2 / ((1 - rho_j)^2 (1 + rho_j)^2), L = floor(1.1447 (alpha n)^(1/3)).
-int whitenedBandwidth(const Eigen::Ref<const Eigen::MatrixXd>& E) {
-  const Eigen::Index n = E.rows();
-  if (n < 8) return 0;
+Eigen::MatrixXd neweyWest(const Eigen::Ref<const Eigen::MatrixXd>& S, int lag) {
+  return neweyWest(S.rows(), S.cols(), lag, [&S](Eigen::Index first, Eigen::Index count, auto dest) {
+    dest += S.middleRows(first, count);
+  });
+}
+
+/// Andrews' AR(1) plug-in bandwidth over the columns of the prewhitened scores E (rows
+/// e_i = s_(i+1) - a o s_i, i = 0..m-1, m = n - 1), each column standardised (equal weight):
+/// alpha = mean_j 4 rho_j^2 / ((1 - rho_j)^2 (1 + rho_j)^2), rho_j = c1_j / c0_j,
+/// L = floor(1.1447 (alpha m)^(1/3)). E is not formed: per column, with the sums of s
+///   T0 = sum_(0..n-2) s_i^2, T1 = sum_(1..n-1) s_i^2, G1 = sum_(0..n-2) s_(i+1) s_i, G2 = sum_(1..n-2) s_(i+1) s_(i-1),
+///   c0 = sum_i e_i^2          = T1 - 2 a G1 + a^2 T0
+///   c1 = sum_i e_i e_(i-1)    = (G1 - s_1 s_0) - a G2 - a (T0 - s_0^2) + a^2 (G1 - s_(n-1) s_(n-2)).
+/// (c0 / T1 >= 1 - 0.97^2 for the clamped a, so the expansion loses at most ~1e-13 relative.)
+int whitenedBandwidth(const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::VectorXd& a) {
+  const Eigen::Index n = S.rows();
+  const Eigen::Index m = n - 1;
+  if (m < 8) return 0;
   double alpha = 0.0;
   int cnt = 0;
-  for (Eigen::Index j = 0; j < E.cols(); ++j) {
-    const double c0 = E.col(j).squaredNorm();
+  for (Eigen::Index j = 0; j < S.cols(); ++j) {
+    const auto s = S.col(j);
+    const double T0 = s.head(n - 1).squaredNorm();
+    const double T1 = s.tail(n - 1).squaredNorm();
+    const double G1 = s.tail(n - 1).dot(s.head(n - 1));
+    const double G2 = s.segment(2, n - 2).dot(s.head(n - 2));
+    const double aj = a(j);
+    const double c0 = T1 - 2.0 * aj * G1 + aj * aj * T0;
+    const double c1 = (G1 - s(1) * s(0)) - aj * G2 - aj * (T0 - s(0) * s(0)) + aj * aj * (G1 - s(n - 1) * s(n - 2));
     if (!(c0 > 0.0)) continue;
-    const double r = std::clamp(E.col(j).tail(n - 1).dot(E.col(j).head(n - 1)) / c0, -0.97, 0.97);
+    const double r = std::clamp(c1 / c0, -0.97, 0.97);
     alpha += 4.0 * r * r / (std::pow(1.0 - r, 2) * std::pow(1.0 + r, 2));
     ++cnt;
   }
   if (cnt == 0) return 0;
   alpha /= cnt;
-  const double bw = 1.1447 * std::cbrt(alpha * static_cast<double>(n));
-  return static_cast<int>(std::min<double>(std::floor(bw), static_cast<double>(n / 4)));
+  const double bw = 1.1447 * std::cbrt(alpha * static_cast<double>(m));
+  return static_cast<int>(std::min<double>(std::floor(bw), static_cast<double>(m / 4)));
 }
 
 }  // namespace
@@ -124,10 +147,14 @@ CovarianceReport scoreCovariance(const Eigen::Ref<const Eigen::MatrixXd>& S,
       const double a = den > 0.0 ? S.col(j).tail(n - 1).dot(S.col(j).head(n - 1)) / den : 0.0;
       out.score_ar1(j) = std::clamp(a, -0.9, 0.97);
     }
-    const Eigen::MatrixXd E = S.bottomRows(n - 1) - S.topRows(n - 1) * out.score_ar1.asDiagonal();
-    out.lag = whitenedBandwidth(E);
-    const Eigen::VectorXd d = (Eigen::VectorXd::Ones(k) - out.score_ar1).cwiseInverse();
-    omega = d.asDiagonal() * neweyWest(E, out.lag) * d.asDiagonal();
+    const Eigen::VectorXd& a = out.score_ar1;
+    out.lag = whitenedBandwidth(S, a);
+    const Eigen::VectorXd d = (Eigen::VectorXd::Ones(k) - a).cwiseInverse();
+    const Eigen::MatrixXd omega_e =
+        neweyWest(n - 1, k, out.lag, [&S, &a](Eigen::Index first, Eigen::Index count, auto dest) {
+          dest += S.middleRows(first + 1, count) - S.middleRows(first, count) * a.asDiagonal();
+        });
+    omega = d.asDiagonal() * omega_e * d.asDiagonal();
     omega *= static_cast<double>(n) / static_cast<double>(n - 1);
   }
   const double dof = static_cast<double>(rows - k);

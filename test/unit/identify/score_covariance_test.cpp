@@ -6,6 +6,7 @@
 // here, at every lag up to n - 1 (the ends of the series included).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -107,6 +108,90 @@ TEST(ScoreCovariance, NeweyWestEqualsTheLaggedSumFormula) {
       const Eigen::MatrixXd ref = correction * laggedSumNeweyWest(S, lag);
       EXPECT_LT((rep.covariance - ref).cwiseAbs().maxCoeff(), 1e-12 * ref.cwiseAbs().maxCoeff());
     }
+  }
+}
+
+/// Correlated, non-zero-mean scores (n x 3) with large first and last rows.
+Eigen::MatrixXd edgyScores(int n, double rho, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::MatrixXd S(n, 3);
+  Eigen::RowVector3d x = Eigen::RowVector3d::Zero();
+  for (int i = 0; i < n; ++i) {
+    x = rho * x + Eigen::RowVector3d(n01(rng) + 0.5, n01(rng), 2.0 * n01(rng) - 1.0);
+    S.row(i) = x;
+  }
+  S.row(0) *= 20.0;
+  S.row(n - 1) *= -15.0;
+  return S;
+}
+
+TEST(ScoreCovariance, PrewhitenedEqualsTheFormulaOnTheFilteredSeriesWrittenOut) {
+  // The default (prewhitened) estimate against uncertainty.hpp's definition computed here on the
+  // explicitly filtered series E: a_j, E = S_(1..) - S_(..n-2) diag(a), the bandwidth from E's
+  // columns, the lagged-sum Newey-West of E, recoloured by D = diag(1 - a).
+  for (const int n : {61, 600, 3000}) {
+    for (const double rho : {0.0, 0.5, 0.95}) {
+      SCOPED_TRACE("n " + std::to_string(n) + " rho " + std::to_string(rho));
+      const Eigen::MatrixXd S = edgyScores(n, rho, 31 + static_cast<std::uint64_t>(n));
+      const Eigen::Index k = S.cols();
+      Eigen::VectorXd a(k);
+      for (Eigen::Index j = 0; j < k; ++j) {
+        a(j) = std::clamp(S.col(j).tail(n - 1).dot(S.col(j).head(n - 1)) / S.col(j).head(n - 1).squaredNorm(), -0.9,
+                          0.97);
+      }
+      const Eigen::MatrixXd E = S.bottomRows(n - 1) - S.topRows(n - 1) * a.asDiagonal();
+      const Eigen::Index m = n - 1;
+      double alpha = 0.0;
+      for (Eigen::Index j = 0; j < k; ++j) {
+        const double r = std::clamp(E.col(j).tail(m - 1).dot(E.col(j).head(m - 1)) / E.col(j).squaredNorm(), -0.97, 0.97);
+        alpha += 4.0 * r * r / (std::pow(1.0 - r, 2) * std::pow(1.0 + r, 2));
+      }
+      alpha /= static_cast<double>(k);
+      const int lag = static_cast<int>(std::min<double>(std::floor(1.1447 * std::cbrt(alpha * m)), static_cast<double>(m / 4)));
+      const Eigen::VectorXd d = (Eigen::VectorXd::Ones(k) - a).cwiseInverse();
+      const double correction = 6.0 * n / (6.0 * n - static_cast<double>(k));
+      const Eigen::MatrixXd ref = correction * static_cast<double>(n) / static_cast<double>(n - 1) *
+                                  (d.asDiagonal() * laggedSumNeweyWest(E, lag) * d.asDiagonal());
+      const Eigen::Matrix<double, 6, Eigen::Dynamic> R = Eigen::Matrix<double, 6, Eigen::Dynamic>::Ones(6, n);
+      const CovarianceReport rep = scoreCovariance(S, R, Eigen::MatrixXd::Identity(k, k));
+      EXPECT_EQ(rep.lag, lag);
+      EXPECT_LT((rep.score_ar1 - a).cwiseAbs().maxCoeff(), 1e-15);
+      EXPECT_LT((rep.covariance - ref).cwiseAbs().maxCoeff(), 1e-11 * ref.cwiseAbs().maxCoeff());
+    }
+  }
+}
+
+TEST(ScoreCovariance, AutomaticBandwidthIsAndrewsPlugInOfTheResidualAxes) {
+  // Andrews' AR(1) plug-in (uncertainty.hpp) written out per axis on a residual with non-zero
+  // means, different scales and correlations per axis.
+  for (const int n : {40, 2000}) {
+    SCOPED_TRACE(n);
+    std::mt19937_64 rng(3 + static_cast<std::uint64_t>(n));
+    std::normal_distribution<double> n01(0.0, 1.0);
+    Eigen::Matrix<double, 6, Eigen::Dynamic> R(6, n);
+    for (int a = 0; a < 6; ++a) {
+      double x = 0.0;
+      for (int i = 0; i < n; ++i) {
+        x = 0.15 * a * x + (1.0 + a) * n01(rng);
+        R(a, i) = x + 0.3 * a;
+      }
+    }
+    double num = 0.0, den = 0.0;
+    Vec6 rho_ref;
+    for (int a = 0; a < 6; ++a) {
+      const Eigen::RowVectorXd x = R.row(a).array() - R.row(a).mean();
+      const double c0 = x.squaredNorm();
+      const double r = std::clamp(x.tail(n - 1).dot(x.head(n - 1)) / c0, -0.97, 0.97);
+      rho_ref(a) = r;
+      const double s4 = std::pow(c0 / n, 2);
+      num += 4.0 * r * r * s4 / (std::pow(1.0 - r, 6) * std::pow(1.0 + r, 2));
+      den += s4 / std::pow(1.0 - r, 4);
+    }
+    const int expected = static_cast<int>(std::min<double>(std::floor(1.1447 * std::cbrt(num / den * n)), n / 4));
+    Vec6 rho;
+    EXPECT_EQ(automaticBandwidth(R, &rho), expected);
+    EXPECT_LT((rho - rho_ref).cwiseAbs().maxCoeff(), 1e-12);
   }
 }
 
