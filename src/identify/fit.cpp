@@ -6,12 +6,15 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <memory>
 #include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <utility>
 
 #include "linear_algebra.hpp"
@@ -36,6 +39,41 @@ constexpr double kStepConverged = 1e-10;  // a rejected Gauss-Newton step this s
 /// ~ cond^2 eps, about 1e-10 relative at this bound) only while the column-scaled regressor at the
 /// start is at most this ill-conditioned; beyond it, Householder QR (rounding ~ cond eps).
 constexpr double kGramConditionLimit = 1e3;
+/// From this many samples the compressed tilt search's passes over the data run in two halves,
+/// the second on a thread of its own (runConcurrently). Below it, starting a thread and the second
+/// core's wake-up cost more than they save (measured at 1,251 samples; docs/performance.md).
+constexpr int kParallelSamples = 4096;
+
+/// Runs other() on a new thread and here() on this one and waits for both; false (neither ran) on
+/// a machine with one core or when no thread can be started, so the caller runs them in turn. An
+/// exception from either is rethrown here after both have finished.
+template <class Other, class Here>
+bool runConcurrently(const Other& other, const Here& here) {
+  if (std::thread::hardware_concurrency() < 2) return false;
+  std::exception_ptr other_error;
+  std::thread worker;
+  try {
+    worker = std::thread([&other, &other_error] {
+      try {
+        other();
+      } catch (...) {
+        other_error = std::current_exception();
+      }
+    });
+  } catch (const std::system_error&) {
+    return false;
+  }
+  std::exception_ptr here_error;
+  try {
+    here();
+  } catch (...) {
+    here_error = std::current_exception();
+  }
+  worker.join();
+  if (here_error) std::rethrow_exception(here_error);
+  if (other_error) std::rethrow_exception(other_error);
+  return true;
+}
 
 /// Which nonlinear parameters a model estimates, and where they sit in the vector phi.
 struct PhiLayout {
@@ -398,12 +436,19 @@ class GravityCompression {
     }
     // Y4 = [Y0 E0 E1 E2] (6 x 4p) of one sample. Without effects evaluated at every gravity
     // direction, the entries of E_k outside slope_entry stay zero (set once here).
-    Eigen::Matrix<double, 6, Eigen::Dynamic> Y4 = Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, 4 * p);
-    Eigen::Matrix<double, 6, Eigen::Dynamic> Yc(6, p);
+    // One per thread of the pass (the effects are const and keep no state).
+    struct Work {
+      SampleContext c;
+      Eigen::Matrix<double, 6, Eigen::Dynamic> Y4;
+      Eigen::Matrix<double, 6, Eigen::Dynamic> Yc;
+      explicit Work(int p_cols) : Y4(Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, 4 * p_cols)), Yc(6, p_cols) {}
+    };
     const bool general_gravity = !gravity_effects.empty();
     const std::size_t n_slope = slope_entry.size();
-    SampleContext c;
-    auto evaluate = [&](int i) {
+    auto evaluate = [&](int i, Work& wk) {
+      SampleContext& c = wk.c;
+      auto& Y4 = wk.Y4;
+      auto& Yc = wk.Yc;
       c = pb.at(i);
       c.wrench_model_S.setZero();
       c.g_S.setZero();
@@ -429,6 +474,10 @@ class GravityCompression {
         }
       }
     };
+    Work main_work(p);
+    SampleContext& c = main_work.c;
+    auto& Y4 = main_work.Y4;
+    auto& Yc = main_work.Yc;
     // Affine in g_S: the full regressor at g_check_B equals the combination (after evaluate(i)).
     auto affine = [&]() {
       c.g_S = c.R_BS.transpose() * g_check_B;
@@ -443,7 +492,7 @@ class GravityCompression {
     const int entries = 6 * 4 * p;
     std::vector<char> used(static_cast<std::size_t>(entries), 0);
     for (int i = 0; i < n; i += stride) {
-      evaluate(i);
+      evaluate(i, main_work);
       if (!affine()) return false;
       for (int e = 0; e < entries; ++e) used[static_cast<std::size_t>(e)] |= Y4.data()[e] != 0.0 ? 1 : 0;
     }
@@ -471,7 +520,6 @@ class GravityCompression {
         }
         map[static_cast<std::size_t>(m - 1)] = static_cast<int>(src.size());
         b_cols_[static_cast<std::size_t>(a)] = static_cast<Eigen::Index>(src.size()) + 1;
-        G_[static_cast<std::size_t>(a)].setZero(static_cast<Eigen::Index>(src.size()) + 1, static_cast<Eigen::Index>(src.size()) + 1);
       }
       // One block of scratch: B_0 .. B_5 (row-major, N x c_a each), then the scores (N x (p + 2)).
       n_ = n;
@@ -490,48 +538,95 @@ class GravityCompression {
           if (!used[static_cast<std::size_t>(6 * (k + 1) * p + e)]) left_out_slope.push_back(6 * (k + 1) * p + e);
         }
       }
-      double non_finite = 0.0;  // the finite check of the data (checkFinite) in the same pass
-      for (int i = 0; i < n; ++i) {
-        evaluate(i);
-        if (pass == 0) non_finite += nonFiniteProbe(pb.at(i));  // its cache lines were just read
-        const double* y4 = Y4.data();
-        const Wrench& w = pb.at(i).wrench_S;
+      // What a range of samples contributes (the pass runs in two ranges, see below).
+      struct Part {
+        std::array<Eigen::MatrixXd, 6> G;  ///< lower triangles
+        std::vector<char> found;
+        double non_finite = 0.0;           ///< the finite check of the data (checkFinite) in the same pass
+        bool force_stage = true;
+      };
+      auto runRange = [&](int begin, int end, Work& wk, Part& part) {
         for (int a = 0; a < 6; ++a) {
-          const std::vector<int>& src = src_[static_cast<std::size_t>(a)];
-          double* row = rowOf(a, i);  // one sample's row, contiguous
-          const std::size_t ns = src.size();
-          for (std::size_t j = 0; j < ns; ++j) row[j] = y4[src[j]];
-          row[ns] = w(a);
+          const Eigen::Index ca = b_cols_[static_cast<std::size_t>(a)];
+          part.G[static_cast<std::size_t>(a)].setZero(ca, ca);
         }
-        // An entry left out must stay zero in every sample (a sum of |entries|: zero iff all are).
-        // Without effects evaluated at every gravity direction, E_k is zero outside the slope
-        // entries: Y0 and the slope entries left out suffice.
-        bool any_left = false;
-        if (general_gravity) {
-          any_left = (Y4.array().abs() * left_out).sum() != 0.0;
-        } else {
-          any_left = (Y4.leftCols(p).array().abs() * left_out.leftCols(p)).sum() != 0.0;
-          for (const int e : left_out_slope) any_left = any_left || y4[e] != 0.0;
-        }
-        if (any_left) {
-          for (int e = 0; e < entries; ++e) found[static_cast<std::size_t>(e)] |= left_out.data()[e] != 0.0 && y4[e] != 0.0 ? 1 : 0;
-        }
-        if (force_stage) {
-          for (int a = 0; a < 3; ++a) {
-            force_stage = force_stage && Y4(a, c_f0[a]) == 1.0;
-            for (int k = 0; k < 3; ++k) {
-              force_stage = force_stage && Y4(a, (k + 1) * p + c_mass) == kStandardGravity * c.R_BS(k, a);
+        part.found.assign(static_cast<std::size_t>(entries), 0);
+        part.force_stage = force_stage;
+        const auto& Y4w = wk.Y4;
+        for (int i = begin; i < end; ++i) {
+          evaluate(i, wk);
+          if (pass == 0) part.non_finite += nonFiniteProbe(pb.at(i));  // its cache lines were just read
+          const double* y4 = Y4w.data();
+          const Wrench& w = pb.at(i).wrench_S;
+          for (int a = 0; a < 6; ++a) {
+            const std::vector<int>& src = src_[static_cast<std::size_t>(a)];
+            double* row = rowOf(a, i);  // one sample's row, contiguous
+            const std::size_t ns = src.size();
+            for (std::size_t j = 0; j < ns; ++j) row[j] = y4[src[j]];
+            row[ns] = w(a);
+          }
+          // An entry left out must stay zero in every sample (a sum of |entries|: zero iff all are).
+          // Without effects evaluated at every gravity direction, E_k is zero outside the slope
+          // entries: Y0 and the slope entries left out suffice.
+          bool any_left = false;
+          if (general_gravity) {
+            any_left = (Y4w.array().abs() * left_out).sum() != 0.0;
+          } else {
+            any_left = (Y4w.leftCols(p).array().abs() * left_out.leftCols(p)).sum() != 0.0;
+            for (const int e : left_out_slope) any_left = any_left || y4[e] != 0.0;
+          }
+          if (any_left) {
+            for (int e = 0; e < entries; ++e) {
+              part.found[static_cast<std::size_t>(e)] |= left_out.data()[e] != 0.0 && y4[e] != 0.0 ? 1 : 0;
+            }
+          }
+          if (part.force_stage) {
+            for (int a = 0; a < 3; ++a) {
+              part.force_stage = part.force_stage && Y4w(a, c_f0[a]) == 1.0;
+              for (int k = 0; k < 3; ++k) {
+                part.force_stage =
+                    part.force_stage && Y4w(a, (k + 1) * p + c_mass) == kStandardGravity * wk.c.R_BS(k, a);
+              }
+            }
+          }
+          // The Gram matrices, a block of rows at a time while it is in the cache.
+          if ((i + 1 - begin) % kGramBlock == 0 || i == end - 1) {
+            const int i0 = i - (i - begin) % kGramBlock;
+            for (int a = 0; a < 6; ++a) {
+              part.G[static_cast<std::size_t>(a)].selfadjointView<Eigen::Lower>().rankUpdate(
+                  B(a).middleRows(i0, i - i0 + 1).transpose());
             }
           }
         }
-        // The Gram matrices, a block of rows at a time while it is in the cache.
-        if ((i + 1) % kGramBlock == 0 || i == n - 1) {
-          const int i0 = i - i % kGramBlock;
-          for (int a = 0; a < 6; ++a) {
-            G_[static_cast<std::size_t>(a)].selfadjointView<Eigen::Lower>().rankUpdate(
-                B(a).middleRows(i0, i - i0 + 1).transpose());
+      };
+      // Two ranges from kParallelSamples on (a split that depends on n alone, so the sums and the
+      // result do not depend on the machine), the second on a thread of its own where there is a
+      // second core; their Gram matrices added in range order.
+      std::array<Part, 2> parts;
+      const int mid = n >= kParallelSamples ? n / 2 : n;
+      if (mid < n) {
+        Work second_work(p);
+        if (!runConcurrently([&] { runRange(mid, n, second_work, parts[1]); },
+                             [&] { runRange(0, mid, main_work, parts[0]); })) {
+          runRange(0, mid, main_work, parts[0]);
+          runRange(mid, n, second_work, parts[1]);
+        }
+      } else {
+        runRange(0, n, main_work, parts[0]);
+      }
+      double non_finite = 0.0;
+      for (int q = 0; q < (mid < n ? 2 : 1); ++q) {
+        const Part& part = parts[static_cast<std::size_t>(q)];
+        for (int a = 0; a < 6; ++a) {
+          if (q == 0) {
+            G_[static_cast<std::size_t>(a)] = part.G[static_cast<std::size_t>(a)];
+          } else {
+            G_[static_cast<std::size_t>(a)] += part.G[static_cast<std::size_t>(a)];
           }
         }
+        for (int e = 0; e < entries; ++e) found[static_cast<std::size_t>(e)] |= part.found[static_cast<std::size_t>(e)];
+        non_finite += part.non_finite;
+        force_stage = force_stage && part.force_stage;
       }
       if (non_finite != 0.0) checkFinite(pb);  // throws, naming the first such sample
       bool complete = true;
@@ -755,45 +850,50 @@ class GravityCompression {
         if (count > 0) feeds[ua].push_back({j, first, count});
       }
     }
-    // A block of scores row-major (a sample's k entries together), copied into S's columns.
+    // Blocks of rows (scores row-major: a sample's k entries together, copied into S's columns);
+    // from kParallelSamples on the second half of the blocks on a thread of its own (rows of S
+    // and of the residual are the samples': the halves write apart).
     constexpr Eigen::Index kBlock = 256;
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> T(kBlock, k);
-    Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> D(kBlock, 3);  // r, du, dv of the block's rows
-    for (Eigen::Index i0 = 0; i0 < n; i0 += kBlock) {
-      const Eigen::Index len = std::min(kBlock, n - i0);
-      T.topRows(len).setZero();
-      for (int a = 0; a < 6; ++a) {
-        const std::size_t ua = static_cast<std::size_t>(a);
-        const Eigen::Index ca = b_cols_[ua];
-        const double* v = dots[ua].col(0).data();
-        const double* mu = dots[ua].col(1).data();
-        const double* mv = dots[ua].col(2).data();
-        const std::vector<Feed>& fa = feeds[ua];
-        const Eigen::Index* f = from[ua].data();
-        const double* m = weight[ua].data();
-        const double w2 = w(a) * w(a);
-        const double* row = rowOf(a, i0);
-        for (Eigen::Index i = 0; i < len; ++i, row += ca) {
-          double r = 0.0, du = 0.0, dv = 0.0;
-          for (Eigen::Index c = 0; c < ca; ++c) {
-            r += row[c] * v[c];
-            du += row[c] * mu[c];
-            dv += row[c] * mv[c];
-          }
-          (*residual_unweighted)(a, i0 + i) = r;
-          const double q = w2 * r;
-          double* t = T.data() + i * k;
-          t[p_] += q * du;
-          t[p_ + 1] += q * dv;
-          for (const Feed& feed : fa) {
-            double sum = 0.0;
-            for (Eigen::Index e = feed.first; e < feed.first + feed.count; ++e) sum += m[e] * row[f[e]];
-            t[feed.to] += q * sum;
+    auto runBlocks = [&](Eigen::Index begin, Eigen::Index end) {
+      Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> T(kBlock, k);
+      for (Eigen::Index i0 = begin; i0 < end; i0 += kBlock) {
+        const Eigen::Index len = std::min(kBlock, end - i0);
+        T.topRows(len).setZero();
+        for (int a = 0; a < 6; ++a) {
+          const std::size_t ua = static_cast<std::size_t>(a);
+          const Eigen::Index ca = b_cols_[ua];
+          const double* v = dots[ua].col(0).data();
+          const double* mu = dots[ua].col(1).data();
+          const double* mv = dots[ua].col(2).data();
+          const std::vector<Feed>& fa = feeds[ua];
+          const Eigen::Index* f = from[ua].data();
+          const double* m = weight[ua].data();
+          const double w2 = w(a) * w(a);
+          const double* row = rowOf(a, i0);
+          for (Eigen::Index i = 0; i < len; ++i, row += ca) {
+            double r = 0.0, du = 0.0, dv = 0.0;
+            for (Eigen::Index c = 0; c < ca; ++c) {
+              r += row[c] * v[c];
+              du += row[c] * mu[c];
+              dv += row[c] * mv[c];
+            }
+            (*residual_unweighted)(a, i0 + i) = r;
+            const double q = w2 * r;
+            double* t = T.data() + i * k;
+            t[p_] += q * du;
+            t[p_ + 1] += q * dv;
+            for (const Feed& feed : fa) {
+              double sum = 0.0;
+              for (Eigen::Index e = feed.first; e < feed.first + feed.count; ++e) sum += m[e] * row[f[e]];
+              t[feed.to] += q * sum;
+            }
           }
         }
+        S.middleRows(i0, len) = T.topRows(len);
       }
-      S.middleRows(i0, len) = T.topRows(len);
-    }
+    };
+    const Eigen::Index mid = n >= kParallelSamples ? ((n / 2 + kBlock - 1) / kBlock) * kBlock : n;
+    if (mid >= n || !runConcurrently([&] { runBlocks(mid, n); }, [&] { runBlocks(0, mid); })) runBlocks(0, n);
     return {S.data(), n, k};
   }
 

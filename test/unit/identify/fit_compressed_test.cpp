@@ -11,8 +11,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "ftid/common/error.hpp"
@@ -209,6 +211,70 @@ TEST(CompressedTilt, FindsAGravityColumnTheProbeSamplesMiss) {
   for (const char* name : {"paper", "paper+poly(gz,1)"}) {
     const Model model = Model::fromName(name);
     expectSameFit(fitModel(model, s), fitModel(model, s, general()), std::string("permuted probes, ") + name);
+  }
+}
+
+/// The same cell at 500 Hz (5,001 samples): from 4,096 samples on, the compression's passes run in
+/// two halves (the second on a thread of its own where there is a second core).
+const samples::ContextSet& denseData() {
+  static const samples::ContextSet s = [] {
+    sim::CellSimConfig cfg = test::paperConfig(true, 43);
+    cfg.full_rigid_body = true;
+    cfg.noise.wrench_lowpass_hz = 20.0;
+    cfg.rate_hz = 500.0;
+    return test::contextsOf(cfg);
+  }();
+  return s;
+}
+
+TEST(CompressedTilt, TwoHalvesAgreeWithTheGeneralPath) {
+  ASSERT_EQ(denseData().size(), 5001u);
+  const Model model = Model::fromName("paper+rigid_body");
+  const FitResult fast = fitModel(model, denseData().samples);
+  expectSameFit(fast, fitModel(model, denseData().samples, general()), "5,001 samples");
+  // The split depends on the number of samples alone: a second fit is bit for bit the same.
+  const FitResult again = fitModel(model, denseData().samples);
+  EXPECT_EQ(again.theta, fast.theta);
+  EXPECT_EQ(again.covariance, fast.covariance);
+  EXPECT_EQ(again.residual, fast.residual);
+}
+
+TEST(CompressedTilt, TwoHalvesFindAColumnOnlyTheSecondHalfExcitesAndNameItsFirstNonFiniteSample) {
+  // An offset on fx only in 8.0 s < t < 8.1 s (samples 4001-4049 of 5,001, the second half, none a
+  // probe sample: every 78th) must be found by the second half's pass.
+  effects::registerEffect("test_late_offset", "test only", [](const std::string&) {
+    class LateOffset final : public effects::Effect {
+     public:
+      std::string name() const override { return "test_late_offset"; }
+      std::string description() const override { return "test only"; }
+      std::vector<effects::ParamInfo> params() const override { return {{"test_late_fx", "N", "late offset"}}; }
+      void bind(const effects::ParamIndex& index) override { col_ = effects::requireColumn(index, "test_late_fx", name()); }
+      void addRegressor(const SampleContext& ctx,
+                        Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept override {
+        if (ctx.t > 8.0 && ctx.t < 8.1) Y(0, col_) += 1.0;
+      }
+      std::unique_ptr<effects::Effect> clone() const override { return std::make_unique<LateOffset>(*this); }
+
+     private:
+      int col_ = 0;
+    };
+    return std::make_unique<LateOffset>();
+  });
+  ASSERT_EQ(denseData().size(), 5001u);
+  const Model model = Model::fromName("paper+test_late_offset");
+  expectSameFit(fitModel(model, denseData().samples), fitModel(model, denseData().samples, general()),
+                "late offset");
+  // Non-finite values in both halves: the first is named; in the second half alone: that one.
+  for (const std::pair<int, int>& bad : {std::pair<int, int>{1777, 4444}, {4444, -1}}) {
+    std::vector<SampleContext> c = denseData().samples;
+    c[static_cast<std::size_t>(bad.first)].imu_w_S(1) = std::nan("");
+    if (bad.second >= 0) c[static_cast<std::size_t>(bad.second)].alpha_S(0) = -std::numeric_limits<double>::infinity();
+    try {
+      (void)fitModel(Model::fromName("paper"), c);
+      ADD_FAILURE() << "no DataError";
+    } catch (const DataError& e) {
+      EXPECT_NE(std::string(e.what()).find("sample " + std::to_string(bad.first) + " ("), std::string::npos) << e.what();
+    }
   }
 }
 
