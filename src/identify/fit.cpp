@@ -594,7 +594,7 @@ class GravityCompression {
             const int i0 = i - (i - begin) % kGramBlock;
             for (int a = 0; a < 6; ++a) {
               part.G[static_cast<std::size_t>(a)].selfadjointView<Eigen::Lower>().rankUpdate(
-                  B(a).middleRows(i0, i - i0 + 1).transpose());
+                  rowsOf(a).middleRows(i0, i - i0 + 1).transpose());
             }
           }
         }
@@ -650,7 +650,7 @@ class GravityCompression {
     gram_ = gram;
     rows_ = 0;
     for (int a = 0; a < 6; ++a) {
-      const auto Ba = B(a);
+      const auto Ba = rowsOf(a);
       Eigen::MatrixXd& Ra = R_[static_cast<std::size_t>(a)];
       if (gram) {
         const Eigen::Index ca = Ba.cols();
@@ -921,10 +921,10 @@ class GravityCompression {
   /// Row-major: a sample's row is written at once (column-major, its c_a entries would sit on c_a
   /// pages, N * 8 bytes apart).
   using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  Eigen::Map<RowMatrix> B(int a) {
+  Eigen::Map<RowMatrix> rowsOf(int a) {
     return {data_ + b_offset_[static_cast<std::size_t>(a)], n_, b_cols_[static_cast<std::size_t>(a)]};
   }
-  Eigen::Map<const RowMatrix> B(int a) const {
+  Eigen::Map<const RowMatrix> rowsOf(int a) const {
     return {data_ + b_offset_[static_cast<std::size_t>(a)], n_, b_cols_[static_cast<std::size_t>(a)]};
   }
   double* rowOf(int a, Eigen::Index i) {

@@ -50,11 +50,11 @@ namespace {
 ///   sum_t c_t c_t^T = sum_{l=-L..L} (L+1-|l|) Gamma_l = (L+1) Omega
 /// (the pair (s_u, s_v), u - v = l >= 0, meets in L+1-l of the sums), so one (n+L) x k product
 /// replaces L+1 lagged n x k products; the partial sums at both ends make it exact, no edge term.
-/// The series is read through addRows(first, count, dest): dest (count x k) += its rows
+/// The series is read through add_rows(first, count, dest): dest (count x k) += its rows
 /// first..first+count-1, so a filtered series need not be stored; the moving sums are formed a
 /// block of rows at a time (no (n+L) x k temporary).
 template <class AddRows>
-Eigen::MatrixXd neweyWest(Eigen::Index n, Eigen::Index k, int lag, const AddRows& addRows) {
+Eigen::MatrixXd neweyWest(Eigen::Index n, Eigen::Index k, int lag, const AddRows& add_rows) {
   Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(k, k);
   const Eigen::Index L = std::max(0, lag);  // lags >= n add nothing (no overlap), as in the sum
   constexpr Eigen::Index kBlock = 256;
@@ -65,7 +65,7 @@ Eigen::MatrixXd neweyWest(Eigen::Index n, Eigen::Index k, int lag, const AddRows
     for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
       const Eigen::Index lo = std::max(t0, l);
       const Eigen::Index hi = std::min(t0 + len, n + l);
-      if (hi > lo) addRows(lo - l, hi - lo, C.middleRows(lo - t0, hi - lo));
+      if (hi > lo) add_rows(lo - l, hi - lo, C.middleRows(lo - t0, hi - lo));
     }
     omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
   }
