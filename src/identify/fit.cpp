@@ -6,17 +6,16 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <exception>
 #include <limits>
 #include <memory>
 #include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>
-#include <system_error>
 #include <thread>
 #include <utility>
 
+#include "concurrency.hpp"
 #include "linear_algebra.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/identify/noise.hpp"
@@ -40,40 +39,8 @@ constexpr double kStepConverged = 1e-10;  // a rejected Gauss-Newton step this s
 /// start is at most this ill-conditioned; beyond it, Householder QR (rounding ~ cond eps).
 constexpr double kGramConditionLimit = 1e3;
 /// From this many samples the compressed tilt search's passes over the data run in two halves,
-/// the second on a thread of its own (runConcurrently). Below it, starting a thread and the second
-/// core's wake-up cost more than they save (measured at 1,251 samples; docs/performance.md).
-constexpr int kParallelSamples = 4096;
-
-/// Runs other() on a new thread and here() on this one and waits for both; false (neither ran) on
-/// a machine with one core or when no thread can be started, so the caller runs them in turn. An
-/// exception from either is rethrown here after both have finished.
-template <class Other, class Here>
-bool runConcurrently(const Other& other, const Here& here) {
-  if (std::thread::hardware_concurrency() < 2) return false;
-  std::exception_ptr other_error;
-  std::thread worker;
-  try {
-    worker = std::thread([&other, &other_error] {
-      try {
-        other();
-      } catch (...) {
-        other_error = std::current_exception();
-      }
-    });
-  } catch (const std::system_error&) {
-    return false;
-  }
-  std::exception_ptr here_error;
-  try {
-    here();
-  } catch (...) {
-    here_error = std::current_exception();
-  }
-  worker.join();
-  if (here_error) std::rethrow_exception(here_error);
-  if (other_error) std::rethrow_exception(other_error);
-  return true;
-}
+/// the second on a thread of its own (internal::runConcurrently).
+constexpr int kParallelSamples = internal::kParallelRows;
 
 /// Which nonlinear parameters a model estimates, and where they sit in the vector phi.
 struct PhiLayout {
@@ -606,7 +573,7 @@ class GravityCompression {
       const int mid = n >= kParallelSamples ? n / 2 : n;
       if (mid < n) {
         Work second_work(p);
-        if (!runConcurrently([&] { runRange(mid, n, second_work, parts[1]); },
+        if (!internal::runConcurrently([&] { runRange(mid, n, second_work, parts[1]); },
                              [&] { runRange(0, mid, main_work, parts[0]); })) {
           runRange(0, mid, main_work, parts[0]);
           runRange(mid, n, second_work, parts[1]);
@@ -893,7 +860,7 @@ class GravityCompression {
       }
     };
     const Eigen::Index mid = n >= kParallelSamples ? ((n / 2 + kBlock - 1) / kBlock) * kBlock : n;
-    if (mid >= n || !runConcurrently([&] { runBlocks(mid, n); }, [&] { runBlocks(0, mid); })) runBlocks(0, n);
+    if (mid >= n || !internal::runConcurrently([&] { runBlocks(mid, n); }, [&] { runBlocks(0, mid); })) runBlocks(0, n);
     return {S.data(), n, k};
   }
 

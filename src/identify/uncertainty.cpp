@@ -2,9 +2,12 @@
 #include "ftid/identify/uncertainty.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
+
+#include "concurrency.hpp"
 
 namespace ftid::identify {
 
@@ -55,20 +58,38 @@ namespace {
 /// block of rows at a time (no (n+L) x k temporary).
 template <class AddRows>
 Eigen::MatrixXd neweyWest(Eigen::Index n, Eigen::Index k, int lag, const AddRows& add_rows) {
-  Eigen::MatrixXd omega = Eigen::MatrixXd::Zero(k, k);
   const Eigen::Index L = std::max(0, lag);  // lags >= n add nothing (no overlap), as in the sum
   constexpr Eigen::Index kBlock = 256;
-  Eigen::MatrixXd C(kBlock, k);
-  for (Eigen::Index t0 = 0; t0 < n + L; t0 += kBlock) {
-    const Eigen::Index len = std::min(kBlock, n + L - t0);
-    C.topRows(len).setZero();
-    for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
-      const Eigen::Index lo = std::max(t0, l);
-      const Eigen::Index hi = std::min(t0 + len, n + l);
-      if (hi > lo) add_rows(lo - l, hi - lo, C.middleRows(lo - t0, hi - lo));
+  // The sum over the blocks t0 in [begin, end) (block-aligned), into the lower triangle of omega.
+  auto sumBlocks = [&](Eigen::Index begin, Eigen::Index end, Eigen::MatrixXd& omega) {
+    omega.setZero(k, k);
+    Eigen::MatrixXd C(kBlock, k);
+    for (Eigen::Index t0 = begin; t0 < end; t0 += kBlock) {
+      const Eigen::Index len = std::min(kBlock, end - t0);
+      C.topRows(len).setZero();
+      for (Eigen::Index l = 0; l <= L; ++l) {  // rows t of the block get s_(t-l), 0 <= t-l < n
+        const Eigen::Index lo = std::max(t0, l);
+        const Eigen::Index hi = std::min(t0 + len, n + l);
+        if (hi > lo) add_rows(lo - l, hi - lo, C.middleRows(lo - t0, hi - lo));
+      }
+      omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
     }
-    omega.selfadjointView<Eigen::Lower>().rankUpdate(C.topRows(len).transpose(), 1.0 / static_cast<double>(L + 1));
+  };
+  // From internal::kParallelRows rows on, two halves of the blocks (the second on a thread of its
+  // own where there is a second core), added in order: the split depends on n and L alone.
+  const Eigen::Index total = n + L;
+  const Eigen::Index mid = total >= internal::kParallelRows ? ((total / 2 + kBlock - 1) / kBlock) * kBlock : total;
+  std::array<Eigen::MatrixXd, 2> part;
+  if (mid < total) {
+    if (!internal::runConcurrently([&] { sumBlocks(mid, total, part[1]); }, [&] { sumBlocks(0, mid, part[0]); })) {
+      sumBlocks(0, mid, part[0]);
+      sumBlocks(mid, total, part[1]);
+    }
+    part[0] += part[1];
+  } else {
+    sumBlocks(0, total, part[0]);
   }
+  Eigen::MatrixXd& omega = part[0];
   omega.triangularView<Eigen::StrictlyUpper>() = omega.transpose();
   return omega;
 }
