@@ -172,27 +172,37 @@ TEST(CompressedTilt, NotAffineInGravityFallsBackToTheGeneralPath) {
   EXPECT_EQ(fast.covariance, ref.covariance);
 }
 
-/// An offset on fx inside one short time window (3.97 s < t < 4.08 s: samples 497-510 at 125 Hz,
-/// none of them among the compression's probe samples, every 19th), zero elsewhere.
+/// An offset on fx inside one short time window (t_lo < t < t_hi), zero elsewhere; registered as
+/// effect `name` with the parameter `name` + "_fx".
 class TestWindowOffset final : public effects::Effect {
  public:
-  std::string name() const override { return "test_window_offset"; }
+  TestWindowOffset(std::string name, double t_lo, double t_hi) : name_(std::move(name)), t_lo_(t_lo), t_hi_(t_hi) {}
+  static void add(const std::string& name, double t_lo, double t_hi) {
+    effects::registerEffect(name, "test only", [name, t_lo, t_hi](const std::string&) {
+      return std::make_unique<TestWindowOffset>(name, t_lo, t_hi);
+    });
+  }
+  std::string name() const override { return name_; }
   std::string description() const override { return "test only"; }
-  std::vector<effects::ParamInfo> params() const override { return {{"test_window_fx", "N", "window offset"}}; }
-  void bind(const effects::ParamIndex& index) override { col_ = effects::requireColumn(index, "test_window_fx", name()); }
+  std::vector<effects::ParamInfo> params() const override { return {{name_ + "_fx", "N", "window offset"}}; }
+  void bind(const effects::ParamIndex& index) override { col_ = effects::requireColumn(index, name_ + "_fx", name()); }
   void addRegressor(const SampleContext& ctx,
                     Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept override {
-    if (ctx.t > 3.97 && ctx.t < 4.08) Y(0, col_) += 1.0;
+    if (ctx.t > t_lo_ && ctx.t < t_hi_) Y(0, col_) += 1.0;
   }
   std::unique_ptr<effects::Effect> clone() const override { return std::make_unique<TestWindowOffset>(*this); }
 
  private:
+  std::string name_;
+  double t_lo_;
+  double t_hi_;
   int col_ = 0;
 };
 
 TEST(CompressedTilt, FindsAColumnTheProbeSamplesMiss) {
-  effects::registerEffect("test_window_offset", "test only",
-                          [](const std::string&) { return std::make_unique<TestWindowOffset>(); });
+  // 3.97 s < t < 4.08 s: samples 497-510 at 125 Hz, none of them among the compression's probe
+  // samples (every 19th).
+  TestWindowOffset::add("test_window_offset", 3.97, 4.08);
   ASSERT_EQ(data().size(), 1251u);  // the probe stride (19) and the window above assume this
   const Model model = Model::fromName("paper+test_window_offset");
   expectSameFit(fitModel(model, data().samples), fitModel(model, data().samples, general()),
@@ -242,24 +252,7 @@ TEST(CompressedTilt, TwoHalvesAgreeWithTheGeneralPath) {
 TEST(CompressedTilt, TwoHalvesFindAColumnOnlyTheSecondHalfExcitesAndNameItsFirstNonFiniteSample) {
   // An offset on fx only in 8.0 s < t < 8.1 s (samples 4001-4049 of 5,001, the second half, none a
   // probe sample: every 78th) must be found by the second half's pass.
-  effects::registerEffect("test_late_offset", "test only", [](const std::string&) {
-    class LateOffset final : public effects::Effect {
-     public:
-      std::string name() const override { return "test_late_offset"; }
-      std::string description() const override { return "test only"; }
-      std::vector<effects::ParamInfo> params() const override { return {{"test_late_fx", "N", "late offset"}}; }
-      void bind(const effects::ParamIndex& index) override { col_ = effects::requireColumn(index, "test_late_fx", name()); }
-      void addRegressor(const SampleContext& ctx,
-                        Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept override {
-        if (ctx.t > 8.0 && ctx.t < 8.1) Y(0, col_) += 1.0;
-      }
-      std::unique_ptr<effects::Effect> clone() const override { return std::make_unique<LateOffset>(*this); }
-
-     private:
-      int col_ = 0;
-    };
-    return std::make_unique<LateOffset>();
-  });
+  TestWindowOffset::add("test_late_offset", 8.0, 8.1);
   ASSERT_EQ(denseData().size(), 5001u);
   const Model model = Model::fromName("paper+test_late_offset");
   expectSameFit(fitModel(model, denseData().samples), fitModel(model, denseData().samples, general()),
