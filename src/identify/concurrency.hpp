@@ -3,6 +3,9 @@
 // samples, its scores and the Newey-West sum of uncertainty.cpp. The split depends on the number
 // of rows alone (never on the machine), so the partial sums and the result are the same with one
 // core or two.
+#include <sched.h>
+
+#include <atomic>
 #include <exception>
 #include <system_error>
 #include <thread>
@@ -13,12 +16,27 @@ namespace ftid::identify::internal {
 /// second core's wake-up cost more than they save (measured at 1,251 samples; docs/performance.md).
 constexpr int kParallelRows = 4096;
 
-/// Runs other() on a new thread and here() on this one and waits for both; false (neither ran) on
-/// a machine with one core or when no thread can be started, so the caller runs them in turn. An
-/// exception from either is rethrown here after both have finished.
+/// Tests: true makes runConcurrently decline (the callers then run both halves in turn), to show
+/// that the result does not depend on it.
+inline std::atomic<bool>& serialOnly() {
+  static std::atomic<bool> flag{false};
+  return flag;
+}
+
+/// The CPUs this thread may run on (its affinity mask, e.g. under taskset or a cgroup cpuset).
+inline int usableCpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (sched_getaffinity(0, sizeof(set), &set) != 0) return static_cast<int>(std::thread::hardware_concurrency());
+  return CPU_COUNT(&set);
+}
+
+/// Runs other() on a new thread and here() on this one and waits for both; false (neither ran)
+/// when this thread may use one CPU only, no thread can be started, or serialOnly() is set, so
+/// the caller runs them in turn. An exception from either is rethrown here after both finished.
 template <class Other, class Here>
 bool runConcurrently(const Other& other, const Here& here) {
-  if (std::thread::hardware_concurrency() < 2) return false;
+  if (serialOnly().load() || usableCpus() < 2) return false;
   std::exception_ptr other_error;
   std::thread worker;
   try {

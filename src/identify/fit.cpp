@@ -8,7 +8,6 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
-#include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -288,7 +287,7 @@ class ThreadScratch {
     Arena& a = own_ ? local_ : arena_;
     if (a.capacity < count) {
       a.data.reset();  // the old block first: peak memory is one block
-      a.data = std::make_unique<double[]>(count);
+      a.data = std::unique_ptr<double[]>(new double[count]);  // not zeroed: every entry is written before it is read
       a.capacity = count;
     }
     return a.data.get();
@@ -764,9 +763,10 @@ class GravityCompression {
 
   /// Per-axis sums of squares of the unweighted residual w_i - Y_i(g_B) theta over the samples,
   /// |B_a v|^2 = |R_a v|^2 (R_a^T R_a = B_a^T B_a): no pass over the rows. The Gram factor holds
-  /// y_a's part outside the columns to rounding of |y_a|^2, so a sum is exact to a relative
-  /// ~1e-16 |y_a|^2 / sum (1e-10 at a signal-to-noise power ratio of 1e6): ample for the axis
-  /// weights it sets (the fit's residual, sigma^2 and scores come from the rows).
+  /// y_a's part outside the columns to the rounding of the Gram sums (blocks of 256 rows, then the
+  /// blocks in turn: ~(256 + N/256) eps |y_a|^2, about 1e-14 |y_a|^2 at 10,001 samples), so a sum
+  /// is exact to that relative to itself (1e-8 at a signal-to-noise power ratio of 1e6): ample for
+  /// the axis weights it sets (the fit's residual, sigma^2 and scores come from the rows).
   Vec6 residualSquares(const Vec3& g_B, const Eigen::VectorXd& theta) const {
     Vec6 ss;
     for (int a = 0; a < 6; ++a) ss(a) = (R_[static_cast<std::size_t>(a)] * residualMix(a, g_B, theta)).squaredNorm();
@@ -1436,7 +1436,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   Eigen::MatrixXd J_weighted;
   Eigen::VectorXd r_weighted;
   // Compressed: the Newey-West scores directly (no 6N-row Jacobian), in gc's scratch.
-  Eigen::Map<const Eigen::MatrixXd> scores(nullptr, 0, 0);
+  std::optional<Eigen::Map<const Eigen::MatrixXd>> scores;
   Mat6X residual_compressed;  // compressed: the unweighted residual from the rows of B_a
   // Compressed J for the rank, condition number and (J^T J)^{-1}; the per-sample rows from B_a.
   // Tilt columns: central differences of g_B (the regressor is affine in it), as below.
@@ -1448,7 +1448,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
                      model::gravityInBase(nl.tilt_u_rad, nl.tilt_v_rad - h_tilt)) / (2.0 * h_tilt);
   if (compressed) {
     J = gc.compressedJacobian(g_B, dg_u, dg_v, sol.theta, weights);
-    new (&scores) Eigen::Map<const Eigen::MatrixXd>(gc.scores(g_B, dg_u, dg_v, sol.theta, weights, &residual_compressed));
+    scores.emplace(gc.scores(g_B, dg_u, dg_v, sol.theta, weights, &residual_compressed));
   } else {
     J.resize(6 * pb.n, n_unknowns);
     Eigen::MatrixXd A;
@@ -1506,7 +1506,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
     // The same sandwich from the scores (robustCovariance is scoreCovariance of J's scores).
     const Mat6X r_w = weights.asDiagonal() * residual_compressed;
     res.sigma2 = dof > 0 ? r_w.squaredNorm() / dof : 0.0;
-    res.covariance = scoreCovariance(scores, r_w, qr_j.inverseGram()).covariance;
+    res.covariance = scoreCovariance(*scores, r_w, qr_j.inverseGram()).covariance;
   } else {
     res.sigma2 = dof > 0 ? sol.residual.squaredNorm() / dof : 0.0;
     res.covariance = robustCovariance(J_weighted, r_weighted, qr_j.inverseGram()).covariance;

@@ -31,8 +31,8 @@ void reportFromR(const Eigen::MatrixXd& R, const std::vector<Eigen::Index>& orig
   const Eigen::Index cols = static_cast<Eigen::Index>(zero.size());
   // Well-conditioned R (the usual case) without the SVD: the eigenvalues l of R^T R are the squared
   // singular values, each with an absolute rounding error of about cols * eps * l_max. Where
-  // l_min > kWellConditioned l_max (condition number below 1e4) that is a relative error below
-  // ~1e-7 on s_min = sqrt(l_min), and every singular value clears the rank tolerance (when it is at
+  // l_min > kWellConditioned l_max (condition number below 1e4) that is a relative error of at most
+  // ~2e-7 on s_min = sqrt(l_min) (16 columns), and every singular value clears the rank tolerance (when it is at
   // most 1e-5): full rank, condition number sqrt(l_max / l_min). Otherwise the SVD decides (and
   // names the null space).
   constexpr double kWellConditioned = 1e-8;

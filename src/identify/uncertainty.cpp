@@ -107,7 +107,9 @@ Eigen::MatrixXd neweyWest(const Eigen::Ref<const Eigen::MatrixXd>& S, int lag) {
 ///   T0 = sum_(0..n-2) s_i^2, T1 = sum_(1..n-1) s_i^2, G1 = sum_(0..n-2) s_(i+1) s_i, G2 = sum_(1..n-2) s_(i+1) s_(i-1),
 ///   c0 = sum_i e_i^2          = T1 - 2 a G1 + a^2 T0
 ///   c1 = sum_i e_i e_(i-1)    = (G1 - s_1 s_0) - a G2 - a (T0 - s_0^2) + a^2 (G1 - s_(n-1) s_(n-2)).
-/// (c0 / T1 >= 1 - 0.97^2 for the clamped a, so the expansion loses at most ~1e-13 relative.)
+/// The expansion loses ~eps T1 to cancellation: negligible while c0 is not tiny against T1 (an
+/// unclamped a gives c0 = T1 - G1^2 / T0, at a clamped one c0 / T1 stays above ~1e-3); where
+/// c0 < 1e-8 T1 that column's sums are taken from the filtered series itself.
 int whitenedBandwidth(const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::VectorXd& a) {
   const Eigen::Index n = S.rows();
   const Eigen::Index m = n - 1;
@@ -121,8 +123,13 @@ int whitenedBandwidth(const Eigen::Ref<const Eigen::MatrixXd>& S, const Eigen::V
     const double G1 = s.tail(n - 1).dot(s.head(n - 1));
     const double G2 = s.segment(2, n - 2).dot(s.head(n - 2));
     const double aj = a(j);
-    const double c0 = T1 - 2.0 * aj * G1 + aj * aj * T0;
-    const double c1 = (G1 - s(1) * s(0)) - aj * G2 - aj * (T0 - s(0) * s(0)) + aj * aj * (G1 - s(n - 1) * s(n - 2));
+    double c0 = T1 - 2.0 * aj * G1 + aj * aj * T0;
+    double c1 = (G1 - s(1) * s(0)) - aj * G2 - aj * (T0 - s(0) * s(0)) + aj * aj * (G1 - s(n - 1) * s(n - 2));
+    if (c0 < 1e-8 * T1) {
+      const Eigen::VectorXd e = s.tail(m) - aj * s.head(m);
+      c0 = e.squaredNorm();
+      c1 = e.tail(m - 1).dot(e.head(m - 1));
+    }
     if (!(c0 > 0.0)) continue;
     const double r = std::clamp(c1 / c0, -0.97, 0.97);
     alpha += 4.0 * r * r / (std::pow(1.0 - r, 2) * std::pow(1.0 + r, 2));

@@ -119,7 +119,9 @@ class Effect {
   virtual void bind(const ParamIndex& index) = 0;
 
   /// Add this effect's contribution for one sample into Y (6 rows, one column per model
-  /// parameter). Must not allocate, throw or do I/O (real-time safe: used by the compensator).
+  /// parameter). Must not allocate, throw or do I/O (real-time safe: used by the compensator), and
+  /// must keep no state (no mutable members): the fit calls it for two halves of the samples on
+  /// two threads at once (identify/fit.cpp, from 4,096 samples).
   virtual void addRegressor(const SampleContext& ctx,
                             Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept = 0;
 

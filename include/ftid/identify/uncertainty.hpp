@@ -20,6 +20,9 @@
 // For white residuals L is 0 or 1 and Cov equals the classical sigma^2 G^-1 up to sampling noise.
 // Robust weights: pass J and r with the rows of each sample multiplied by the square root of its
 // weight (an excluded glitch: zero rows); the sandwich then holds for the weighted estimator.
+// From 4,096 rows the Newey-West sum runs in two halves, the second on a short-lived thread of its
+// own when the caller may use two CPUs (the split depends on the row count alone: the same result
+// either way). Not for the real-time loop.
 #include <Eigen/Dense>
 
 #include "ftid/common/types.hpp"

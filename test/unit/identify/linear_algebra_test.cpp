@@ -49,8 +49,9 @@ TEST(ScaledQR, ConditionNumberIsThatOfTheColumnScaledMatrix) {
 
 TEST(ScaledQR, ConditionNumberAndRankMatchTheSvdFromWellToIllConditioned) {
   // Well-conditioned matrices take the eigenvalue route (condition number below 1e4), the others
-  // the SVD: either way the condition number of the column-scaled matrix within 1e-7 relative and
-  // the rank of the SVD's count, across the boundary.
+  // the SVD: either way the condition number of the column-scaled matrix within the eigenvalue
+  // route's documented bound (2e-7 relative for 16 columns) and the rank of the SVD's count,
+  // across the boundary.
   std::mt19937_64 rng(11);
   std::normal_distribution<double> nd(0.0, 1.0);
   for (const double target : {1.0, 30.0, 900.0, 8e3, 1.2e4, 1e6, 1e11}) {
@@ -81,12 +82,12 @@ TEST(ScaledQR, ConditionNumberAndRankMatchTheSvdFromWellToIllConditioned) {
     const ScaledQR qr(work, 1e-9);
     EXPECT_EQ(qr.rank().rank, expected_rank);
     if (expected_rank == cols) {
-      EXPECT_NEAR(qr.rank().condition_number, expected, 1e-7 * expected);
+      EXPECT_NEAR(qr.rank().condition_number, expected, 2e-7 * expected);
     }
     const RankReport r = analyzeRank(A, 1e-9);
     EXPECT_EQ(r.rank, expected_rank);
     if (expected_rank == cols) {
-      EXPECT_NEAR(r.condition_number, expected, 1e-7 * expected);
+      EXPECT_NEAR(r.condition_number, expected, 2e-7 * expected);
     }
   }
 }

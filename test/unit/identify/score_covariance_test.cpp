@@ -11,6 +11,7 @@
 #include <random>
 #include <string>
 
+#include "concurrency.hpp"
 #include "ftid/identify/uncertainty.hpp"
 
 namespace ftid::identify {
@@ -160,6 +161,21 @@ TEST(ScoreCovariance, PrewhitenedEqualsTheFormulaOnTheFilteredSeriesWrittenOut) 
       EXPECT_LT((rep.covariance - ref).cwiseAbs().maxCoeff(), 1e-11 * ref.cwiseAbs().maxCoeff());
     }
   }
+}
+
+TEST(ScoreCovariance, TwoHalvesOnTwoThreadsOrOneGiveTheSameBits) {
+  // From 4,096 rows the Newey-West sum runs in two halves; with internal::serialOnly both run on
+  // this thread (as on a one-CPU machine): the same partial sums in the same order.
+  const Eigen::MatrixXd S = edgyScores(6000, 0.8, 99);
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> R = Eigen::Matrix<double, 6, Eigen::Dynamic>::Ones(6, 6000);
+  const Eigen::MatrixXd bread = Eigen::MatrixXd::Identity(3, 3);
+  const CovarianceReport two = scoreCovariance(S, R, bread);
+  internal::serialOnly() = true;
+  const CovarianceReport one = scoreCovariance(S, R, bread);
+  internal::serialOnly() = false;
+  EXPECT_GT(two.lag, 0);
+  EXPECT_EQ(one.lag, two.lag);
+  EXPECT_EQ(one.covariance, two.covariance);
 }
 
 TEST(ScoreCovariance, AutomaticBandwidthIsAndrewsPlugInOfTheResidualAxes) {
