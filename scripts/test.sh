@@ -14,6 +14,13 @@ root="$(dirname "$here")"
 build="${FTID_BUILD_DIR:-$root/build}"
 jobs="$(nproc)"
 start=$(date +%s)
+# ccache where installed (scripts/packages.txt), keyed on paths relative to the checkout: a rerun
+# or another clone recompiles only what changed (setup.sh and fuzz.sh do the same).
+launcher=()
+if command -v ccache >/dev/null 2>&1; then
+  export CCACHE_BASEDIR="$root" CCACHE_NOHASHDIR=1
+  launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+fi
 
 "$here/setup.sh" "$build"
 # clang-tidy with the repository's .clang-tidy on every source (a few minutes; fails on findings).
@@ -31,7 +38,7 @@ if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   echo "== test: AddressSanitizer + UBSan build of the unit tests ($asan)"
   # -g1 (line tables) is all the sanitizer reports need and compiles about 20 % faster than -g.
   cmake -S "$root" -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTID_SANITIZE=ON \
-        -DFTID_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_DEBUG="-O0 -g1" >/dev/null
+        -DFTID_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS_DEBUG="-O0 -g1" "${launcher[@]}" >/dev/null
   cmake --build "$asan" -j"$jobs" --target ftid_unit_tests
   # Every unit test, DaemonClientOverLcm.* included (its LCM-facing files are built without the
   # vptr check only: cmake/FtidDefaults.cmake, docs/testing.md "Sanitizers").
