@@ -394,6 +394,50 @@ ImuEstimate estimateImu(const std::vector<SampleContext>& contexts, const ImuOpt
   return e;
 }
 
+Eigen::Matrix2d predictImuTiltCovariance(const std::vector<SampleContext>& contexts, double acc_std, double gyro_std,
+                                         bool bias_estimated) {
+  const Eigen::Matrix2d infinite = Eigen::Matrix2d::Constant(std::numeric_limits<double>::infinity());
+  if (contexts.empty() || !(acc_std > 0.0) || !(gyro_std > 0.0)) return infinite;
+  // The tilt of the contexts' gravity: g_B = R_BS g_S.
+  const Vec3 g_B = contexts.front().R_BS * contexts.front().g_S;
+  const double u = std::asin(std::clamp(-g_B.y() / g_B.norm(), -1.0, 1.0));
+  const double v = std::atan2(g_B.x(), -g_B.z());
+  Vec3 g, dgu, dgv;
+  gravityAndDerivatives(u, v, &g, &dgu, &dgv);
+  Eigen::Matrix<double, 5, 5> A = Eigen::Matrix<double, 5, 5>::Zero();
+  Eigen::Matrix<double, 5, 3> B = Eigen::Matrix<double, 5, 3>::Zero();
+  Mat3 Sww = Mat3::Zero();
+  Mat3 Sw = Mat3::Zero();  // sum of skew(w)
+  for (const auto& c : contexts) {
+    const Mat3 Rt = c.R_BS.transpose();
+    Eigen::Matrix<double, 3, 5> J;
+    J.col(0) = -Rt * dgu;
+    J.col(1) = -Rt * dgv;
+    J.rightCols<3>() = Mat3::Identity();
+    // d(Q x)/dd at Q = I with R_SM = (I - skew(d)): Q = I + skew(d), so d(Q x)/dd = -skew(x).
+    const Mat3 Jd = -skew(c.a_S - Rt * g);
+    A.noalias() += J.transpose() * J;
+    B.noalias() += J.transpose() * Jd;
+    const Mat3 Kw = skew(c.w_S);
+    Sww.noalias() += Kw.transpose() * Kw;
+    Sw += Kw;
+  }
+  A /= acc_std * acc_std;
+  B /= acc_std * acc_std;
+  // The gyro's information over d with b_g marginalised: sum skew^T skew - (sum skew)^T (sum skew) / n.
+  const double n = static_cast<double>(contexts.size());
+  const Mat3 Id = (Sww - Sw.transpose() * Sw / n) / (gyro_std * gyro_std);
+  const int np = bias_estimated ? 5 : 2;
+  const Eigen::MatrixXd Ainv = A.topLeftCorner(np, np).ldlt().solve(Eigen::MatrixXd::Identity(np, np));
+  const Eigen::LDLT<Mat3> ld(Id);
+  if (!Ainv.allFinite() || ld.info() != Eigen::Success || !(ld.vectorD().array() > 0.0).all()) return infinite;
+  const Mat3 cov_d = ld.solve(Mat3::Identity());
+  const Eigen::MatrixXd G = -Ainv * B.topRows(np);
+  const Eigen::MatrixXd cov = Ainv + G * cov_d * G.transpose();
+  if (!cov.allFinite()) return infinite;
+  return cov.topLeftCorner<2, 2>();
+}
+
 std::string formatImuEstimate(const ImuEstimate& e) {
   std::ostringstream os;
   char line[200];

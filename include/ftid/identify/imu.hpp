@@ -114,6 +114,19 @@ AccTiltEstimate estimateAccTilt(const std::vector<effects::SampleContext>& conte
 /// Both: the gyro first (R_SM, delay), then the accelerometer in that frame and at that delay.
 ImuEstimate estimateImu(const std::vector<effects::SampleContext>& contexts, const ImuOptions& options = {});
 
+/// Predicted covariance of the IMU's tilt (U, V) for a motion, before any data (the designer's
+/// prediction, docs/design.md): the Fisher information of (A) over [U, V, b_a] for white
+/// accelerometer noise acc_std, A = sum_k J_k^T J_k / acc_std^2 (J_k as in estimateAccTilt, at
+/// R_SM = I and the tilt of the contexts' g_S), the cross-information B with the IMU rotation d,
+/// and the gyro's information over [d, b_g] for white noise gyro_std (the sum of the centred
+/// skew(w_k)^T skew(w_k) / gyro_std^2): the sequential estimator's covariance
+///   A^-1 + G Cov_d G^T,   G = -A^-1 B,   Cov_d = the gyro's covariance of d (b_g marginalised)
+/// (the accelerometer at the gyro's frame; the delay's share is left out). With bias_estimated
+/// false the bias is held (A over U, V only). Returns a 2 x 2 matrix with infinite entries when the
+/// motion does not determine the tilt.
+Eigen::Matrix2d predictImuTiltCovariance(const std::vector<effects::SampleContext>& contexts, double acc_std,
+                                         double gyro_std, bool bias_estimated = true);
+
 /// Human-readable lines (tilt, biases, mount, delay with standard errors).
 std::string formatImuEstimate(const ImuEstimate& estimate);
 
