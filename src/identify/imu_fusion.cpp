@@ -145,32 +145,53 @@ std::vector<ImuComparison> compareImuWithFit(const FitResult& fit, const ImuEsti
     c.message = line;
     out.push_back(c);
   }
-  {
-    // The gyro's IMU frame against the fit's mounting (or the configured frame, identity).
-    const Mat3 R_ref = fit.mounting_estimated ? rpyRotation(fit.mount_rpy_rad) : Mat3::Identity();
-    const Eigen::AngleAxisd aa(imu.gyro.R_SM * R_ref.transpose());
-    const Eigen::Vector3d d = aa.angle() * aa.axis();
-    Eigen::Matrix3d S = imu.gyro.covariance.topLeftCorner<3, 3>();
-    if (fit.mounting_estimated) {
+  std::optional<MountEstimate> mount;
+  if (fit.mounting_estimated) mount = MountEstimate{fit.mount_rpy_rad, fit.mount_rpy_std};
+  std::optional<DelayEstimate> delay;
+  if (fit.delay_estimated) delay = DelayEstimate{fit.delay_s, fit.delay_std};
+  for (auto& c : compareImuMountAndDelay(mount, delay, imu.gyro)) {
+    if (c.quantity == "mount" && fit.mounting_estimated) {
+      // The fit's full mount covariance (correlations included) instead of its diagonal.
       const int m0 = p + 2 * static_cast<int>(fit.tilt_estimated);
-      S += fit.covariance.block(m0, m0, 3, 3);  // roll, pitch, yaw ~ rotation about S's axes near identity
+      const Eigen::AngleAxisd aa(imu.gyro.R_SM * rpyRotation(fit.mount_rpy_rad).transpose());
+      const Eigen::Vector3d d = aa.angle() * aa.axis();
+      const Eigen::Matrix3d S = imu.gyro.covariance.topLeftCorner<3, 3>() + fit.covariance.block(m0, m0, 3, 3);
+      c = compare("mount", d, S);
+      std::snprintf(line, sizeof(line), "mount: the gyro's frame is rotated by %.3f deg against the wrench fit's mounting, chi2 %.3g (limit %.3g)",
+                    aa.angle() * kRadToDeg, c.chi2, c.limit);
+      c.message = line;
     }
+    out.push_back(c);
+  }
+  return out;
+}
+
+std::vector<ImuComparison> compareImuMountAndDelay(const std::optional<MountEstimate>& mount,
+                                                   const std::optional<DelayEstimate>& delay,
+                                                   const GyroMountEstimate& gyro) {
+  std::vector<ImuComparison> out;
+  char line[260];
+  {
+    const Mat3 R_ref = mount ? rpyRotation(mount->rpy_rad) : Mat3::Identity();
+    const Eigen::AngleAxisd aa(gyro.R_SM * R_ref.transpose());
+    const Eigen::Vector3d d = aa.angle() * aa.axis();
+    Eigen::Matrix3d S = gyro.covariance.topLeftCorner<3, 3>();
+    if (mount) S += mount->rpy_std.cwiseAbs2().asDiagonal();
     ImuComparison c = compare("mount", d, S);
     std::snprintf(line, sizeof(line), "mount: the gyro's frame is rotated by %.3f deg against the %s, chi2 %.3g (limit %.3g)",
-                  aa.angle() * kRadToDeg, fit.mounting_estimated ? "wrench fit's mounting" : "configured sensor frame",
-                  c.chi2, c.limit);
+                  aa.angle() * kRadToDeg, mount ? "given mounting" : "configured sensor frame", c.chi2, c.limit);
     c.message = line;
     out.push_back(c);
   }
-  if (imu.gyro.delay_estimated) {
-    const double ref = fit.delay_estimated ? fit.delay_s : 0.0;
+  if (gyro.delay_estimated) {
+    const double ref = delay ? delay->delay_s : 0.0;
     Eigen::VectorXd d(1);
-    d(0) = imu.gyro.delay_s - ref;
+    d(0) = gyro.delay_s - ref;
     Eigen::MatrixXd S(1, 1);
-    S(0, 0) = imu.gyro.covariance(6, 6) + (fit.delay_estimated ? fit.delay_std * fit.delay_std : 0.0);
+    S(0, 0) = gyro.covariance(6, 6) + (delay ? delay->delay_std * delay->delay_std : 0.0);
     ImuComparison c = compare("delay", d, S);
-    std::snprintf(line, sizeof(line), "delay: IMU stream %.2f ms, %s %.2f ms, chi2 %.3g (limit %.3g)", imu.gyro.delay_s * 1e3,
-                  fit.delay_estimated ? "wrench fit" : "configured", ref * 1e3, c.chi2, c.limit);
+    std::snprintf(line, sizeof(line), "delay: IMU stream %.2f ms, %s %.2f ms, chi2 %.3g (limit %.3g)", gyro.delay_s * 1e3,
+                  delay ? "given" : "configured", ref * 1e3, c.chi2, c.limit);
     c.message = line;
     out.push_back(c);
   }

@@ -22,6 +22,7 @@
 // The gyro's mount rotation and delay are compared with the fit's `mounting` / `sensor_delay`
 // when the model has them (the same test, 3 and 1 degrees of freedom), and otherwise against the
 // configured frame (identity) and no delay.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,24 @@ FitResult fuseImuTilt(const effects::Model& model, const std::vector<effects::Sa
 /// The comparisons that apply: tilt (when the fit estimates it), mount and delay (against the fit's
 /// `mounting` / `sensor_delay`, or against the configuration when the model has none).
 std::vector<ImuComparison> compareImuWithFit(const FitResult& wrench_fit, const ImuEstimate& imu);
+
+/// A value with its standard error (for compareImuMountAndDelay).
+struct MountEstimate {
+  Vec3 rpy_rad = Vec3::Zero();   ///< R_SM = Rz(yaw) Ry(pitch) Rx(roll)
+  Vec3 rpy_std = Vec3::Zero();   ///< taken as the std of the rotation about S's axes (small angles)
+};
+struct DelayEstimate {
+  double delay_s = 0.0;
+  double delay_std = 0.0;
+};
+
+/// For callers with their own answer for the sensor's mount and delay (the laboratory's `mounting`
+/// and `sensor_delay`, a configuration): the gyro's frame and delay against them. An absent mount
+/// or delay is compared with the configured frame (identity) and no delay (zero uncertainty).
+/// compareImuWithFit() is this plus the tilt.
+std::vector<ImuComparison> compareImuMountAndDelay(const std::optional<MountEstimate>& mount,
+                                                   const std::optional<DelayEstimate>& delay,
+                                                   const GyroMountEstimate& gyro);
 
 /// Tilt only, for fits reported as a parameter set (the paper's method): the wrench tilt's standard
 /// errors taken as independent.

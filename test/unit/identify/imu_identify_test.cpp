@@ -151,5 +151,31 @@ TEST(ImuIdentify, GyroMountAndDelayAgainstTheWrenchFit) {
   EXPECT_TRUE(report.fused);
 }
 
+TEST(ImuIdentify, MountAndDelayAgainstGivenValuesForTheLab) {
+  // What the laboratory can call with its own `mounting` / `sensor_delay` answer.
+  const sim::CellSimConfig cfg = test::imuCellConfig(3.0);  // mount 1/-2/3 deg, IMU 12 ms late
+  sim::CellSimConfig noisy = cfg;
+  noisy.noise.acc_std = 0.01;
+  noisy.noise.gyro_std = 0.002;
+  const identify::GyroMountEstimate g = identify::estimateGyroMount(test::contextsOf(noisy).samples);
+  const identify::MountEstimate right{cfg.mounting.rpy_rad, Vec3::Constant(1e-3)};
+  const identify::DelayEstimate right_delay{0.012, 5e-4};
+  auto c = identify::compareImuMountAndDelay(right, right_delay, g);
+  ASSERT_EQ(c.size(), 2U);
+  EXPECT_FALSE(c[0].disagrees) << c[0].message;
+  EXPECT_FALSE(c[1].disagrees) << c[1].message;
+  // A lab answer off by 0.5 deg of yaw and 5 ms: both flagged.
+  identify::MountEstimate wrong = right;
+  wrong.rpy_rad.z() += 0.5 * test::kDegToRad;
+  c = identify::compareImuMountAndDelay(wrong, identify::DelayEstimate{0.017, 5e-4}, g);
+  EXPECT_TRUE(c[0].disagrees) << c[0].message;
+  EXPECT_TRUE(c[1].disagrees) << c[1].message;
+  // No answer: against the configuration (identity, no delay).
+  c = identify::compareImuMountAndDelay(std::nullopt, std::nullopt, g);
+  EXPECT_TRUE(c[0].disagrees);
+  EXPECT_NE(c[0].message.find("configured sensor frame"), std::string::npos) << c[0].message;
+  EXPECT_TRUE(c[1].disagrees);
+}
+
 }  // namespace
 }  // namespace ftid
