@@ -60,11 +60,16 @@ std::optional<ImuEstimate> imuEstimateFor(const std::vector<SampleContext>& samp
 void noteComparisons(ImuReport* report) {
   for (const auto& c : report->comparisons) {
     if (c.disagrees) {
-      report->warnings.push_back("the IMU and the " + std::string(c.message.find("configured") != std::string::npos
-                                                                      ? "configuration"
-                                                                      : "wrench") +
+      const bool configured = c.message.find("configured") != std::string::npos;
+      std::string advice = "a set-up error or a bad IMU";
+      if (configured && c.quantity == "mount") {
+        advice += "; check the sensor mount (X_FS), or add `mounting` to the model if the wrench turns with the IMU";
+      } else if (configured && c.quantity == "delay") {
+        advice += "; if the wrench shares the IMU's stream, add `sensor_delay` to the model";
+      }
+      report->warnings.push_back("the IMU and the " + std::string(configured ? "configuration" : "wrench") +
                                  " disagree on the " + c.quantity + " beyond their uncertainties (" + c.message +
-                                 "): a set-up error or a bad IMU");
+                                 "): " + advice);
     }
   }
 }
