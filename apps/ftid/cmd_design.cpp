@@ -56,6 +56,14 @@ const char* kUsage =
     "  --target-std mass=0.005,com=0.001  search the shortest duration (one period, 0.5 s steps)\n"
     "                       whose predicted standard errors meet the targets (SI; '0.5%' "
     "relative)\n"
+    "  --limits mass=0.5%,com=1mm,tilt=0.1deg  search the shortest duration whose predicted worst\n"
+    "                       case over noise, 3 predicted standard errors, is within each limit\n"
+    "                       (keys as --target-std; units %, mm, cm, m, deg, rad, g, kg, N, Nm;\n"
+    "                       docs/design.md \"Limits\")\n"
+    "  --imu-noise acc=A,gyro=W  the sensor's IMU noise [m/s^2, rad/s] (e.g. acc=0.01,gyro=0.002):\n"
+    "                       also predict with the IMU's tilt fused (ftid identify --imu on); with\n"
+    "                       --limits the search runs for the wrench alone and with the IMU, prints\n"
+    "                       both shortest durations and writes the one with the IMU\n"
     "  --max-cond X         reject designs whose condition number exceeds X (default 1e4)\n"
     "  --baseline-seeds N   random trajectories for the baseline (default 50; 0 to skip)\n"
     "  --out FILE           output YAML (default traj.yaml)\n"
@@ -101,12 +109,67 @@ void printStd(const std::map<std::string, double>& s,
   }
 }
 
+void parseImuNoise(const std::string& text, ftid::design::DesignOptions* o) {
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    const auto eq = item.find('=');
+    const std::string key = eq == std::string::npos ? item : item.substr(0, eq);
+    if (eq == std::string::npos || (key != "acc" && key != "gyro")) {
+      throw ftid::cli::UsageError("--imu-noise: expected acc=A,gyro=W, got '" + item + "'");
+    }
+    const double v = ftid::cli::parseReal(item.substr(eq + 1), "--imu-noise " + key);
+    if (!(v > 0.0)) throw ftid::cli::UsageError("--imu-noise " + key + ": must be positive");
+    (key == "acc" ? o->imu_acc_std : o->imu_gyro_std) = v;
+  }
+  if (!(o->imu_acc_std > 0.0) || !(o->imu_gyro_std > 0.0)) {
+    throw ftid::cli::UsageError("--imu-noise: give both acc=A and gyro=W");
+  }
+}
+
+/// --limits: the shortest duration for the wrench alone and, with --imu-noise, with the IMU.
+ftid::design::DesignResult searchLimits(ftid::design::DesignOptions o, const ftid::model::RobotKinematics& kin,
+                                        const std::map<std::string, double>& targets, const std::string& limits) {
+  using namespace ftid;
+  const bool imu = o.imu_acc_std > 0.0;
+  std::cerr << "design: searching the shortest duration whose predicted worst case (3 standard errors) meets "
+            << limits << (imu ? ", for the wrench alone and with the IMU" : "") << " (budget " << o.time_budget_s
+            << " s per search)\n";
+  design::DesignResult chosen;
+  bool found_any = false;
+  for (const bool with_imu : imu ? std::vector<bool>{false, true} : std::vector<bool>{false}) {
+    o.targets_with_imu = with_imu;
+    design::DurationSearchResult s = design::findShortestDuration(o, kin, targets);
+    std::printf("duration search, %s (one base period each, %d harmonics):\n", with_imu ? "with the IMU" : "wrench alone",
+                o.harmonics);
+    for (const auto& t : s.trials) {
+      std::printf("  %6.2f s  cond %10.4g  %s\n", t.duration_s, t.condition_number, t.met ? "meets" : "misses");
+    }
+    if (s.found) {
+      std::printf("shortest duration meeting the limits, %s: %.2f s\n", with_imu ? "with the IMU" : "wrench alone",
+                  s.best.file.duration_s);
+      chosen = std::move(s.best);
+      found_any = true;
+    } else {
+      std::printf("no duration up to 60 s meets the limits %s\n", with_imu ? "with the IMU" : "with the wrench alone");
+      if (with_imu || !imu) {
+        if (!found_any) {
+          throw design::DesignError("no duration up to 60 s meets the limits " + limits +
+                                    " within the robot's limits; relax the limits or the motion limits, or lower the noise");
+        }
+      }
+    }
+  }
+  return chosen;
+}
+
 int runDesign(const std::vector<std::string>& argv) {
   using namespace ftid;
   design::DesignOptions o;
   o.robot_path.clear();  // the shipped default, found below
   std::string config, joints = "4,5,6", objective = "cond", noise, nominal, target, out = "traj.yaml";
   std::vector<double> q0;
+  std::string limits, imu_noise;
   bool quiet = false;
   CLI::App app{"ftid design"};
   app.add_option("--model", o.model);
@@ -128,6 +191,8 @@ int runDesign(const std::vector<std::string>& argv) {
   app.add_option("--noise", noise);
   app.add_option("--nominal", nominal);
   app.add_option("--target-std", target);
+  app.add_option("--limits", limits);
+  app.add_option("--imu-noise", imu_noise);
   app.add_option("--max-cond", o.max_condition)->transform(cli::real(cli::positive()));
   app.add_option("--baseline-seeds", o.baseline_seeds)->transform(cli::integer(0, 1000000));
   app.add_option("--out", out);
@@ -153,6 +218,7 @@ int runDesign(const std::vector<std::string>& argv) {
     throw cli::UsageError("--objective must be cond or dopt");
   }
   if (!noise.empty()) o.noise_sigma = design::parseNoise(noise);
+  if (!imu_noise.empty()) parseImuNoise(imu_noise, &o);
   if (!nominal.empty()) o.nominal = parseNominal(nominal);
   if (o.servo_rate_hz != 125.0 && o.servo_rate_hz != 500.0) {
     std::cerr << "ftid design: note: --rate " << o.servo_rate_hz
@@ -172,7 +238,15 @@ int runDesign(const std::vector<std::string>& argv) {
 
   design::DesignResult r;
   std::map<std::string, double> targets;
-  if (!target.empty()) {
+  if (!target.empty() && !limits.empty()) throw cli::UsageError("--target-std and --limits exclude each other");
+  if (!limits.empty()) {
+    try {
+      targets = design::parseLimits(limits, o.nominal);
+    } catch (const ConfigError& e) {
+      throw cli::UsageError(e.what());
+    }
+    r = searchLimits(o, kin, targets, limits);
+  } else if (!target.empty()) {
     targets = design::parseTargets(target, o.nominal);
     std::cerr << "design: searching the shortest duration meeting the targets (budget "
               << o.time_budget_s << " s in total)\n";
@@ -195,6 +269,8 @@ int runDesign(const std::vector<std::string>& argv) {
   r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : config;
   r.file.design["reproduce"] = reproduceCommand(o, r);
   if (!target.empty()) r.file.design["target_std"] = target;
+  if (!limits.empty()) r.file.design["limits"] = limits + " (3 predicted standard errors)";
+  if (!imu_noise.empty()) r.file.design["imu_noise"] = imu_noise;
 
   for (const auto& w : r.warnings) std::cerr << "ftid design: warning: " << w << "\n";
   trajectory::writeTrajectoryFile(out, r.file);
@@ -229,7 +305,27 @@ int runDesign(const std::vector<std::string>& argv) {
     std::printf("static six-pose method: no six feasible poses found from q0 (baseline skipped)\n");
   }
   std::printf("predicted standard errors (noise %s):\n", r.file.design["noise"].c_str());
-  printStd(r.predicted_std, targets);
+  printStd(r.predicted_std, limits.empty() ? targets : std::map<std::string, double>{});
+  if (!r.predicted_std_imu.empty()) {
+    std::printf("predicted standard errors with the IMU's tilt fused (IMU noise %s):\n", imu_noise.c_str());
+    printStd(r.predicted_std_imu, limits.empty() ? targets : std::map<std::string, double>{});
+  }
+  if (!limits.empty()) {
+    std::printf("predicted worst case over noise (3 standard errors) against the limits:\n");
+    for (const auto& target_item : targets) {
+      const std::string k = target_item.first;
+      const double limit = target_item.second * design::kLimitStandardErrors;
+      auto show = [&](const char* label, const std::map<std::string, double>& m) {
+        const auto it = m.find(k);
+        if (it == m.end()) return;
+        const double worst = design::kLimitStandardErrors * it->second;
+        std::printf("  %-8s %-12s %12.4g  limit %.4g  %s\n", k.c_str(), label, worst, limit,
+                    worst <= limit ? "met" : "MISSED");
+      };
+      show("wrench", r.predicted_std);
+      show("with IMU", r.predicted_std_imu);
+    }
+  }
   std::printf("dense re-check (%d samples): %s\n", r.check.samples,
               r.check.ok() ? "all constraints hold" : "VIOLATED");
   std::printf("%s", r.check.table().c_str());

@@ -15,7 +15,7 @@ namespace {
 const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
     "                     [--wrench-frame sensor|base] [--noise fx=S,..,tz=S]\n"
-    "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
+    "                     [--imu on|off] [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
     "\n"
@@ -34,6 +34,14 @@ const char* const kUsage =
     "  --config FILE     ftidd configuration for the exports (sensor mount, `export:` section;\n"
     "                    default /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml)\n"
     "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
+    "  --imu on|off      the sensor's IMU (default: on when the log has the IMU columns ax..alz):\n"
+    "                    its payload-free tilt (accelerometer and kinematics, with the accelerometer's\n"
+    "                    bias), IMU frame and stream delay (gyro and kinematics, with the gyro's bias)\n"
+    "                    are printed; with --model and `tilt` the IMU's tilt starts the tilt search and\n"
+    "                    is fused with the wrench's information when the two agree. A disagreement on\n"
+    "                    tilt, mount or delay beyond their uncertainties is a WARNING (a set-up error\n"
+    "                    or a bad IMU). 'off': the wrench alone, exactly as without an IMU.\n"
+    "                    docs/identification.md \"The IMU as a measurement\"\n"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
@@ -51,6 +59,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   req.method = "dynamic";
   std::string wrench_frame, out, config, noise;
   bool json = false;
+  std::string imu;
   CLI::App app{"ftid identify"};
   app.add_option("--log", req.log_path);
   app.add_option("--method", req.method)->transform(ftid::cli::oneOf({"static", "dynamic"}));
@@ -60,6 +69,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_option("--out", out);
   app.add_option("--config", config);
   app.add_flag("--json", json);
+  app.add_option("--imu", imu)->transform(ftid::cli::oneOf({"on", "off"}));
   app.add_option("--noise", noise);
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
   ftid::cli::parse(app, argv);
@@ -71,6 +81,8 @@ int runIdentify(const std::vector<std::string>& argv) {
       throw ftid::cli::UsageError(e.what());
     }
   }
+  using ImuUse = ftid::identify::IdentifyRequest::ImuUse;
+  req.imu = imu.empty() ? ImuUse::kAuto : (imu == "on" ? ImuUse::kOn : ImuUse::kOff);
   if (req.log_path.empty()) throw ftid::cli::UsageError("--log FILE is required");
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
@@ -89,9 +101,10 @@ int runIdentify(const std::vector<std::string>& argv) {
     }
   }
   if (json) {
-    std::cout << ftid::identify::identificationJson(set, id.check) << "\n";
+    std::cout << ftid::identify::identificationJson(id, req.imu != ImuUse::kOff) << "\n";
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
+    std::cout << ftid::identify::formatImuReport(id.imu);
     std::cout << ftid::identify::formatFitCheck(id.check);
     if (!out.empty()) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";

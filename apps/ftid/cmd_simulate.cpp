@@ -66,6 +66,8 @@ options:
       mounting           roll=0, pitch=0, yaw=3 [deg]: the sensor is mounted rotated by
                          Rz(yaw) Ry(pitch) Rx(roll) against --mount-rpy and reports in its true frame
       crosstalk          scale=1 (multiplies the built-in 6x6 matrix E)
+      imu                acc_bias=0.03/-0.02/0.04 [m/s^2], gyro_bias=0.002/-0.003/0.001 [rad/s],
+                         delay=0 [s]: the IMU's biases and its own stream delay (exact shift)
       contact            start=4, end=6 [s], force=X/Y/Z in B [N], point=X/Y/Z in S [m]
       rigid_body         full Newton-Euler (already the default; listed for symmetry)
     e.g. --effect sensor_delay:tau=0.02 --effect cable:k=5,anchor=-0.7/-0.3/1.4

@@ -669,6 +669,10 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
   res.condition_number = ExcitationMetric::conditionNumber(info);
   res.d_optimality = ExcitationMetric::dOptimality(info, static_cast<double>(Ks));
   res.predicted_std = p.metric().predictedStd(info);
+  if (opt.imu_acc_std > 0.0 && opt.imu_gyro_std > 0.0) {
+    res.predicted_std_imu =
+        p.metric().predictedStd(p.metric().informationWithImu(mo, info, opt.imu_acc_std, opt.imu_gyro_std));
+  }
   if (!(res.condition_number <= opt.max_condition)) {
     std::string weak;
     for (const auto& wc : p.metric().weakColumns(info, 1e-6))
@@ -831,7 +835,8 @@ DurationSearchResult findShortestDuration(const DesignOptions& options,
       DesignResult r = designExcitation(o, kinematics);
       trial.condition_number = r.condition_number;
       trial.predicted_std = r.predicted_std;
-      trial.met = unmetTargets(r.predicted_std, targets).empty();
+      trial.predicted_std_imu = r.predicted_std_imu;
+      trial.met = unmetTargets(options.targets_with_imu ? r.predicted_std_imu : r.predicted_std, targets).empty();
       if (trial.met && (!out.found || d < out.best.file.duration_s)) {
         out.best = std::move(r);
         out.found = true;

@@ -2,6 +2,8 @@
 // errors of a model's parameters for a sampled motion (see header and docs/design.md).
 #include "ftid/design/excitation_metric.hpp"
 
+#include "ftid/identify/imu.hpp"
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -242,6 +244,33 @@ std::vector<std::string> ExcitationMetric::weakColumns(const Eigen::MatrixXd& in
       }
     }
   }
+  return out;
+}
+
+Eigen::MatrixXd ExcitationMetric::informationWithImu(const SampledMotion& motion, const Eigen::MatrixXd& info,
+                                                     double acc_std, double gyro_std) const {
+  if (!tilt_) return info;
+  const auto K = static_cast<std::size_t>(motion.q.cols());
+  logio::LogData log;
+  log.source = "<designed trajectory>";
+  log.has_wrench = true;
+  log.samples.resize(K);
+  for (std::size_t k = 0; k < K; ++k) {
+    auto& s = log.samples[k];
+    s.t = motion.t[k];
+    s.q = motion.q.col(static_cast<Eigen::Index>(k));
+    s.qd = motion.qd.col(static_cast<Eigen::Index>(k));
+    s.qdd = motion.qdd.col(static_cast<Eigen::Index>(k));
+  }
+  samples::ContextOptions opts;
+  opts.R_FS = constraints_.R_FS;
+  opts.p_FS_F = constraints_.p_FS_F;
+  const samples::ContextSet ctxs = samples::buildContexts(log, kinematics_, opts);
+  const Eigen::Matrix2d cov = identify::predictImuTiltCovariance(ctxs.samples, acc_std, gyro_std, true);
+  Eigen::MatrixXd out = info;
+  if (!cov.allFinite()) return out;
+  const int P = model_.numParams();
+  out.block(P, P, 2, 2) += cov.inverse();
   return out;
 }
 

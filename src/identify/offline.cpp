@@ -14,6 +14,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
+#include "ftid/fileio/json_text.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
 #include "ftid/logio/log.hpp"
@@ -30,6 +31,61 @@ void say(const ProgressFn& progress, const std::string& line) {
 }  // namespace
 
 ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request) {
+  return identifyContexts(samples, request, nullptr);
+}
+
+namespace {
+
+/// The IMU's estimates for the request, or nullopt (reason in the report) when not used.
+std::optional<ImuEstimate> imuEstimateFor(const std::vector<SampleContext>& samples, const IdentifyRequest& request,
+                                          ImuReport* report) {
+  if (request.imu == IdentifyRequest::ImuUse::kOff) return std::nullopt;
+  const bool has_imu = !samples.empty() && samples.front().has_imu;
+  if (!has_imu) {
+    if (request.imu == IdentifyRequest::ImuUse::kOn) {
+      throw DataError("--imu on: the log has no IMU columns (ax..alz, docs/log-format.md)");
+    }
+    report->not_used_reason = "the log has no IMU columns";
+    return std::nullopt;
+  }
+  try {
+    return estimateImu(samples, request.imu_options);
+  } catch (const DataError& e) {
+    if (request.imu == IdentifyRequest::ImuUse::kOn) throw;
+    report->not_used_reason = e.what();
+    return std::nullopt;
+  }
+}
+
+void noteComparisons(ImuReport* report) {
+  for (const auto& c : report->comparisons) {
+    if (c.disagrees) {
+      const bool configured = c.message.find("configured") != std::string::npos;
+      std::string advice = "a set-up error or a bad IMU";
+      if (configured && c.quantity == "mount") {
+        advice += "; check the sensor mount (X_FS), or add `mounting` to the model if the wrench turns with the IMU";
+      } else if (configured && c.quantity == "delay") {
+        advice += "; if the wrench shares the IMU's stream, add `sensor_delay` to the model";
+      }
+      report->warnings.push_back("the IMU and the " + std::string(configured ? "configuration" : "wrench") +
+                                 " disagree on the " + c.quantity + " beyond their uncertainties (" + c.message +
+                                 "): " + advice);
+    }
+  }
+}
+
+}  // namespace
+
+ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request,
+                              ImuReport* imu_report) {
+  ImuReport scratch;
+  ImuReport* report = imu_report != nullptr ? imu_report : &scratch;
+  *report = ImuReport{};
+  const std::optional<ImuEstimate> imu = imuEstimateFor(samples, request, report);
+  if (imu) {
+    report->used = true;
+    report->estimate = *imu;
+  }
   ParameterSet set;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
@@ -53,8 +109,24 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
     }
     FitOptions fo;
     fo.max_delay_s = request.max_delay_s;
-    const FitResult fit = fitModel(model, samples, fo);
+    if (imu && model.estimatesTilt()) {
+      // The IMU's tilt starts the tilt search: no wrong minimum from a poor paper-stage start.
+      fo.tilt_u_rad = imu->acc.tilt_u_rad;
+      fo.tilt_v_rad = imu->acc.tilt_v_rad;
+    }
+    FitResult fit = fitModel(model, samples, fo);
+    if (imu) {
+      report->comparisons = compareImuWithFit(fit, *imu);
+      const bool tilt_agrees = !report->comparisons.empty() && report->comparisons.front().quantity == "tilt" &&
+                               !report->comparisons.front().disagrees;
+      if (fit.tilt_estimated && tilt_agrees) {
+        fit = fuseImuTilt(model, samples, fit, imu->acc);
+        report->fused = true;
+      }
+      noteComparisons(report);
+    }
     set = toParameterSet(fit);
+    if (report->fused) set.provenance.method += "+imu";
   } else {
     PaperOptions o;
     if (request.method == "static") {
@@ -66,6 +138,10 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
     }
     const PaperResult r = identifyPaper(samples, o);
     set = r.toParameterSet();
+    if (imu && set.tilt_estimated) {
+      report->comparisons.push_back(compareImuTilt(set.tilt_u_rad, set.tilt_v_rad, set.tilt_u_std, set.tilt_v_std, imu->acc));
+      noteComparisons(report);
+    }
   }
   return set;
 }
@@ -84,14 +160,14 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
   } else {
     say(request.progress, "paper method (" + request.method + "): force stage, torque stage");
   }
-  out.set = identifyContexts(contexts.samples, request);
+  out.set = identifyContexts(contexts.samples, request, &out.imu);
   out.set.provenance.data_file = request.log_path;
   out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
   if (check) {
     say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
     const std::string model = request.model.empty() ? out.set.model : request.model;
     out.check = checkFit(
-        contexts.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request); },
+        contexts.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request, nullptr); },
         "ftid analyze " + request.log_path + " --model " + model + " --explain", request.noise_std);
   }
   return out;
@@ -130,6 +206,59 @@ std::string formatParameterTable(const ParameterSet& set) {
     os << line;
   }
   return os.str();
+}
+
+std::string formatImuReport(const ImuReport& report) {
+  std::ostringstream os;
+  if (!report.used) {
+    if (!report.not_used_reason.empty()) os << "IMU not used: " << report.not_used_reason << "\n";
+    return os.str();
+  }
+  os << formatImuEstimate(report.estimate);
+  os << (report.fused ? "  fused: the IMU's tilt is fused with the wrench's (docs/identification.md)\n"
+                      : "  not fused (the model estimates no tilt, or the IMU and the wrench disagree on it)\n");
+  for (const auto& c : report.comparisons) os << "  " << (c.disagrees ? "DISAGREE " : "agree    ") << c.message << "\n";
+  for (const auto& w : report.warnings) os << "WARNING: " << w << "\n";
+  return os.str();
+}
+
+std::string identificationJson(const CheckedIdentification& id, bool imu_consulted) {
+  if (!imu_consulted) return identificationJson(id.set, id.check);
+  Json j = Json::parse(identificationJson(id.set, id.check));
+  const ImuReport& r = id.imu;
+  Json imu = Json::object();
+  imu["used"] = r.used;
+  if (!r.used) {
+    imu["not_used_reason"] = r.not_used_reason;
+  } else {
+    const ImuEstimate& e = r.estimate;
+    auto vec = [](const Vec3& v) { return Json::array({jsonNumber(v.x()), jsonNumber(v.y()), jsonNumber(v.z())}); };
+    imu["fused"] = r.fused;
+    imu["tilt_u"] = jsonNumber(e.acc.tilt_u_rad);
+    imu["tilt_u_std"] = jsonNumber(e.acc.tilt_u_std);
+    imu["tilt_v"] = jsonNumber(e.acc.tilt_v_rad);
+    imu["tilt_v_std"] = jsonNumber(e.acc.tilt_v_std);
+    imu["acc_bias_estimated"] = e.acc.bias_estimated;
+    imu["acc_bias"] = vec(e.acc.bias_mps2);
+    imu["acc_bias_std"] = vec(e.acc.bias_std_mps2);
+    imu["acc_noise"] = jsonNumber(e.acc.sigma_mps2);
+    imu["gyro_bias"] = vec(e.gyro.bias_radps);
+    imu["gyro_bias_std"] = vec(e.gyro.bias_std_radps);
+    imu["gyro_noise"] = jsonNumber(e.gyro.sigma_radps);
+    imu["mount_rpy"] = vec(e.gyro.rpy_rad);
+    imu["mount_rotation_std"] = vec(e.gyro.rotation_std_rad);
+    imu["delay"] = jsonNumber(e.gyro.delay_s);
+    imu["delay_std"] = jsonNumber(e.gyro.delay_std_s);
+    Json comps = Json::array();
+    for (const auto& c : r.comparisons) {
+      comps.push_back({{"quantity", c.quantity}, {"chi2", jsonNumber(c.chi2)}, {"dof", c.dof},
+                       {"limit", c.limit}, {"disagrees", c.disagrees}, {"message", c.message}});
+    }
+    imu["comparisons"] = std::move(comps);
+    imu["warnings"] = r.warnings;
+  }
+  j["imu"] = std::move(imu);
+  return jsonText(j);
 }
 
 }  // namespace ftid::identify

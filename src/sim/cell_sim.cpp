@@ -99,6 +99,8 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
           "glitches.probability", "must be in [0, 1]");
   require(std::isfinite(c.glitches.force_N) && std::isfinite(c.glitches.torque_Nm), "glitches", "magnitudes not finite");
   require(c.mounting.rpy_rad.allFinite(), "mounting.rpy_rad", "not finite");
+  require(c.imu.acc_bias_mps2.allFinite() && c.imu.gyro_bias_radps.allFinite(), "imu", "bias not finite");
+  require(std::isfinite(c.imu.delay_s) && std::abs(c.imu.delay_s) < 1.0, "imu.delay_s", "must be finite with |delay| < 1 s");
   if (c.static_poses.enabled) {
     require(c.static_poses.poses >= 1 && c.static_poses.poses <= 1000000, "static_poses.poses", "must be 1..1e6");
     require(std::isfinite(c.static_poses.hold_s) && c.static_poses.hold_s > 0.0 &&
@@ -228,6 +230,10 @@ SensorReading CellSim::readingAt(const JointVector& q, const JointVector& qd, co
       r.alpha_S = Rt * r.alpha_S;
     }
   }
+  if (config_.imu.enabled) {
+    r.acc_S += config_.imu.acc_bias_mps2;  // the IMU's own errors, in its frame
+    r.w_S += config_.imu.gyro_bias_radps;
+  }
   r.wrench_S = config_.crosstalk.enabled ? Wrench((Mat6::Identity() + config_.crosstalk.E) * sensed) : sensed;
   r.wrench_S += offsetsAt(t_s, temp_degC);
   return r;
@@ -250,6 +256,15 @@ SensorReading CellSim::sampleAt(double t_s) const {
     const SensorReading rd = readingAt(xd.q, xd.qd, xd.qdd, td);
     r.wrench_S = rd.wrench_S;
     r.contact_S = rd.contact_S;
+  }
+  if (config_.imu.enabled && config_.imu.delay_s != 0.0) {
+    // The IMU stream's own exact delay (either sign): the IMU reading of the instant t - delay.
+    const double ti = t_s - config_.imu.delay_s;
+    const trajectory::TrajectoryPoint xi = stateAt(ti);
+    const SensorReading ri = readingAt(xi.q, xi.qd, xi.qdd, ti);
+    r.acc_S = ri.acc_S;
+    r.w_S = ri.w_S;
+    r.alpha_S = ri.alpha_S;
   }
   return r;
 }

@@ -118,13 +118,21 @@ void applyEffectSpec(const std::string& spec, CellSimConfig& c) {
       else throw bad(k);
     }
     c.mounting.rpy_rad = rpy_deg * kDeg;
+  } else if (name == "imu") {
+    c.imu.enabled = true;
+    for (const auto& [k, v] : kv) {
+      if (k == "acc_bias") c.imu.acc_bias_mps2 = vector3(v, w + " acc_bias");
+      else if (k == "gyro_bias") c.imu.gyro_bias_radps = vector3(v, w + " gyro_bias");
+      else if (k == "delay") c.imu.delay_s = number(v, w + " delay");
+      else throw bad(k);
+    }
   } else if (name == "rigid_body") {
     if (!kv.empty()) throw bad(kv.front().first);
     c.full_rigid_body = true;
   } else {
     throw ConfigError("unknown effect '" + name +
                       "' (cable, temperature_drift, time_drift, sensor_delay, crosstalk, contact, glitches, mounting, "
-                      "rigid_body)");
+                      "imu, rigid_body)");
   }
 }
 

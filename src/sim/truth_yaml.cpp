@@ -98,6 +98,11 @@ std::string truthYaml(const CellSimConfig& c) {
     << c.mounting.enabled;
   vec3(e, "roll_pitch_yaw", c.mounting.rpy_rad);
   e << YAML::Key << "rotate_imu" << YAML::Value << c.mounting.rotate_imu << YAML::EndMap;
+  e << YAML::Key << "imu" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
+    << c.imu.enabled;
+  vec3(e, "acc_bias", c.imu.acc_bias_mps2);
+  vec3(e, "gyro_bias", c.imu.gyro_bias_radps);
+  e << YAML::Key << "delay" << YAML::Value << Num{c.imu.delay_s} << YAML::EndMap;
   e << YAML::Key << "static_poses" << YAML::Value << YAML::BeginMap << YAML::Key << "enabled" << YAML::Value
     << c.static_poses.enabled << YAML::Key << "poses" << YAML::Value << c.static_poses.poses << YAML::Key << "hold"
     << YAML::Value << Num{c.static_poses.hold_s} << YAML::Key << "average" << YAML::Value << c.static_poses.average

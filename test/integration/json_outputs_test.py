@@ -18,7 +18,7 @@ import sys
 
 IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "condition_number",
                  "tilt_estimated", "units", "extras", "data_file", "time_origin_unix_s", "noise_floor", "noise_method",
-                 "heldout_rms", "residual_to_noise", "glitches", "warnings"]
+                 "heldout_rms", "residual_to_noise", "glitches", "warnings", "imu"]
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "warnings",
                 "raw_rms", "fit", "windows", "correlations", "candidates", "seconds"]

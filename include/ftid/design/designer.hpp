@@ -61,6 +61,12 @@ struct DesignOptions {
   Vec6 noise_sigma = (Vec6() << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01).finished();  ///< [N, Nm]
   std::map<std::string, double> nominal;  ///< empty: paper Table 2 payload
   trajectory::TrajectoryConstraints constraints;
+  /// The sensor's IMU noise (white, per axis) for the predictions with the IMU (docs/design.md
+  /// "Limits"); 0: no IMU prediction.
+  double imu_acc_std = 0.0;   ///< accelerometer [m/s^2]
+  double imu_gyro_std = 0.0;  ///< gyro [rad/s]
+  /// findShortestDuration: judge the targets on the predictions with the IMU (needs the IMU noise).
+  bool targets_with_imu = false;
   int baseline_seeds = 50;  ///< random baseline trajectories (0: skip)
   bool static_baseline = true;
   std::ostream* progress = nullptr;  ///< progress lines (stderr in the CLI)
@@ -79,6 +85,8 @@ struct DesignResult {
   double condition_number = 0.0;    ///< at the servo rate, column-scaled
   double d_optimality = 0.0;
   std::map<std::string, double> predicted_std;
+  /// The same with the IMU's tilt fused (DesignOptions::imu_acc_std > 0 and a model with tilt).
+  std::map<std::string, double> predicted_std_imu;
   CheckReport check;  ///< dense re-check of the final trajectory
   BaselineReport baselines;
   std::string global_result;  ///< NLopt outcome, human-readable
@@ -109,7 +117,16 @@ struct DurationTrial {
   bool met = false;
   double condition_number = 0.0;
   std::map<std::string, double> predicted_std;
+  std::map<std::string, double> predicted_std_imu;  ///< with the IMU (if its noise was given)
 };
+
+/// Accuracy limits, e.g. "mass=0.5%,com=1mm,tilt=0.1deg": the keys of parseTargets, each value a
+/// number with an optional unit (%, relative to the nominal value; mm, cm, m; deg, rad; g, kg; N,
+/// Nm), converted to SI. The designer meets a limit L when the predicted worst case over noise,
+/// kLimitStandardErrors (3) predicted standard errors, is within it: targets = L / 3. Throws
+/// ConfigError naming the bad item.
+inline constexpr double kLimitStandardErrors = 3.0;
+std::map<std::string, double> parseLimits(const std::string& text, const std::map<std::string, double>& nominal);
 struct DurationSearchResult {
   std::vector<DurationTrial> trials;
   bool found = false;

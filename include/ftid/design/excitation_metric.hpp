@@ -52,6 +52,14 @@ class ExcitationMetric {
   Eigen::MatrixXd information(const SampledMotion& motion, double weight,
                               std::vector<Eigen::Isometry3d>* sensor_poses = nullptr) const;
 
+  /// The same information with the sensor's IMU (docs/design.md "Limits"): the IMU's predicted
+  /// tilt covariance for this motion (identify::predictImuTiltCovariance: accelerometer noise
+  /// acc_std, gyro noise gyro_std, accelerometer bias estimated) added as the information of an
+  /// independent measurement of (U, V): info + H^T Cov_imu^-1 H (H picks tilt_u, tilt_v), the fused
+  /// fit's information (identify/imu_fusion.hpp). Models without tilt: info unchanged.
+  Eigen::MatrixXd informationWithImu(const SampledMotion& motion, const Eigen::MatrixXd& info, double acc_std,
+                                     double gyro_std) const;
+
   /// Information of the stacked samples of a list of joint states.
   Eigen::MatrixXd information(const std::vector<JointVector>& q, const std::vector<JointVector>& qd,
                               const std::vector<JointVector>& qdd, double weight) const;

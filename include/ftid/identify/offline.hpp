@@ -9,6 +9,8 @@
 #include "ftid/samples/context.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/fit_parameters.hpp"
+#include "ftid/identify/imu.hpp"
+#include "ftid/identify/imu_fusion.hpp"
 
 namespace ftid::identify {
 
@@ -23,6 +25,23 @@ struct IdentifyRequest {
   ProgressFn progress;             ///< optional progress lines
   std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
   double max_delay_s = 1.0;        ///< models with sensor_delay: search range of the delay [s]
+  /// The sensor's IMU (docs/identification.md, "The IMU as a measurement"): kOff ignores it (the
+  /// wrench-only result, bit for bit), kAuto uses it when the log has the IMU columns (`ftid
+  /// identify`'s default), kOn requires them. Used: the IMU's tilt starts the tilt search and is
+  /// fused into a general fit with `tilt` (when the two agree); tilt, mount and delay compared.
+  enum class ImuUse { kOff, kAuto, kOn };
+  ImuUse imu = ImuUse::kOff;
+  ImuOptions imu_options;
+};
+
+/// What the IMU said (filled when it was used or failed).
+struct ImuReport {
+  bool used = false;                 ///< the IMU's estimates exist
+  std::string not_used_reason;       ///< why not (kAuto: no IMU columns, too little rotation, ...)
+  ImuEstimate estimate;
+  bool fused = false;                ///< the IMU's tilt was fused into the general fit
+  std::vector<ImuComparison> comparisons;
+  std::vector<std::string> warnings; ///< one line per disagreement (a set-up error or a bad IMU)
 };
 
 /// Reads the log, builds the contexts, identifies. Throws DataError (bad log), ConfigError (bad
@@ -31,15 +50,26 @@ ParameterSet identifyLogFile(const IdentifyRequest& request);
 
 /// The identification of `request` (method or model) on contexts.
 ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request);
+/// Same, filling `imu` (may be nullptr) with the IMU's estimates and comparisons.
+ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request,
+                              ImuReport* imu);
 
 /// identifyLogFile plus, with `check`, the held-out residual against the noise floor (fit_check.hpp).
 struct CheckedIdentification {
   ParameterSet set;
   FitCheck check;
+  ImuReport imu;
 };
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check = true);
 
 /// Human-readable table: parameter, value, std, unit; residual RMS per axis; condition number.
 std::string formatParameterTable(const ParameterSet& set);
+
+/// Text lines of the IMU report (estimates, comparisons, warnings); empty when the IMU was off.
+std::string formatImuReport(const ImuReport& report);
+
+/// `ftid identify --json`'s object: identificationJson(set, check) plus, when the IMU was
+/// consulted, the key "imu" (docs/identification.md "Outputs").
+std::string identificationJson(const CheckedIdentification& id, bool imu_consulted);
 
 }  // namespace ftid::identify

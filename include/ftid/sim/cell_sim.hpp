@@ -120,6 +120,16 @@ struct StaticPoseSetSwitch {
   bool average = false;
   double span_s = 0.0;
 };
+/// Errors of the sensor's IMU (docs/simulator.md): constant biases added to the accelerometer and
+/// gyro readings (in the IMU's frame: S, or S' with mounting.rotate_imu) and a delay of the IMU
+/// stream: with delay_s = tau_i the IMU sample stamped t is the exact IMU reading of t - tau_i
+/// (independent of sensor_delay, which moves the wrench only). |delay_s| < 1 s.
+struct ImuErrorSwitch {
+  bool enabled = false;
+  Vec3 acc_bias_mps2 = Vec3(0.03, -0.02, 0.04);   ///< accelerometer bias [m/s^2]
+  Vec3 gyro_bias_radps = Vec3(0.002, -0.003, 0.001);  ///< gyro bias [rad/s]
+  double delay_s = 0.0;                          ///< IMU stream lags the kinematics by this [s]
+};
 struct CrosstalkSwitch {
   bool enabled = false;
   Mat6 E = defaultMatrix();                      ///< reading = (I + E) * load wrench + offsets
@@ -162,6 +172,7 @@ struct CellSimConfig {
   GlitchSwitch glitches;
   MountingSwitch mounting;
   StaticPoseSetSwitch static_poses;
+  ImuErrorSwitch imu;
 };
 
 /// One glitch of a run: logged sample index, axis 0..5 and the spike added [N or Nm].

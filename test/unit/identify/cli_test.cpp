@@ -142,3 +142,55 @@ TEST(IdentifyCli, BadInputGivesOneLineAndNonZeroExit) {
 }
 
 }  // namespace
+
+namespace {
+
+/// The "parameters" object of an identify JSON (the part the IMU may change).
+std::string parametersOf(const std::string& json) {
+  const auto a = json.find("\"parameters\":");
+  const auto b = json.find("\"residual_rms\":");
+  return a == std::string::npos || b == std::string::npos ? std::string() : json.substr(a, b - a);
+}
+
+TEST(IdentifyCli, ImuOffIsTheWrenchAloneAndOnReportsTheImu) {
+  ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, 23);
+  cfg.duration_s = 4.0;
+  cfg.noise.acc_std = 0.01;
+  cfg.noise.gyro_std = 0.002;
+  cfg.imu.enabled = true;
+  cfg.imu.delay_s = 0.016;
+  ftid::logio::LogData log = ftid::sim::CellSim(cfg).run();
+  const std::string with_imu = dir() + "imu.csv";
+  ftid::logio::writeLog(with_imu, log);
+  log.has_imu = false;
+  const std::string without_imu = dir() + "noimu.csv";
+  ftid::logio::writeLog(without_imu, log);
+  const CliRun off = ftidRun("identify --log " + with_imu + " --model paper --imu off --json");
+  const CliRun plain = ftidRun("identify --log " + without_imu + " --model paper --json");
+  const CliRun on = ftidRun("identify --log " + with_imu + " --model paper --json");
+  ASSERT_EQ(off.code, 0) << off.err;
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  ASSERT_EQ(on.code, 0) << on.err;
+  EXPECT_FALSE(parametersOf(off.out).empty());
+  EXPECT_EQ(parametersOf(off.out), parametersOf(plain.out));  // bit for bit: the same text
+  EXPECT_EQ(off.out.find("\"imu\""), std::string::npos);
+  EXPECT_NE(parametersOf(on.out), parametersOf(off.out));
+  EXPECT_NE(on.out.find("\"imu\":{\"used\":true,\"fused\":true"), std::string::npos) << on.out;
+  // The IMU stream's 16 ms lag against the robot is reported (the model assumes none).
+  const CliRun text = ftidRun("identify --log " + with_imu + " --model paper");
+  ASSERT_EQ(text.code, 0) << text.err;
+  EXPECT_TRUE(text.out.find("IMU stream delay 15.9") != std::string::npos ||
+              text.out.find("IMU stream delay 16.0") != std::string::npos)
+      << text.out;  // 15.96 +- 0.07 ms
+  EXPECT_NE(text.out.find("WARNING: the IMU and the configuration disagree on the delay"), std::string::npos)
+      << text.out;
+  // --imu on without IMU columns: a one-line error, exit 1.
+  const CliRun missing = ftidRun("identify --log " + without_imu + " --model paper --imu on");
+  EXPECT_EQ(missing.code, 1);
+  EXPECT_NE(missing.err.find("no IMU columns"), std::string::npos) << missing.err;
+  const CliRun bad = ftidRun("identify --log " + with_imu + " --imu maybe");
+  EXPECT_EQ(bad.code, 2) << bad.err;
+  for (const auto& f : {with_imu, without_imu}) std::remove(f.c_str());
+}
+
+}  // namespace
