@@ -41,8 +41,10 @@ ftid::Json eventJson(const ftid::monitor::MonitorEvent& e) {
   j["confirmed"] = e.confirmed;
   j["delta_mass"] = ftid::jsonNumber(e.change.delta_mass_kg);
   j["delta_mass_std"] = ftid::jsonNumber(e.change.delta_mass_std_kg);
-  j["delta_com"] = vec3(e.change.delta_com_m);
-  j["delta_com_std"] = vec3(e.change.delta_com_std_m);
+  // A contact's rigid-body fit has no centre of mass to speak of.
+  const bool change = e.kind == ftid::monitor::EventKind::kPayloadChange;
+  j["delta_com"] = change ? vec3(e.change.delta_com_m) : ftid::Json(nullptr);
+  j["delta_com_std"] = change ? vec3(e.change.delta_com_std_m) : ftid::Json(nullptr);
   j["delta_mass_com"] = vec3(e.change.delta_mass_com_kg_m);
   j["log_bayes_factor"] = ftid::jsonNumber(e.log_bayes_factor);
   j["samples"] = e.samples;
@@ -81,11 +83,16 @@ int runMonitor(const std::vector<std::string>& argv) {
               ftid::monitor::stateName(st.state));
   std::printf("events: %zu\n", r.events.size());
   for (const auto& e : r.events) {
-    std::printf("  t=%.3f s  %-14s onset %.3f s  delta_mass %+.4f +- %.4f kg  delta_com [%.4f, %.4f, %.4f] m"
-                "  log BF %.1f  (%d samples, %d in free motion%s)\n",
-                e.t_decided, ftid::monitor::eventName(e.kind), e.t_onset, e.change.delta_mass_kg,
-                e.change.delta_mass_std_kg, e.change.delta_com_m.x(), e.change.delta_com_m.y(),
-                e.change.delta_com_m.z(), e.log_bayes_factor, e.samples, e.free_samples,
+    std::printf("  t=%.3f s  %-14s onset %.3f s  delta_mass %+.4f +- %.4f kg", e.t_decided,
+                ftid::monitor::eventName(e.kind), e.t_onset, e.change.delta_mass_kg, e.change.delta_mass_std_kg);
+    if (e.kind == ftid::monitor::EventKind::kPayloadChange) {
+      std::printf("  delta_com [%.4f, %.4f, %.4f] +- [%.4f, %.4f, %.4f] m", e.change.delta_com_m.x(),
+                  e.change.delta_com_m.y(), e.change.delta_com_m.z(), e.change.delta_com_std_m.x(),
+                  e.change.delta_com_std_m.y(), e.change.delta_com_std_m.z());
+    } else {
+      std::printf("  peak %.1f N", e.peak_force_N);
+    }
+    std::printf("  log BF %.1f  (%d samples, %d in free motion%s)\n", e.log_bayes_factor, e.samples, e.free_samples,
                 e.kind == ftid::monitor::EventKind::kContact && !e.confirmed ? ", ended undecided" : "");
   }
   return 0;

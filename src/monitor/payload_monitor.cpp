@@ -63,6 +63,7 @@ void validate(const MonitorSettings& s, const char* p) {
   requirePositive(s.free_motion_turn_rad_s, p, "free_motion_turn_rad_s");
   requirePositive(s.free_motion_acc_m_s2, p, "free_motion_acc_m_s2");
   requirePositive(s.max_gap_s, p, "max_gap_s");
+  requirePositive(s.restart_s, p, "restart_s");
 }
 
 PayloadMonitor::PayloadMonitor(const MonitorSettings& settings)
@@ -250,7 +251,17 @@ std::optional<MonitorEvent> PayloadMonitor::update(const MonitorSample& s) noexc
     return event;
   }
   status_.cusum = g;
-  if (!status_.episode) startEpisode(s.t);
+  if (!status_.episode) {
+    startEpisode(s.t);
+  } else if (!changed && s.t - status_.onset_t > settings_.restart_s) {
+    // A long undecided episode (a contact, or a change behind one): its hypotheses start again
+    // from here, so that what remains after a push is judged on its own samples.
+    const bool confirmed = contact_confirmed_;
+    const double peak = peak_force_N_;
+    startEpisode(s.t);
+    contact_confirmed_ = confirmed;
+    peak_force_N_ = peak;
+  }
 
   regressor(s);
   const double l0 = logNothing(s.residual_S);

@@ -18,7 +18,8 @@
 //   Lambda_k = sum_{free j in [tau, k]} log p1(r_j) - max(sum log p0(r_j), sum log p2(r_j)),
 // summed over the free-motion samples (below). Lambda > decision_threshold: payload change
 // (state `changed`, latched until reset()); the contact's own Bayes factor over the better other
-// hypothesis above the threshold, or the episode ending (g back to 0) first: contact.
+// hypothesis above the threshold, or the episode ending (g back to 0) first: contact. An episode
+// still undecided (or decided as contact) after restart_s restarts its hypotheses at that sample.
 //
 // Free motion: a sample in which the gravity direction turns in S (|w_S x g_S| / |g_S| >=
 // free_motion_turn_rad_s) or the sensor accelerates (|a_S| >= free_motion_acc_m_s2). Only such
@@ -72,6 +73,9 @@ struct MonitorSettings {
   double free_motion_turn_rad_s = 0.05;   ///< free motion: gravity turns in S at least this fast
   double free_motion_acc_m_s2 = 0.3;      ///< or the sensor accelerates at least this much
   double max_gap_s = 0.1;                 ///< a longer gap between samples ends the episode
+  /// An episode undecided for this long (or decided as contact) starts its hypotheses again at
+  /// the current sample: a payload change during or right after a push is judged on its own.
+  double restart_s = 1.0;
 };
 
 /// Throws ConfigError naming the key (prefix + name) for a value out of range.

@@ -56,6 +56,29 @@ TEST(PayloadMonitor, GraspIsReportedWithinLatencyWithItsMass) {
   }
 }
 
+// A grasp while a push goes on: the push is reported as contact, the change once the episode
+// restarts (restart_s after the push's onset) on the samples after the push.
+TEST(PayloadMonitor, GraspDuringAPushIsFoundAfterIt) {
+  for (std::uint64_t seed = 1101; seed <= 1103; ++seed) {
+    SCOPED_TRACE(seed);
+    sim::CellSimConfig cfg = test::operationRun(seed, seed + 7000, 9.0);
+    cfg.payload_change.enabled = true;
+    cfg.payload_change.t_s = 5.0;
+    cfg.payload_change.added = sim::compactObject(0.6, Vec3(0.0, 0.01, 0.1));
+    cfg.pushes = sim::randomPushes(seed, 4.0, 5.2, sim::PushScenario{12.0, 0.5, 0.5, 0.7, 0.7});
+    ASSERT_EQ(cfg.pushes.size(), 1u);
+    const compensate::MonitorReplay r = test::replayRun(cellA(), cfg);
+    ASSERT_EQ(countKind(r, EventKind::kPayloadChange), 1);
+    EXPECT_EQ(countKind(r, EventKind::kContact), 1);
+    for (const MonitorEvent& e : r.events) {
+      if (e.kind != EventKind::kPayloadChange) continue;
+      EXPECT_GT(e.t_decided, 5.2);
+      EXPECT_LE(e.t_decided, 4.7 + 1.0 + 0.6);
+      EXPECT_NEAR(e.change.delta_mass_kg, 0.6, 0.06);
+    }
+  }
+}
+
 // Acceptance: 12 N pushes of 0.4-0.6 s raise no payload change (and are reported as contacts).
 TEST(PayloadMonitor, PushesRaiseNoPayloadChange) {
   int pushes = 0, contacts = 0;
