@@ -78,12 +78,14 @@ int Daemon::run() {
   LoopOwner owner(setup.cycle.get(), setup.loop_stats.get(), setup.armConnector(), setup.sensorLink(),
                   setup.loopOwnerOptions(), &logLine);
   setup.outbox->start();
+  if (setup.payload_watch) setup.payload_watch->start();
   owner.start(nullptr);  // the link thread connects the robot (docs/daemon.md, "Running")
   Supervisor supervisor(&setup, &owner, signals, options_);
   const int exit_code = supervisor.run();
 
   notifySystemd("STOPPING=1");
   owner.stop();  // the loop returns within one receive timeout
+  if (setup.payload_watch) setup.payload_watch->stop();
   setup.outbox->stop();
   const auto oc = setup.outbox->counters();
   const LinkStatus link = owner.status();
