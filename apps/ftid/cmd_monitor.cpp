@@ -4,22 +4,26 @@
 
 #include "command.hpp"
 #include "ftid/compensate/monitor_log.hpp"
+#include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/payload_watch.hpp"
 #include "ftid/fileio/json_text.hpp"
 
 namespace {
 
 const char* const kUsage =
-    "usage: ftid monitor --log FILE --params PARAMS.yaml [--json] [--robot URDF]\n"
-    "                    [--wrench-frame sensor|base]\n"
+    "usage: ftid monitor --log FILE --params PARAMS.yaml [--config FTIDD.yaml] [--json]\n"
+    "                    [--robot URDF] [--wrench-frame sensor|base]\n"
     "\n"
     "Replays the log through the code ftidd runs: the compensator with the parameter file, then the\n"
-    "payload monitor (docs/daemon.md, \"Payload monitor\"), with the monitor's default settings.\n"
+    "payload monitor (docs/daemon.md, \"Payload monitor\"), with the monitor's default settings or\n"
+    "those of ftidd's configuration.\n"
     "Prints one line per event: a payload change (an object grasped or released: the residual\n"
     "follows gravity and acceleration like a rigid body) or a contact (a residual that does not, or\n"
     "that ended before it could be told apart), with the estimated change and its standard error.\n"
     "\n"
     "  --log FILE        the log (docs/log-format.md)\n"
     "  --params FILE     the parameters the cell ran with (`ftid identify --out`)\n"
+    "  --config FILE     take the settings from the `monitor` section of this ftidd configuration\n"
     "  --json            print {\"events\": [{t, kind, delta_mass, delta_mass_std, delta_com: [x, y, z],\n"
     "                    ...}], ...} instead of text (t = the decision's time in the log's t)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base\n"
@@ -63,10 +67,15 @@ int runMonitor(const std::vector<std::string>& argv) {
   app.add_option("--params", req.params_path);
   app.add_option("--robot", req.robot_urdf);
   app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
+  std::string config_path;
+  app.add_option("--config", config_path);
   app.add_flag("--json", json);
   ftid::cli::parse(app, argv);
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   if (req.log_path.empty() || req.params_path.empty()) throw ftid::cli::UsageError("--log and --params are required");
+  if (!config_path.empty()) {
+    req.settings = ftid::daemon::monitorSettings(ftid::config::loadDaemonConfig(config_path).monitor);
+  }
   const ftid::compensate::MonitorReplay r = ftid::compensate::monitorLogFile(req);
   const ftid::monitor::MonitorStatus& st = r.final_status;
   if (json) {

@@ -67,6 +67,10 @@ options:
                          Rz(yaw) Ry(pitch) Rx(roll) against --mount-rpy and reports in its true frame
       crosstalk          scale=1 (multiplies the built-in 6x6 matrix E)
       contact            start=4, end=6 [s], force=X/Y/Z in B [N], point=X/Y/Z in S [m]
+      grasp              t=5 [s], mass=0.6 [kg], com=X/Y/Z in S [m] (0/0/0.12), side=0.06 [m]: an
+                         object (a solid cube) is held from t on, on top of the payload
+      pushes             seed=1, force=12 [N], min=0.4, max=0.6 [s], gap_min=1, gap_max=6 [s],
+                         until=600 [s]: random pushes (direction uniform in B, sin^2 profile)
       rigid_body         full Newton-Euler (already the default; listed for symmetry)
     e.g. --effect sensor_delay:tau=0.02 --effect cable:k=5,anchor=-0.7/-0.3/1.4
 
