@@ -4,6 +4,7 @@
 // than the settings were chosen on) with pushes or a grasp, replayed through ftidd's compensator
 // and the payload monitor.
 #include <string>
+#include <vector>
 
 #include "ftid/compensate/monitor_log.hpp"
 #include "ftid/identify/fit.hpp"
@@ -63,6 +64,29 @@ inline compensate::MonitorReplay replayRun(const IdentifiedCell& cell, const sim
   compensate::Compensator comp(cell.model, cell.theta, cell.nonlinear);
   monitor::PayloadMonitor mon(settings);
   return compensate::replayMonitor(contexts.samples, comp, mon);
+}
+
+/// The monitor samples of a run (compensated with payload A), in time order.
+inline std::vector<monitor::MonitorSample> monitorSamples(const IdentifiedCell& cell, const sim::CellSimConfig& cfg) {
+  const logio::LogData log = sim::CellSim(cfg).run();
+  samples::ContextSet contexts = samples::buildContexts(log, *cfg.robot);
+  samples::setTilt(contexts.samples, cell.nonlinear.tilt_u_rad, cell.nonlinear.tilt_v_rad);
+  compensate::Compensator comp(cell.model, cell.theta, cell.nonlinear);
+  std::vector<monitor::MonitorSample> out;
+  for (const auto& ctx : contexts.samples) {
+    Wrench contact;
+    if (comp.compute(ctx, &contact, nullptr) == Status::kOk) out.push_back(compensate::monitorSample(ctx, contact));
+  }
+  return out;
+}
+
+/// [m, m c, I_S] of the identified payload A.
+inline monitor::ChangeVector payloadOf(const IdentifiedCell& cell) {
+  static constexpr const char* kNames[monitor::kChangeParams] = {
+      "mass", "mass_com_x", "mass_com_y", "mass_com_z", "i_s_xx", "i_s_yy", "i_s_zz", "i_s_xy", "i_s_xz", "i_s_yz"};
+  monitor::ChangeVector p;
+  for (int j = 0; j < monitor::kChangeParams; ++j) p[j] = cell.theta[cell.model.paramIndex().column(kNames[j])];
+  return p;
 }
 
 }  // namespace ftid::test
