@@ -42,6 +42,11 @@ std::string checkCommand(const ftid_lcm::command_t& cmd, transport::CommandVerif
     ++counters->malformed;
     why = "TARE takes no argument (the window and limits are in ftidd's configuration)";
   }
+  if (why.empty() && cmd.command == ftid_lcm::command_t::REIDENTIFY && !cmd.argument.empty() &&
+      cmd.argument != "apply") {
+    ++counters->malformed;
+    why = "REIDENTIFY takes no argument or \"apply\"";
+  }
   if (why.empty()) return {};
   return "command " + std::to_string(static_cast<int>(cmd.command)) + " (request " +
          std::to_string(cmd.request_id) + ") refused: " + why;

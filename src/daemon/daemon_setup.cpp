@@ -174,7 +174,8 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
     const std::string channel = cfg.monitor.channel;
     payload_watch = std::make_unique<PayloadWatch>(
         monitorSettings(cfg.monitor), cfg.monitor.publish_hz, monitor_link.get(),
-        [box, channel](const MonitorReport& report) { publishMonitorReport(box, channel, report); });
+        [box, channel](const MonitorReport& report) { publishMonitorReport(box, channel, report); },
+        static_cast<std::size_t>(cfg.monitor.reidentify_window_s * cfg.robot.rtde_frequency_hz * 1.25) + 16);
   }
   loop_stats = std::make_unique<rt::LoopStats>();
   stats_box = std::make_unique<rt::Mailbox<rt::LoopStats>>();

@@ -1,6 +1,7 @@
 // ftidd's payload monitor thread (include/ftid/daemon/payload_watch.hpp).
 #include "ftid/daemon/payload_watch.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -8,6 +9,7 @@
 
 #include "daemon_setup.hpp"
 
+#include "ftid/common/error.hpp"
 #include "ftid/common/status.hpp"
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid_lcm/payload_monitor_t.hpp"
@@ -82,11 +84,12 @@ void publishMonitorReport(transport::LcmOutbox* outbox, const std::string& chann
 }
 
 PayloadWatch::PayloadWatch(const monitor::MonitorSettings& settings, double publish_hz, MonitorLink* link,
-                           Publisher publish)
+                           Publisher publish, std::size_t history)
     : monitor_(settings),
       period_us_(static_cast<std::int64_t>(std::llround(1e6 / publish_hz))),
       link_(link),
-      publish_(std::move(publish)) {}
+      publish_(std::move(publish)),
+      history_(std::max<std::size_t>(history, 1)) {}
 
 PayloadWatch::~PayloadWatch() { stop(); }
 
@@ -121,6 +124,12 @@ void PayloadWatch::poll(std::int64_t now_us) {
       monitor_.reset();
       param_version_ = in.param_version;
     }
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      history_[history_next_] = in;
+      history_next_ = (history_next_ + 1) % history_.size();
+      history_count_ = std::min(history_count_ + 1, history_.size());
+    }
     const std::optional<monitor::MonitorEvent> event = monitor_.update(in.sample);
     const monitor::MonitorState state = monitor_.status().state;
     link_->wrench_flags.store(state == monitor::MonitorState::kChanged   ? kFlagPayloadChanged
@@ -149,6 +158,56 @@ void PayloadWatch::poll(std::int64_t now_us) {
     const std::lock_guard<std::mutex> lock(mutex_);
     latest_ = r;
   }
+}
+
+std::vector<monitor::MonitorSample> PayloadWatch::recent(double window_s) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<monitor::MonitorSample> out;
+  if (history_count_ == 0) return out;
+  const std::size_t n = history_.size();
+  const MonitorInput& newest = history_[(history_next_ + n - 1) % n];
+  // Walk back from the newest while the version and the window hold.
+  std::size_t k = 0;
+  while (k < history_count_) {
+    const MonitorInput& in = history_[(history_next_ + n - 1 - k) % n];
+    if (in.param_version != newest.param_version || in.sample.t < newest.sample.t - window_s) break;
+    ++k;
+  }
+  out.reserve(k);
+  for (std::size_t i = k; i > 0; --i) out.push_back(history_[(history_next_ + n - i) % n].sample);
+  return out;
+}
+
+monitor::ChangeVector payloadOf(const params::ParameterSet& set) {
+  static constexpr const char* kNames[monitor::kChangeParams] = {
+      "mass", "mass_com_x", "mass_com_y", "mass_com_z", "i_s_xx", "i_s_yy", "i_s_zz", "i_s_xy", "i_s_xz", "i_s_yz"};
+  monitor::ChangeVector p = monitor::ChangeVector::Constant(std::nan(""));
+  for (const params::NamedValue& v : set.params) {
+    for (int j = 0; j < monitor::kChangeParams; ++j) {
+      if (v.name == kNames[j]) p[j] = v.value;
+    }
+  }
+  if (!p.head<4>().allFinite()) {
+    throw ConfigError("re-identification needs a payload with mass and mass_com_x/y/z (model '" + set.model + "')");
+  }
+  return p;
+}
+
+params::ParameterSet reidentifiedSet(const params::ParameterSet& set, const monitor::ChangeFit& fit) {
+  static constexpr const char* kNames[monitor::kChangeParams] = {
+      "mass", "mass_com_x", "mass_com_y", "mass_com_z", "i_s_xx", "i_s_yy", "i_s_zz", "i_s_xy", "i_s_xz", "i_s_yz"};
+  params::ParameterSet next = set;
+  for (params::NamedValue& v : next.params) {
+    for (int j = 0; j < monitor::kChangeParams; ++j) {
+      if (v.name != kNames[j]) continue;
+      v.value += fit.change.delta[j];
+      v.std = std::sqrt(std::max(0.0, fit.change.covariance(j, j)));
+    }
+  }
+  next.derived.clear();
+  next.provenance.method = "reidentify";
+  next.provenance.n_samples = fit.samples;
+  return next;
 }
 
 MonitorReport PayloadWatch::latest() const {

@@ -150,6 +150,8 @@ struct MonitorConfig {
   double free_motion_acc_m_s2 = 0.3;      ///< or the sensor accelerates at least this much
   double max_gap_s = 0.1;
   double restart_s = 1.0;
+  /// REIDENTIFY fits the change on the last this many seconds of valid cycles [s] (0.5..30).
+  double reidentify_window_s = 4.0;
 };
 
 /// Names and parts used by the exports (`ftid export`, `identify --out`, `ftid --identify`).

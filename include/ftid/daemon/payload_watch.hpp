@@ -15,9 +15,12 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/monitor/change_fit.hpp"
 #include "ftid/monitor/payload_monitor.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/rt/spsc_queue.hpp"
 
 namespace ftid_lcm {
@@ -67,13 +70,23 @@ ftid_lcm::payload_monitor_t toMessage(const MonitorReport& report);
 /// Publishes the report on `channel` through the outbox (non-RT) and logs an event in one line.
 void publishMonitorReport(transport::LcmOutbox* outbox, const std::string& channel, const MonitorReport& report);
 
+/// [m, m c, I_S] of a parameter set (the inertia NaN when the set has none). Throws ConfigError
+/// if it has no mass or first moment (a model without `gravity`).
+monitor::ChangeVector payloadOf(const params::ParameterSet& set);
+
+/// The set after a fitted change: mass, mass_com_* and (if present) i_s_* plus the change, with
+/// the change's standard errors; derived values dropped; provenance says "reidentify".
+params::ParameterSet reidentifiedSet(const params::ParameterSet& set, const monitor::ChangeFit& fit);
+
 class PayloadWatch {
  public:
   using Publisher = std::function<void(const MonitorReport& report)>;
 
   /// Validates the settings (ConfigError naming the key); `publish` is called from the monitor
   /// thread (or from poll()).
-  PayloadWatch(const monitor::MonitorSettings& settings, double publish_hz, MonitorLink* link, Publisher publish);
+  /// `history` samples are kept for recent() (at least one).
+  PayloadWatch(const monitor::MonitorSettings& settings, double publish_hz, MonitorLink* link, Publisher publish,
+               std::size_t history = 4096);
   ~PayloadWatch();
   PayloadWatch(const PayloadWatch&) = delete;
   PayloadWatch& operator=(const PayloadWatch&) = delete;
@@ -85,6 +98,11 @@ class PayloadWatch {
   /// monitor and the flags, publishes each event and, when `now_us` is a period past the last
   /// report, the status.
   void poll(std::int64_t now_us);
+
+  /// The kept samples of the newest parameter version from the last `window_s` (sample time), in
+  /// order (any thread).
+  std::vector<monitor::MonitorSample> recent(double window_s) const;
+  const monitor::MonitorSettings& settings() const noexcept { return monitor_.settings(); }
 
   /// The monitor's state after the last poll (any thread; `event` is set only if that poll published one).
   MonitorReport latest() const;
@@ -100,6 +118,9 @@ class PayloadWatch {
   std::int64_t last_report_us_ = 0;
   mutable std::mutex mutex_;
   MonitorReport latest_;
+  std::vector<MonitorInput> history_;  ///< ring, fixed capacity
+  std::size_t history_next_ = 0;
+  std::size_t history_count_ = 0;
   std::atomic<bool> running_{false};
   std::thread thread_;
 };

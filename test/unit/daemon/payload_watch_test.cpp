@@ -3,9 +3,11 @@
 // new parameter version, and the LCM message.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include "../monitor/monitor_cell.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/common/status.hpp"
 #include "ftid/daemon/payload_watch.hpp"
 #include "ftid_lcm/payload_monitor_t.hpp"
@@ -116,6 +118,53 @@ TEST(PayloadWatch, MessageCarriesVersionStateAndEstimate) {
   ftid_lcm::payload_monitor_t back;
   ASSERT_GT(back.decode(buf.data(), 0, static_cast<int>(buf.size())), 0);
   EXPECT_EQ(back.delta_mass, 0.5);
+}
+
+}  // namespace
+}  // namespace ftid::daemon
+
+namespace ftid::daemon {
+namespace {
+
+TEST(PayloadWatch, RecentKeepsTheNewestVersionWithinTheWindow) {
+  MonitorLink link;
+  PayloadWatch watch(monitor::MonitorSettings{}, 4.0, &link, {}, 100);
+  EXPECT_TRUE(watch.recent(4.0).empty());
+  for (int k = 0; k < 300; ++k) {
+    MonitorInput in;
+    in.sample.t = 0.01 * k;
+    in.param_version = k < 250 ? 1 : 2;
+    link.handOver(in);
+  }
+  watch.poll(1);
+  const auto last = watch.recent(10.0);
+  ASSERT_EQ(last.size(), 50u);  // version 2 only
+  EXPECT_DOUBLE_EQ(last.front().t, 2.5);
+  EXPECT_DOUBLE_EQ(last.back().t, 2.99);
+  EXPECT_EQ(watch.recent(0.095).size(), 10u);
+}
+
+TEST(PayloadWatch, ReidentifiedSetAddsTheChange) {
+  params::ParameterSet set;
+  set.model = "paper";
+  set.params = {{"mass", 1.0, 0.01, "kg"}, {"mass_com_x", 0.0, 0.0, "kg*m"}, {"mass_com_y", 0.01, 0.0, "kg*m"},
+                {"mass_com_z", 0.05, 0.0, "kg*m"}, {"f0_x", 0.3, 0.0, "N"}};
+  const monitor::ChangeVector p = payloadOf(set);
+  EXPECT_EQ(p[0], 1.0);
+  EXPECT_TRUE(std::isnan(p[4]));  // no inertia in this model
+  monitor::ChangeFit fit;
+  fit.change.delta << 0.6, 0.006, 0.0, 0.06, 0, 0, 0, 0, 0, 0;
+  fit.change.covariance = monitor::ChangeMatrix::Identity() * 1e-6;
+  const params::ParameterSet next = reidentifiedSet(set, fit);
+  EXPECT_DOUBLE_EQ(next.params[0].value, 1.6);
+  EXPECT_DOUBLE_EQ(next.params[1].value, 0.006);
+  EXPECT_DOUBLE_EQ(next.params[3].value, 0.11);
+  EXPECT_DOUBLE_EQ(next.params[4].value, 0.3);  // offsets kept
+  EXPECT_DOUBLE_EQ(next.params[0].std, 1e-3);
+  params::ParameterSet no_mass;
+  no_mass.model = "offsets";
+  no_mass.params = {{"f0_x", 0.3, 0.0, "N"}};
+  EXPECT_THROW(payloadOf(no_mass), ConfigError);
 }
 
 }  // namespace
