@@ -5,7 +5,7 @@
 # module (ftid_add_library) that is not declared here. A new module: add it to its layer.
 set(FTID_MODULE_LAYERS
   "fileio effects rt drivers_ur"                          # 0: leaves (plus common, header-only)
-  "model logio trajectory params drivers_can config"      # 1: kinematics, file formats, parameter sets, CAN driver
+  "model logio trajectory params drivers_can config monitor" # 1: kinematics, file formats, parameter sets, CAN driver, payload monitor
   "samples sim motion transport simrobot"                 # 2: the one sample builder, simulator, robot motion, LCM
   "compensate identify simsensor daemon_client"           # 3: real-time compensation, offline identification, ftidd's command client (defined in src/daemon)
   "lab design daemon"                                     # 4: model laboratory, excitation design, ftidd

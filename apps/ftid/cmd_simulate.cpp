@@ -69,6 +69,10 @@ options:
       imu                acc_bias=0.03/-0.02/0.04 [m/s^2], gyro_bias=0.002/-0.003/0.001 [rad/s],
                          delay=0 [s]: the IMU's biases and its own stream delay (exact shift)
       contact            start=4, end=6 [s], force=X/Y/Z in B [N], point=X/Y/Z in S [m]
+      grasp              t=5 [s], mass=0.6 [kg], com=X/Y/Z in S [m] (0/0/0.12), side=0.06 [m]: an
+                         object (a solid cube) is held from t on, on top of the payload
+      pushes             seed=1, force=12 [N], min=0.4, max=0.6 [s], gap_min=1, gap_max=6 [s],
+                         until=600 [s]: random pushes (direction uniform in B, sin^2 profile)
       rigid_body         full Newton-Euler (already the default; listed for symmetry)
     e.g. --effect sensor_delay:tau=0.02 --effect cable:k=5,anchor=-0.7/-0.3/1.4
 

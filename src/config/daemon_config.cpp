@@ -73,6 +73,46 @@ std::string dirOf(const std::string& path) {
   return path.substr(0, slash);
 }
 
+// The monitor section: every number finite and positive (onset_margin >= 0), bounded.
+template <class Fail>
+void validateMonitor(const MonitorConfig& m, const Fail& fail) {
+  const std::pair<const char*, double> positive[] = {
+      {"monitor.publish_hz", m.publish_hz},
+      {"monitor.onset_threshold", m.onset_threshold},
+      {"monitor.decision_threshold", m.decision_threshold},
+      {"monitor.contact_force_std_N", m.contact_force_std_N},
+      {"monitor.contact_torque_std_Nm", m.contact_torque_std_Nm},
+      {"monitor.contact_force_rate_N_s", m.contact_force_rate_N_s},
+      {"monitor.contact_torque_rate_Nm_s", m.contact_torque_rate_Nm_s},
+      {"monitor.prior_mass_std_kg", m.prior_mass_std_kg},
+      {"monitor.prior_mass_com_std_kg_m", m.prior_mass_com_std_kg_m},
+      {"monitor.prior_inertia_std_kg_m2", m.prior_inertia_std_kg_m2},
+      {"monitor.free_motion_turn_rad_s", m.free_motion_turn_rad_s},
+      {"monitor.free_motion_acc_m_s2", m.free_motion_acc_m_s2},
+      {"monitor.max_gap_s", m.max_gap_s},
+      {"monitor.restart_s", m.restart_s},
+  };
+  for (const auto& [key, value] : positive) {
+    if (!(std::isfinite(value) && value > 0.0 && value <= 1e6)) fail(key, "must be a number in (0, 1e6]");
+  }
+  if (!(m.noise_std.allFinite() && m.noise_std.minCoeff() > 0.0 && m.noise_std.maxCoeff() <= 1e3)) {
+    fail("monitor.noise_std", "must be 6 numbers in (0, 1000] (fx fy fz [N] tx ty tz [Nm])");
+  }
+  if (!(std::isfinite(m.onset_margin) && m.onset_margin >= 0.0 && m.onset_margin <= 1e6)) {
+    fail("monitor.onset_margin", "must be a number in [0, 1e6]");
+  }
+  if (!(m.publish_hz >= 2.0 && m.publish_hz <= 100.0)) fail("monitor.publish_hz", "must be in 2..100 Hz");
+  if (!(m.reidentify_window_s >= 0.5 && m.reidentify_window_s <= 30.0)) {
+    fail("monitor.reidentify_window_s", "must be in 0.5..30 s");
+  }
+  if (m.channel.empty() || m.channel.size() > 63 ||
+      m.channel.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_-/.") !=
+          std::string::npos) {
+    fail("monitor.channel", "channel names use letters, digits and _ - / . only (at most 63), got '" +
+                                m.channel + "'");
+  }
+}
+
 // Cross-field and file checks. `where(key)` gives the location prefix for a key.
 void validate(const DaemonConfig& c, const std::function<std::string(const std::string&)>& where,
               std::vector<std::string>* warnings) {
@@ -167,6 +207,7 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.rt.overrun_budget_ms >= 0.0 && c.rt.overrun_budget_ms <= 1000.0)) {
     fail("rt.overrun_budget_ms", "must be in 0..1000 ms (0 = half a period)");
   }
+  validateMonitor(c.monitor, fail);
   if (c.output.frame != "sensor" && c.output.frame != "tool" && c.output.frame != "base") {
     fail("output.frame", "must be 'sensor', 'tool' or 'base', got '" + c.output.frame + "'");
   }
@@ -406,6 +447,27 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
         {"tool_rpy", vec3(c.output.tool_rpy)},
         {"lowpass_hz", number(c.output.lowpass_hz)},
       })},
+      {"monitor", section({
+        {"enabled", boolean(c.monitor.enabled)},
+        {"channel", text(c.monitor.channel)},
+        {"publish_hz", number(c.monitor.publish_hz)},
+        {"noise_std", vec6(c.monitor.noise_std)},
+        {"onset_margin", number(c.monitor.onset_margin)},
+        {"onset_threshold", number(c.monitor.onset_threshold)},
+        {"decision_threshold", number(c.monitor.decision_threshold)},
+        {"contact_force_std_N", number(c.monitor.contact_force_std_N)},
+        {"contact_torque_std_Nm", number(c.monitor.contact_torque_std_Nm)},
+        {"contact_force_rate_N_s", number(c.monitor.contact_force_rate_N_s)},
+        {"contact_torque_rate_Nm_s", number(c.monitor.contact_torque_rate_Nm_s)},
+        {"prior_mass_std_kg", number(c.monitor.prior_mass_std_kg)},
+        {"prior_mass_com_std_kg_m", number(c.monitor.prior_mass_com_std_kg_m)},
+        {"prior_inertia_std_kg_m2", number(c.monitor.prior_inertia_std_kg_m2)},
+        {"free_motion_turn_rad_s", number(c.monitor.free_motion_turn_rad_s)},
+        {"free_motion_acc_m_s2", number(c.monitor.free_motion_acc_m_s2)},
+        {"max_gap_s", number(c.monitor.max_gap_s)},
+        {"restart_s", number(c.monitor.restart_s)},
+        {"reidentify_window_s", number(c.monitor.reidentify_window_s)},
+      })},
       {"export", section({
         {"world_frame", text(c.exports.world_frame)},
         {"sensor_frame", text(c.exports.sensor_frame)},
@@ -488,6 +550,9 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "record.path: " << c.record.path << "\n"
      << "output: frame=" << c.output.frame << " tool_xyz=[" << c.output.tool_xyz.transpose() << "] tool_rpy=["
      << c.output.tool_rpy.transpose() << "] lowpass_hz=" << c.output.lowpass_hz << "\n"
+     << "monitor: enabled=" << b(c.monitor.enabled) << " channel=" << c.monitor.channel
+     << " publish_hz=" << c.monitor.publish_hz << " noise_std=[" << c.monitor.noise_std.transpose()
+     << "] decision_threshold=" << c.monitor.decision_threshold << "\n"
      << "export: world_frame=" << c.exports.world_frame << " sensor_frame=" << c.exports.sensor_frame
      << " sensor_name=" << c.exports.sensor_name << "\n"
      << "export.adapter: mass " << c.exports.adapter.mass << " kg, com [" << c.exports.adapter.com_F.transpose()

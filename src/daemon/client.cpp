@@ -43,11 +43,14 @@ const char* daemonCommandName(DaemonCommand command) noexcept {
     case DaemonCommand::kReloadParameters: return "RELOAD_PARAMETERS";
     case DaemonCommand::kPing: return "PING";
     case DaemonCommand::kTare: return "TARE";
+    case DaemonCommand::kReidentify: return "REIDENTIFY";
   }
   return "?";
 }
 
-bool resendsUnanswered(DaemonCommand command) noexcept { return command != DaemonCommand::kTare; }
+bool resendsUnanswered(DaemonCommand command) noexcept {
+  return command != DaemonCommand::kTare && command != DaemonCommand::kReidentify;
+}
 
 DaemonClientOptions DaemonClientOptions::fromConfig(const config::DaemonConfig& config) {
   DaemonClientOptions o;

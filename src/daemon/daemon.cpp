@@ -42,6 +42,11 @@ std::string checkCommand(const ftid_lcm::command_t& cmd, transport::CommandVerif
     ++counters->malformed;
     why = "TARE takes no argument (the window and limits are in ftidd's configuration)";
   }
+  if (why.empty() && cmd.command == ftid_lcm::command_t::REIDENTIFY && !cmd.argument.empty() &&
+      cmd.argument != "apply") {
+    ++counters->malformed;
+    why = "REIDENTIFY takes no argument or \"apply\"";
+  }
   if (why.empty()) return {};
   return "command " + std::to_string(static_cast<int>(cmd.command)) + " (request " +
          std::to_string(cmd.request_id) + ") refused: " + why;
@@ -78,12 +83,14 @@ int Daemon::run() {
   LoopOwner owner(setup.cycle.get(), setup.loop_stats.get(), setup.armConnector(), setup.sensorLink(),
                   setup.loopOwnerOptions(), &logLine);
   setup.outbox->start();
+  if (setup.payload_watch) setup.payload_watch->start();
   owner.start(nullptr);  // the link thread connects the robot (docs/daemon.md, "Running")
   Supervisor supervisor(&setup, &owner, signals, options_);
   const int exit_code = supervisor.run();
 
   notifySystemd("STOPPING=1");
   owner.stop();  // the loop returns within one receive timeout
+  if (setup.payload_watch) setup.payload_watch->stop();
   setup.outbox->stop();
   const auto oc = setup.outbox->counters();
   const LinkStatus link = owner.status();

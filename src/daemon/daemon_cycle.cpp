@@ -6,6 +6,7 @@
 #include <ctime>
 #include <limits>
 
+#include "ftid/compensate/monitor_log.hpp"
 #include "ftid/model/frames.hpp"
 #include "ftid/samples/sample_builder.hpp"
 
@@ -253,6 +254,9 @@ void DaemonCycle::step(const RobotStateRecord& robot,
       rec.contact_S = contact;
       rec.modelled_S = modelled;
       rec.wrench_valid = true;
+      if (monitor_link_ != nullptr) {
+        monitor_link_->handOver(MonitorInput{compensate::monitorSample(ctx_, contact), rec.param_version});
+      }
     } else {
       counters_.model_failures.fetch_add(1, std::memory_order_relaxed);
       rec.fault_bits |= kFaultSensorInvalid;
@@ -279,11 +283,13 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     if (tare_.add(rec, &tare_result_)) tare_results_->tryPush(tare_result_);
   }
 
+  // The payload monitor's flags ride on every wrench; they are no faults (docs/daemon.md).
+  if (monitor_link_ != nullptr) rec.fault_bits |= monitor_link_->flags();
   if (sink_ != nullptr && !sink_->tryPush(rec)) {
     counters_.sink_dropped.fetch_add(1, std::memory_order_relaxed);
     rec.fault_bits |= kFaultPublishDropped;
   }
-  faults_.raise(rec.fault_bits);
+  faults_.raise(rec.fault_bits & ~kWrenchFlagMask);
   counters_.last_utime.store(now, std::memory_order_relaxed);
   counters_.cycles.fetch_add(1, std::memory_order_release);
   if (out != nullptr) *out = rec;

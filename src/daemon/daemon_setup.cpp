@@ -167,6 +167,16 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   tare_requests = std::make_unique<rt::Mailbox<TareRequest>>();
   tare_results = std::make_unique<rt::Mailbox<TareResult>>();
   cycle->attachTare(tare_requests.get(), tare_results.get());
+  if (cfg.monitor.enabled) {
+    monitor_link = std::make_unique<MonitorLink>();
+    cycle->attachMonitor(monitor_link.get());
+    transport::LcmOutbox* box = outbox.get();
+    const std::string channel = cfg.monitor.channel;
+    payload_watch = std::make_unique<PayloadWatch>(
+        monitorSettings(cfg.monitor), cfg.monitor.publish_hz, monitor_link.get(),
+        [box, channel](const MonitorReport& report) { publishMonitorReport(box, channel, report); },
+        static_cast<std::size_t>(cfg.monitor.reidentify_window_s * cfg.robot.rtde_frequency_hz * 1.25) + 16);
+  }
   loop_stats = std::make_unique<rt::LoopStats>();
   stats_box = std::make_unique<rt::Mailbox<rt::LoopStats>>();
   period_s = 1.0 / cfg.robot.rtde_frequency_hz;

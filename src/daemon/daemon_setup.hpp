@@ -19,6 +19,7 @@
 #include "ftid/daemon/daemon_cycle.hpp"
 #include "ftid/daemon/loop_owner.hpp"
 #include "ftid/daemon/output_stage.hpp"
+#include "ftid/daemon/payload_watch.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/daemon/tare.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
@@ -85,6 +86,10 @@ struct DaemonSetup {
   std::unique_ptr<rt::Mailbox<TareResult>> tare_results;
   std::unique_ptr<rt::LoopStats> loop_stats;
   std::unique_ptr<rt::Mailbox<rt::LoopStats>> stats_box;
+  // The payload monitor (null when monitor.enabled is false): the loop hands over, the watch's
+  // thread decides and publishes payload_monitor_t on monitor.channel.
+  std::unique_ptr<MonitorLink> monitor_link;
+  std::unique_ptr<PayloadWatch> payload_watch;
   rt::ExecutorConfig exec;
   double period_s = 0.008;
   double budget_us = 4000.0;  ///< computation time counted as an overrun [us]

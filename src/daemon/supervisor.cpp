@@ -5,6 +5,8 @@
 #include <thread>
 
 #include "ftid/common/error.hpp"
+#include "ftid/monitor/change_fit.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "systemd_notify.hpp"
 
 namespace ftid::daemon {
@@ -190,6 +192,41 @@ Supervisor::TareAnswer Supervisor::doTare() {
   return {r.applied, msg, r.applied ? new_offsets : Wrench::Zero()};
 }
 
+std::pair<bool, std::string> Supervisor::doReidentify(bool apply) {
+  const config::DaemonConfig& cfg = s_.cfg;
+  if (!s_.payload_watch) return {false, "reidentify refused: the payload monitor is off (monitor.enabled)"};
+  if (!s_.have_active) return {false, "reidentify refused: no payload parameters loaded"};
+  const std::vector<monitor::MonitorSample> samples = s_.payload_watch->recent(cfg.monitor.reidentify_window_s);
+  monitor::ChangeFit fit;
+  try {
+    fit = monitor::fitChange(samples, payloadOf(s_.active.set), s_.payload_watch->settings());
+  } catch (const std::exception& e) {
+    return {false, std::string("reidentify refused: ") + e.what()};
+  }
+  const monitor::ChangeEstimate& c = fit.change;
+  char buf[640];
+  std::snprintf(buf, sizeof buf,
+                "%d samples over the last %.3g s (%d in free motion): delta mass %+.4f +- %.4f kg, mass %.4f kg, "
+                "centre of mass of the change (%.4f, %.4f, %.4f) m; residual RMS fx..fz before (%.3g, %.3g, %.3g) "
+                "N, after (%.3g, %.3g, %.3g) N",
+                fit.samples, cfg.monitor.reidentify_window_s, fit.free_samples, c.delta_mass_kg, c.delta_mass_std_kg,
+                fit.payload_after[0], c.delta_com_m.x(), c.delta_com_m.y(), c.delta_com_m.z(),
+                fit.residual_rms_before[0], fit.residual_rms_before[1], fit.residual_rms_before[2],
+                fit.residual_rms_after[0], fit.residual_rms_after[1], fit.residual_rms_after[2]);
+  if (!fit.ok) return {false, "reidentify refused: " + fit.reason + " (" + buf + ")"};
+  if (!apply) return {true, std::string("reidentified (not loaded; send with apply to load it): ") + buf};
+  try {
+    params::writeParameterFile(cfg.parameters.path, reidentifiedSet(s_.active.set, fit));  // atomic
+  } catch (const std::exception& e) {
+    return {false, std::string("reidentify: the parameter file cannot be written: ") + e.what()};
+  }
+  const ReloadResult r = doReload();
+  const std::string msg = std::string("reidentified and written to ") + cfg.parameters.path +
+                          (r.ok && r.applied ? ", loaded: " : ", NOT loaded (" + r.message + "): ") + buf;
+  logLine(msg);
+  return {r.ok && r.applied, msg};
+}
+
 void Supervisor::handleCommands() {
   ftid_lcm::command_t cmd;
   while (s_.commands.pop(&cmd)) {
@@ -224,6 +261,10 @@ void Supervisor::handleCommands() {
       ack.message = a.message;
       for (int i = 0; i < 6; ++i) ack.offsets[i] = a.offsets(i);
       ++(a.ok ? tares_done_ : tares_refused_);
+    } else if (cmd.command == ftid_lcm::command_t::REIDENTIFY) {
+      const auto [ok, message] = doReidentify(cmd.argument == "apply");
+      ack.ok = ok;
+      ack.message = message;
     } else if (cmd.command == ftid_lcm::command_t::PING) {
       ack.ok = true;
     } else {

@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdint>
 #include <string>
+#include <utility>
 
 #include "daemon_setup.hpp"
 #include "ftid/common/types.hpp"
@@ -39,6 +40,9 @@ class Supervisor {
   };
   ReloadResult doReload();
   TareAnswer doTare();
+  /// REIDENTIFY (docs/daemon.md, "Re-identification"): fit the change on the recent samples,
+  /// validate, and with `apply` write the parameter file atomically and reload it.
+  std::pair<bool, std::string> doReidentify(bool apply);
   void handleCommands();
   void publishStats();
   void trackRobotLink(std::uint64_t cycles_now);

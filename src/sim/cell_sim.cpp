@@ -113,6 +113,19 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
               c.contact.t_end_s > c.contact.t_start_s,
           "contact", "needs t_end_s > t_start_s");
   require(finite3(c.contact.force_B) && finite3(c.contact.p_SP_S), "contact", "force/point not finite");
+  for (std::size_t i = 0; i < c.pushes.size(); ++i) {
+    const ContactSwitch& push = c.pushes[i];
+    const std::string field = "pushes[" + std::to_string(i) + "]";
+    require(std::isfinite(push.t_start_s) && std::isfinite(push.t_end_s) && push.t_end_s > push.t_start_s,
+            field, "needs t_end_s > t_start_s");
+    require(finite3(push.force_B) && finite3(push.p_SP_S), field, "force/point not finite");
+  }
+  if (c.payload_change.enabled) {
+    const PayloadTruth& a = c.payload_change.added;
+    require(std::isfinite(c.payload_change.t_s), "payload_change.t_s", "not finite");
+    require(std::isfinite(a.mass_kg) && a.mass_kg >= 0.0 && finite3(a.p_SC_S) && a.I_C_S.allFinite(),
+            "payload_change.added", "needs a finite mass >= 0, centre of mass and inertia");
+  }
   config_.robot->setSensorMount(c.R_FS, c.p_FS_F);
   // Gravity in B written out from the paper's Eq. 13 (R_WB = Rx(U) Ry(V), g_B = R_WB^T g_W), not
   // taken from model::gravityInBase: the tilt convention of the fit is then checked against an
@@ -156,12 +169,13 @@ Wrench CellSim::loadWrenchAt(const JointVector& q, const JointVector& qd, const 
   return loadWrenchFor(config_.robot->computeSensorMotion(q, qd, qdd), t_s);
 }
 
-Wrench CellSim::loadWrenchFor(const model::SensorMotion& m, double t_s) const {
-  const Vec3 g_S = m.R_BS.transpose() * g_B_;
-  const PayloadTruth& p = config_.payload;
+namespace {
+
+/// The wrench a held rigid body exerts on the sensor (Newton-Euler; paper model when !full).
+Wrench heldBodyWrench(const PayloadTruth& p, const model::SensorMotion& m, const Vec3& g_S, bool full) {
   const Vec3& c = p.p_SC_S;
   Vec3 f, t;
-  if (config_.full_rigid_body) {
+  if (full) {
     // Newton-Euler of the payload: the sensor holds it, so the payload pushes on the sensor with
     // m (g - a_C) and the moment that is left after its angular momentum rate about C.
     const Vec3 a_C = m.a_S + m.alpha_S.cross(c) + m.w_S.cross(m.w_S.cross(c));
@@ -173,6 +187,31 @@ Wrench CellSim::loadWrenchFor(const model::SensorMotion& m, double t_s) const {
   }
   Wrench w;
   w << f, t;
+  return w;
+}
+
+Wrench pushWrench(const ContactSwitch& ct, const Mat3& R_BS, double t_s) {
+  const Vec3 F_S = R_BS.transpose() * (ct.profile(t_s) * ct.force_B);
+  Wrench w;
+  w << F_S, ct.p_SP_S.cross(F_S);
+  return w;
+}
+
+}  // namespace
+
+Wrench CellSim::contactWrenchAt(const Mat3& R_BS, double t_s) const {
+  Wrench w = Wrench::Zero();
+  if (config_.contact.enabled) w += pushWrench(config_.contact, R_BS, t_s);
+  for (const ContactSwitch& push : config_.pushes) w += pushWrench(push, R_BS, t_s);
+  return w;
+}
+
+Wrench CellSim::loadWrenchFor(const model::SensorMotion& m, double t_s) const {
+  const Vec3 g_S = m.R_BS.transpose() * g_B_;
+  Wrench w = heldBodyWrench(config_.payload, m, g_S, config_.full_rigid_body);
+  if (config_.payload_change.enabled && t_s >= config_.payload_change.t_s) {
+    w += heldBodyWrench(config_.payload_change.added, m, g_S, config_.full_rigid_body);
+  }
   if (config_.cable.enabled) {
     const auto& cb = config_.cable;
     const Vec3 p_BA_attach_B = m.p_BS_B + m.R_BS * cb.p_SA_S;
@@ -180,12 +219,7 @@ Wrench CellSim::loadWrenchFor(const model::SensorMotion& m, double t_s) const {
     w.head<3>() += F_S;
     w.tail<3>() += cb.p_SA_S.cross(F_S);
   }
-  if (config_.contact.enabled) {
-    const auto& ct = config_.contact;
-    const Vec3 F_S = m.R_BS.transpose() * (ct.profile(t_s) * ct.force_B);
-    w.head<3>() += F_S;
-    w.tail<3>() += ct.p_SP_S.cross(F_S);
-  }
+  if (hasContacts()) w += contactWrenchAt(m.R_BS, t_s);
   return w;
 }
 
@@ -215,10 +249,7 @@ SensorReading CellSim::readingAt(const JointVector& q, const JointVector& qd, co
   r.alpha_S = m.alpha_S;
   r.temp_degC = temp_degC;
   const Wrench load = loadWrenchFor(m, t_s);
-  if (config_.contact.enabled) {
-    const Vec3 F_S = m.R_BS.transpose() * (config_.contact.profile(t_s) * config_.contact.force_B);
-    r.contact_S << F_S, config_.contact.p_SP_S.cross(F_S);
-  }
+  if (hasContacts()) r.contact_S = contactWrenchAt(m.R_BS, t_s);
   Wrench sensed = load;
   if (config_.mounting.enabled) {
     // The sensor's true frame S' is rotated by R_SS' against the configured S: it reports in S'.
@@ -348,7 +379,7 @@ logio::LogData CellSim::run() const {
                                     : sampleCount();
   const std::size_t n = n_raw / per_row;
   log.samples.resize(n);
-  const bool contact = config_.contact.enabled;
+  const bool contact = hasContacts();
   if (contact) {
     for (int i = 0; i < 6; ++i) log.extra_names.push_back(std::string("contact_") + kWrenchAxisNames[i]);
     log.extra_columns.assign(6, std::vector<double>(n, 0.0));

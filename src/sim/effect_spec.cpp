@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ftid/common/error.hpp"
+#include "ftid/sim/scenarios.hpp"
 
 namespace ftid::sim {
 
@@ -126,13 +127,46 @@ void applyEffectSpec(const std::string& spec, CellSimConfig& c) {
       else if (k == "delay") c.imu.delay_s = number(v, w + " delay");
       else throw bad(k);
     }
+  } else if (name == "grasp") {
+    c.payload_change.enabled = true;
+    double mass = 0.6, side = 0.06;
+    Vec3 com(0.0, 0.0, 0.12);
+    for (const auto& [k, v] : kv) {
+      if (k == "t") c.payload_change.t_s = number(v, w + " t");
+      else if (k == "mass") mass = number(v, w + " mass");
+      else if (k == "com") com = vector3(v, w + " com");
+      else if (k == "side") side = number(v, w + " side");
+      else throw bad(k);
+    }
+    if (!(mass >= 0.0) || !(side >= 0.0)) throw ConfigError(w + ": mass and side must be >= 0");
+    c.payload_change.added = compactObject(mass, com, side);
+  } else if (name == "pushes") {
+    PushScenario sc;
+    double seed = 1.0, until = 600.0;
+    for (const auto& [k, v] : kv) {
+      if (k == "seed") seed = number(v, w + " seed");
+      else if (k == "force") sc.force_N = number(v, w + " force");
+      else if (k == "min") sc.min_duration_s = number(v, w + " min");
+      else if (k == "max") sc.max_duration_s = number(v, w + " max");
+      else if (k == "gap_min") sc.min_gap_s = number(v, w + " gap_min");
+      else if (k == "gap_max") sc.max_gap_s = number(v, w + " gap_max");
+      else if (k == "until") until = number(v, w + " until");
+      else throw bad(k);
+    }
+    if (!(seed >= 0.0 && seed == std::floor(seed) && seed < 1e15)) throw ConfigError(w + " seed: a whole number >= 0");
+    if (!(sc.min_duration_s > 0.0 && sc.max_duration_s >= sc.min_duration_s && sc.min_gap_s > 0.0 &&
+          sc.max_gap_s >= sc.min_gap_s && until > 0.0 && until <= 86400.0)) {
+      throw ConfigError(w + ": needs 0 < min <= max, 0 < gap_min <= gap_max and 0 < until <= 86400");
+    }
+    const auto more = randomPushes(static_cast<std::uint64_t>(seed), 0.0, until, sc);
+    c.pushes.insert(c.pushes.end(), more.begin(), more.end());
   } else if (name == "rigid_body") {
     if (!kv.empty()) throw bad(kv.front().first);
     c.full_rigid_body = true;
   } else {
     throw ConfigError("unknown effect '" + name +
                       "' (cable, temperature_drift, time_drift, sensor_delay, crosstalk, contact, glitches, mounting, "
-                      "imu, rigid_body)");
+                      "imu, rigid_body, grasp, pushes)");
   }
 }
 

@@ -11,6 +11,7 @@
 #   - a correctly signed PING and RELOAD are accepted (Python's HMAC = ftid's);
 #   - a signed TARE (robot at rest) is acknowledged with the new offsets, saves
 #     parameters.yaml.tare.yaml with the parameter file's SHA-256, and RELOAD removes it;
+#   - `ftid reidentify --apply` with the robot at rest is refused (no motion), nothing written
 #   - `ftid tare` (the command-line sender): prints the offsets of the ack, the same as in the
 #     saved tare state (--json parsed by Python); with a wrong key, with the sensor stopped (no
 #     valid wrench in the window) it exits 3 with ftidd's reason and nothing changes; an unreadable
@@ -355,6 +356,15 @@ stats=$(send stats)
 echo "$stats"
 echo "$stats" | awk -v d=$DONE -v r=$REFUSED -v v="$version_tared" '{ exit !($13 == d && $15 == r && $17 == v) }' ||
   fail "a resent TARE request was executed twice (expected $DONE done, $REFUSED refused, version $version_tared): $stats"
+
+# ---- `ftid reidentify` (signed REIDENTIFY) with the robot at rest: refused with the reason (no
+# motion in the monitor's buffer), the parameter file untouched.
+sum_before=$(sha256sum "$PARAMS" | cut -d' ' -f1)
+"$FTID" reidentify --apply --config "$WORK/ftidd.yaml" > "$WORK/reid.out" 2> "$WORK/reid.err"; rc=$?
+echo "ftid reidentify --apply: exit $rc: $(cat "$WORK/reid.err")"
+[ $rc -eq 3 ] || fail "ftid reidentify at rest exited $rc, expected 3 (refused)"
+grep -q "no motion" "$WORK/reid.err" || fail "ftid reidentify at rest: the refusal does not name the missing motion"
+[ "$(sha256sum "$PARAMS" | cut -d' ' -f1)" = "$sum_before" ] || fail "a refused REIDENTIFY changed the parameter file"
 
 # The parameter file becomes a FIFO: SIGHUP must not wedge ftidd, SIGTERM must still work.
 mv "$PARAMS" "$WORK/saved.yaml" && mkfifo "$PARAMS"

@@ -28,6 +28,15 @@ enum FaultBit : std::uint32_t {
   kFaultTrackingError = 1u << 7,
 };
 
+/// Flags of the compensated wrench that are not faults (compensated_wrench_t.fault_bits, bits
+/// 256 and 512): set by the payload monitor (docs/daemon.md, "Payload monitor") on every wrench
+/// while a payload change is suspected or confirmed. Never raised in the supervisor's FaultWord.
+enum WrenchFlag : std::uint32_t {
+  kFlagPayloadSuspect = 1u << 8,   ///< something acts on the tool: contact, or a change not yet decided
+  kFlagPayloadChanged = 1u << 9,   ///< the payload changed: the compensation is wrong until re-identified
+};
+inline constexpr std::uint32_t kWrenchFlagMask = kFlagPayloadSuspect | kFlagPayloadChanged;
+
 class FaultWord {
  public:
   void raise(std::uint32_t bits) noexcept { bits_.fetch_or(bits, std::memory_order_relaxed); }

@@ -129,6 +129,31 @@ struct OutputConfig {
   Mat3 R_ST() const;
 };
 
+/// The payload monitor (docs/daemon.md, "Payload monitor"; ftid/monitor/payload_monitor.hpp
+/// explains each setting; defaults measured, docs/performance.md "Payload monitor").
+struct MonitorConfig {
+  bool enabled = true;
+  std::string channel = "FTID_MONITOR";   ///< payload_monitor_t
+  double publish_hz = 4.0;                ///< payload_monitor_t rate (and on every event)
+  Vec6 noise_std = (Vec6() << 0.3, 0.3, 0.3, 0.03, 0.03, 0.03).finished();  ///< residual floor [N, Nm]
+  double onset_margin = 6.0;
+  double onset_threshold = 40.0;
+  double decision_threshold = 12.0;       ///< [nats]
+  double contact_force_std_N = 10.0;
+  double contact_torque_std_Nm = 1.0;
+  double contact_force_rate_N_s = 40.0;
+  double contact_torque_rate_Nm_s = 4.0;
+  double prior_mass_std_kg = 5.0;
+  double prior_mass_com_std_kg_m = 0.5;
+  double prior_inertia_std_kg_m2 = 0.02;
+  double free_motion_turn_rad_s = 0.05;   ///< free motion: gravity turns in S at least this fast
+  double free_motion_acc_m_s2 = 0.3;      ///< or the sensor accelerates at least this much
+  double max_gap_s = 0.1;
+  double restart_s = 1.0;
+  /// REIDENTIFY fits the change on the last this many seconds of valid cycles [s] (0.5..30).
+  double reidentify_window_s = 4.0;
+};
+
 /// Names and parts used by the exports (`ftid export`, `identify --out`, `ftid --identify`).
 struct ExportConfig {
   std::string world_frame = "base";       ///< ROS TF frame = robot base B (gravity_field is in it)
@@ -147,6 +172,7 @@ struct DaemonConfig {
   RecordConfig record;
   ExportConfig exports;  ///< YAML section `export`
   OutputConfig output;
+  MonitorConfig monitor;
   std::string source;  ///< the file this was loaded from ("" for defaults)
   /// Legal but risky settings found by validation (e.g. lcm.url ttl > 1); ftidd and
   /// --check-config print them.

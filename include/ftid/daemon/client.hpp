@@ -30,13 +30,14 @@ enum class DaemonCommand : std::int8_t {
   kReloadParameters = 1,  ///< reload the configured parameter file (as SIGHUP)
   kPing = 2,              ///< answer only
   kTare = 3,              ///< re-estimate the offsets at the current pose (robot at rest)
+  kReidentify = 4,        ///< estimate the payload change from recent motion (argument "" or "apply")
 };
 
 /// "RELOAD_PARAMETERS", "PING", "TARE".
 const char* daemonCommandName(DaemonCommand command) noexcept;
 
-/// True if an unanswered `command` may be sent again (RELOAD_PARAMETERS, PING); false for TARE,
-/// which is published once: a resend would be a second tare.
+/// True if an unanswered `command` may be sent again (RELOAD_PARAMETERS, PING); false for TARE
+/// and REIDENTIFY, which are published once: a resend would be a second tare or re-identification.
 bool resendsUnanswered(DaemonCommand command) noexcept;
 
 struct DaemonClientOptions {

@@ -25,6 +25,7 @@
 
 #include "ftid/common/status.hpp"
 #include "ftid/daemon/output_stage.hpp"
+#include "ftid/daemon/payload_watch.hpp"
 #include "ftid/daemon/seams.hpp"
 #include "ftid/rt/swap_slot.hpp"
 #include "ftid/daemon/time_pairing.hpp"
@@ -160,6 +161,11 @@ class DaemonCycle {
     tare_results_ = results;
   }
 
+  /// Payload monitor (docs/daemon.md, "Payload monitor"): every valid cycle hands its residual
+  /// and motion to *link (wait-free), and every record gets the link's flags (kFlagPayload*).
+  /// Call before the loop starts; nullptr = no monitor.
+  void attachMonitor(MonitorLink* link) noexcept { monitor_link_ = link; }
+
   /// Replaces the robot state source (a new connection after a link loss). Only while no
   /// executor runs this cycle (the loop owner calls it between two sessions, on the loop thread).
   /// Parameters, tare, sensor history and cycle numbering carry over; the output low-pass
@@ -188,6 +194,7 @@ class DaemonCycle {
 
  private:
   void awaitBracketingSample() noexcept;
+  MonitorLink* monitor_link_ = nullptr;
 
   ArmStateSource* arm_;
   SensorSource* sensor_;

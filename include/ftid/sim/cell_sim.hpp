@@ -145,6 +145,15 @@ struct ContactSwitch {
   double profile(double t_s) const;
 };
 
+/// The payload changes at t_s (an object is grasped): from then on the sensor also holds `added`, a
+/// second rigid body whose Newton-Euler wrench (same formulation as the payload's) is added to the
+/// payload's. The identified parameters then describe the payload before the grasp only.
+struct PayloadChangeSwitch {
+  bool enabled = false;
+  double t_s = 5.0;
+  PayloadTruth added;
+};
+
 struct CellSimConfig {
   std::optional<model::RobotKinematics> robot;   ///< required
   Mat3 R_FS = Mat3::Identity();                  ///< sensor mount X_FS
@@ -169,6 +178,10 @@ struct CellSimConfig {
   SensorDelaySwitch sensor_delay;
   CrosstalkSwitch crosstalk;
   ContactSwitch contact;
+  /// More pushes, each like `contact` (its own window, force and point; `enabled` is ignored: every
+  /// entry pushes). Their wrench is part of the load and of the contact truth columns.
+  std::vector<ContactSwitch> pushes;
+  PayloadChangeSwitch payload_change;
   GlitchSwitch glitches;
   MountingSwitch mounting;
   StaticPoseSetSwitch static_poses;
@@ -250,6 +263,9 @@ class CellSim {
 
  private:
   Wrench loadWrenchFor(const model::SensorMotion& m, double t_s) const;
+  /// The contact wrench (contact switch plus pushes) in S at t_s for the sensor pose R_BS.
+  Wrench contactWrenchAt(const Mat3& R_BS, double t_s) const;
+  bool hasContacts() const { return config_.contact.enabled || !config_.pushes.empty(); }
   std::size_t samplesPerHold() const;
   CellSimConfig config_;
   Vec3 g_B_;

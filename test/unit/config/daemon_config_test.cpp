@@ -251,3 +251,61 @@ TEST(DaemonConfigFile, ShippedConfigIsValid) {
 
 }  // namespace
 }  // namespace ftid::config
+
+namespace ftid::config {
+namespace {
+
+class MonitorConfigTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = ::testing::TempDir() + "ftid_monitor_cfg_" + std::to_string(::getpid());
+    std::system(("mkdir -p '" + dir_ + "'").c_str());
+    std::ofstream(dir_ + "/robot.urdf") << "<robot name='r'/>";
+    std::ofstream(dir_ + "/sensor.dbc") << "VERSION \"\"";
+  }
+  void TearDown() override { std::system(("rm -rf '" + dir_ + "'").c_str()); }
+  DaemonConfig parse(const std::string& extra) const {
+    return parseDaemonConfig("robot:\n  urdf_path: robot.urdf\nsensor:\n  dbc_path: sensor.dbc\n" + extra,
+                             "test.yaml", dir_);
+  }
+  std::string dir_;
+};
+
+TEST_F(MonitorConfigTest, ReadsTheSectionAndKeepsDefaults) {
+  const DaemonConfig d = parse("");
+  EXPECT_TRUE(d.monitor.enabled);
+  EXPECT_EQ(d.monitor.channel, "FTID_MONITOR");
+  const DaemonConfig c = parse(
+      "monitor:\n  enabled: false\n  channel: CELL_MONITOR\n  publish_hz: 10\n"
+      "  noise_std: [0.5, 0.5, 0.6, 0.05, 0.05, 0.04]\n  decision_threshold: 20\n  restart_s: 2\n"
+      "  free_motion_turn_rad_s: 0.1\n");
+  EXPECT_FALSE(c.monitor.enabled);
+  EXPECT_EQ(c.monitor.channel, "CELL_MONITOR");
+  EXPECT_EQ(c.monitor.publish_hz, 10.0);
+  EXPECT_EQ(c.monitor.noise_std(2), 0.6);
+  EXPECT_EQ(c.monitor.decision_threshold, 20.0);
+  EXPECT_EQ(c.monitor.restart_s, 2.0);
+  EXPECT_EQ(c.monitor.free_motion_turn_rad_s, 0.1);
+}
+
+TEST_F(MonitorConfigTest, BadValuesNameTheKeyAndLine) {
+  const auto expectError = [&](const std::string& extra, const std::string& key) {
+    try {
+      parse(extra);
+      ADD_FAILURE() << "accepted " << extra;
+    } catch (const ConfigError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("test.yaml:6"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("'" + key + "'"), std::string::npos) << msg;
+    }
+  };
+  expectError("monitor:\n  publish_hz: 1\n", "monitor.publish_hz");
+  expectError("monitor:\n  decision_threshold: 0\n", "monitor.decision_threshold");
+  expectError("monitor:\n  noise_std: [0.3, 0.3, 0, 0.03, 0.03, 0.03]\n", "monitor.noise_std");
+  expectError("monitor:\n  channel: 'A B'\n", "monitor.channel");
+  expectError("monitor:\n  onset_margin: -1\n", "monitor.onset_margin");
+  EXPECT_THROW(parse("monitor:\n  window: 3\n"), ConfigError);  // unknown key
+}
+
+}  // namespace
+}  // namespace ftid::config

@@ -113,5 +113,21 @@ TEST(CommandChecks, TareTakesNoArgument) {
   EXPECT_EQ(checkCommand(plain, &verifier, &counters), "");
 }
 
+TEST(CommandChecks, ReidentifyTakesNothingOrApply) {
+  transport::CommandVerifier verifier(key(), transport::realtimeUs() - 1000);
+  CommandCounters counters;
+  auto bad = command(ftid_lcm::command_t::REIDENTIFY, "/etc/passwd");
+  transport::signCommand(&bad, key());
+  const std::string r = checkCommand(bad, &verifier, &counters);
+  EXPECT_NE(r.find("REIDENTIFY takes no argument or \"apply\""), std::string::npos) << r;
+  EXPECT_EQ(counters.malformed, 1);
+  auto apply = command(ftid_lcm::command_t::REIDENTIFY, "apply");
+  transport::signCommand(&apply, key(), bad.sequence + 1);
+  EXPECT_EQ(checkCommand(apply, &verifier, &counters), "");
+  auto plain = command(ftid_lcm::command_t::REIDENTIFY);
+  transport::signCommand(&plain, key(), apply.sequence + 1);
+  EXPECT_EQ(checkCommand(plain, &verifier, &counters), "");
+}
+
 }  // namespace
 }  // namespace ftid::daemon
