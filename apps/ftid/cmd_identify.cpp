@@ -9,6 +9,7 @@
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/offline.hpp"
+#include "ftid/identify/physical_check.hpp"
 
 namespace {
 
@@ -43,8 +44,15 @@ const char* const kUsage =
     "for low-pass filtered noise, docs/identification.md \"Uncertainty\"), the residual RMS per axis\n"
     "and the condition number, then checks the fit: the identification is repeated with each of 5 time blocks left\n"
     "out, and the held-out residual per axis is printed against the noise floor. Above 1.2x on any\n"
-    "axis a warning says the model misses something and names the `ftid analyze` command. Exit code 1 with a one-line reason if the log is malformed or does not determine the\n"
-    "parameters (the message names those not excited).";
+    "axis a warning says the model misses something and names the `ftid analyze` command.\n"
+    "\n"
+    "The line 'physical validity:' judges the result as `ftid analyze` does: the mass (positive, and\n"
+    "determined: its standard error at most a third of it), the principal moments of the inertia about\n"
+    "the centre of mass and the triangle inequalities (within 3 standard errors). A set that fails it is\n"
+    "printed but never written or exported (no --out file, no .ros2.yaml, no .urscript): exit code 1.\n"
+    "\n"
+    "Exit code 1 with a one-line reason if the log is malformed, does not determine the parameters\n"
+    "(the message names those not excited) or the result is not physically usable.";
 
 int runIdentify(const std::vector<std::string>& argv) {
   ftid::identify::IdentifyRequest req;
@@ -76,8 +84,11 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
   const ftid::params::ParameterSet& set = id.set;
+  // Physical validity first: a set that fails it is printed (to see why) but never written or
+  // exported (the parameter writer's own rule, params::findParameterProblem, and a determined mass).
+  const ftid::identify::PhysicalValidity validity = ftid::identify::checkPhysicalValidity(set);
   std::string exports;
-  if (!out.empty()) {
+  if (!out.empty() && validity.valid) {
     ftid::params::writeParameterFile(out, set);
     // The parameters are written; a bad config only costs the exports (named in the warning).
     try {
@@ -89,13 +100,15 @@ int runIdentify(const std::vector<std::string>& argv) {
     }
   }
   if (json) {
-    std::cout << ftid::identify::identificationJson(set, id.check) << "\n";
+    std::cout << ftid::identify::identificationJson(set, id.check, validity) << "\n";
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
+    std::cout << validity.line << "\n";
     std::cout << ftid::identify::formatFitCheck(id.check);
-    if (!out.empty()) std::cout << "parameters written to " << out << "\n";
+    if (!out.empty() && validity.valid) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";
   }
+  if (!validity.valid) throw ftid::IdentificationError(ftid::identify::physicalRefusal(validity));
   return 0;
 }
 
