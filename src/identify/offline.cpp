@@ -16,6 +16,7 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/paper_method.hpp"
+#include "ftid/identify/tilt_start.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 
@@ -53,8 +54,11 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
     }
     FitOptions fo;
     fo.max_delay_s = request.max_delay_s;
-    const FitResult fit = fitModel(model, samples, fo);
-    set = toParameterSet(fit);
+    MultiStartFit fit = fitModelMultiStart(model, samples, fo);
+    if (request.notes != nullptr) {
+      for (auto& n : fit.notes) request.notes->push_back(std::move(n));
+    }
+    set = toParameterSet(fit.fit);
   } else {
     PaperOptions o;
     if (request.method == "static") {
@@ -84,7 +88,10 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
   } else {
     say(request.progress, "paper method (" + request.method + "): force stage, torque stage");
   }
-  out.set = identifyContexts(contexts.samples, request);
+  std::vector<std::string> notes;
+  IdentifyRequest main_fit = request;
+  main_fit.notes = &notes;
+  out.set = identifyContexts(contexts.samples, main_fit);
   out.set.provenance.data_file = request.log_path;
   out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
   if (check) {
@@ -94,6 +101,7 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
         contexts.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request); },
         "ftid analyze " + request.log_path + " --model " + model + " --explain", request.noise_std);
   }
+  out.check.warnings.insert(out.check.warnings.begin(), notes.begin(), notes.end());
   return out;
 }
 

@@ -3,6 +3,7 @@
 // compensated CSV out. The CLI only parses arguments and calls these.
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <optional>
 
@@ -23,6 +24,9 @@ struct IdentifyRequest {
   ProgressFn progress;             ///< optional progress lines
   std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
   double max_delay_s = 1.0;        ///< models with sensor_delay: search range of the delay [s]
+  /// Optional: gets the notes of the fit (a better tilt minimum found from another start, an
+  /// undecided tilt; tilt_start.hpp). identifyLogFileChecked adds them to the check's warnings.
+  std::vector<std::string>* notes = nullptr;
 };
 
 /// Reads the log, builds the contexts, identifies. Throws DataError (bad log), ConfigError (bad
