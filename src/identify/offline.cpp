@@ -104,7 +104,8 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
   CheckedIdentification out;
   if (check) {
     say(request.progress, "checking the set-up (wrench frame, mount, angle units) against the kinematics");
-    out.setup = diagnoseSetup(contexts.samples, request.context);
+    const bool fits_mount = !request.model.empty() && Model::fromName(request.model).estimatesMounting();
+    out.setup = diagnoseSetup(contexts.samples, request.context, !fits_mount);
     for (const auto& l : out.setup.lines) say(request.progress, l);
   }
   if (!request.model.empty()) {

@@ -123,7 +123,27 @@ Vec3 parseRpy(const std::string& text, const std::string& what) {
   return v;
 }
 
-SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const samples::ContextOptions& given) {
+Mat3 bestAxisAlignedMount(const std::vector<SampleContext>& all) {
+  if (all.size() < 20) return Mat3::Identity();
+  std::vector<SampleContext> ctx;
+  const std::size_t step = std::max<std::size_t>(1, all.size() / kSetupMaxSamples);
+  for (std::size_t i = 0; i < all.size(); i += step) ctx.push_back(all[i]);
+  Mat3 best = Mat3::Identity();
+  double best_r = relativeResidual(ctx, nullptr);
+  if (!std::isfinite(best_r)) best_r = std::numeric_limits<double>::infinity();
+  const auto rotations = axisAlignedRotations();
+  for (std::size_t k = 1; k < rotations.size(); ++k) {
+    const double r = relativeResidual(rotatedWrench(ctx, rotations[k], false, false), nullptr);
+    if (std::isfinite(r) && r < best_r) {
+      best_r = r;
+      best = rotations[k];
+    }
+  }
+  return best;
+}
+
+SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const samples::ContextOptions& given,
+                             bool try_mounts) {
   SetupDiagnosis d;
   if (all.size() < 20) return d;
   // Degrees in the joint angle columns: a UR joint stays within +-2 pi rad.
@@ -160,7 +180,7 @@ SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const sample
   }
   // The sensor mounted rotated: its reading is in S' = S R (R_SS' = R), so in S it is R w'.
   const auto rotations = axisAlignedRotations();
-  for (std::size_t k = 1; k < rotations.size(); ++k) {
+  for (std::size_t k = 1; try_mounts && k < rotations.size(); ++k) {
     const Mat3& R = rotations[k];
     const auto alt = rotatedWrench(ctx, R, false, false);
     const Vec3 rpy = canonicalRpy(rpyOf(given.R_FS * R));

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "ftid/common/error.hpp"
+#include "ftid/identify/setup_check.hpp"
 
 namespace ftid::identify {
 
@@ -68,8 +69,20 @@ void wrapAngles(FitResult& fit) {
 }
 
 MultiStartFit fitModelMultiStart(const Model& model, const std::vector<SampleContext>& contexts,
-                                 const FitOptions& options) {
+                                 const FitOptions& given) {
   MultiStartFit out;
+  FitOptions options = given;
+  if (model.estimatesMounting() && !options.mount_rpy_rad) {
+    // A large mounting rotation is outside the basin of the level start: start from the best of
+    // the 24 axis-aligned rotations (the gravity model's fit decides, setup_check.hpp).
+    const Mat3 R_SM = bestAxisAlignedMount(contexts);
+    if (!R_SM.isIdentity()) {
+      options.mount_rpy_rad = rpyOf(R_SM);
+      const Vec3 r = options.mount_rpy_rad->unaryExpr([](double v) { return std::abs(v) < 5e-5 ? 0.0 : v; });
+      out.notes.push_back("the mounting fit started from the axis-aligned rotation rpy " + fixed(r.x(), 4) + "," +
+                          fixed(r.y(), 4) + "," + fixed(r.z(), 4) + " rad, which the gravity model fits best");
+    }
+  }
   const bool tilt_given = options.tilt_u_rad && options.tilt_v_rad;
   if (!model.estimatesTilt() || tilt_given) {
     out.fit = fitModel(model, contexts, options);

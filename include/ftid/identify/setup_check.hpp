@@ -39,7 +39,14 @@ struct SetupDiagnosis {
 /// Diagnoses `ctx` (built with `given`: its mount R_FS and wrench frame). Never throws for data it
 /// cannot fit (an alternative that cannot be fitted is skipped); empty lines when there is no
 /// motion or gravity signal to judge.
-SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& ctx, const samples::ContextOptions& given);
+/// `try_mounts` false (a model that fits the `mounting` rotation itself): no rotated mounts.
+SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& ctx, const samples::ContextOptions& given,
+                             bool try_mounts = true);
+
+/// The axis-aligned rotation R_SM (of the 24) under which the gravity model fits `ctx` best, the
+/// reading taken in the rotated frame M (w_S = R_SM w_M): the start of the `mounting` effect's fit.
+/// Identity if none fits (or ctx has fewer than 20 samples).
+Mat3 bestAxisAlignedMount(const std::vector<SampleContext>& ctx);
 
 /// The 24 rotations that map the coordinate axes onto coordinate axes (proper, det +1); [0] = identity.
 std::vector<Mat3> axisAlignedRotations();

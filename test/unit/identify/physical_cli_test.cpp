@@ -57,3 +57,48 @@ TEST(IdentifyPhysical, DeterminedPayloadPassesAndIsWritten) {
 }
 
 }  // namespace
+
+namespace {
+
+using ftid::test::jsonValue;
+
+TEST(IdentifyDefaults, CleanDynamicLogDoesNotWarn) {
+  // The default model is the cell's (paper+rigid_body): a clean full-physics run fits to the noise.
+  const std::string log = dir() + "clean.csv";
+  ASSERT_EQ(ftidRun("simulate --out " + log + " --seed 8").code, 0);
+  const CliRun r = ftidRun("identify --log " + log);
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("model paper+rigid_body"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("warning"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("set-up:"), std::string::npos) << r.err;
+  // The paper's method stays one flag away.
+  const CliRun p = ftidRun("identify --log " + log + " --method dynamic");
+  EXPECT_EQ(p.code, 0) << p.err;
+  EXPECT_NE(p.out.find("method paper-dynamic"), std::string::npos) << p.out;
+  EXPECT_EQ(ftidRun("identify --log " + log + " --method dynamic --model paper").code, 2);
+}
+
+TEST(IdentifyDefaults, MountRotatedNinetyDegreesIsDiagnosedAndFixedByMountRpy) {
+  const std::string log = dir() + "m90.csv";
+  ASSERT_EQ(ftidRun("simulate --out " + log + " --mass 0.9 --seed 2 --effect mounting:yaw=90").code, 0);
+  const std::string out = dir() + "params.yaml";
+  std::remove(out.c_str());
+  const CliRun r = ftidRun("identify --log " + log + " --out " + out);
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.err.find("set-up: the sensor is mounted rotated"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("add --mount-rpy 0,0,1.5708"), std::string::npos) << r.err;
+  EXPECT_FALSE(fileExists(out));
+  const CliRun f = ftidRun("identify --log " + log + " --mount-rpy 0,0,1.5708 --json --out " + out);
+  ASSERT_EQ(f.code, 0) << f.err;
+  EXPECT_NEAR(jsonValue(f.out, "mass"), 0.90, 0.01) << f.out;
+  EXPECT_TRUE(fileExists(out));
+  // compensate and analyze take the same mount.
+  const CliRun c = ftidRun("compensate --log " + log + " --params " + out + " --mount-rpy 0,0,1.5708 --out " + dir() +
+                           "contact.csv");
+  EXPECT_EQ(c.code, 0) << c.err;
+  const CliRun bad = ftidRun("identify --log " + log + " --mount-rpy 0,0");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--mount-rpy"), std::string::npos) << bad.err;
+}
+
+}  // namespace

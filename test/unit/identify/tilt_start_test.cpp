@@ -6,6 +6,7 @@
 
 #include <cmath>
 
+#include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/tilt_start.hpp"
 #include "ftid/logio/log.hpp"
@@ -62,6 +63,39 @@ TEST(TiltMultiStart, AnglesInPrincipalRange) {
     EXPECT_LE(std::abs(c(0)), kPi + 1e-12);
     EXPECT_LE(std::abs(c(2)), kPi + 1e-12);
     EXPECT_LT((R(c) - R(rpy)).norm(), 1e-12) << rpy.transpose();
+  }
+}
+
+}  // namespace
+}  // namespace ftid::identify
+
+namespace ftid::identify {
+namespace {
+
+// The `mounting` effect fitted for large rotations (issue 21: `mount_yaw 17.3 rad` for a sensor
+// mounted 90 deg about z): started from the best of the 24 axis-aligned rotations, angles wrapped.
+TEST(MountMultiStart, LargeMountRotationsAreFound) {
+  const Model model = Model::fromName("paper+mounting");
+  const Vec3 cases[] = {Vec3(0.0, 0.0, kPi / 2.0), Vec3(0.0, 0.0, -kPi / 2.0), Vec3(kPi, 0.0, 0.05),
+                        Vec3(0.0, kPi / 2.0 - 0.1, 0.0)};
+  std::uint64_t seed = 11;
+  for (const Vec3& rpy : cases) {
+    sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
+    cfg.seed = ++seed;
+    cfg.payload.mass_kg = 0.9;
+    cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+    cfg.mounting.enabled = true;
+    cfg.mounting.rpy_rad = rpy;
+    const samples::ContextSet ctx = test::contextsOf(cfg);
+    const MultiStartFit m = fitModelMultiStart(model, ctx.samples);
+    // The same rotation (compared as matrices: rpy is not unique at +-pi), in the principal range.
+    const Mat3 R_fit = effects::mountingRotation(m.fit.mount_rpy_rad);
+    const Mat3 R_true = effects::mountingRotation(rpy);
+    EXPECT_LT(Eigen::AngleAxisd(R_fit.transpose() * R_true).angle(), 0.01) << rpy.transpose() << " fitted "
+                                                                              << m.fit.mount_rpy_rad.transpose();
+    EXPECT_LE(m.fit.mount_rpy_rad.cwiseAbs().maxCoeff(), kPi + 1e-12);
+    EXPECT_LE(std::abs(m.fit.mount_rpy_rad(1)), kPi / 2.0 + 1e-12);
+    EXPECT_NEAR(m.fit.value("mass"), 0.9, 0.01) << rpy.transpose();
   }
 }
 
