@@ -96,6 +96,8 @@ TEST(IdentifyDefaults, MountRotatedNinetyDegreesIsDiagnosedAndFixedByMountRpy) {
   const CliRun c = ftidRun("compensate --log " + log + " --params " + out + " --mount-rpy 0,0,1.5708 --out " + dir() +
                            "contact.csv");
   EXPECT_EQ(c.code, 0) << c.err;
+  const CliRun a = ftidRun("analyze " + log + " --folds 2");
+  EXPECT_NE(a.err.find("add --mount-rpy 0,0,1.5708"), std::string::npos) << a.err;
   const CliRun bad = ftidRun("identify --log " + log + " --mount-rpy 0,0");
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("--mount-rpy"), std::string::npos) << bad.err;
