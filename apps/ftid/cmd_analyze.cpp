@@ -6,13 +6,14 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/lab/analyze.hpp"
+#include "mount_option.hpp"
 
 namespace {
 
 const char* const kUsage =
     "usage: ftid analyze LOG [--model M] [--validate LOG2] [--folds K] [--explain]\n"
     "                        [--candidates E1,E2,...] [--report report.html] [--json] [--robot URDF]\n"
-    "                        [--wrench-frame sensor|base]\n"
+    "                        [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
     "\n"
     "Compares a model of the sensor reading with the measurements, shows where it fails and which\n"
     "physical effect is missing (docs/analyze.md; the effects: docs/effects.md).\n"
@@ -37,13 +38,22 @@ const char* const kUsage =
     "  --json            print one JSON object (model, residual_rms, noise_floor, candidates, steps)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
     "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
+    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics\n"
+    "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
+    "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
+    "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "\n"
     "The noise floor is detected from the data (white, coloured, static pose set, or not observable)\n"
     "and named in the report; standard errors and tests account for correlated noise; effects whose\n"
     "parameters are confounded with the model's in this data are named and not recommended.\n"
     "Every residual printed is held out. Progress goes to stderr. Exit code 1 with a one-line\n"
-    "reason on a bad log or a model the data cannot determine, 2 on a usage error.";
+    "reason on a bad log or a model the data cannot determine, 2 on a usage error.\n"
+    "\n"
+    "Before the analysis the set-up is checked against the kinematics (docs/identification.md\n"
+    "\"Set-up diagnosis\"): a wrench frame that fits better as base, a mount that fits better rotated\n"
+    "(the 24 axis-aligned rotations), degrees in the angle columns; a finding is one line on stderr\n"
+    "with the fix (--wrench-frame base, --mount-rpy R,P,Y).";
 
 std::vector<std::string> splitList(const std::string& s) {
   std::vector<std::string> out;
@@ -87,10 +97,14 @@ int runAnalyze(const std::vector<std::string>& argv) {
   app.add_flag("--json", json);
   app.add_option("--robot", req.robot_urdf);
   app.add_option("--wrench-frame", wrench_frame)->transform(cli::oneOf({"sensor", "base"}));
+  std::string mount_rpy, config;
+  app.add_option("--mount-rpy", mount_rpy);
+  app.add_option("--config", config);
   app.add_option("LOG", req.log_path);
   cli::parse(app, argv);
   if (req.log_path.empty()) throw cli::UsageError("exactly one LOG is required");
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
+  ftid::cli::applyMount(req.context, mount_rpy, config);
   if (!noise.empty()) {
     try {
       req.options.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
@@ -101,6 +115,13 @@ int runAnalyze(const std::vector<std::string>& argv) {
   if (!report.empty()) ftid::checkOutputPath(report);  // before the work
   if (!candidates.empty()) req.options.candidates = splitList(candidates);
   req.options.progress = [](const std::string& line) { std::cerr << "ftid analyze: " << line << "\n"; };
+  {
+    // The set-up diagnosis (identify's, setup_check.hpp) on the log as it will be read.
+    const auto contexts = ftid::samples::loadLogContexts(req.log_path, req.robot_urdf, req.context);
+    for (const auto& l : ftid::identify::diagnoseSetup(contexts.samples, req.context).lines) {
+      std::cerr << "ftid analyze: " << l << "\n";
+    }
+  }
   const ftid::lab::AnalysisResult result = ftid::lab::analyzeLogFiles(req);
   if (!report.empty()) {
     ftid::lab::writeTextFileAtomically(report, ftid::lab::renderHtml(result));

@@ -4,12 +4,13 @@
 
 #include "command.hpp"
 #include "ftid/compensate/compensate_log.hpp"
+#include "mount_option.hpp"
 
 namespace {
 
 const char* const kUsage =
     "usage: ftid compensate --log FILE --params PARAMS.yaml --out OUT.csv [--robot URDF]\n"
-    "                       [--wrench-frame sensor|base]\n"
+    "                       [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
     "\n"
     "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
@@ -19,22 +20,30 @@ const char* const kUsage =
     "  --params FILE     parameters written by `ftid identify --out`\n"
     "  --out FILE        the output CSV (written atomically)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
-    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
+    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics\n"
+    "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
+    "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
+    "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
+    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "\n"
     "Prints the RMS of the reading and of the contact wrench per axis. Exit: 0 written, 1 bad log\n"
     "or parameter file (the message names the file, line or key), 2 usage error.";
 
 int runCompensate(const std::vector<std::string>& argv) {
   ftid::compensate::CompensateRequest req;
-  std::string wrench_frame;
+  std::string wrench_frame, mount_rpy, config;
   CLI::App app{"ftid compensate"};
   app.add_option("--log", req.log_path);
   app.add_option("--params", req.params_path);
   app.add_option("--out", req.out_csv);
   app.add_option("--robot", req.robot_urdf);
   app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
+  app.add_option("--mount-rpy", mount_rpy);
+  app.add_option("--config", config);
   ftid::cli::parse(app, argv);
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
+  ftid::cli::applyMount(req.context, mount_rpy, config);
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }

@@ -9,30 +9,39 @@
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/offline.hpp"
+#include "ftid/identify/physical_check.hpp"
+#include "mount_option.hpp"
 
 namespace {
 
 const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
-    "                     [--wrench-frame sensor|base] [--noise fx=S,..,tz=S]\n"
+    "                     [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--noise fx=S,..,tz=S]\n"
     "                     [--imu on|off] [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
     "\n"
     "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...; or the sensor pose instead of the joint\n"
     "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md)\n"
-    "  --method M        the paper's method: 'dynamic' (default; with the inertial term -m a, for\n"
-    "                    excitation runs) or 'static' (gravity only: rest poses or slow motion)\n"
-    "  --model M         instead of the paper's method, fit a composed model by weighted least\n"
-    "                    squares, e.g. 'paper' or 'paper+rigid_body' (docs/effects.md)\n"
-    "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
+    "  --model M         the composed model to fit by weighted least squares (docs/effects.md);\n"
+    "                    default 'paper+rigid_body', the model the cell (`ftid --identify`) uses; on a\n"
+    "                    static log (the robot holds still) 'paper', as rotation terms need motion\n"
+    "  --method M        the paper's own method instead of a model fit: 'dynamic' (with the inertial\n"
+    "                    term -m a, for excitation runs) or 'static' (gravity only: rest poses or slow\n"
+    "                    motion); `--method dynamic` reproduces the paper (and the old default)\n"
+"  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
     "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
     "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
     "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
-    "  --config FILE     ftidd configuration for the exports (sensor mount, `export:` section;\n"
-    "                    default /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml)\n"
+    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics, and the\n"
+    "                    exports use it (`export:` section); for the exports only, the default is\n"
+    "                    /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml\n"
+    "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
+    "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
+    "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
+
     "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
     "  --imu on|off      the sensor's IMU (default: on when the log has the IMU columns ax..alz):\n"
     "                    its payload-free tilt (accelerometer and kinematics, with the accelerometer's\n"
@@ -51,13 +60,29 @@ const char* const kUsage =
     "for low-pass filtered noise, docs/identification.md \"Uncertainty\"), the residual RMS per axis\n"
     "and the condition number, then checks the fit: the identification is repeated with each of 5 time blocks left\n"
     "out, and the held-out residual per axis is printed against the noise floor. Above 1.2x on any\n"
-    "axis a warning says the model misses something and names the `ftid analyze` command. Exit code 1 with a one-line reason if the log is malformed or does not determine the\n"
-    "parameters (the message names those not excited).";
+    "axis a warning says the model misses something and names the `ftid analyze` command.\n"
+    "\n"
+    "The line 'physical validity:' judges the result as `ftid analyze` does: the mass (positive, and\n"
+    "determined: its standard error at most a third of it), the principal moments of the inertia about\n"
+    "the centre of mass and the triangle inequalities (within 3 standard errors). A set that fails it is\n"
+    "printed but never written or exported (no --out file, no .ros2.yaml, no .urscript): exit code 1.\n"
+    "\n"
+    "Exit code 1 with a one-line reason if the log is malformed, does not determine the parameters\n"
+    "(the message names those not excited) or the result is not physically usable.\n"
+    "\n"
+    "Before the fit the set-up is checked against the kinematics (docs/identification.md \"Set-up\n"
+    "diagnosis\"): a wrench frame that fits better as base, a mount that fits better rotated (the 24\n"
+    "axis-aligned rotations), degrees in the angle columns. A finding is one line with the fix\n"
+    "(--wrench-frame base, --mount-rpy R,P,Y); when another set-up explains the data, nothing is\n"
+    "written (exit 1). The tilt search starts from the paper's force stage and from a level base and\n"
+    "keeps the better minimum (a worse or undecided one is a warning). Glitches (isolated spikes\n"
+    "beyond 6 robust standard deviations of a first fit's residual) are left out of the fit, as\n"
+    "`ftid analyze` leaves them out.";
 
 int runIdentify(const std::vector<std::string>& argv) {
   ftid::identify::IdentifyRequest req;
-  req.method = "dynamic";
-  std::string wrench_frame, out, config, noise;
+  req.method.clear();
+  std::string wrench_frame, out, config, noise, mount_rpy;
   bool json = false;
   std::string imu;
   CLI::App app{"ftid identify"};
@@ -68,12 +93,21 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
   app.add_option("--out", out);
   app.add_option("--config", config);
+  app.add_option("--mount-rpy", mount_rpy);
   app.add_flag("--json", json);
   app.add_option("--imu", imu)->transform(ftid::cli::oneOf({"on", "off"}));
   app.add_option("--noise", noise);
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
   ftid::cli::parse(app, argv);
+  if (!req.method.empty() && !req.model.empty()) {
+    throw ftid::cli::UsageError("give --model (a model fit) or --method (the paper's method), not both");
+  }
+  if (req.method.empty() && req.model.empty()) {
+    req.model = ftid::identify::kDefaultModel;
+    req.model_is_default = true;
+  }
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
+  ftid::cli::applyMount(req.context, mount_rpy, config);
   if (!noise.empty()) {
     try {
       req.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
@@ -88,8 +122,16 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
   const ftid::params::ParameterSet& set = id.set;
+  if (id.setup.explains) {
+    // A set-up error explains the data better than the set-up as given: nothing is written.
+    if (!json) std::cout << ftid::identify::formatParameterTable(set) << ftid::identify::formatFitCheck(id.check);
+    throw ftid::IdentificationError(id.setup.lines.back() + "; no parameter file or export written");
+  }
+  // Physical validity first: a set that fails it is printed (to see why) but never written or
+  // exported (the parameter writer's own rule, params::findParameterProblem, and a determined mass).
+  const ftid::identify::PhysicalValidity validity = ftid::identify::checkPhysicalValidity(set);
   std::string exports;
-  if (!out.empty()) {
+  if (!out.empty() && validity.valid) {
     ftid::params::writeParameterFile(out, set);
     // The parameters are written; a bad config only costs the exports (named in the warning).
     try {
@@ -101,14 +143,16 @@ int runIdentify(const std::vector<std::string>& argv) {
     }
   }
   if (json) {
-    std::cout << ftid::identify::identificationJson(id, req.imu != ImuUse::kOff) << "\n";
+    std::cout << ftid::identify::identificationJson(id, req.imu != ImuUse::kOff, validity) << "\n";
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
+    std::cout << validity.line << "\n";
     std::cout << ftid::identify::formatImuReport(id.imu);
     std::cout << ftid::identify::formatFitCheck(id.check);
-    if (!out.empty()) std::cout << "parameters written to " << out << "\n";
+    if (!out.empty() && validity.valid) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";
   }
+  if (!validity.valid) throw ftid::IdentificationError(ftid::identify::physicalRefusal(validity));
   return 0;
 }
 

@@ -28,6 +28,9 @@
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/offline.hpp"
+#include "ftid/identify/physical_check.hpp"
+#include "ftid/identify/robust_data.hpp"
+#include "ftid/identify/tilt_start.hpp"
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
@@ -459,21 +462,40 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   params::ParameterSet set;
   try {
     const samples::ContextSet contexts = samples::buildContexts(log, kin, copts);
-    const identify::FitResult fit = identify::fitModel(model, contexts.samples);
-    set = identify::toParameterSet(fit);
+    // The offline identification's treatment: several tilt starts, glitches left out (robust_data.hpp).
+    std::vector<std::string> notes;
+    auto fitOn = [&](const std::vector<identify::SampleContext>& s) {
+      identify::MultiStartFit m = identify::fitModelMultiStart(model, s);
+      notes = std::move(m.notes);
+      return identify::toParameterSet(m.fit);
+    };
+    const identify::RobustIdentification robust =
+        identify::leaveOutGlitches(contexts.samples, fitOn(contexts.samples), fitOn);
+    set = robust.set;
+    if (!robust.glitches.samples.empty()) {
+      print("  " + std::to_string(robust.glitches.samples.size()) +
+            " glitch(es) (isolated spikes) left out of the fit, as `ftid analyze` leaves them out");
+    }
+    for (const auto& n : notes) print("  WARNING: " + n);
     set.provenance.date_utc = utcStamp(true);
     set.provenance.data_file = result.data_csv;
     set.time_origin_unix_s = contexts.time_origin_unix_s;  // the recording's first host_time
     set.provenance.method = "fit";
     set.provenance.trajectory = traj_path;
-    set.provenance.n_samples = static_cast<int>(contexts.samples.size());
+    set.provenance.n_samples = static_cast<int>(robust.samples.size());
     print("");
     print(identify::formatParameterTable(set));
+    const identify::PhysicalValidity validity = identify::checkPhysicalValidity(set);
+    print(validity.line);
+    if (!validity.valid) {
+      result.message = "identification refused: " + identify::physicalRefusal(validity) + "; parameters unchanged, " + data_note;
+      return result;
+    }
     // Does the model fit? Held-out residual against the noise floor, warning above 1.2x.
     print(identify::formatFitCheck(identify::checkFit(
-        contexts.samples,
+        robust.samples,
         [&](const std::vector<identify::SampleContext>& train) {
-          return identify::toParameterSet(identify::fitModel(model, train));
+          return identify::toParameterSet(identify::fitModelMultiStart(model, train).fit);
         },
         "ftid analyze " + result.data_csv + " --model " + model.name() + " --explain")));
     if (o.analyze) {

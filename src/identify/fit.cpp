@@ -1241,6 +1241,7 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   PhiState st;
   st.fixed.tilt_u_rad = options.tilt_u_rad.value_or(0.0);
   st.fixed.tilt_v_rad = options.tilt_v_rad.value_or(0.0);
+  if (options.mount_rpy_rad) st.fixed.mount_rpy_rad = *options.mount_rpy_rad;
   const bool tilt_given = options.tilt_u_rad && options.tilt_v_rad;
 
   // Tilt-only models: the compressed tilt search (GravityCompression), unless the regressor turns

@@ -79,7 +79,7 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
   if (out.glitches > 0) {
     out.warnings.push_back(std::to_string(out.glitches) + " glitch" + (out.glitches == 1 ? "" : "es") +
                            " (isolated spikes beyond 6 robust standard deviations) left out of the held-out "
-                           "residual; they are in the fit: `ftid analyze` leaves them out of it");
+                           "residual");
   }
   if (failed > 0) {
     out.warnings.push_back(std::to_string(failed) + " of " + std::to_string(folds) +

@@ -16,7 +16,12 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/json_text.hpp"
 #include "ftid/identify/fit.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/identify/paper_method.hpp"
+#include "ftid/identify/physical_check.hpp"
+#include "ftid/identify/robust_data.hpp"
+#include "ftid/identify/setup_check.hpp"
+#include "ftid/identify/tilt_start.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 
@@ -110,11 +115,16 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
     FitOptions fo;
     fo.max_delay_s = request.max_delay_s;
     if (imu && model.estimatesTilt()) {
-      // The IMU's tilt starts the tilt search: no wrong minimum from a poor paper-stage start.
+      // The IMU's tilt starts the tilt search: no wrong minimum from a poor paper-stage start
+      // (fitModelMultiStart keeps a given start as the only one).
       fo.tilt_u_rad = imu->acc.tilt_u_rad;
       fo.tilt_v_rad = imu->acc.tilt_v_rad;
     }
-    FitResult fit = fitModel(model, samples, fo);
+    MultiStartFit multi = fitModelMultiStart(model, samples, fo);
+    if (request.notes != nullptr) {
+      for (auto& n : multi.notes) request.notes->push_back(std::move(n));
+    }
+    FitResult fit = std::move(multi.fit);
     if (imu) {
       report->comparisons = compareImuWithFit(fit, *imu);
       const bool tilt_agrees = !report->comparisons.empty() && report->comparisons.front().quantity == "tilt" &&
@@ -153,6 +163,30 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
   const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, request.progress);
   CheckedIdentification out;
+  if (request.model_is_default) {
+    bool is_static = false;
+    (void)poseGroups(contexts.samples, &is_static);
+    if (is_static) {
+      IdentifyRequest at_rest = request;
+      at_rest.model = kDefaultStaticModel;
+      at_rest.model_is_default = false;
+      say(request.progress, std::string("the robot holds still in this log: fitting '") + kDefaultStaticModel +
+                                "' (the default '" + kDefaultModel + "' needs motion)");
+      return identifyContextsChecked(contexts, at_rest, check);
+    }
+  }
+  return identifyContextsChecked(contexts, request, check);
+}
+
+CheckedIdentification identifyContextsChecked(const samples::ContextSet& contexts, const IdentifyRequest& request,
+                                              bool check) {
+  CheckedIdentification out;
+  if (check) {
+    say(request.progress, "checking the set-up (wrench frame, mount, angle units) against the kinematics");
+    const bool fits_mount = !request.model.empty() && Model::fromName(request.model).estimatesMounting();
+    out.setup = diagnoseSetup(contexts.samples, request.context, !fits_mount);
+    for (const auto& l : out.setup.lines) say(request.progress, l);
+  }
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
     say(request.progress, "fitting model '" + model.name() + "' (" + std::to_string(model.numParams()) +
@@ -160,16 +194,42 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
   } else {
     say(request.progress, "paper method (" + request.method + "): force stage, torque stage");
   }
-  out.set = identifyContexts(contexts.samples, request, &out.imu);
+  std::vector<std::string> notes;
+  IdentifyRequest main_fit = request;
+  main_fit.notes = &notes;
+  // The one robust data treatment (robust_data.hpp): glitches found in the first fit's residual are
+  // left out of the fit, as `ftid analyze` and the cell leave them out.
+  const ParameterSet first = identifyContexts(contexts.samples, main_fit, &out.imu);
+  const RobustIdentification robust =
+      leaveOutGlitches(contexts.samples, first, [&](const std::vector<SampleContext>& kept) {
+        notes.clear();
+        return identifyContexts(kept, main_fit, &out.imu);
+      });
+  out.glitches = static_cast<int>(robust.glitches.samples.size());
+  if (out.glitches > 0) {
+    say(request.progress, std::to_string(out.glitches) + " glitch" + (out.glitches == 1 ? "" : "es") +
+                              " (isolated samples beyond " + std::to_string(static_cast<int>(kGlitchThreshold)) +
+                              " robust standard deviations) left out; re-fitted");
+  }
+  out.set = robust.set;
   out.set.provenance.data_file = request.log_path;
   out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
   if (check) {
     say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
     const std::string model = request.model.empty() ? out.set.model : request.model;
     out.check = checkFit(
-        contexts.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request, nullptr); },
+        robust.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request, nullptr); },
         "ftid analyze " + request.log_path + " --model " + model + " --explain", request.noise_std);
   }
+  if (out.glitches > 0) {
+    out.check.glitches += out.glitches;
+    notes.push_back(std::to_string(out.glitches) + " glitch" + (out.glitches == 1 ? "" : "es") +
+                    " (isolated spikes beyond " + std::to_string(static_cast<int>(kGlitchThreshold)) +
+                    " robust standard deviations of the first fit's residual) left out of the fit and the held-out "
+                    "residual, as `ftid analyze` leaves them out");
+  }
+  notes.insert(notes.begin(), out.setup.lines.begin(), out.setup.lines.end());
+  out.check.warnings.insert(out.check.warnings.begin(), notes.begin(), notes.end());
   return out;
 }
 
@@ -222,9 +282,9 @@ std::string formatImuReport(const ImuReport& report) {
   return os.str();
 }
 
-std::string identificationJson(const CheckedIdentification& id, bool imu_consulted) {
-  if (!imu_consulted) return identificationJson(id.set, id.check);
-  Json j = Json::parse(identificationJson(id.set, id.check));
+std::string identificationJson(const CheckedIdentification& id, bool imu_consulted, const PhysicalValidity& validity) {
+  if (!imu_consulted) return identificationJson(id.set, id.check, validity);
+  Json j = Json::parse(identificationJson(id.set, id.check, validity));
   const ImuReport& r = id.imu;
   Json imu = Json::object();
   imu["used"] = r.used;

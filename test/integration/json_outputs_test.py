@@ -18,7 +18,7 @@ import sys
 
 IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "condition_number",
                  "tilt_estimated", "units", "extras", "data_file", "time_origin_unix_s", "noise_floor", "noise_method",
-                 "heldout_rms", "residual_to_noise", "glitches", "warnings", "imu"]
+                 "heldout_rms", "residual_to_noise", "glitches", "warnings", "physical_validity", "imu"]
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "warnings",
                 "raw_rms", "fit", "windows", "correlations", "candidates", "seconds"]
@@ -82,6 +82,10 @@ def main():
         axes_of(ident[key], key)
     check(ident["units"]["tilt_u"] == "rad", "units.tilt_u")
     check(isinstance(ident["warnings"], list), "warnings is a list")
+    pv = ident["physical_validity"]
+    check(list(pv.keys()) == ["valid", "key", "reason", "line"], f"physical_validity keys {list(pv.keys())}")
+    check(pv["valid"] is True and pv["key"] is None and pv["line"].startswith("physical validity: mass"),
+          f"physical_validity {pv}")
     # Full precision: the JSON numbers are the doubles the parameter file keeps (same run).
     with open(params) as f:
         text = f.read()

@@ -36,6 +36,9 @@ struct FitOptions {
   /// Models without `tilt`: if set, g_S is recomputed for this tilt; if unset, ctx.g_S is used.
   std::optional<double> tilt_u_rad;
   std::optional<double> tilt_v_rad;
+  /// Models with `mounting`: initial roll, pitch, yaw [rad] (default 0; fitModelMultiStart starts
+  /// from the best of the 24 axis-aligned rotations, tilt_start.hpp).
+  std::optional<Vec3> mount_rpy_rad;
   bool axis_weights = true;        ///< per-axis weights 1/RMS (re-estimated once)
   int max_tilt_iterations = 50;    ///< outer Gauss-Newton iterations on (U, V)
   int derivative_iterations = 8;   ///< Gauss-Newton passes for effects that read the modelled wrench

@@ -3,6 +3,7 @@
 // compensated CSV out. The CLI only parses arguments and calls these.
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <optional>
 
@@ -11,20 +12,32 @@
 #include "ftid/identify/fit_parameters.hpp"
 #include "ftid/identify/imu.hpp"
 #include "ftid/identify/imu_fusion.hpp"
+#include "ftid/identify/physical_check.hpp"
+#include "ftid/identify/setup_check.hpp"
 
 namespace ftid::identify {
 
 using ProgressFn = std::function<void(const std::string& line)>;
 
+/// The model offline `ftid identify` fits when given neither --model nor --method: the cell's.
+inline constexpr const char* kDefaultModel = "paper+rigid_body";
+/// The default on a static log (no motion: the rotational terms cannot be seen).
+inline constexpr const char* kDefaultStaticModel = "paper";
+
 struct IdentifyRequest {
   std::string log_path;
   std::string method = "dynamic";  ///< paper method: "static" or "dynamic" (ignored with `model`)
   std::string model;               ///< non-empty: general fit of this model (e.g. "paper+rigid_body")
+  /// `model` is the default (kDefaultModel): on a static log kDefaultStaticModel is fitted instead.
+  bool model_is_default = false;
   std::string robot_urdf;          ///< URDF of the robot (config/ur10.urdf)
   samples::ContextOptions context; ///< sensor mount
   ProgressFn progress;             ///< optional progress lines
   std::optional<Vec6> noise_std;   ///< data-sheet noise for the fit check (else estimated)
   double max_delay_s = 1.0;        ///< models with sensor_delay: search range of the delay [s]
+  /// Optional: gets the notes of the fit (a better tilt minimum found from another start, an
+  /// undecided tilt; tilt_start.hpp). identifyLogFileChecked adds them to the check's warnings.
+  std::vector<std::string>* notes = nullptr;
   /// The sensor's IMU (docs/identification.md, "The IMU as a measurement"): kOff ignores it (the
   /// wrench-only result, bit for bit), kAuto uses it when the log has the IMU columns (`ftid
   /// identify`'s default), kOn requires them. Used: the IMU's tilt starts the tilt search and is
@@ -55,12 +68,19 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
                               ImuReport* imu);
 
 /// identifyLogFile plus, with `check`, the held-out residual against the noise floor (fit_check.hpp).
+/// The fit leaves out the glitches of a first fit's residual (robust_data.hpp), then checks on the
+/// rest; the notes of the fit (tilt_start.hpp) and the glitches are the first of check.warnings.
 struct CheckedIdentification {
   ParameterSet set;
   FitCheck check;
   ImuReport imu;
+  int glitches = 0;  ///< samples left out of the fit as glitches
+  SetupDiagnosis setup;  ///< with `check`: the set-up diagnosis before the fit (setup_check.hpp)
 };
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check = true);
+/// The same on contexts already built (request.log_path names them in messages).
+CheckedIdentification identifyContextsChecked(const samples::ContextSet& contexts, const IdentifyRequest& request,
+                                              bool check = true);
 
 /// Human-readable table: parameter, value, std, unit; residual RMS per axis; condition number.
 std::string formatParameterTable(const ParameterSet& set);
@@ -68,8 +88,8 @@ std::string formatParameterTable(const ParameterSet& set);
 /// Text lines of the IMU report (estimates, comparisons, warnings); empty when the IMU was off.
 std::string formatImuReport(const ImuReport& report);
 
-/// `ftid identify --json`'s object: identificationJson(set, check) plus, when the IMU was
+/// `ftid identify --json`'s object: identificationJson(set, check, validity) plus, when the IMU was
 /// consulted, the key "imu" (docs/identification.md "Outputs").
-std::string identificationJson(const CheckedIdentification& id, bool imu_consulted);
+std::string identificationJson(const CheckedIdentification& id, bool imu_consulted, const PhysicalValidity& validity);
 
 }  // namespace ftid::identify

@@ -1,0 +1,52 @@
+#pragma once
+// The one robust data treatment of an identification (docs/identification.md, "Glitches"):
+// isolated spikes in the wrench (CAN bus errors, EMI) are found in the residual of a first fit and
+// left out of the fit that follows. `ftid identify`, the cell (`ftid --identify`) and `ftid analyze`
+// judge a glitch by the same rule (detectOutliers, ftid/identify/noise.hpp: the residual minus its
+// running median beyond kGlitchThreshold robust standard deviations; pose sets against the median).
+#include <vector>
+
+#include "ftid/identify/fit_parameters.hpp"
+#include "ftid/identify/noise.hpp"
+
+namespace ftid::identify {
+
+/// Robust standard deviations beyond which an isolated sample is a glitch (analyze's default,
+/// lab::AnalyzeOptions::glitch_threshold).
+inline constexpr double kGlitchThreshold = 6.0;
+
+/// The glitches of `residual` (6 x ctx.size(), measured - modelled): a time series is judged
+/// against the running median of each segment (segment_starts: the first sample of each log;
+/// empty = one log), a static pose set against the median.
+Outliers findGlitches(const std::vector<SampleContext>& ctx, const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual,
+                      double threshold = kGlitchThreshold, const std::vector<int>& segment_starts = {});
+
+/// measured - modelled for every context, with the model, theta and nonlinear parameters of `set`.
+Eigen::Matrix<double, 6, Eigen::Dynamic> residualOf(const ParameterSet& set, const std::vector<SampleContext>& ctx);
+
+/// The contexts without the samples listed (ascending indices); the rest keep their order.
+std::vector<SampleContext> withoutSamples(const std::vector<SampleContext>& ctx, const std::vector<int>& samples);
+
+/// A fit on data with its glitches left out: `first` is the fit on all of `ctx`; the glitches of its
+/// residual are removed and `identify` runs again on the rest (only if there were any).
+struct RobustIdentification {
+  ParameterSet set;                   ///< the fit without the glitches (or `first` if none)
+  std::vector<SampleContext> samples; ///< the contexts it was fitted on
+  Outliers glitches;                  ///< indices into the original contexts
+};
+template <typename IdentifyFn>
+RobustIdentification leaveOutGlitches(const std::vector<SampleContext>& ctx, const ParameterSet& first,
+                                      const IdentifyFn& identify, double threshold = kGlitchThreshold) {
+  RobustIdentification out;
+  out.glitches = findGlitches(ctx, residualOf(first, ctx), threshold);
+  if (out.glitches.samples.empty()) {
+    out.set = first;
+    out.samples = ctx;
+    return out;
+  }
+  out.samples = withoutSamples(ctx, out.glitches.samples);
+  out.set = identify(out.samples);
+  return out;
+}
+
+}  // namespace ftid::identify

@@ -1,0 +1,41 @@
+// The one robust data treatment of an identification (include/ftid/identify/robust_data.hpp).
+#include "ftid/identify/robust_data.hpp"
+
+#include "ftid/effects/model.hpp"
+#include "ftid/identify/fit.hpp"
+
+namespace ftid::identify {
+
+Outliers findGlitches(const std::vector<SampleContext>& ctx, const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual,
+                      double threshold, const std::vector<int>& segment_starts) {
+  if (ctx.empty() || residual.cols() != static_cast<Eigen::Index>(ctx.size())) return {};
+  bool is_static = false;
+  (void)poseGroups(ctx, &is_static);
+  return detectOutliers(residual, !is_static, threshold, segment_starts);
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> residualOf(const ParameterSet& set, const std::vector<SampleContext>& ctx) {
+  const int n = static_cast<int>(ctx.size());
+  std::vector<int> all(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) all[static_cast<std::size_t>(i)] = i;
+  const effects::Model model = effects::Model::fromName(set.model);
+  const Eigen::VectorXd theta = thetaFor(model, set);
+  Eigen::Matrix<double, 6, Eigen::Dynamic> res =
+      predictWrench(model, theta, nonlinearFor(model, set), set.tilt_estimated, ctx, all);
+  for (int i = 0; i < n; ++i) res.col(i) = ctx[static_cast<std::size_t>(i)].wrench_S - res.col(i);
+  return res;
+}
+
+std::vector<SampleContext> withoutSamples(const std::vector<SampleContext>& ctx, const std::vector<int>& samples) {
+  std::vector<SampleContext> out;
+  out.reserve(ctx.size() - std::min(ctx.size(), samples.size()));
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < ctx.size(); ++i) {
+    while (k < samples.size() && samples[k] < static_cast<int>(i)) ++k;
+    if (k < samples.size() && samples[k] == static_cast<int>(i)) continue;
+    out.push_back(ctx[i]);
+  }
+  return out;
+}
+
+}  // namespace ftid::identify

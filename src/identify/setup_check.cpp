@@ -1,0 +1,204 @@
+// Set-up diagnosis before fitting (include/ftid/identify/setup_check.hpp).
+#include "ftid/identify/setup_check.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <sstream>
+
+#include "ftid/common/error.hpp"
+#include "ftid/identify/tilt_start.hpp"
+
+namespace ftid::identify {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+std::string num(double v, int digits) {
+  char b[48];
+  std::snprintf(b, sizeof b, "%.*f", digits, v);
+  return b;
+}
+
+std::string rpyText(const Vec3& rpy) {
+  std::string s;
+  for (int k = 0; k < 3; ++k) {
+    char b[32];
+    const double v = std::abs(rpy(k)) < 5e-5 ? 0.0 : rpy(k);  // no "-0"
+    std::snprintf(b, sizeof b, "%.5g", v);
+    s += (k > 0 ? "," : "") + std::string(b);
+  }
+  return s;
+}
+
+/// Relative residual energy of the gravity model on ctx (NaN if it cannot be fitted).
+double relativeResidual(const std::vector<SampleContext>& ctx, double* mass_kg) {
+  double ms_f = 0.0, ms_t = 0.0;
+  for (const auto& c : ctx) {
+    ms_f += c.wrench_S.head<3>().squaredNorm();
+    ms_t += c.wrench_S.tail<3>().squaredNorm();
+  }
+  const double n = static_cast<double>(ctx.size());
+  ms_f /= n;
+  ms_t /= n;
+  try {
+    const MultiStartFit m = fitModelMultiStart(effects::Model::fromName("paper"), ctx);
+    const Vec6& r = m.fit.residual_rms;
+    if (mass_kg != nullptr) *mass_kg = m.fit.value("mass");
+    return r.head<3>().squaredNorm() / std::max(ms_f, 1e-300) + r.tail<3>().squaredNorm() / std::max(ms_t, 1e-300);
+  } catch (const Error&) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+std::vector<SampleContext> rotatedWrench(const std::vector<SampleContext>& ctx, const Mat3& R_fixed, bool to_sensor,
+                                         bool from_sensor) {
+  std::vector<SampleContext> out = ctx;
+  for (auto& c : out) {
+    Mat3 R = R_fixed;
+    if (to_sensor) R = c.R_BS.transpose();   // a base-frame reading into S
+    if (from_sensor) R = c.R_BS;             // a sensor-frame reading taken as base: undo
+    c.wrench_S.head<3>() = R * c.wrench_S.head<3>();
+    c.wrench_S.tail<3>() = R * c.wrench_S.tail<3>();
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<Mat3> axisAlignedRotations() {
+  std::vector<Mat3> out;
+  out.push_back(Mat3::Identity());
+  // Signed permutation matrices with determinant +1.
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  for (const auto& p : perms) {
+    for (int s = 0; s < 8; ++s) {
+      Mat3 R = Mat3::Zero();
+      for (int i = 0; i < 3; ++i) R(i, p[i]) = ((s >> i) & 1) != 0 ? -1.0 : 1.0;
+      if (R.determinant() < 0.0 || R.isIdentity()) continue;
+      out.push_back(R);
+    }
+  }
+  return out;
+}
+
+Vec3 rpyOf(const Mat3& R) {
+  const double pitch = std::asin(std::max(-1.0, std::min(1.0, -R(2, 0))));
+  double roll = 0.0, yaw = 0.0;
+  if (std::abs(R(2, 0)) < 1.0 - 1e-12) {
+    roll = std::atan2(R(2, 1), R(2, 2));
+    yaw = std::atan2(R(1, 0), R(0, 0));
+  } else {  // gimbal lock: roll and yaw share one axis; put it all in yaw
+    yaw = std::atan2(-R(0, 1), R(1, 1));
+  }
+  return {roll, pitch, yaw};
+}
+
+Mat3 rotationFromRpy(const Vec3& rpy_rad) {
+  return Mat3(Eigen::AngleAxisd(rpy_rad(2), Vec3::UnitZ()) * Eigen::AngleAxisd(rpy_rad(1), Vec3::UnitY()) *
+              Eigen::AngleAxisd(rpy_rad(0), Vec3::UnitX()));
+}
+
+Vec3 parseRpy(const std::string& text, const std::string& what) {
+  Vec3 v;
+  std::stringstream ss(text);
+  std::string item;
+  int k = 0;
+  while (std::getline(ss, item, ',')) {
+    if (k >= 3) throw ConfigError(what + ": expected R,P,Y (three angles in rad), got '" + text + "'");
+    std::size_t used = 0;
+    double x = std::numeric_limits<double>::quiet_NaN();
+    try {
+      x = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != item.size() || item.empty() || !std::isfinite(x) || std::abs(x) > kTwoPi) {
+      throw ConfigError(what + ": '" + item + "' is not an angle in rad (a finite number within +-2 pi)");
+    }
+    v(k++) = x;
+  }
+  if (k != 3) throw ConfigError(what + ": expected R,P,Y (three angles in rad), got '" + text + "'");
+  return v;
+}
+
+Mat3 bestAxisAlignedMount(const std::vector<SampleContext>& all) {
+  if (all.size() < 20) return Mat3::Identity();
+  std::vector<SampleContext> ctx;
+  const std::size_t step = std::max<std::size_t>(1, all.size() / kSetupMaxSamples);
+  for (std::size_t i = 0; i < all.size(); i += step) ctx.push_back(all[i]);
+  Mat3 best = Mat3::Identity();
+  double best_r = relativeResidual(ctx, nullptr);
+  if (!std::isfinite(best_r)) best_r = std::numeric_limits<double>::infinity();
+  const auto rotations = axisAlignedRotations();
+  for (std::size_t k = 1; k < rotations.size(); ++k) {
+    const double r = relativeResidual(rotatedWrench(ctx, rotations[k], false, false), nullptr);
+    if (std::isfinite(r) && r < best_r) {
+      best_r = r;
+      best = rotations[k];
+    }
+  }
+  return best;
+}
+
+SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const samples::ContextOptions& given,
+                             bool try_mounts) {
+  SetupDiagnosis d;
+  if (all.size() < 20) return d;
+  // Degrees in the joint angle columns: a UR joint stays within +-2 pi rad.
+  double max_q = 0.0;
+  for (const auto& c : all) {
+    if (c.has_joints) max_q = std::max(max_q, c.q.cwiseAbs().maxCoeff());
+  }
+  if (max_q > kTwoPi + 0.1) {
+    d.lines.push_back("set-up: joint angles reach " + num(max_q, 1) +
+                      ", beyond any joint's +-6.28 rad: the angle columns look like degrees; convert q1..q6 (and "
+                      "qd, qdd) to rad (docs/log-format.md)");
+  }
+  std::vector<SampleContext> ctx;
+  const std::size_t step = std::max<std::size_t>(1, all.size() / kSetupMaxSamples);
+  for (std::size_t i = 0; i < all.size(); i += step) ctx.push_back(all[i]);
+
+  double mass_given = 0.0;
+  d.given_residual = relativeResidual(ctx, &mass_given);
+  if (!std::isfinite(d.given_residual)) return d;
+  d.best_residual = std::numeric_limits<double>::infinity();
+  auto consider = [&](double r, const std::string& what, const std::string& fix) {
+    if (std::isfinite(r) && r < d.best_residual) {
+      d.best_residual = r;
+      d.best = what;
+      d.fix = fix;
+    }
+  };
+  // The other wrench frame.
+  {
+    const auto alt = rotatedWrench(ctx, Mat3::Identity(), !given.wrench_in_base, given.wrench_in_base);
+    consider(relativeResidual(alt, nullptr),
+             given.wrench_in_base ? "the wrench columns are in the sensor frame" : "the wrench columns are in the base frame",
+             given.wrench_in_base ? "--wrench-frame sensor" : "--wrench-frame base");
+  }
+  // The sensor mounted rotated: its reading is in S' = S R (R_SS' = R), so in S it is R w'.
+  const auto rotations = axisAlignedRotations();
+  for (std::size_t k = 1; try_mounts && k < rotations.size(); ++k) {
+    const Mat3& R = rotations[k];
+    const auto alt = rotatedWrench(ctx, R, false, false);
+    const Vec3 rpy = canonicalRpy(rpyOf(given.R_FS * R));
+    consider(relativeResidual(alt, nullptr), "the sensor is mounted rotated (R_FS rpy " + rpyText(rpy) + " rad)",
+             "--mount-rpy " + rpyText(rpy));
+  }
+  d.explains = d.given_residual > kSetupMinResidual && d.best_residual < kSetupBetterRatio * d.given_residual;
+  if (d.explains) {
+    d.lines.push_back("set-up: " + d.best + " explains the data (the gravity model leaves " +
+                      num(100.0 * d.best_residual, 2) + " % of the signal unexplained instead of " +
+                      num(100.0 * d.given_residual, 1) + " %, fitted mass " + num(mass_given, 3) +
+                      " kg as given): add " + d.fix);
+  } else if (mass_given <= 0.0 && d.given_residual > kSetupMinResidual) {
+    d.lines.push_back("set-up: the gravity the wrench sees does not follow the kinematics (the gravity model fits a "
+                      "mass of " + num(mass_given, 3) + " kg, " + num(100.0 * d.given_residual, 1) +
+                      " % of the signal unexplained); check the robot description, the mount and the wrench frame");
+  }
+  return d;
+}
+
+}  // namespace ftid::identify
