@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "input_flags.hpp"
 #include "ftid/cell/exports.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
@@ -15,12 +16,16 @@ namespace {
 const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
     "                     [--wrench-frame sensor|base] [--noise fx=S,..,tz=S]\n"
+    "                     [--wrench-log FILE [--wrench-time-offset S]] [--qdd-source diff|target]\n"
+    "                     [--ur-payload M,CX,CY,CZ]\n"
     "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
     "\n"
     "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...; or the sensor pose instead of the joint\n"
-    "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md)\n"
+    "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md), or a UR RTDE\n"
+    "                    recording (record.py, ur_rtde; recognised from its header: the wrench from\n"
+    "                    actual_TCP_force in base axes unless --wrench-log is given)\n"
     "  --method M        the paper's method: 'dynamic' (default; with the inertial term -m a, for\n"
     "                    excitation runs) or 'static' (gravity only: rest poses or slow motion)\n"
     "  --model M         instead of the paper's method, fit a composed model by weighted least\n"
@@ -34,6 +39,7 @@ const char* const kUsage =
     "  --config FILE     ftidd configuration for the exports (sensor mount, `export:` section;\n"
     "                    default /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml)\n"
     "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
+    "%INPUT%"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
@@ -45,6 +51,16 @@ const char* const kUsage =
     "out, and the held-out residual per axis is printed against the noise floor. Above 1.2x on any\n"
     "axis a warning says the model misses something and names the `ftid analyze` command. Exit code 1 with a one-line reason if the log is malformed or does not determine the\n"
     "parameters (the message names those not excited).";
+
+/// The usage with the shared recording options inserted.
+const std::string& usage() {
+  static const std::string text = [] {
+    std::string u = kUsage;
+    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
+    return u;
+  }();
+  return text;
+}
 
 int runIdentify(const std::vector<std::string>& argv) {
   ftid::identify::IdentifyRequest req;
@@ -62,7 +78,10 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_flag("--json", json);
   app.add_option("--noise", noise);
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
+  ftid::cli::InputFlags input;
+  ftid::cli::addInputFlags(app, input);
   ftid::cli::parse(app, argv);
+  ftid::cli::applyInputFlags(input, req.context.input);
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   if (!noise.empty()) {
     try {
@@ -93,12 +112,16 @@ int runIdentify(const std::vector<std::string>& argv) {
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
     std::cout << ftid::identify::formatFitCheck(id.check);
+    if (const auto* delay = set.find("delay"); delay != nullptr && !input.wrench_log.empty()) {
+      std::cout << "clock offset: " << input.wrench_log << " lags the robot's recording by " << delay->value * 1e3
+                << " ms (sensor_delay's delay; --wrench-time-offset " << -delay->value << " aligns the files)\n";
+    }
     if (!out.empty()) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";
   }
   return 0;
 }
 
-ftid::cli::Registrar reg{{"identify", "identify payload parameters from a recorded log", kUsage, &runIdentify}};
+ftid::cli::Registrar reg{{"identify", "identify payload parameters from a recorded log", usage(), &runIdentify}};
 
 }  // namespace
