@@ -22,7 +22,7 @@ const char* const kUsage =
     "Compares a model of the sensor reading with the measurements, shows where it fails and which\n"
     "physical effect is missing (docs/analyze.md; the effects: docs/effects.md).\n"
     "\n"
-    "  LOG               the CSV log or a UR RTDE recording (docs/log-format.md)\n"
+    "  LOG               the CSV log or a UR RTDE recording or ROS 2 bag (docs/log-format.md)\n"
     "  --model M         starting model (default 'paper' = offsets+gravity+tilt+linear_inertia);\n"
     "                    compose with '+', e.g. paper+rigid_body+cable or paper+harmonic(q6,2)\n"
     "  --validate LOG2   fit on LOG, evaluate on LOG2 (default: K-fold over contiguous time blocks)\n"

@@ -16,7 +16,7 @@ const char* const kUsage =
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
     "columns t, fx..tz (contact wrench, in S) and model_fx..model_tz (modelled wrench).\n"
     "\n"
-    "  --log FILE        the log or UR RTDE recording (docs/log-format.md)\n"
+    "  --log FILE        the log or UR RTDE recording or ROS 2 bag (docs/log-format.md)\n"
     "  --params FILE     parameters written by `ftid identify --out`\n"
     "  --out FILE        the output CSV (written atomically)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"

@@ -15,7 +15,7 @@ const char* const kUsage =
     "                    [--qdd-source diff|target] [--ur-payload M,CX,CY,CZ]\n"
     "\n"
     "Reads IN as ftid identify, analyze and compensate read it (an ftid log, a UR RTDE recording\n"
-    "from record.py or ur_rtde, either with the sensor's own recording) and writes what ftid read\n"
+    "from record.py or ur_rtde, a ROS 2 bag; either with the sensor's own recording) and writes what ftid read\n"
     "as a native ftid log (docs/log-format.md, written atomically), so you can inspect it. Prints\n"
     "what the reader did (rows dropped, the alignment, where the accelerations came from).\n"
     "\n"

@@ -39,7 +39,10 @@ std::size_t dropRepeatedPoses(LogData& log) {
 
 InputLog readInput(const std::string& path, const InputOptions& options) {
   InputLog in;
-  {
+  if (isDirectory(path)) {
+    in = readRosbag2(path, options);
+    if (options.wrench_log.empty()) return in;  // aligned with the bag's wrench topic
+  } else {
     std::string text;
     try {
       text = readInputFile(path, "log file", kMaxLogBytes);

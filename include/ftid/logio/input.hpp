@@ -40,6 +40,10 @@ struct InputOptions {
   Vec3 ur_payload_com_tcp_m = Vec3::Zero();
   /// Gravity the UR controller compensates the configured payload with, in the base [m/s^2].
   Vec3 ur_gravity_B = Vec3(0.0, 0.0, -9.80665);
+  /// ROS 2 bags: the sensor_msgs/JointState topic (`--joint-topic`) and the
+  /// geometry_msgs/WrenchStamped topic (`--wrench-topic`; "" = the bag's only one).
+  std::string joint_topic = "/joint_states";
+  std::string wrench_topic;
   LogReadOptions read;
 };
 
@@ -58,6 +62,22 @@ struct InputLog {
 InputLog readInput(const std::string& path, const InputOptions& options = {});
 
 // ---- the parts (each tested on its own) ------------------------------------------------------
+
+/// True if `path` is a directory (a rosbag2 is one: metadata.yaml and its storage files).
+bool isDirectory(const std::string& path);
+
+/// A rosbag2 directory (sqlite3 storage) as a native log: the joint topic's JointState (UR joint
+/// names, any order and prefix; velocities differenced if absent, accelerations always) and,
+/// unless options.wrench_log is given, the wrench topic's WrenchStamped, aligned as alignWrench.
+/// Times are the messages' header stamps (the bag's receive times for a topic whose stamps are
+/// zero). Every byte is validated (cdr.hpp); errors name the bag file, topic and message.
+InputLog readRosbag2(const std::string& dir, const InputOptions& options);
+
+/// The robot's part of a recording: drops rows whose joint state repeats the previous one
+/// exactly, then fills qdd (and qd if `has_qd` is false) from smoothed differences; notes what
+/// it did. `what` names the state in the notes ("JointState messages").
+void differenceJointLog(LogData& log, bool has_qd, int half_window, const std::string& what,
+                        std::vector<std::string>& notes);
 
 /// True if a header row is a UR RTDE recording's (has `timestamp` and `actual_q_0` or
 /// `actual_TCP_pose_0`; space- or comma-separated).
