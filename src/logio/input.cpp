@@ -10,6 +10,26 @@
 
 namespace ftid::logio {
 
+std::vector<bool> stairSteps(const std::vector<bool>& same, const std::vector<int>& moving) {
+  const std::size_t n = same.size();
+  std::vector<bool> drop(n, false);
+  std::size_t i = 0;
+  while (i < n) {
+    if (!same[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t end = i;  // the run of repeats [i, end)
+    while (end < n && same[end]) ++end;
+    for (std::size_t k = i; k < end; ++k) {
+      const int m = k < moving.size() ? moving[k] : -1;
+      drop[k] = m == 1 || (m < 0 && end - i <= kMaxStairRun);
+    }
+    i = end;
+  }
+  return drop;
+}
+
 std::size_t dropRepeatedPoses(LogData& log) {
   if (log.has_joints || log.samples.size() < 2) return 0;
   for (const char* motion : {"kin_wx", "kin_alx", "kin_ax"}) {
@@ -21,20 +41,23 @@ std::size_t dropRepeatedPoses(LogData& log) {
     if (k >= 0) pose_cols.push_back(static_cast<std::size_t>(k));
   }
   if (pose_cols.empty()) return 0;
-  std::size_t kept = 1;
-  for (std::size_t i = 1; i < log.samples.size(); ++i) {
-    const bool repeated = std::all_of(pose_cols.begin(), pose_cols.end(), [&](std::size_t c) {
-      return log.extra_columns[c][i] == log.extra_columns[c][kept - 1];
-    });
-    if (repeated) continue;
+  const std::size_t n = log.samples.size();
+  std::vector<bool> same(n, false);
+  for (std::size_t i = 1; i < n; ++i) {
+    same[i] = std::all_of(pose_cols.begin(), pose_cols.end(),
+                          [&](std::size_t c) { return log.extra_columns[c][i] == log.extra_columns[c][i - 1]; });
+  }
+  const std::vector<bool> drop = stairSteps(same, std::vector<int>(n, -1));
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (drop[i]) continue;
     log.samples[kept] = log.samples[i];
     for (auto& c : log.extra_columns) c[kept] = c[i];
     ++kept;
   }
-  const std::size_t dropped = log.samples.size() - kept;
   log.samples.resize(kept);
   for (auto& c : log.extra_columns) c.resize(kept);
-  return dropped;
+  return n - kept;
 }
 
 InputLog readInput(const std::string& path, const InputOptions& options) {
@@ -60,8 +83,9 @@ InputLog readInput(const std::string& path, const InputOptions& options) {
       const std::size_t dropped = dropRepeatedPoses(in.log);
       if (dropped > 0) {
         in.notes.push_back("dropped " + std::to_string(dropped) + " of " + std::to_string(n) +
-                           " rows whose pose repeats the previous row exactly (the recorder sampled faster than "
-                           "the robot's state updated; differences across them would be wrong)");
+                           " rows whose pose repeats the previous row exactly, in runs of at most " +
+                           std::to_string(kMaxStairRun) + " (stair steps: the recorder sampled faster than the "
+                           "robot's state updated; differences across them would be wrong)");
       }
     }
   }

@@ -398,9 +398,16 @@ InputLog readRosbag2(const std::string& dir, const InputOptions& options) {
 void differenceJointLog(LogData& log, bool has_qd, int half_window, const std::string& what,
                         std::vector<std::string>& notes) {
   const std::size_t n0 = log.samples.size();
+  std::vector<bool> same(n0, false);
+  std::vector<int> moving(n0, -1);
+  for (std::size_t i = 0; i < n0; ++i) {
+    if (i > 0) same[i] = log.samples[i].q == log.samples[i - 1].q && log.samples[i].qd == log.samples[i - 1].qd;
+    if (has_qd) moving[i] = log.samples[i].qd.isZero(0.0) ? 0 : 1;
+  }
+  const std::vector<bool> drop = stairSteps(same, moving);
   std::size_t kept = 0;
   for (std::size_t i = 0; i < n0; ++i) {
-    if (kept > 0 && log.samples[i].q == log.samples[kept - 1].q && log.samples[i].qd == log.samples[kept - 1].qd) continue;
+    if (drop[i]) continue;
     log.samples[kept] = log.samples[i];
     for (auto& c : log.extra_columns) c[kept] = c[i];
     ++kept;
@@ -409,8 +416,8 @@ void differenceJointLog(LogData& log, bool has_qd, int half_window, const std::s
   for (auto& c : log.extra_columns) c.resize(kept);
   if (kept < n0) {
     notes.push_back("dropped " + std::to_string(n0 - kept) + " of " + std::to_string(n0) + " " + what +
-                    "s whose joint state repeats the previous one exactly (stair-stepped: differences across them "
-                    "would be wrong)");
+                    "s whose joint state repeats the previous one exactly while the arm moves (stair steps: "
+                    "differences across them would be wrong)");
   }
   const int h = std::max(1, half_window);
   std::vector<double> t(kept);

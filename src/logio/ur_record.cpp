@@ -111,18 +111,38 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   log.has_wrench = has(force);
   const LogReadOptions& lim = options.read;
 
-  // Rows: drop exact repeats of the previous kept state (stair-stepped recordings), then check time.
-  std::vector<std::size_t> keep;
+  // Rows: drop stair steps (repeats of the previous state while moving) and exact duplicate rows,
+  // then check that time increases.
   std::vector<int> state_cols;
   for (const auto* g : {&q, &qd, &pose}) {
     if (has(*g)) state_cols.insert(state_cols.end(), g->begin(), g->end());
   }
-  for (std::size_t r = 0; r < table.rows(); ++r) {
+  const std::size_t rows = table.rows();
+  std::vector<bool> same(rows, false);
+  std::vector<int> moving(rows, -1);
+  for (std::size_t r = 0; r < rows; ++r) {
+    if (r > 0) {
+      same[r] = std::all_of(state_cols.begin(), state_cols.end(),
+                            [&](int c) { return at(table, c, r) == at(table, c, r - 1); });
+    }
+    if (has(qd)) {
+      moving[r] = std::any_of(qd.begin(), qd.end(), [&](int c) { return at(table, c, r) != 0.0; }) ? 1 : 0;
+    }
+  }
+  const std::vector<bool> stair = stairSteps(same, moving);
+  std::vector<std::size_t> keep;
+  std::size_t stairs = 0, duplicates = 0;
+  for (std::size_t r = 0; r < rows; ++r) {
+    if (stair[r]) {
+      ++stairs;
+      continue;
+    }
     if (!keep.empty()) {
       const std::size_t p = keep.back();
-      const bool repeated = std::all_of(state_cols.begin(), state_cols.end(),
-                                        [&](int c) { return at(table, c, r) == at(table, c, p); });
-      if (repeated) continue;
+      if (same[r] && at(table, t_col, r) == at(table, t_col, p)) {
+        ++duplicates;  // the same row twice
+        continue;
+      }
       if (!(at(table, t_col, r) > at(table, t_col, p))) {
         char buf[240];
         std::snprintf(buf, sizeof buf,
@@ -136,12 +156,13 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
     checkRange(table, t_col, r, lim.max_abs_t_s, "s");
     keep.push_back(r);
   }
-  const std::size_t dropped = table.rows() - keep.size();
-  if (dropped > 0) {
-    out.notes.push_back("dropped " + std::to_string(dropped) + " of " + std::to_string(table.rows()) +
-                        " rows whose robot state repeats the previous row exactly (the recorder sampled faster "
-                        "than the controller updated its state; differences across them would be wrong)");
+  if (stairs > 0) {
+    out.notes.push_back("dropped " + std::to_string(stairs) + " of " + std::to_string(rows) +
+                        " rows whose robot state repeats the previous row exactly while the arm moves (stair steps: "
+                        "the recorder sampled faster than the controller updated its state; differences across "
+                        "them would be wrong)");
   }
+  if (duplicates > 0) out.notes.push_back("dropped " + std::to_string(duplicates) + " duplicate rows");
   const std::size_t n = keep.size();
   std::vector<double> t(n);
   std::vector<JointVector> qv(n), qdv(n);

@@ -73,8 +73,8 @@ bool isDirectory(const std::string& path);
 /// zero). Every byte is validated (cdr.hpp); errors name the bag file, topic and message.
 InputLog readRosbag2(const std::string& dir, const InputOptions& options);
 
-/// The robot's part of a recording: drops rows whose joint state repeats the previous one
-/// exactly, then fills qdd (and qd if `has_qd` is false) from smoothed differences; notes what
+/// The robot's part of a recording: drops the stair steps (stairSteps; moving from the recorded
+/// velocities if `has_qd`), then fills qdd (and qd if `has_qd` is false) from smoothed differences; notes what
 /// it did. `what` names the state in the notes ("JointState messages").
 void differenceJointLog(LogData& log, bool has_qd, int half_window, const std::string& what,
                         std::vector<std::string>& notes);
@@ -86,8 +86,9 @@ bool isUrRecordHeader(std::string_view header);
 /// A UR recording (record.py or ur_rtde's startFileRecording) as a native log: joint log from
 /// actual_q/actual_qd (qdd per options.qdd_source), else a pose log from actual_TCP_pose (TCP =
 /// S); the wrench from actual_TCP_force (base axes, moments about the TCP; wrench_in_base set)
-/// plus the configured payload's gravity; other columns kept as extra columns. Rows whose joint
-/// state (and pose) repeats the previous row's exactly are dropped before differencing (noted).
+/// plus the configured payload's gravity; other columns kept as extra columns. Stair steps
+/// (stairSteps: the joint state and pose repeat the previous row's exactly while actual_qd is
+/// non-zero) and exact duplicate rows are dropped before differencing (noted).
 InputLog urRecordToLog(const Table& table, const InputOptions& options);
 
 /// A sensor's own recording: a time column (`t`, `time`, `timestamp`, any case) and the six
@@ -105,9 +106,19 @@ LogData alignWrench(const LogData& robot, const LogData& wrench, double offset_s
 /// (docs/log-format.md "UR recordings").
 std::vector<JointVector> smoothedDerivative(const std::vector<double>& t, const std::vector<JointVector>& y, int h);
 
-/// Drops every sample of a pose log (without kin_* motion columns) whose pose columns repeat the
-/// previous row's exactly (a recorder sampling faster than the robot's state updates); returns
-/// how many were dropped.
+/// Longest run of repeated rows taken as stair steps when no velocity says whether the robot
+/// moves (a recorder up to 10x faster than the robot's state updates); longer runs are rest.
+inline constexpr std::size_t kMaxStairRun = 9;
+
+/// Which rows are stair steps: `same[i]` says row i's state equals row i-1's exactly (same[0]
+/// is false); `moving[i]` is 1 if the row's recorded velocity is non-zero (a repeat while moving
+/// cannot be real), 0 if it is zero (at rest: repeats are real readings, kept), -1 if unknown (no
+/// velocity: runs of at most kMaxStairRun repeats are stair steps, longer ones rest).
+std::vector<bool> stairSteps(const std::vector<bool>& same, const std::vector<int>& moving);
+
+/// Drops the stair steps (stairSteps, velocity unknown) of a pose log without kin_* motion
+/// columns: rows whose pose columns repeat the previous row's exactly, in runs of at most
+/// kMaxStairRun; returns how many were dropped.
 std::size_t dropRepeatedPoses(LogData& log);
 
 /// The ftid column a header name means, if it is a known alias or differs only in case, spaces,

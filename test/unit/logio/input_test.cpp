@@ -2,6 +2,7 @@
 // wrench log and its alignment with the robot's, column aliases and the refusals that name the fix.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -175,6 +176,37 @@ TEST(UrRecord, StairSteppedStatesAreDroppedBeforeDifferencing) {
     EXPECT_DOUBLE_EQ(in.log.samples[i].t, t);
     for (int j = 0; j < 6; ++j) ASSERT_NEAR(in.log.samples[i].qdd[j], g * qddOf(j, t), 1e-6);
   }
+}
+
+TEST(UrRecord, RepeatsAtRestAreRealReadingsAndKept) {
+  // A static pose held for 20 rows: q repeats exactly, qd is zero: every row is a real reading
+  // (the repeated readings of a static pose set); an exact duplicate row (same time) is dropped.
+  std::string text = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5 actual_qd_0 "
+                     "actual_qd_1 actual_qd_2 actual_qd_3 actual_qd_4 actual_qd_5 actual_TCP_force_0 "
+                     "actual_TCP_force_1 actual_TCP_force_2 actual_TCP_force_3 actual_TCP_force_4 actual_TCP_force_5\n";
+  for (int i = 0; i < 20; ++i) {
+    text += std::to_string(0.008 * i) + " 0.1 -1.5 1.5 -1.5 -1.5 0.2 0 0 0 0 0 0 1 2 " + std::to_string(3.0 + 0.01 * i) +
+            " 0 0 0\n";
+  }
+  text += "0.152 0.1 -1.5 1.5 -1.5 -1.5 0.2 0 0 0 0 0 0 1 2 3.19 0 0 0\n";  // row 20 again
+  const InputLog in = urRecordToLog(parseTable(text, "rest.txt"), {});
+  EXPECT_EQ(in.log.samples.size(), 20u);
+  ASSERT_EQ(in.notes.size(), 3u);  // accelerations, duplicates, wrench source
+  EXPECT_EQ(in.notes[0], "dropped 1 duplicate rows");
+}
+
+TEST(StairSteps, ByVelocityOrByRunLength) {
+  // Runs of repeats: rows 2-3 (moving: dropped), rows 6-7 (at rest: kept).
+  const std::vector<bool> same = {false, false, true, true, false, false, true, true};
+  EXPECT_EQ(stairSteps(same, {1, 1, 1, 1, 1, 0, 0, 0}),
+            (std::vector<bool>{false, false, true, true, false, false, false, false}));
+  // Unknown velocity: a run of kMaxStairRun repeats is stair steps, one more is rest.
+  std::vector<bool> short_run(1 + kMaxStairRun, true), long_run(2 + kMaxStairRun, true);
+  short_run[0] = long_run[0] = false;
+  const auto a = stairSteps(short_run, std::vector<int>(short_run.size(), -1));
+  const auto b = stairSteps(long_run, std::vector<int>(long_run.size(), -1));
+  EXPECT_EQ(std::count(a.begin(), a.end(), true), static_cast<long>(kMaxStairRun));
+  EXPECT_EQ(std::count(b.begin(), b.end(), true), 0);
 }
 
 TEST(UrRecord, ConfiguredPayloadIsAddedBackInBaseAxes) {
@@ -388,6 +420,12 @@ TEST(ReadInput, RepeatedPosesOfAPoseLogAreDropped) {
   ASSERT_EQ(in.notes.size(), 1u);
   EXPECT_NE(in.notes[0].find("dropped 20 of 40 rows whose pose repeats"), std::string::npos);
   std::remove(path.c_str());
+  // A pose held for 30 rows is the robot at rest, not stair steps: kept.
+  std::string rest = "t,px,py,pz,rx,ry,rz,fx,fy,fz,tx,ty,tz\n";
+  for (int i = 0; i < 30; ++i) rest += std::to_string(0.001 * i) + ",0.5,0,0.4,0,0,0.3,0,0,1,0,0,0\n";
+  const std::string rest_path = writeText("rest_poses.csv", rest);
+  EXPECT_EQ(readInput(rest_path).log.samples.size(), 30u);
+  std::remove(rest_path.c_str());
 }
 
 }  // namespace
