@@ -113,9 +113,11 @@ int runIdentify(const std::vector<std::string>& argv) {
   } else {
     std::cout << ftid::identify::formatParameterTable(set);
     std::cout << ftid::identify::formatFitCheck(id.check);
-    if (const auto* delay = set.find("delay"); delay != nullptr && !input.wrench_log.empty()) {
-      std::cout << "clock offset: " << input.wrench_log << " lags the robot's recording by " << delay->value * 1e3
-                << " ms (sensor_delay's delay; --wrench-time-offset " << -delay->value << " aligns the files)\n";
+    const bool two_clocks = !input.wrench_log.empty() || ftid::logio::isDirectory(req.log_path);
+    if (const auto* delay = set.find("delay"); delay != nullptr && two_clocks) {
+      const std::string sensor = input.wrench_log.empty() ? "the wrench topic" : input.wrench_log;
+      std::cout << "clock offset: " << sensor << " lags the robot's recording by " << delay->value * 1e3
+                << " ms (sensor_delay's delay; --wrench-time-offset " << -delay->value << " aligns them)\n";
     }
     if (!out.empty()) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";
