@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 
 #include <Eigen/Geometry>
 
@@ -63,6 +64,85 @@ Mat3 rotationFromVector(const Vec3& r) {
   return angle > 0 ? Mat3(Eigen::AngleAxisd(angle, r / angle).toRotationMatrix()) : Mat3(Mat3::Identity());
 }
 
+/// The rows to keep: stair steps (the state columns repeat the previous row's while `qd`, if
+/// recorded, is non-zero; logio::stairSteps) and exact duplicate rows dropped (noted); the time
+/// must increase over the rest.
+std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initializer_list<const std::array<int, 6>*> state,
+                                    const std::array<int, 6>* qd, const LogReadOptions& lim,
+                                    std::vector<std::string>& notes) {
+  // Rows: drop stair steps (repeats of the previous state while moving) and exact duplicate rows,
+  // then check that time increases.
+  std::vector<int> state_cols;
+  for (const auto* g : state) {
+    if (has(*g)) state_cols.insert(state_cols.end(), g->begin(), g->end());
+  }
+  const std::size_t rows = table.rows();
+  std::vector<bool> same(rows, false);
+  std::vector<int> moving(rows, -1);
+  for (std::size_t r = 0; r < rows; ++r) {
+    if (r > 0) {
+      same[r] = std::all_of(state_cols.begin(), state_cols.end(),
+                            [&](int c) { return at(table, c, r) == at(table, c, r - 1); });
+    }
+    if (qd != nullptr) {
+      moving[r] = std::any_of(qd->begin(), qd->end(), [&](int c) { return at(table, c, r) != 0.0; }) ? 1 : 0;
+    }
+  }
+  const std::vector<bool> stair = stairSteps(same, moving);
+  std::vector<std::size_t> keep;
+  std::size_t stairs = 0, duplicates = 0;
+  for (std::size_t r = 0; r < rows; ++r) {
+    if (stair[r]) {
+      ++stairs;
+      continue;
+    }
+    if (!keep.empty()) {
+      const std::size_t p = keep.back();
+      if (same[r] && at(table, t_col, r) == at(table, t_col, p)) {
+        ++duplicates;  // the same row twice
+        continue;
+      }
+      if (!(at(table, t_col, r) > at(table, t_col, p))) {
+        char buf[240];
+        std::snprintf(buf, sizeof buf,
+                      "%s:%zu: column 'timestamp': time %.17g is not greater than %.17g on line %zu (timestamps "
+                      "must increase)",
+                      table.source.c_str(), table.row_line[r], at(table, t_col, r), at(table, t_col, p),
+                      table.row_line[p]);
+        throw DataError(buf);
+      }
+    }
+    checkRange(table, t_col, r, lim.max_abs_t_s, "s");
+    keep.push_back(r);
+  }
+  if (stairs > 0) {
+    notes.push_back("dropped " + std::to_string(stairs) + " of " + std::to_string(rows) +
+                        " rows whose robot state repeats the previous row exactly while the arm moves (stair steps: "
+                        "the recorder sampled faster than the controller updated its state; differences across "
+                        "them would be wrong)");
+  }
+  if (duplicates > 0) notes.push_back("dropped " + std::to_string(duplicates) + " duplicate rows");
+  return keep;
+}
+
+/// Adds back the configured payload's gravity wrench that the controller subtracted from
+/// actual_TCP_force: f_B += m g_B, t_B += (R_BT c) x (m g_B), R_BT from actual_TCP_pose.
+void addConfiguredPayload(const Table& table, const std::array<int, 6>& pose, const std::vector<std::size_t>& keep,
+                          const InputOptions& options, LogData& log, std::vector<std::string>& notes) {
+  const Vec3 f_B = options.ur_payload_mass_kg * options.ur_gravity_B;
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    Vec3 r;
+    for (int j = 0; j < 3; ++j) r[j] = at(table, pose[static_cast<std::size_t>(3 + j)], keep[i]);
+    const Vec3 c_B = rotationFromVector(r) * options.ur_payload_com_tcp_m;
+    log.samples[i].wrench_S.head<3>() += f_B;
+    log.samples[i].wrench_S.tail<3>() += c_B.cross(f_B);
+  }
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "added back the controller's configured payload (%.6g kg) to actual_TCP_force",
+                options.ur_payload_mass_kg);
+  notes.emplace_back(buf);
+}
+
 }  // namespace
 
 bool isUrRecordHeader(std::string_view header) {
@@ -111,58 +191,7 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   log.has_wrench = has(force);
   const LogReadOptions& lim = options.read;
 
-  // Rows: drop stair steps (repeats of the previous state while moving) and exact duplicate rows,
-  // then check that time increases.
-  std::vector<int> state_cols;
-  for (const auto* g : {&q, &qd, &pose}) {
-    if (has(*g)) state_cols.insert(state_cols.end(), g->begin(), g->end());
-  }
-  const std::size_t rows = table.rows();
-  std::vector<bool> same(rows, false);
-  std::vector<int> moving(rows, -1);
-  for (std::size_t r = 0; r < rows; ++r) {
-    if (r > 0) {
-      same[r] = std::all_of(state_cols.begin(), state_cols.end(),
-                            [&](int c) { return at(table, c, r) == at(table, c, r - 1); });
-    }
-    if (has(qd)) {
-      moving[r] = std::any_of(qd.begin(), qd.end(), [&](int c) { return at(table, c, r) != 0.0; }) ? 1 : 0;
-    }
-  }
-  const std::vector<bool> stair = stairSteps(same, moving);
-  std::vector<std::size_t> keep;
-  std::size_t stairs = 0, duplicates = 0;
-  for (std::size_t r = 0; r < rows; ++r) {
-    if (stair[r]) {
-      ++stairs;
-      continue;
-    }
-    if (!keep.empty()) {
-      const std::size_t p = keep.back();
-      if (same[r] && at(table, t_col, r) == at(table, t_col, p)) {
-        ++duplicates;  // the same row twice
-        continue;
-      }
-      if (!(at(table, t_col, r) > at(table, t_col, p))) {
-        char buf[240];
-        std::snprintf(buf, sizeof buf,
-                      "%s:%zu: column 'timestamp': time %.17g is not greater than %.17g on line %zu (timestamps "
-                      "must increase)",
-                      table.source.c_str(), table.row_line[r], at(table, t_col, r), at(table, t_col, p),
-                      table.row_line[p]);
-        throw DataError(buf);
-      }
-    }
-    checkRange(table, t_col, r, lim.max_abs_t_s, "s");
-    keep.push_back(r);
-  }
-  if (stairs > 0) {
-    out.notes.push_back("dropped " + std::to_string(stairs) + " of " + std::to_string(rows) +
-                        " rows whose robot state repeats the previous row exactly while the arm moves (stair steps: "
-                        "the recorder sampled faster than the controller updated its state; differences across "
-                        "them would be wrong)");
-  }
-  if (duplicates > 0) out.notes.push_back("dropped " + std::to_string(duplicates) + " duplicate rows");
+  const std::vector<std::size_t> keep = selectRows(table, t_col, {&q, &qd, &pose}, has(qd) ? &qd : nullptr, lim, out.notes);
   const std::size_t n = keep.size();
   std::vector<double> t(n);
   std::vector<JointVector> qv(n), qdv(n);
@@ -238,21 +267,7 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   if (log.has_wrench) {
     out.wrench_in_base = true;
     out.notes.push_back("wrench from actual_TCP_force (the controller's estimate: base axes, moments about the TCP)");
-    if (options.ur_payload_mass_kg != 0.0) {
-      // Add back the configured payload's gravity wrench that the controller subtracted.
-      const Vec3 f_B = options.ur_payload_mass_kg * options.ur_gravity_B;
-      for (std::size_t i = 0; i < n; ++i) {
-        Vec3 r;
-        for (int j = 0; j < 3; ++j) r[j] = at(table, pose[static_cast<std::size_t>(3 + j)], keep[i]);
-        const Vec3 c_B = rotationFromVector(r) * options.ur_payload_com_tcp_m;
-        log.samples[i].wrench_S.head<3>() += f_B;
-        log.samples[i].wrench_S.tail<3>() += c_B.cross(f_B);
-      }
-      char buf[160];
-      std::snprintf(buf, sizeof buf, "added back the controller's configured payload (%.6g kg) to actual_TCP_force",
-                    options.ur_payload_mass_kg);
-      out.notes.emplace_back(buf);
-    }
+    if (options.ur_payload_mass_kg != 0.0) addConfiguredPayload(table, pose, keep, options, log, out.notes);
   }
   out.format = std::string("UR RTDE recording (") + (log.has_joints ? "joint" : "TCP pose") + " state)";
   return out;
