@@ -26,7 +26,7 @@ QddSource parseQddSource(const std::string& text);
 
 struct InputOptions {
   /// The sensor's own recording (`--wrench-log`; "" = the wrench is in the main file).
-  std::string wrench_log;
+  std::string wrench_log{};
   /// Added to the wrench log's times before the alignment [s] (`--wrench-time-offset`): a known
   /// clock offset between the two recorders.
   double wrench_time_offset_s = 0.0;
@@ -43,8 +43,8 @@ struct InputOptions {
   /// ROS 2 bags: the sensor_msgs/JointState topic (`--joint-topic`) and the
   /// geometry_msgs/WrenchStamped topic (`--wrench-topic`; "" = the bag's only one).
   std::string joint_topic = "/joint_states";
-  std::string wrench_topic;
-  LogReadOptions read;
+  std::string wrench_topic{};
+  LogReadOptions read{};
 };
 
 /// One recording (or a pair of them) read as a native log.

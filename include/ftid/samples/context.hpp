@@ -48,7 +48,7 @@ struct ContextOptions {
   /// How loadLogContexts reads the recording (logio::readInput): a UR recording's acceleration
   /// source, the sensor's own recording (`--wrench-log`) and its clock offset, the UR payload.
   /// A UR recording's actual_TCP_force sets wrench_in_base.
-  logio::InputOptions input;
+  logio::InputOptions input{};
 };
 
 /// The log column with the host's receive time of each robot state [s, Unix time, UTC]
