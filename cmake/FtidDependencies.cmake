@@ -22,6 +22,8 @@ if(NOT TARGET NLopt::nlopt_cxx)
   message(FATAL_ERROR "NLopt C++ target NLopt::nlopt_cxx not found: install libnlopt-cxx-dev")
 endif()
 find_package(yaml-cpp REQUIRED)
+# rosbag2 storage (src/logio/rosbag2.cpp): libsqlite3-dev.
+find_package(SQLite3 REQUIRED)
 # Header-only: nlohmann-json3-dev (JSON output), libcli11-dev (apps/ argument parsing).
 find_package(nlohmann_json 3.11 REQUIRED)
 find_package(CLI11 2.1 REQUIRED)

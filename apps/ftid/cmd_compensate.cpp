@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "input_flags.hpp"
 #include "ftid/compensate/compensate_log.hpp"
 #include "mount_option.hpp"
 
@@ -11,12 +12,13 @@ namespace {
 const char* const kUsage =
     "usage: ftid compensate --log FILE --params PARAMS.yaml --out OUT.csv [--robot URDF]\n"
     "                       [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
+    "                       [--wrench-log FILE] [--qdd-source diff|target]\n"
     "\n"
     "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
     "columns t, fx..tz (contact wrench, in S) and model_fx..model_tz (modelled wrench).\n"
     "\n"
-    "  --log FILE        the log (docs/log-format.md)\n"
+    "  --log FILE        the log or UR RTDE recording or ROS 2 bag (docs/log-format.md)\n"
     "  --params FILE     parameters written by `ftid identify --out`\n"
     "  --out FILE        the output CSV (written atomically)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
@@ -26,9 +28,19 @@ const char* const kUsage =
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "%INPUT%"
     "\n"
     "Prints the RMS of the reading and of the contact wrench per axis. Exit: 0 written, 1 bad log\n"
     "or parameter file (the message names the file, line or key), 2 usage error.";
+
+const std::string& usage() {
+  static const std::string text = [] {
+    std::string u = kUsage;
+    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
+    return u;
+  }();
+  return text;
+}
 
 int runCompensate(const std::vector<std::string>& argv) {
   ftid::compensate::CompensateRequest req;
@@ -41,7 +53,10 @@ int runCompensate(const std::vector<std::string>& argv) {
   app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
   app.add_option("--mount-rpy", mount_rpy);
   app.add_option("--config", config);
+  ftid::cli::InputFlags input;
+  ftid::cli::addInputFlags(app, input);
   ftid::cli::parse(app, argv);
+  ftid::cli::applyInputFlags(input, req.context.input);
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   ftid::cli::applyMount(req.context, mount_rpy, config);
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
@@ -60,7 +75,7 @@ int runCompensate(const std::vector<std::string>& argv) {
   return 0;
 }
 
-ftid::cli::Registrar reg{{"compensate", "remove the payload wrench from a log (contact wrench CSV)", kUsage,
+ftid::cli::Registrar reg{{"compensate", "remove the payload wrench from a log (contact wrench CSV)", usage(),
                           &runCompensate}};
 
 }  // namespace

@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "input_flags.hpp"
 #include "ftid/cell/exports.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
@@ -17,19 +18,24 @@ namespace {
 const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
     "                     [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--noise fx=S,..,tz=S]\n"
-    "                     [--imu on|off] [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
+    "                     [--wrench-log FILE [--wrench-time-offset S]] [--qdd-source diff|target]\n"
+    "                     [--ur-payload M,CX,CY,CZ] [--imu on|off]\n"
+    "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
     "\n"
     "  --log FILE        the log (t, q, qd, qdd, fx..tz, ...; or the sensor pose instead of the joint\n"
-    "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md)\n"
+    "                    angles: px,py,pz,qx,qy,qz,qw or rx,ry,rz, docs/log-format.md), or a UR RTDE\n"
+    "                    recording (record.py, ur_rtde; recognised from its header: the wrench from\n"
+    "                    actual_TCP_force in base axes unless --wrench-log is given), or a ROS 2 bag\n"
+    "                    directory (rosbag2, sqlite3: --joint-topic, --wrench-topic)\n"
     "  --model M         the composed model to fit by weighted least squares (docs/effects.md);\n"
     "                    default 'paper+rigid_body', the model the cell (`ftid --identify`) uses; on a\n"
     "                    static log (the robot holds still) 'paper', as rotation terms need motion\n"
     "  --method M        the paper's own method instead of a model fit: 'dynamic' (with the inertial\n"
     "                    term -m a, for excitation runs) or 'static' (gravity only: rest poses or slow\n"
     "                    motion); `--method dynamic` reproduces the paper (and the old default)\n"
-"  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
+    "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
     "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
@@ -51,6 +57,7 @@ const char* const kUsage =
     "                    tilt, mount or delay beyond their uncertainties is a WARNING (a set-up error\n"
     "                    or a bad IMU). 'off': the wrench alone, exactly as without an IMU.\n"
     "                    docs/identification.md \"The IMU as a measurement\"\n"
+    "%INPUT%"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
@@ -79,6 +86,16 @@ const char* const kUsage =
     "beyond 6 robust standard deviations of a first fit's residual) are left out of the fit, as\n"
     "`ftid analyze` leaves them out.";
 
+/// The usage with the shared recording options inserted.
+const std::string& usage() {
+  static const std::string text = [] {
+    std::string u = kUsage;
+    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
+    return u;
+  }();
+  return text;
+}
+
 int runIdentify(const std::vector<std::string>& argv) {
   ftid::identify::IdentifyRequest req;
   req.method.clear();
@@ -98,6 +115,8 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_option("--imu", imu)->transform(ftid::cli::oneOf({"on", "off"}));
   app.add_option("--noise", noise);
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
+  ftid::cli::InputFlags input;
+  ftid::cli::addInputFlags(app, input);
   ftid::cli::parse(app, argv);
   if (!req.method.empty() && !req.model.empty()) {
     throw ftid::cli::UsageError("give --model (a model fit) or --method (the paper's method), not both");
@@ -106,6 +125,7 @@ int runIdentify(const std::vector<std::string>& argv) {
     req.model = ftid::identify::kDefaultModel;
     req.model_is_default = true;
   }
+  ftid::cli::applyInputFlags(input, req.context.input);
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   ftid::cli::applyMount(req.context, mount_rpy, config);
   if (!noise.empty()) {
@@ -149,6 +169,12 @@ int runIdentify(const std::vector<std::string>& argv) {
     std::cout << validity.line << "\n";
     std::cout << ftid::identify::formatImuReport(id.imu);
     std::cout << ftid::identify::formatFitCheck(id.check);
+    const bool two_clocks = !input.wrench_log.empty() || ftid::logio::isDirectory(req.log_path);
+    if (const auto* delay = set.find("delay"); delay != nullptr && two_clocks) {
+      const std::string sensor = input.wrench_log.empty() ? "the wrench topic" : input.wrench_log;
+      std::cout << "clock offset: " << sensor << " lags the robot's recording by " << delay->value * 1e3
+                << " ms (sensor_delay's delay; --wrench-time-offset " << -delay->value << " aligns them)\n";
+    }
     if (!out.empty() && validity.valid) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";
   }
@@ -156,6 +182,6 @@ int runIdentify(const std::vector<std::string>& argv) {
   return 0;
 }
 
-ftid::cli::Registrar reg{{"identify", "identify payload parameters from a recorded log", kUsage, &runIdentify}};
+ftid::cli::Registrar reg{{"identify", "identify payload parameters from a recorded log", usage(), &runIdentify}};
 
 }  // namespace

@@ -23,6 +23,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
+#include "ftid/logio/input.hpp"
 
 namespace ftid::logio {
 
@@ -170,6 +171,17 @@ const char* limitReason(int k) {
   return "(SI units; see docs/log-format.md)";
 }
 
+/// missingColumnHint (input.hpp) for a ", "-separated list of missing names.
+std::string hintFor(const std::string& missing, const std::vector<std::string>& present) {
+  std::vector<std::string> names;
+  for (std::size_t start = 0; start < missing.size();) {
+    const std::size_t end = missing.find(", ", start);
+    names.push_back(missing.substr(start, end == std::string::npos ? std::string::npos : end - start));
+    start = end == std::string::npos ? missing.size() : end + 2;
+  }
+  return missingColumnHint(names, present);
+}
+
 bool isBlankOrComment(std::string_view line) {
   std::string_view v = trim(line);
   return v.empty() || v.front() == '#';
@@ -197,6 +209,11 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
   }
   if (!have_header) dataError(path, cur.line_no == 0 ? 1 : cur.line_no, 1, "empty log: no header row");
   const std::size_t header_line = cur.line_no;
+  if (isUrRecordHeader(line)) {
+    dataError(path, header_line, 1,
+              "this is a UR RTDE recording (record.py or ur_rtde), not an ftid log: ftid identify, analyze, "
+              "compensate and convert read it (docs/log-format.md \"UR recordings\")");
+  }
 
   const auto& known = knownColumns();
   if (line.size() > kMaxHeaderBytes) {
@@ -263,7 +280,9 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     // t always; the joint columns q, qd, qdd unless the log gives the sensor pose instead
     // (qx,qy,qz,qw or rx,ry,rz: kept as extra columns, read by samples::buildContexts).
     auto [missing, present, total] = missingOf(kCore);
-    if (known_field[0] < 0) dataError(path, header_line, 1, "missing required column(s): " + missing);
+    if (known_field[0] < 0) {
+      dataError(path, header_line, 1, "missing required column(s): " + missing + hintFor(missing, log.extra_names));
+    }
     const auto hasExtra = [&](std::initializer_list<const char*> names) {
       for (const char* n : names) {
         if (log.extraIndex(n) < 0) return false;
@@ -275,16 +294,21 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     if (!log.has_joints && (present > 1 || !pose)) {
       dataError(path, header_line, 1,
                 "missing required column(s): " + missing +
-                    (present > 1 ? "" : " (or, instead of joint angles, the sensor pose: qx,qy,qz,qw or rx,ry,rz)"));
+                    (present > 1 ? "" : " (or, instead of joint angles, the sensor pose: qx,qy,qz,qw or rx,ry,rz)") +
+                    hintFor(missing, log.extra_names));
     }
   }
   {
     auto [missing, present, total] = missingOf(kWrench);
     if (kind == LogKind::kMeasurement && present != total) {
-      dataError(path, header_line, 1, "missing required wrench column(s): " + missing);
+      dataError(path, header_line, 1,
+                "missing required wrench column(s): " + missing + hintFor(missing, log.extra_names) +
+                    (present == 0 ? " (a robot recording without the wrench: give the sensor's own recording with "
+                                    "--wrench-log FILE)"
+                                  : ""));
     }
     if (present != 0 && present != total) {
-      dataError(path, header_line, 1, "incomplete wrench columns, missing: " + missing);
+      dataError(path, header_line, 1, "incomplete wrench columns, missing: " + missing + hintFor(missing, log.extra_names));
     }
     log.has_wrench = present == total;
   }

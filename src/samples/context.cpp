@@ -272,11 +272,17 @@ ContextSet loadLogContexts(const std::string& log_path, const std::string& robot
                            const ContextOptions& options,
                            const std::function<void(const std::string& line)>& progress) {
   if (progress) progress("reading " + log_path);
-  const logio::LogData log = logio::readLog(log_path);
+  logio::InputLog in = logio::readInput(log_path, options.input);
+  if (progress) {
+    progress(log_path + ": " + in.format);
+    for (const std::string& note : in.notes) progress(note);
+  }
+  ContextOptions opt = options;
+  opt.wrench_in_base = options.wrench_in_base || in.wrench_in_base;
   const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
-  if (progress) progress("robot " + urdf + ", " + std::to_string(log.samples.size()) + " samples");
+  if (progress) progress("robot " + urdf + ", " + std::to_string(in.log.samples.size()) + " samples");
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
-  return buildContexts(log, kin, options);
+  return buildContexts(in.log, kin, opt);
 }
 
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad) {

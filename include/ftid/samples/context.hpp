@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "ftid/effects/effect.hpp"
+#include "ftid/logio/input.hpp"
 
 namespace ftid::logio {
 struct LogData;
@@ -44,6 +45,10 @@ struct ContextOptions {
   /// for a log with a `host_time` column, SampleContext::t_model = host_time - this. NaN (no
   /// origin): the log's first host_time. Ignored for logs without `host_time`.
   double time_origin_unix_s = std::numeric_limits<double>::quiet_NaN();
+  /// How loadLogContexts reads the recording (logio::readInput): a UR recording's acceleration
+  /// source, the sensor's own recording (`--wrench-log`) and its clock offset, the UR payload.
+  /// A UR recording's actual_TCP_force sets wrench_in_base.
+  logio::InputOptions input{};
 };
 
 /// The log column with the host's receive time of each robot state [s, Unix time, UTC]
@@ -96,8 +101,10 @@ struct ContextSet {
 ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics& kinematics,
                          const ContextOptions& options = {});
 
-/// Reads the log (logio::readLog) and the robot (`robot_urdf`, "" = defaultRobotUrdf()) and builds
-/// the contexts; `progress` (optional) gets a line for each step. Throws as readLog, the URDF
+/// Reads the recording (logio::readInput with options.input: an ftid log, a UR recording, either
+/// with a sensor's own recording) and the robot (`robot_urdf`, "" = defaultRobotUrdf()) and builds
+/// the contexts; `progress` (optional) gets a line for each step and each of the reader's notes
+/// (rows dropped, alignment). Throws as readInput, the URDF
 /// loader and buildContexts do.
 ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
                            const ContextOptions& options = {},

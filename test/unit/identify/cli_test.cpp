@@ -163,3 +163,80 @@ TEST(IdentifyCli, ImuOffIsTheWrenchAloneAndOnReportsTheImu) {
 }
 
 }  // namespace
+namespace recordings {
+
+/// A record.py file (no accelerations, no wrench) and the sensor's file of one simulated run; the
+/// sensor's clock `offset_s` ahead.
+void writeRecordAndSensor(const std::string& rec, const std::string& ft, double offset_s) {
+  ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, 4);
+  cfg.full_rigid_body = true;
+  cfg.rate_hz = 500.0;
+  const ftid::logio::LogData log = ftid::sim::CellSim(cfg).run();
+  std::ofstream r(rec), f(ft);
+  r.precision(17);
+  f.precision(17);
+  r << "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5 actual_qd_0 actual_qd_1 "
+       "actual_qd_2 actual_qd_3 actual_qd_4 actual_qd_5\n";
+  f << "time,Fx,Fy,Fz,Tx,Ty,Tz\n";
+  for (std::size_t i = 0; i < log.samples.size(); ++i) {
+    const auto& s = log.samples[i];
+    if (i % 4 == 1) {
+      r << s.t;
+      for (int j = 0; j < 6; ++j) r << " " << s.q[j];
+      for (int j = 0; j < 6; ++j) r << " " << s.qd[j];
+      r << "\n";
+    }
+    f << s.t + offset_s;
+    for (int a = 0; a < 6; ++a) f << "," << s.wrench_S[a];
+    f << "\n";
+  }
+}
+
+TEST(RecordingsCli, ConvertIdentifyWithClockOffsetAndCompensate) {
+  const std::string rec = dir() + "ur_record.txt";
+  const std::string ft = dir() + "ft.csv";
+  writeRecordAndSensor(rec, ft, 0.016);
+  const CliRun c = ftidRun("convert " + rec + " " + dir() + "native.csv --wrench-log " + ft);
+  ASSERT_EQ(c.code, 0) << c.err;
+  EXPECT_NE(c.err.find("joint accelerations from smoothed differences of actual_qd"), std::string::npos) << c.err;
+  EXPECT_NE(c.err.find("samples used"), std::string::npos) << c.err;
+  const ftid::logio::LogData native = ftid::logio::readLog(dir() + "native.csv");
+  EXPECT_GT(native.samples.size(), 1000u);
+  // Without --wrench-log the recording has no wrench: the refusal names the option.
+  const CliRun no_wrench = ftidRun("identify --log " + rec);
+  EXPECT_EQ(no_wrench.code, 1);
+  EXPECT_NE(no_wrench.err.find("--wrench-log FILE"), std::string::npos) << no_wrench.err;
+  // The clock offset is found by sensor_delay and reported with the option that removes it.
+  const CliRun id = ftidRun("identify --log " + rec + " --wrench-log " + ft +
+                            " --model paper+rigid_body+sensor_delay --max-delay 0.1 --out " + dir() + "p.yaml");
+  ASSERT_EQ(id.code, 0) << id.err;
+  const auto at = id.out.find("clock offset: " + ft + " lags the robot's recording by ");
+  ASSERT_NE(at, std::string::npos) << id.out;
+  const std::string by = "recording by ";
+  const double ms = std::stod(id.out.substr(id.out.find(by, at) + by.size()));
+  EXPECT_NEAR(ms, 16.0, 1.0) << id.out;
+  const CliRun comp = ftidRun("compensate --log " + rec + " --wrench-log " + ft + " --params " + dir() +
+                              "p.yaml --out " + dir() + "contact.csv");
+  EXPECT_EQ(comp.code, 0) << comp.err;
+  const CliRun bad_source = ftidRun("identify --log " + rec + " --wrench-log " + ft + " --qdd-source target");
+  EXPECT_EQ(bad_source.code, 1);
+  EXPECT_NE(bad_source.err.find("--qdd-source target needs the columns target_qdd_0..5"), std::string::npos)
+      << bad_source.err;
+}
+
+TEST(RecordingsCli, ATooSmallStaticSetSaysWhatWouldDo) {
+  ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, 3);
+  ftid::test::useRestPoses(cfg, 17, 1);
+  const std::string poses = dir() + "poses.csv";
+  ftid::logio::writeLog(poses, ftid::sim::CellSim(cfg).run());
+  const CliRun r = ftidRun("analyze " + poses);
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("17 samples are too few for the analysis (need 100: 20 per held-out block x 5 blocks). "
+                       "What would do: repeated readings at each pose (e.g. 6 at each of the 17 poses"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--folds 2"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ftid identify --log " + poses + " --method static"), std::string::npos) << r.err;
+}
+
+}  // namespace recordings
