@@ -1,0 +1,171 @@
+// --explain: the path from the starting model to the model the rule supports, independent of the
+// start (docs/analyze.md, "Explain"): backward elimination of every effect the rule does not
+// support, then forward selection of the best recommended candidate, repeated until neither moves.
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <set>
+
+#include "lab_internal.hpp"
+#include "ftid/common/error.hpp"
+#include "ftid/effects/model.hpp"
+
+namespace ftid::lab::detail {
+
+using effects::Model;
+
+namespace {
+
+/// The paper's effects are the floor of every model: never removed.
+bool isPaperEffect(const std::string& name) {
+  return name == "offsets" || name == "gravity" || name == "tilt" || name == "linear_inertia";
+}
+
+ExplainStep stepOf(const Fitted& f, const Vec6& noise) {
+  ExplainStep st;
+  st.model = f.model.name();
+  st.residual_rms = (f.sol.sse_heldout_axis / std::max(1, f.sol.n_heldout)).cwiseSqrt();
+  st.total_ratio = totalRatio(st.residual_rms, noise);
+  st.heldout_sse = f.sol.sse_heldout;
+  return st;
+}
+
+/// How strongly the rule rejects an effect (for choosing which to remove first): refusals, then
+/// no held-out gain, then nothing to add, then the largest family-wise p-value.
+double rejection(const CandidateResult& c) {
+  switch (c.verdict) {
+    case Verdict::kRefused: return 4.0;
+    case Verdict::kNoHeldOutGain: return 3.0;
+    case Verdict::kNothingToAdd: return 2.0;
+    default: return 1.0 + std::min(1.0, c.family_p) * 0.5;
+  }
+}
+
+/// Full fit of `model` from the linearisation of `from`; a second start (the model's own initial
+/// linearisation) when the first ends unphysical or not better held out, keeping the better one.
+Fitted fitFrom(const Engine& eng, const Model& model, const Fitted& from) {
+  auto [lin, sol] = eng.fitFully(model, from.lin);
+  Fitted a{model, lin, sol};
+  const bool physical = physicsRefusals(fitView(a.model, a.lin, a.sol, nullptr)).empty();
+  if (physical && a.sol.sse_heldout < from.sol.sse_heldout) return a;
+  auto [lin2, sol2] = eng.fitFully(model, eng.initial(model));
+  Fitted b{model, lin2, sol2};
+  const bool physical2 = physicsRefusals(fitView(b.model, b.lin, b.sol, nullptr)).empty();
+  if (physical2 != physical) return physical2 ? b : a;
+  return b.sol.sse_fit < a.sol.sse_fit ? b : a;
+}
+
+/// Candidates a forward step fits fully and looks one step beyond.
+constexpr int kLookaheadWidth = 4;
+
+struct Lookahead {
+  Fitted fit;                          ///< the model with the candidate, fully fitted
+  CandidateResult judged;              ///< the rule on the full fit
+  std::vector<CandidateResult> after;  ///< the ranking against it
+  double score = 0.0;                  ///< held-out BIC of its best continuation, against the current model
+};
+
+/// Held-out BIC change, against `cur`, of the candidate's model or of it plus the best recommended
+/// effect after it, whichever is lower (rows: 6 per held-out sample; q: the rank gained).
+double lookaheadScore(const Fitted& cur, const Lookahead& la) {
+  const double rows = 6.0 * std::max(1, cur.sol.n_heldout);
+  const double q1 = std::max(0, la.fit.sol.rank - cur.sol.rank);
+  const double base = rows * std::log(la.fit.sol.sse_heldout / cur.sol.sse_heldout) + q1 * std::log(rows);
+  double best = base;
+  for (const auto& d : la.after) {
+    if (!d.significant) continue;
+    const double sse = la.fit.sol.sse_heldout * std::max(1e-300, 1.0 - d.relative_reduction);
+    best = std::min(best, rows * std::log(sse / cur.sol.sse_heldout) + (q1 + d.added_params) * std::log(rows));
+  }
+  return best;
+}
+
+}  // namespace
+
+Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& result) {
+  const Engine& eng = rc.eng;
+  const AnalyzeOptions& options = rc.options;
+  result.steps.push_back(stepOf(start, result.noise_floor));
+  const int family = std::max(1, familySize(result.candidates));
+  std::set<std::string> visited{start.model.name(), canonicalModel(effectNames(start.model)).name()};
+  Fitted cur = start;
+  std::vector<CandidateResult> ranking = result.candidates;
+  for (int step = 0; step < options.max_explain_steps; ++step) {
+    // Backward: the effect of the model the rule supports least, if it does not support it.
+    std::optional<std::pair<Fitted, CandidateResult>> drop;
+    for (const auto& name : effectNames(cur.model)) {
+      if (isPaperEffect(name)) continue;
+      std::vector<std::string> rest = effectNames(cur.model);
+      rest.erase(std::remove(rest.begin(), rest.end(), name), rest.end());
+      Model smaller = canonicalModel(rest);
+      if (smaller.numParams() == cur.model.numParams() || visited.count(smaller.name()) != 0) continue;
+      say(options, "explain: would " + name + " be taken again against " + smaller.name() + "?");
+      Fitted small = fitFrom(eng, smaller, cur);
+      CandidateResult c = judgeNested(rc, small, cur, family, name);
+      if (c.verdict == Verdict::kRecommended) continue;
+      if (!drop || rejection(c) > rejection(drop->second)) drop.emplace(std::move(small), std::move(c));
+    }
+    if (drop) {
+      say(options, "explain step " + std::to_string(step + 1) + ": removing " + drop->second.effect + " (" +
+                       drop->second.reason + ")");
+      cur = std::move(drop->first);
+      ExplainStep st = stepOf(cur, result.noise_floor);
+      st.removed = drop->second.effect;
+      st.p_value = drop->second.p_value;
+      st.family_p = drop->second.family_p;
+      result.steps.push_back(st);
+      visited.insert(cur.model.name());
+      ranking = rankCandidates(rc, cur);
+      continue;
+    }
+    // Forward: among the best recommended candidates whose full fit the rule still recommends,
+    // the one whose best continuation (itself, or itself plus the best recommended effect after
+    // it) has the lowest held-out BIC: one step of look-ahead keeps a flexible effect (crosstalk,
+    // a harmonic) from taking the place of the physical one it imitates.
+    std::optional<Lookahead> best;
+    int tried = 0;
+    for (const auto& cand : ranking) {
+      if (!cand.significant) break;  // recommended ones come first
+      if (tried >= kLookaheadWidth) break;
+      std::vector<std::string> names = effectNames(cur.model);
+      names.push_back(effects::createEffect(cand.effect)->name());
+      Model next = canonicalModel(names);
+      if (visited.count(next.name()) != 0) continue;
+      ++tried;
+      Fitted rich = fitFrom(eng, next, cur);
+      CandidateResult full = judgeNested(rc, cur, rich, family, cand.effect);
+      if (full.verdict != Verdict::kRecommended || !(rich.sol.sse_heldout < cur.sol.sse_heldout)) {
+        say(options, "explain: " + cand.effect + " not taken after its full fit: " + full.reason);
+        continue;
+      }
+      Lookahead la{std::move(rich), std::move(full), {}, 0.0};
+      la.after = rankCandidates(rc, la.fit);
+      la.score = lookaheadScore(cur, la);
+      if (!best || la.score < best->score) best = std::move(la);
+    }
+    if (!best) break;
+    say(options, "explain step " + std::to_string(step + 1) + ": adding " + best->judged.effect +
+                     " (held-out residual -" + fmt(100.0 * best->judged.relative_reduction, 3) + "%)");
+    cur = std::move(best->fit);
+    ExplainStep st = stepOf(cur, result.noise_floor);
+    st.added = best->judged.effect;
+    st.p_value = best->judged.p_value;
+    st.family_p = best->judged.family_p;
+    result.steps.push_back(st);
+    visited.insert(cur.model.name());
+    ranking = std::move(best->after);
+  }
+  // The same set of effects always ends under the same name (and column order).
+  Model canon = canonicalModel(effectNames(cur.model));
+  if (canon.name() != cur.model.name()) {
+    auto [lin, sol] = eng.fitFully(canon, cur.lin);
+    cur = Fitted{std::move(canon), lin, sol};
+    result.steps.back().model = cur.model.name();
+  }
+  result.final_report = makeReport(eng, cur.model, cur.lin, cur.sol);
+  result.final_residual = cur.sol.heldout_residual;
+  result.final_candidates = ranking;
+  return cur;
+}
+
+}  // namespace ftid::lab::detail
