@@ -123,6 +123,7 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
     // it) has the lowest held-out BIC: one step of look-ahead keeps a flexible effect (crosstalk,
     // a harmonic) from taking the place of the physical one it imitates.
     std::optional<Lookahead> best;
+    std::vector<CandidateResult> rejected;  // recommended when screened, not on the full fit
     int tried = 0;
     for (const auto& cand : ranking) {
       if (!cand.significant) break;  // recommended ones come first
@@ -131,19 +132,36 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
       names.push_back(effects::createEffect(cand.effect)->name());
       Model next = canonicalModel(names);
       if (visited.count(next.name()) != 0) continue;
-      ++tried;
       Fitted rich = fitFrom(eng, next, cur);
       CandidateResult full = judgeNested(rc, cur, rich, family, cand.effect);
       if (full.verdict != Verdict::kRecommended || !(rich.sol.sse_heldout < cur.sol.sse_heldout)) {
         say(options, "explain: " + cand.effect + " not taken after its full fit: " + full.reason);
+        rejected.push_back(std::move(full));
         continue;
       }
+      ++tried;  // the look-ahead width counts the candidates that pass their full fit
       Lookahead la{std::move(rich), std::move(full), {}, 0.0};
       la.after = rankCandidates(rc, la.fit);
       la.score = lookaheadScore(cur, la);
       if (!best || la.score < best->score) best = std::move(la);
     }
-    if (!best) break;
+    if (!best) {
+      // The ranking then says what the full fit found (the verdict the path acted on).
+      for (auto& r : rejected) {
+        for (auto& c : ranking) {
+          if (c.effect != r.effect) continue;
+          c.verdict = r.verdict == Verdict::kRecommended ? Verdict::kNoHeldOutGain : r.verdict;
+          c.family_p = r.family_p;
+          c.reason = (r.reason.empty() ? std::string("the held-out error does not fall") : r.reason) +
+                     " (on its full fit)";
+          c.significant = false;
+          c.confounded = c.verdict == Verdict::kRefused;
+          c.confound = c.confounded ? c.reason : "";
+          c.separating_motion = c.confounded ? r.separating_motion : "";
+        }
+      }
+      break;
+    }
     say(options, "explain step " + std::to_string(step + 1) + ": adding " + best->judged.effect +
                      " (held-out residual -" + fmt(100.0 * best->judged.relative_reduction, 3) + "%)");
     cur = std::move(best->fit);

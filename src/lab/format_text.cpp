@@ -139,8 +139,12 @@ std::string formatText(const AnalysisResult& r) {
     }
     s += line("  noise floor                                                          %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f",
               r.noise_floor(0), r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
-    s += "  the path ends at " + r.steps.back().model + ": no candidate is recommended against it and the rule " +
-         "supports each of its effects. Why each remaining candidate was not taken:\n" + whyNot(r.final_candidates);
+    const bool more = std::any_of(r.final_candidates.begin(), r.final_candidates.end(),
+                                  [](const CandidateResult& c) { return c.significant; });
+    s += more ? "  the path stops at " + r.steps.back().model + " at the step limit; the verdicts against it:\n"
+              : "  the path ends at " + r.steps.back().model + ": no candidate is recommended against it (or its full " +
+                    "fit is not) and the rule supports each of its effects. Why each remaining candidate was not taken:\n";
+    s += whyNot(r.final_candidates);
   }
   s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";

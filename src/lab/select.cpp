@@ -47,12 +47,12 @@ FitView fitView(const Model& model, const Linearization& lin, const Solution& so
   f.theta = sol.theta.head(std::min<Eigen::Index>(n, sol.theta.size()));
   const int p = model.numParams();
   if (lin.tilt_columns && p + 1 < f.theta.size()) {
-    f.theta(p) += lin.u;
-    f.theta(p + 1) += lin.v;
+    f.theta(p) = wrapAngle(f.theta(p) + lin.u);
+    f.theta(p + 1) = wrapAngle(f.theta(p + 1) + lin.v);
   }
   if (lin.mount_columns) {
     const int c = lin.mountColumn(p);
-    for (int k = 0; k < 3 && c + k < f.theta.size(); ++k) f.theta(c + k) += lin.mount(k);
+    for (int k = 0; k < 3 && c + k < f.theta.size(); ++k) f.theta(c + k) = wrapAngle(f.theta(c + k) + lin.mount(k));
   }
   if (lin.delay_column && lin.delayColumn(p) < f.theta.size()) f.theta(lin.delayColumn(p)) += lin.delay;
   f.covariance = sol.covariance;
