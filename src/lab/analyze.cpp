@@ -179,6 +179,29 @@ double pearson(const std::vector<double>& x, const Eigen::RowVectorXd& y) {
   return sxy / std::sqrt(sxx * syy);
 }
 
+/// Whether the robot moves somewhere in the log (whatever its columns): three or more consecutive
+/// samples whose sensor pose changes (rotation angle plus displacement) by more than ten times the
+/// median change (the jitter of held poses) and more than 1e-3 per sample. A pose set's jump from
+/// one pose to the next is one sample.
+bool hasMoves(const std::vector<SampleContext>& ctx) {
+  const std::size_t n = ctx.size();
+  if (n < 4) return false;
+  std::vector<double> step(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    const double c = std::clamp(((ctx[i - 1].R_BS.transpose() * ctx[i].R_BS).trace() - 1.0) / 2.0, -1.0, 1.0);
+    step[i] = std::acos(c) + (ctx[i].p_BS_B - ctx[i - 1].p_BS_B).norm();
+  }
+  std::vector<double> sorted(step.begin() + 1, step.end());
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double threshold = std::max(1e-3, 10.0 * sorted[sorted.size() / 2]);
+  int run = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    run = step[i] > threshold ? run + 1 : 0;
+    if (run >= 3) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 std::vector<std::string> defaultGenericMenu() {
@@ -229,6 +252,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.noise_floor = nf.std;
   d.ar1 = nf.ar1;
   (void)identify::poseGroups(fit, &d.static_data);
+  // Held poses with moves between them: the moves show what a static pose set cannot (a delay).
+  d.static_data = d.static_data && !hasMoves(fit);
   // Guard noise-free data: a floor far below the signal would make the weights meaningless.
   const double tiny = 1e-9;
   const Vec6 innovation = nf.innovationStd();

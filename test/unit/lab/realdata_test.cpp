@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -111,6 +112,86 @@ TEST(NoiseFloor, PoseColumnGroupsReadingsWhenTheJointAnglesJitter) {
   EXPECT_EQ(nf.method, identify::NoiseMethod::kStaticPoses) << nf.detail;
   const Vec6 truth = c.noise.wrench_std;
   for (int a = 0; a < 6; ++a) EXPECT_NEAR(nf.std(a), truth(a), 0.1 * truth(a));
+}
+
+// A moving pose log (sensor pose columns, no joint angles: q = qd = 0) is a moving time series,
+// not one static pose (the issue's 1 kHz Panda recording got "spread within each of 1 poses").
+TEST(NoiseFloor, AMovingPoseLogIsNotOneStaticPose) {
+  auto c = baseConfig(261);
+  c.rate_hz = 500.0;
+  c.duration_s = 4.0;
+  auto set = labtest::contexts(c);
+  for (auto& x : set.samples) {
+    x.has_joints = false;
+    x.q.setZero();
+    x.qd.setZero();
+  }
+  bool is_static = true;
+  EXPECT_TRUE(identify::poseGroups(set.samples, &is_static).empty());
+  EXPECT_FALSE(is_static);
+  const auto nf = identify::estimateNoiseFloor(set.samples);
+  EXPECT_EQ(nf.method, identify::NoiseMethod::kWhite) << nf.detail;
+  // ... and the same pose log held still is a static pose set again.
+  for (auto& x : set.samples) {
+    x.R_BS = set.samples.front().R_BS;
+    x.p_BS_B = set.samples.front().p_BS_B;
+  }
+  EXPECT_EQ(identify::poseGroups(set.samples, &is_static).size(), 1u);
+  EXPECT_TRUE(is_static);
+}
+
+// Held poses with moves between them (the issue's 10 Hz recording, the wrench lagging by 0.5 s):
+// the noise floor comes from the held poses, and the moves show the delay (not refused as "a
+// static pose set").
+TEST(Analyze, HeldPosesWithMovesBetweenThemShowTheDelay) {
+  auto c = baseConfig(262);
+  c.rate_hz = 25.0;
+  c.duration_s = 45.0;
+  c.sensor_delay.enabled = true;
+  c.sensor_delay.tau_s = 0.5;
+  const double hold = 3.0, move = 1.5;
+  std::vector<JointVector> poses;
+  std::mt19937_64 gen(262);
+  std::uniform_real_distribution<double> off(-0.6, 0.6);
+  for (int k = 0; k < 12; ++k) {
+    JointVector q = sim::paperStartPose();
+    if (k > 0) {
+      for (int j = 0; j < kNumJoints; ++j) q(j) += off(gen);
+    }
+    poses.push_back(q);
+  }
+  c.motion = [poses, hold, move](double t) {
+    trajectory::TrajectoryPoint p;
+    const double cycle = hold + move;
+    const auto k = static_cast<std::size_t>(std::clamp(std::floor(std::max(t, 0.0) / cycle), 0.0, 10.0));
+    const double tau = std::max(t, 0.0) - static_cast<double>(k) * cycle;
+    const JointVector d = poses[k + 1] - poses[k];
+    if (tau < hold) {
+      p.q = poses[k];
+      return p;
+    }
+    const double pi = 3.14159265358979323846, u = std::min(1.0, (tau - hold) / move);
+    p.q = poses[k] + d * (1.0 - std::cos(pi * u)) / 2.0;
+    p.qd = d * (pi / (2.0 * move)) * std::sin(pi * u);
+    p.qdd = d * (pi * pi / (2.0 * move * move)) * std::cos(pi * u);
+    return p;
+  };
+  const auto set = labtest::contexts(c);
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.explain = true;
+  const auto r = lab::analyze(set.samples, nullptr, o, "holds.csv");
+  EXPECT_EQ(r.noise_method, "static_poses") << r.noise_detail;
+  for (const auto& cand : r.candidates) {
+    if (cand.effect == "sensor_delay") {
+      EXPECT_FALSE(cand.skipped) << cand.note;
+    }
+  }
+  ASSERT_TRUE(r.final_report.has_value());
+  EXPECT_NE(r.final_report->model.find("sensor_delay"), std::string::npos) << lab::formatText(r);
+  const auto* delay = findParam(*r.final_report, "delay");
+  ASSERT_NE(delay, nullptr) << lab::formatText(r);
+  EXPECT_NEAR(delay->value, 0.5, 0.02) << lab::formatText(r);
 }
 
 TEST(NoiseFloor, DataSheetSpecIsParsedAndBadInputNamed) {
