@@ -362,6 +362,14 @@ std::string renderHtml(const AnalysisResult& r) {
       o << "<td>" << f(r.steps[k].total_ratio, 3) << "</td></tr>";
     }
     o << "</table>\n";
+    o << "<p>Against <code>" << esc(r.steps.back().model) << "</code>, why each remaining candidate was not taken:</p>"
+         "<table><tr><th>effect</th><th>verdict</th><th>family-wise p</th><th>why</th></tr>";
+    for (const auto& c : r.final_candidates) {
+      o << "<tr><td>" << esc(c.effect) << "</td><td>" << verdictWord(c.verdict) << "</td><td>"
+        << (c.family_p < 1e-300 ? std::string("&lt; 1e-300") : f(c.family_p, 2)) << "</td><td>"
+        << esc(c.skipped ? c.note : c.reason) << "</td></tr>";
+    }
+    o << "</table>\n";
   }
   if (r.final_report && r.final_residual.cols() == static_cast<Eigen::Index>(n) && n > 0) {
     // Before / after: the same held-out samples, residual of the starting and of the final model.

@@ -2,8 +2,9 @@
 // The model laboratory behind `ftid analyze` (docs/analyze.md): fit a composed model with held-out
 // validation, show per axis how far the held-out residual is above the sensor noise floor, where
 // (in time) and with what (measured signals) the residual goes, rank the effects the model lacks by
-// how much each reduces the held-out residual (with a significance test that keeps quiet on clean
-// data), and walk forward adding the best significant effect until nothing significant is left.
+// how much each reduces the held-out residual, judge each by one decision rule (ftid/lab/verdict.hpp:
+// family-wise significance decides; identifiability and physics refuse with a reason), and walk to
+// the model the rule supports (forward with look-ahead, backward elimination; any start, same end).
 //
 // Everything here is offline (not real-time). Frames and units: docs/conventions.md.
 #include <functional>
@@ -24,7 +25,7 @@ using effects::SampleContext;
 struct AnalyzeOptions {
   std::string model = "paper";      ///< starting model, e.g. "paper" or "paper+rigid_body"
   int folds = 5;                    ///< contiguous time blocks for k-fold validation (>= 2)
-  bool explain = false;             ///< forward selection until nothing significant is left
+  bool explain = false;             ///< walk to the model the rule supports (docs/analyze.md "Explain")
   int max_explain_steps = 6;
   /// Candidate effects to try; empty = every registered named effect not in the model plus the
   /// default generic menu (defaultGenericMenu()).
