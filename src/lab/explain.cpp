@@ -46,6 +46,14 @@ double rejection(const CandidateResult& c) {
 Fitted fitFrom(const Engine& eng, const Model& model, const Fitted& from) {
   auto [lin, sol] = eng.fitFully(model, from.lin);
   Fitted a{model, lin, sol};
+  if (model.estimatesMounting() && !from.model.estimatesMounting() && grossMisfit(from)) {
+    // A large mounting error: also from the best axis-aligned rotation.
+    const Linearization start = bestMountStart(eng, model);
+    if (start.mount.norm() > 0.0) {
+      auto [lin3, sol3] = eng.fitFully(model, start);
+      if (sol3.sse_fit < a.sol.sse_fit) a = Fitted{model, lin3, sol3};
+    }
+  }
   const bool physical = physicsRefusals(fitView(a.model, a.lin, a.sol, nullptr)).empty();
   if (physical && a.sol.sse_heldout < from.sol.sse_heldout) return a;
   auto [lin2, sol2] = eng.fitFully(model, eng.initial(model));

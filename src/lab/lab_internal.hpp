@@ -56,6 +56,14 @@ int familySize(const std::vector<CandidateResult>& ranking);
 CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const Fitted& rich, int family_size,
                             const std::string& effect);
 
+/// Whether the model misses the data grossly (held-out residual above 3x the noise: set-up errors
+/// such as a sensor mounted 90 degrees off are plausible).
+bool grossMisfit(const Fitted& f);
+/// The best start of the full fit of `cand` (a model with mounting): the model's initial
+/// linearisation with the mounting angles of the one of the 24 axis-aligned rotations whose linear
+/// solve fits best in-sample.
+Linearization bestMountStart(const Engine& eng, const effects::Model& cand);
+
 /// Canonical model of a set of effects: paper's first, then in the registry's order (same set,
 /// same name, whatever the order of the steps that built it).
 effects::Model canonicalModel(const std::vector<std::string>& effect_names);

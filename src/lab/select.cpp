@@ -2,6 +2,7 @@
 // docs/analyze.md "The verdict"), and the rule on two full fits (for --explain).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "lab_internal.hpp"
@@ -64,6 +65,37 @@ FitView fitView(const Model& model, const Linearization& lin, const Solution& so
     }
   }
   return f;
+}
+
+bool grossMisfit(const Fitted& f) {
+  return f.sol.n_heldout > 0 && f.sol.sse_heldout / (6.0 * f.sol.n_heldout) > 9.0;
+}
+
+Linearization bestMountStart(const Engine& eng, const Model& cand) {
+  constexpr double kQuarter = 1.5707963267948966;
+  std::vector<Mat3> seen;
+  const Linearization initial = eng.initial(cand);  // level (or the static force stage's) tilt
+  Linearization best = initial;
+  double best_sse = std::numeric_limits<double>::infinity();
+  for (int r = -1; r <= 2; ++r) {
+    for (int p = -1; p <= 2; ++p) {
+      for (int y = -1; y <= 2; ++y) {
+        const Vec3 rpy(r * kQuarter, p * kQuarter, y * kQuarter);
+        const Mat3 R = effects::mountingRotation(rpy);
+        if (std::any_of(seen.begin(), seen.end(), [&](const Mat3& m) { return (m - R).norm() < 1e-6; })) continue;
+        seen.push_back(R);  // the 24 axis-aligned rotations
+        Linearization lin = initial;
+        lin.mount = rpy;
+        lin.tilt_columns = lin.mount_columns = lin.delay_column = false;
+        const Solution s = eng.solve(eng.design(cand, lin), false);  // the linear parameters at this start
+        if (s.sse_fit < best_sse) {
+          best_sse = s.sse_fit;
+          best = lin;
+        }
+      }
+    }
+  }
+  return best;
 }
 
 int familySize(const std::vector<CandidateResult>& ranking) {
@@ -200,9 +232,21 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
       lin.delay_column = true;
     }
     // The base model's columns must keep their meaning in the candidate (nested models).
-    const Solution s = lin.extraColumns() == base.lin.extraColumns()
-                           ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
-                           : eng.solve(eng.design(cand, lin));
+    Solution s = lin.extraColumns() == base.lin.extraColumns()
+                     ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
+                     : eng.solve(eng.design(cand, lin));
+    if (cand.estimatesMounting() && !base.model.estimatesMounting() && grossMisfit(base)) {
+      // A sensor mounted far off (90 degrees) is out of the first order's reach: fit the mounting
+      // fully from the best axis-aligned start.
+      const Linearization from = bestMountStart(eng, cand);
+      if (from.mount.norm() > 0.0) {
+        auto full = eng.fitFully(cand, from);
+        if (full.second.sse_fit < s.sse_fit) {
+          lin = std::move(full.first);
+          s = std::move(full.second);
+        }
+      }
+    }
     c.added_params = s.rank - base.sol.rank;
     c.residual_rms = (s.sse_heldout_axis / std::max(1, s.n_heldout)).cwiseSqrt();
     const double rr = 1.0 - s.sse_heldout / base.sol.sse_heldout;

@@ -126,3 +126,28 @@ TEST(ExplainPath, PropertyTheFinalModelNeverDependsOnTheStart) {
 
 }  // namespace
 }  // namespace ftid
+
+namespace ftid {
+namespace {
+
+// A sensor mounted 90 degrees about z off its configured frame (the case: identify gave
+// 0.53 kg for 0.90, the lab a mount_yaw of 17.3 rad): the path finds `mounting` with the yaw at
+// 90 degrees, and nothing else.
+TEST(ExplainPath, ASensorMounted90DegreesOffIsFoundAsMountingAlone) {
+  auto c = labtest::baseConfig(2104);
+  c.mounting.enabled = true;
+  c.mounting.rpy_rad = Vec3(0.0, 0.0, 1.5707963267948966);
+  const auto set = labtest::contexts(c);
+  const auto r = explainFrom(set, "paper");
+  ASSERT_TRUE(r.final_report.has_value());
+  EXPECT_EQ(r.final_report->model, "paper+mounting") << lab::formatText(r);
+  const double deg = 3.14159265358979323846 / 180.0;
+  EXPECT_NEAR(param(*r.final_report, "mount_yaw"), 90.0 * deg, 0.5 * deg) << lab::formatText(r);
+  EXPECT_NEAR(param(*r.final_report, "mount_roll"), 0.0, 0.5 * deg);
+  EXPECT_NEAR(param(*r.final_report, "mount_pitch"), 0.0, 0.5 * deg);
+  EXPECT_NEAR(param(*r.final_report, "mass"), c.payload.mass_kg, 0.02 * c.payload.mass_kg);
+  expectHonestPath(r);
+}
+
+}  // namespace
+}  // namespace ftid
