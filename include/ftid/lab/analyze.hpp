@@ -26,7 +26,7 @@ struct AnalyzeOptions {
   std::string model = "paper";      ///< starting model, e.g. "paper" or "paper+rigid_body"
   int folds = 5;                    ///< contiguous time blocks for k-fold validation (>= 2)
   bool explain = false;             ///< walk to the model the rule supports (docs/analyze.md "Explain")
-  int max_explain_steps = 6;
+  int max_explain_steps = 10;       ///< steps of the path (additions and removals)
   /// Candidate effects to try; empty = every registered named effect not in the model plus the
   /// default generic menu (defaultGenericMenu()).
   std::vector<std::string> candidates;
