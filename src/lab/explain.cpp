@@ -64,7 +64,9 @@ Fitted fitFrom(const Engine& eng, const Model& model, const Fitted& from) {
 }
 
 /// Candidates a forward step fits fully and looks one step beyond.
-constexpr int kLookaheadWidth = 4;
+constexpr int kLookaheadWidth = 3;
+/// ... among those whose screened log held-out ratio reaches this fraction of the best one's.
+constexpr double kLookaheadReach = 0.6;
 
 struct Lookahead {
   Fitted fit;                          ///< the model with the candidate, fully fitted
@@ -98,11 +100,13 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
   std::set<std::string> visited{start.model.name(), canonicalModel(effectNames(start.model)).name()};
   Fitted cur = start;
   std::vector<CandidateResult> ranking = result.candidates;
+  std::string just_added;
   for (int step = 0; step < options.max_explain_steps; ++step) {
     // Backward: the effect of the model the rule supports least, if it does not support it.
     std::optional<std::pair<Fitted, CandidateResult>> drop;
     for (const auto& name : effectNames(cur.model)) {
-      if (isPaperEffect(name)) continue;
+      // The effect just added was judged against exactly the model without it: skip the repeat.
+      if (isPaperEffect(name) || name == just_added) continue;
       std::vector<std::string> rest = effectNames(cur.model);
       rest.erase(std::remove(rest.begin(), rest.end(), name), rest.end());
       Model smaller = canonicalModel(rest);
@@ -117,6 +121,7 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
       say(options, "explain step " + std::to_string(step + 1) + ": removing " + drop->second.effect + " (" +
                        drop->second.reason + ")");
       cur = std::move(drop->first);
+      just_added.clear();
       ExplainStep st = stepOf(cur, result.noise_floor);
       st.removed = drop->second.effect;
       st.p_value = drop->second.p_value;
@@ -133,9 +138,22 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
     std::optional<Lookahead> best;
     std::vector<CandidateResult> rejected;  // recommended when screened, not on the full fit
     int tried = 0;
+    // Only candidates that come close to the best one's screened gain can win by looking ahead:
+    // their log held-out ratio at least kLookaheadReach of the best one's.
+    double best_log_ratio = 0.0;
+    int first_params = 0;
+    for (const auto& cand : ranking) {
+      if (cand.significant) best_log_ratio = std::min(best_log_ratio, std::log(std::max(1e-300, 1.0 - cand.relative_reduction)));
+    }
     for (const auto& cand : ranking) {
       if (!cand.significant) break;  // recommended ones come first
       if (tried >= kLookaheadWidth) break;
+      // ... and that are leaner than the first one taken into account (look-ahead exists to let a
+      // lean physical effect beat a flexible one that imitates it).
+      if (tried > 0 && (std::log(std::max(1e-300, 1.0 - cand.relative_reduction)) > kLookaheadReach * best_log_ratio ||
+                        cand.added_params >= first_params)) {
+        continue;
+      }
       std::vector<std::string> names = effectNames(cur.model);
       names.push_back(effects::createEffect(cand.effect)->name());
       Model next = canonicalModel(names);
@@ -147,6 +165,7 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
         rejected.push_back(std::move(full));
         continue;
       }
+      if (tried == 0) first_params = cand.added_params;
       ++tried;  // the look-ahead width counts the candidates that pass their full fit
       Lookahead la{std::move(rich), std::move(full), {}, 0.0};
       la.after = rankCandidates(rc, la.fit);
@@ -173,6 +192,7 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
     say(options, "explain step " + std::to_string(step + 1) + ": adding " + best->judged.effect +
                      " (held-out residual -" + fmt(100.0 * best->judged.relative_reduction, 3) + "%)");
     cur = std::move(best->fit);
+    just_added = effects::createEffect(best->judged.effect)->name();
     ExplainStep st = stepOf(cur, result.noise_floor);
     st.added = best->judged.effect;
     st.p_value = best->judged.p_value;

@@ -235,9 +235,12 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
     Solution s = lin.extraColumns() == base.lin.extraColumns()
                      ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
                      : eng.solve(eng.design(cand, lin));
-    if (cand.estimatesMounting() && !base.model.estimatesMounting() && grossMisfit(base)) {
-      // A sensor mounted far off (90 degrees) is out of the first order's reach: fit the mounting
-      // fully from the best axis-aligned start.
+    if (cand.estimatesMounting() && !base.model.estimatesMounting() && grossMisfit(base) &&
+        (1.0 - s.sse_heldout / base.sol.sse_heldout > 0.5 ||
+         !physicsRefusals(fitView(base.model, base.lin, base.sol, nullptr)).empty())) {
+      // A sensor mounted far off (90 degrees) is out of the first order's reach: when the model
+      // misses grossly and is impossible, or a rotation explains half of its residual even to
+      // first order, fit the mounting fully from the best axis-aligned start.
       const Linearization from = bestMountStart(eng, cand);
       if (from.mount.norm() > 0.0) {
         auto full = eng.fitFully(cand, from);
