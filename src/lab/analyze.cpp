@@ -180,23 +180,27 @@ double pearson(const std::vector<double>& x, const Eigen::RowVectorXd& y) {
 }
 
 /// Whether the robot moves somewhere in the log (whatever its columns): three or more consecutive
-/// samples whose sensor pose changes (rotation angle plus displacement) by more than ten times the
-/// median change (the jitter of held poses) and more than 1e-3 per sample. A pose set's jump from
-/// one pose to the next is one sample.
+/// samples whose sensor pose moves (rotation angle plus displacement per second, from t, as
+/// identify::poseGroups measures it) faster than ten times the median speed (the jitter of held
+/// poses) and than 0.01 rad/s (+ m/s), ten times the speed poseGroups calls held still. Measured
+/// per second, not per sample, so the same move counts at 10 Hz and at 1 kHz. A pose set's jump
+/// from one pose to the next is one sample.
 bool hasMoves(const std::vector<SampleContext>& ctx) {
   const std::size_t n = ctx.size();
   if (n < 4) return false;
-  std::vector<double> step(n, 0.0);
+  std::vector<double> speed(n, 0.0);
   for (std::size_t i = 1; i < n; ++i) {
     const double c = std::clamp(((ctx[i - 1].R_BS.transpose() * ctx[i].R_BS).trace() - 1.0) / 2.0, -1.0, 1.0);
-    step[i] = std::acos(c) + (ctx[i].p_BS_B - ctx[i - 1].p_BS_B).norm();
+    const double dt = ctx[i].t - ctx[i - 1].t;
+    const double step = std::acos(c) + (ctx[i].p_BS_B - ctx[i - 1].p_BS_B).norm();
+    speed[i] = dt > 0.0 ? step / dt : 0.0;  // untrusted clocks: a repeated or backward stamp is no move
   }
-  std::vector<double> sorted(step.begin() + 1, step.end());
+  std::vector<double> sorted(speed.begin() + 1, speed.end());
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
-  const double threshold = std::max(1e-3, 10.0 * sorted[sorted.size() / 2]);
+  const double threshold = std::max(1e-2, 10.0 * sorted[sorted.size() / 2]);
   int run = 0;
   for (std::size_t i = 1; i < n; ++i) {
-    run = step[i] > threshold ? run + 1 : 0;
+    run = speed[i] > threshold ? run + 1 : 0;
     if (run >= 3) return true;
   }
   return false;
@@ -424,8 +428,9 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // Which effect is missing.
   const auto menu = detail::candidateMenu(options);
+  result.family_size = detail::familySize(engine, menu);
   const detail::RankContext rc{engine, menu, options, log_cmd,
-                               detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std)};
+                               detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};
   result.candidates = detail::rankCandidates(rc, base);
   result.family_alpha = options.family_alpha;
 

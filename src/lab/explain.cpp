@@ -3,6 +3,7 @@
 // support, then forward selection of the best recommended candidate, repeated until neither moves.
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <optional>
 #include <set>
 
@@ -41,13 +42,30 @@ double rejection(const CandidateResult& c) {
   }
 }
 
+/// A removal the backward step may take: the smaller model, the rule's verdict on the effect
+/// against it, and the held-out BIC change of the removal (lower: the data prefer the smaller model).
+struct Removal {
+  Fitted small;
+  CandidateResult judged;
+  double heldout_bic = 0.0;
+};
+
+/// Which of two removals goes first: the effect the rule rejects more strongly, then the one whose
+/// removal has the lower held-out BIC, then by name (never the spelling order of the model).
+bool removeBefore(const Removal& a, const Removal& b) {
+  const double ra = rejection(a.judged), rb = rejection(b.judged);
+  if (ra != rb) return ra > rb;
+  if (a.heldout_bic != b.heldout_bic) return a.heldout_bic < b.heldout_bic;
+  return a.judged.effect < b.judged.effect;
+}
+
 /// Full fit of `model` from the linearisation of `from`; a second start (the model's own initial
 /// linearisation) when the first ends unphysical or not better held out, keeping the better one.
 Fitted fitFrom(const Engine& eng, const Model& model, const Fitted& from) {
   auto [lin, sol] = eng.fitFully(model, from.lin);
   Fitted a{model, lin, sol};
-  if (model.estimatesMounting() && !from.model.estimatesMounting() && grossMisfit(from)) {
-    // A large mounting error: also from the best axis-aligned rotation.
+  if (model.estimatesMounting() && !from.model.estimatesMounting()) {
+    // A mounting error of any size: also from the best of the 24 axis-aligned rotations.
     const Linearization start = bestMountStart(eng, model);
     if (start.mount.norm() > 0.0) {
       auto [lin3, sol3] = eng.fitFully(model, start);
@@ -96,14 +114,17 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
   const Engine& eng = rc.eng;
   const AnalyzeOptions& options = rc.options;
   result.steps.push_back(stepOf(start, result.noise_floor));
-  const int family = std::max(1, familySize(result.candidates));
   std::set<std::string> visited{start.model.name(), canonicalModel(effectNames(start.model)).name()};
   Fitted cur = start;
   std::vector<CandidateResult> ranking = result.candidates;
   std::string just_added;
+  // The rule's verdict on each removal, by the (canonical) model the effect was removed from.
+  std::map<std::string, CandidateResult> removed_from;
   for (int step = 0; step < options.max_explain_steps; ++step) {
-    // Backward: the effect of the model the rule supports least, if it does not support it.
-    std::optional<std::pair<Fitted, CandidateResult>> drop;
+    // Backward: the effect of the model the rule supports least, if it does not support it. A
+    // removal never raises the held-out error, except of an effect refused on a constraint
+    // (identifiability or physics): a model the rule cannot stand behind is left even at a cost.
+    std::optional<Removal> drop;
     for (const auto& name : effectNames(cur.model)) {
       // The effect just added was judged against exactly the model without it: skip the repeat.
       if (isPaperEffect(name) || name == just_added) continue;
@@ -113,19 +134,25 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
       if (smaller.numParams() == cur.model.numParams() || visited.count(smaller.name()) != 0) continue;
       say(options, "explain: would " + name + " be taken again against " + smaller.name() + "?");
       Fitted small = fitFrom(eng, smaller, cur);
-      CandidateResult c = judgeNested(rc, small, cur, family, name);
+      CandidateResult c = judgeNested(rc, small, cur, name);
       if (c.verdict == Verdict::kRecommended) continue;
-      if (!drop || rejection(c) > rejection(drop->second)) drop.emplace(std::move(small), std::move(c));
+      if (c.verdict != Verdict::kRefused && small.sol.sse_heldout > cur.sol.sse_heldout) continue;
+      const double rows = 6.0 * std::max(1, cur.sol.n_heldout);
+      const double bic = rows * std::log(std::max(1e-300, small.sol.sse_heldout / cur.sol.sse_heldout)) -
+                         std::max(0, c.added_params) * std::log(rows);
+      Removal cand{std::move(small), std::move(c), bic};
+      if (!drop || removeBefore(cand, *drop)) drop = std::move(cand);
     }
     if (drop) {
-      say(options, "explain step " + std::to_string(step + 1) + ": removing " + drop->second.effect + " (" +
-                       drop->second.reason + ")");
-      cur = std::move(drop->first);
+      say(options, "explain step " + std::to_string(step + 1) + ": removing " + drop->judged.effect + " (" +
+                       drop->judged.reason + ")");
+      removed_from[canonicalModel(effectNames(cur.model)).name()] = drop->judged;
+      cur = std::move(drop->small);
       just_added.clear();
       ExplainStep st = stepOf(cur, result.noise_floor);
-      st.removed = drop->second.effect;
-      st.p_value = drop->second.p_value;
-      st.family_p = drop->second.family_p;
+      st.removed = drop->judged.effect;
+      st.p_value = drop->judged.p_value;
+      st.family_p = drop->judged.family_p;
       result.steps.push_back(st);
       visited.insert(cur.model.name());
       ranking = rankCandidates(rc, cur);
@@ -157,9 +184,23 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
       std::vector<std::string> names = effectNames(cur.model);
       names.push_back(effects::createEffect(cand.effect)->name());
       Model next = canonicalModel(names);
-      if (visited.count(next.name()) != 0) continue;
+      if (visited.count(next.name()) != 0) {
+        // Recommended against this model when screened, but the path removed it from exactly
+        // next earlier: its full fit is not supported there. Not silently: the verdict says so.
+        CandidateResult earlier;
+        earlier.effect = cand.effect;
+        earlier.verdict = Verdict::kNoHeldOutGain;
+        const auto it = removed_from.find(next.name());
+        if (it != removed_from.end()) earlier = it->second;
+        earlier.reason = "removed earlier: its full fit is not supported" +
+                         (it != removed_from.end() && !it->second.reason.empty() ? " (" + it->second.reason + ")"
+                                                                                   : std::string());
+        if (earlier.verdict == Verdict::kRecommended) earlier.verdict = Verdict::kNoHeldOutGain;
+        rejected.push_back(std::move(earlier));
+        continue;
+      }
       Fitted rich = fitFrom(eng, next, cur);
-      CandidateResult full = judgeNested(rc, cur, rich, family, cand.effect);
+      CandidateResult full = judgeNested(rc, cur, rich, cand.effect);
       if (full.verdict != Verdict::kRecommended || !(rich.sol.sse_heldout < cur.sol.sse_heldout)) {
         say(options, "explain: " + cand.effect + " not taken after its full fit: " + full.reason);
         rejected.push_back(std::move(full));
@@ -179,8 +220,9 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
           if (c.effect != r.effect) continue;
           c.verdict = r.verdict == Verdict::kRecommended ? Verdict::kNoHeldOutGain : r.verdict;
           c.family_p = r.family_p;
-          c.reason = (r.reason.empty() ? std::string("the held-out error does not fall") : r.reason) +
-                     " (on its full fit)";
+          c.reason = r.reason.empty() ? std::string("the held-out error does not fall (on its full fit)")
+                     : r.reason.rfind("removed earlier", 0) == 0 ? r.reason
+                                                                  : r.reason + " (on its full fit)";
           c.significant = false;
           c.confounded = c.verdict == Verdict::kRefused;
           c.confound = c.confounded ? c.reason : "";

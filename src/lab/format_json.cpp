@@ -108,6 +108,7 @@ std::string formatJson(const AnalysisResult& r) {
   }
   o["candidates"] = std::move(candidates);
   o["family_alpha"] = jsonNumber(r.family_alpha);
+  o["family_size"] = r.family_size;
   o["unphysical"] = r.unphysical;
   if (!r.steps.empty()) {
     Json why = Json::array();

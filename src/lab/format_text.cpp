@@ -98,8 +98,7 @@ std::string formatText(const AnalysisResult& r) {
                 c.significant ? "" : "   (not above chance)");
     }
   }
-  const int family = static_cast<int>(std::count_if(r.candidates.begin(), r.candidates.end(),
-                                                       [](const CandidateResult& c) { return !c.skipped; }));
+  const int family = r.family_size;
   s += line("\ncandidate effects (one rule, docs/analyze.md: recommended when the family-wise p = min(1, %d p) is below "
             "alpha = %.2g, the held-out error falls, and the fit is identifiable and physical):",
             family, r.family_alpha);

@@ -25,6 +25,9 @@ struct RankContext {
   const AnalyzeOptions& options;
   std::string log_cmd;     ///< the log part of the suggested commands (already shell-quoted)
   double scale_sd = 0.0;   ///< colourScaleSd of the noise estimate
+  /// m of the Bonferroni correction, the same in every ranking and step of the path: the menu's
+  /// effects that can be tried on this data (familySize), whatever the model they are tried against.
+  int family_size = 1;
 };
 
 void say(const AnalyzeOptions& o, const std::string& line);
@@ -50,15 +53,13 @@ FitView fitView(const effects::Model& model, const Linearization& lin, const Sol
 /// Ranks the menu against `base`, each candidate judged by the rule (screened to first order in
 /// its nonlinear parameters). Recommended ones first, then by held-out BIC.
 std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted& base);
-/// Candidates of a ranking that were tried (the family of the Bonferroni correction).
-int familySize(const std::vector<CandidateResult>& ranking);
+/// The family of the Bonferroni correction, computed once per analysis: the effects of the menu
+/// that are valid, not in the paper's model (the floor of every model) and that the data can show
+/// (their signals present; a delay not on a static pose set). Independent of the starting model.
+int familySize(const Engine& eng, const std::vector<std::string>& menu);
 /// The rule on two full fits: `rich` = `simple` + `effect`.
-CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const Fitted& rich, int family_size,
-                            const std::string& effect);
+CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const Fitted& rich, const std::string& effect);
 
-/// Whether the model misses the data grossly (held-out residual above 3x the noise: set-up errors
-/// such as a sensor mounted 90 degrees off are plausible).
-bool grossMisfit(const Fitted& f);
 /// The best start of the full fit of `cand` (a model with mounting): the model's initial
 /// linearisation with the mounting angles of the one of the 24 axis-aligned rotations whose linear
 /// solve fits best in-sample.

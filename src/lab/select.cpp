@@ -67,10 +67,6 @@ FitView fitView(const Model& model, const Linearization& lin, const Solution& so
   return f;
 }
 
-bool grossMisfit(const Fitted& f) {
-  return f.sol.n_heldout > 0 && f.sol.sse_heldout / (6.0 * f.sol.n_heldout) > 9.0;
-}
-
 Linearization bestMountStart(const Engine& eng, const Model& cand) {
   constexpr double kQuarter = 1.5707963267948966;
   std::vector<Mat3> seen;
@@ -96,10 +92,6 @@ Linearization bestMountStart(const Engine& eng, const Model& cand) {
     }
   }
   return best;
-}
-
-int familySize(const std::vector<CandidateResult>& ranking) {
-  return static_cast<int>(std::count_if(ranking.begin(), ranking.end(), [](const auto& c) { return !c.skipped; }));
 }
 
 namespace {
@@ -150,6 +142,34 @@ std::string missingSignal(const Model& model, const std::vector<SampleContext>& 
   return "";
 }
 
+namespace {
+
+/// Why `cand` (a model with a candidate effect) cannot be tried on this data; "" if it can.
+std::string cannotTry(const Engine& eng, const Model& cand, bool base_has_delay) {
+  std::string miss = missingSignal(cand, eng.data().ctx);
+  if (miss.empty() && eng.data().static_data && cand.estimatesDelay() && !base_has_delay) {
+    miss = "static pose set: a delay shows only while the wrench changes (the time between poses is not motion)";
+  }
+  return miss;
+}
+
+}  // namespace
+
+int familySize(const Engine& eng, const std::vector<std::string>& menu) {
+  const Model floor = Model::fromName("paper");
+  int m = 0;
+  for (const auto& name : menu) {
+    try {
+      const auto e = effects::createEffect(name);
+      if (floor.contains(e->name())) continue;
+      if (cannotTry(eng, floor.withEffect(name), false).empty()) ++m;
+    } catch (const ConfigError&) {
+      // Not a valid effect: skipped in every ranking, not part of the family.
+    }
+  }
+  return std::max(1, m);
+}
+
 /// The scale uncertainty of a candidate's F statistic that the estimated noise colour brings. The
 /// candidates (and the model) vary at the motion's frequencies, far below the band where phi is
 /// fitted; whitened with an estimate phi^ of the true phi, noise there keeps the factor
@@ -188,7 +208,8 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
     out.push_back(c);
   }
   const int tested = static_cast<int>(std::count_if(out.begin(), out.end(), [](const auto& c) { return !c.skipped; }));
-  say(options, "ranking " + std::to_string(tested) + " candidate effects against " + base.model.name());
+  say(options, "ranking " + std::to_string(tested) + " candidate effects against " + base.model.name() +
+                   " (family of the correction: m = " + std::to_string(rc.family_size) + ")");
   const int rows_ho = 6 * base.sol.n_heldout;
   // The base design and prepared contexts are shared by every candidate (designExtended).
   const detail::Engine::Design base_design = eng.design(base.model, base.lin);
@@ -206,10 +227,7 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
       c.verdict = Verdict::kSkipped;
       continue;
     }
-    std::string miss = missingSignal(cand, eng.data().ctx);
-    if (miss.empty() && eng.data().static_data && cand.estimatesDelay() && !base.model.estimatesDelay()) {
-      miss = "static pose set: a delay shows only while the wrench changes (the time between poses is not motion)";
-    }
+    const std::string miss = cannotTry(eng, cand, base.model.estimatesDelay());
     if (!miss.empty()) {
       c.skipped = true;
       c.note = miss;
@@ -235,12 +253,9 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
     Solution s = lin.extraColumns() == base.lin.extraColumns()
                      ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
                      : eng.solve(eng.design(cand, lin));
-    if (cand.estimatesMounting() && !base.model.estimatesMounting() && grossMisfit(base) &&
-        (1.0 - s.sse_heldout / base.sol.sse_heldout > 0.5 ||
-         !physicsRefusals(fitView(base.model, base.lin, base.sol, nullptr)).empty())) {
-      // A sensor mounted far off (90 degrees) is out of the first order's reach: when the model
-      // misses grossly and is impossible, or a rotation explains half of its residual even to
-      // first order, fit the mounting fully from the best axis-aligned start.
+    if (cand.estimatesMounting() && !base.model.estimatesMounting()) {
+      // A sensor mounted far off (90 degrees) is out of the first order's reach: always fit the
+      // mounting fully from the best of the 24 axis-aligned rotations too, kept when it fits better.
       const Linearization from = bestMountStart(eng, cand);
       if (from.mount.norm() > 0.0) {
         auto full = eng.fitFully(cand, from);
@@ -259,7 +274,7 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
                   std::max(0, c.added_params) * std::log(static_cast<double>(rows_ho));
     c.next_command = "ftid analyze " + rc.log_cmd + " --model " + shellQuote(base.model.name() + "+" + c.effect);
     RuleInputs in;
-    in.family_size = tested;
+    in.family_size = rc.family_size;
     in.family_alpha = options.family_alpha;
     in.heldout_reduction = rr;
     in.min_heldout_reduction = options.min_relative_reduction;
@@ -295,8 +310,7 @@ std::vector<std::string> candidateMenu(const AnalyzeOptions& options) {
   return menu;
 }
 
-CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const Fitted& rich, int family_size,
-                            const std::string& effect) {
+CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const Fitted& rich, const std::string& effect) {
   CandidateResult c;
   c.effect = effect;
   c.added_params = rich.sol.rank - simple.sol.rank;
@@ -305,11 +319,11 @@ CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const F
   c.relative_reduction = std::clamp(rr, 0.0, 1.0);
   c.fit_relative_reduction = std::clamp(1.0 - rich.sol.sse_fit / simple.sol.sse_fit, 0.0, 1.0);
   RuleInputs in;
-  in.family_size = family_size;
+  in.family_size = rc.family_size;
   in.family_alpha = rc.options.family_alpha;
   in.heldout_reduction = rr;
   // A step of the path must lower the held-out error, whatever margin the ranking uses.
-  in.min_heldout_reduction = std::max(rc.options.min_relative_reduction, 1e-12);
+  in.min_heldout_reduction = std::max(rc.options.min_relative_reduction, 0.0);
   in.added_params = c.added_params;
   if (c.added_params > 0) {
     const double dof2 = std::max(1, rich.sol.rows_fit - rich.sol.rank);
@@ -317,7 +331,14 @@ CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const F
     c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, rc.scale_sd);
     in.p_value = c.p_value;
     const auto simple_names = fittedNames(simple.model, simple.lin);
-    in.refusals = refusalsOf(fitView(rich.model, rich.lin, rich.sol, &simple_names));
+    const FitView rich_view = fitView(rich.model, rich.lin, rich.sol, &simple_names);
+    in.refusals = identifiabilityRefusals(rich_view);
+    // A physics refusal is charged to the effect only when the model without it is physical:
+    // otherwise the impossibility is not the effect's doing (backward elimination would blame
+    // every effect for the whole model's physics).
+    if (physicsRefusals(fitView(simple.model, simple.lin, simple.sol, nullptr)).empty()) {
+      for (auto& r : physicsRefusals(rich_view)) in.refusals.push_back(std::move(r));
+    }
   }
   applyRule(in, c);
   return c;

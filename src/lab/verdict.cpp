@@ -113,12 +113,13 @@ Decision decide(const RuleInputs& in) {
                fmt(in.family_alpha, 2);
     return d;
   }
-  if (!(in.heldout_reduction >= in.min_heldout_reduction)) {
+  if (!(in.heldout_reduction > in.min_heldout_reduction)) {
     d.verdict = Verdict::kNoHeldOutGain;
     d.reason = "it helps only in-sample: the held-out error " +
                (in.heldout_reduction <= 0.0 ? std::string("does not fall")
                                             : "falls by only " + fmt(100.0 * in.heldout_reduction, 2) + " %") +
-               " (needs " + fmt(100.0 * in.min_heldout_reduction, 2) + " %)";
+               (in.min_heldout_reduction > 0.0 ? " (needs more than " + fmt(100.0 * in.min_heldout_reduction, 2) + " %)"
+                                                : std::string());
     return d;
   }
   if (!in.refusals.empty()) {

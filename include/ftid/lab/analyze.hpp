@@ -165,6 +165,9 @@ struct AnalysisResult {
   std::vector<SignalCorrelation> correlations;  ///< strongest first
   std::vector<CandidateResult> candidates;      ///< best first (recommended ones first)
   double family_alpha = 0.0;                    ///< the rule's family-wise significance level
+  /// m of min(1, m p): the menu's effects that can be tried on this data, one number for every
+  /// ranking and step of the path (independent of the starting model).
+  int family_size = 0;
   std::vector<ExplainStep> steps;               ///< with explain: the path, first = start
   std::optional<ModelReport> final_report;      ///< with explain: the last model of the path
   /// Why the last model (final, else the starting one) is not physically possible, one line each;

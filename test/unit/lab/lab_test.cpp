@@ -4,6 +4,7 @@
 // the simulator's truth within 4 reported standard errors. Clean runs must raise no alarm.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <random>
 #include <cstdlib>
@@ -226,9 +227,9 @@ TEST(Analyze, SuggestedCommandsPasteIntoAShellAndEveryVerdictHasItsReason) {
     if (c.skipped) continue;
     EXPECT_FALSE(c.significant) << lab::formatText(r);
     EXPECT_FALSE(c.reason.empty()) << c.effect;
-    // The family-wise p decides: never "not significant" below alpha, never recommended above it.
-    if (c.verdict == lab::Verdict::kNotSignificant) {
-      EXPECT_GE(c.family_p, r.family_alpha) << c.effect;
+    // The printed family-wise p is min(1, m p) with the analysis' one m.
+    if (c.added_params > 0) {
+      EXPECT_DOUBLE_EQ(c.family_p, std::min(1.0, r.family_size * c.p_value)) << c.effect;
     }
     EXPECT_NE(lab::formatText(r).find("  " + c.effect + ": " + lab::verdictWord(c.verdict)), std::string::npos)
         << c.effect << "\n" << lab::formatText(r);
@@ -280,10 +281,48 @@ TEST(Analyze, AnUnphysicalModelIsNamedAndNotExported) {
   ASSERT_TRUE(r2.final_report.has_value());
   EXPECT_FALSE(r2.unphysical.empty()) << lab::formatText(r2);
   EXPECT_EQ(lab::formatText(r2).find("--out params.yaml"), std::string::npos) << lab::formatText(r2);
+  bool cable_judged = false;
   for (const auto& c : r2.final_candidates) {
     if (c.effect == "cable") {
+      cable_judged = true;
       EXPECT_NE(c.reason.find("tilt"), std::string::npos) << c.reason;
     }
+  }
+  EXPECT_TRUE(cable_judged) << "the cable must be among the final verdicts\n" << lab::formatText(r2);
+}
+
+// One family size m for the whole analysis: the menu's effects that can be tried on this data,
+// whatever the starting model. From `paper` it is the count of candidates not skipped (none is in
+// the model); from a start that already holds two of them it is the same m, and every printed
+// family-wise p of the ranking, of the path's steps and of the final verdicts is min(1, m p).
+TEST(Analyze, TheFamilyOfTheCorrectionDoesNotDependOnTheStart) {
+  auto cfg = baseConfig(93);
+  cfg.cable.enabled = true;
+  cfg.cable.stiffness_N_per_m = 3.0;
+  lab::AnalyzeOptions o;
+  o.candidates = {"cable", "time_drift", "temperature_drift", "harmonic(q6,1)"};
+  o.explain = true;
+  o.max_explain_steps = 3;
+  const auto set = labtest::contexts(cfg);
+  o.model = "paper";
+  const auto a = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  const int tried = static_cast<int>(std::count_if(a.candidates.begin(), a.candidates.end(),
+                                                   [](const lab::CandidateResult& c) { return !c.skipped; }));
+  EXPECT_EQ(a.family_size, tried) << lab::formatText(a);
+  o.model = "paper+time_drift+cable";
+  const auto b = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  EXPECT_EQ(b.family_size, a.family_size) << lab::formatText(b);
+  const auto expectM = [](const lab::AnalysisResult& r, double p, double family_p, const std::string& what) {
+    if (p < 1.0) {
+      EXPECT_DOUBLE_EQ(family_p, std::min(1.0, r.family_size * p)) << what << "\n" << lab::formatText(r);
+    }
+  };
+  for (const auto* r : {&a, &b}) {
+    for (const auto& c : r->candidates) {
+      if (c.added_params > 0) expectM(*r, c.p_value, c.family_p, c.effect);
+    }
+    for (std::size_t k = 1; k < r->steps.size(); ++k) expectM(*r, r->steps[k].p_value, r->steps[k].family_p, "step");
+    EXPECT_NE(lab::formatText(*r).find("min(1, " + std::to_string(r->family_size) + " p)"), std::string::npos);
   }
 }
 

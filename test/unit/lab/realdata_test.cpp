@@ -194,6 +194,56 @@ TEST(Analyze, HeldPosesWithMovesBetweenThemShowTheDelay) {
   EXPECT_NEAR(delay->value, 0.5, 0.02) << lab::formatText(r);
 }
 
+// The same held poses and moves recorded at 1 kHz: a move is measured in rad/s from t, not per
+// sample (a slow 0.3 rad/s wrist move is 3e-4 rad per sample there, below any per-sample step
+// threshold), so the log is still one with moves and the delay is tried.
+TEST(Analyze, HeldPosesWithSlowMovesAt1kHzAreNotAStaticPoseSet) {
+  auto c = baseConfig(263);
+  c.rate_hz = 1000.0;
+  c.duration_s = 10.0;
+  const double hold = 1.5, move = 1.0;
+  std::vector<JointVector> poses;
+  for (int k = 0; k < 5; ++k) {
+    JointVector q = sim::paperStartPose();
+    for (int j = 3; j < kNumJoints; ++j) q(j) += (k % 2 == 0 ? 0.0 : 0.2) * (j == 4 ? -1.0 : 1.0);
+    poses.push_back(q);
+  }
+  c.motion = [poses, hold, move](double t) {
+    trajectory::TrajectoryPoint p;
+    const double cycle = hold + move;
+    const auto k = static_cast<std::size_t>(std::clamp(std::floor(std::max(t, 0.0) / cycle), 0.0, 3.0));
+    const double tau = std::max(t, 0.0) - static_cast<double>(k) * cycle;
+    const JointVector d = poses[k + 1] - poses[k];
+    p.q = poses[k];
+    if (tau < hold) return p;
+    const double pi = 3.14159265358979323846, u = std::min(1.0, (tau - hold) / move);
+    p.q = poses[k] + d * (1.0 - std::cos(pi * u)) / 2.0;
+    p.qd = d * (pi / (2.0 * move)) * std::sin(pi * u);
+    p.qdd = d * (pi * pi / (2.0 * move * move)) * std::cos(pi * u);
+    return p;
+  };
+  const auto set = labtest::contexts(c);
+  // The case: held still most of the time, and no move faster than 1e-3 per sample.
+  bool is_static = false;
+  (void)identify::poseGroups(set.samples, &is_static);
+  ASSERT_TRUE(is_static);
+  double fastest = 0.0;
+  for (std::size_t i = 1; i < set.samples.size(); ++i) {
+    const auto& a = set.samples[i - 1];
+    const auto& b = set.samples[i];
+    const double cs = std::clamp(((a.R_BS.transpose() * b.R_BS).trace() - 1.0) / 2.0, -1.0, 1.0);
+    fastest = std::max(fastest, std::acos(cs) + (b.p_BS_B - a.p_BS_B).norm());
+  }
+  ASSERT_LT(fastest, 1e-3);
+  ASSERT_GT(fastest, 1e-4);
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.candidates = {"sensor_delay"};
+  const auto r = lab::analyze(set.samples, nullptr, o, "holds_1khz.csv");
+  ASSERT_EQ(r.candidates.size(), 1u);
+  EXPECT_FALSE(r.candidates[0].skipped) << r.candidates[0].note;
+}
+
 TEST(NoiseFloor, DataSheetSpecIsParsedAndBadInputNamed) {
   const Vec6 v = identify::parseNoiseSpec("fx=0.05,fy=0.06,fz=0.07,tx=0.001,ty=0.002,tz=0.003");
   EXPECT_DOUBLE_EQ(v(1), 0.06);
