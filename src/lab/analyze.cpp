@@ -433,6 +433,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                                detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};
   result.candidates = detail::rankCandidates(rc, base);
   result.family_alpha = options.family_alpha;
+  result.heldout_margin = options.min_relative_reduction;
 
   const Fitted last_fit = options.explain ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.

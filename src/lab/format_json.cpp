@@ -109,6 +109,7 @@ std::string formatJson(const AnalysisResult& r) {
   o["candidates"] = std::move(candidates);
   o["family_alpha"] = jsonNumber(r.family_alpha);
   o["family_size"] = r.family_size;
+  o["heldout_margin"] = jsonNumber(r.heldout_margin);
   o["unphysical"] = r.unphysical;
   if (!r.steps.empty()) {
     Json why = Json::array();

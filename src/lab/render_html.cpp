@@ -328,8 +328,9 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</table>\n";
   }
-  o << "<h2>Candidate effects</h2><p>One rule decides (docs/analyze.md): the family-wise p-value below alpha = "
-    << f(r.family_alpha, 2) << ", a lower held-out error, identifiable and physical.</p>"
+  o << "<h2>Candidate effects</h2><p>One rule decides (docs/analyze.md): the family-wise p-value min(1, "
+    << r.family_size << " p) below alpha = " << f(r.family_alpha, 2) << ", a held-out error lower by more than "
+    << f(100.0 * r.heldout_margin, 3) << " %, identifiable and physical.</p>"
        "<table><tr><th>effect</th><th>held-out reduction</th><th>family-wise p</th>"
        "<th>verdict</th><th>meaning</th><th>next command</th></tr>";
   for (const auto& c : r.candidates) {

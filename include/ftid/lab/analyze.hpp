@@ -32,7 +32,8 @@ struct AnalyzeOptions {
   std::vector<std::string> candidates;
   double family_alpha = 1e-3;       ///< family-wise significance level of a ranking (lab/verdict.hpp)
   double min_relative_reduction = 0.01;  ///< held-out margin of the rule: a recommended effect must
-                                         ///< cut the held-out residual (sum of squares) by at least this fraction
+                                         ///< cut the held-out residual (sum of squares) by more than this
+                                         ///< fraction (why 1 % and not 0: docs/analyze.md, "The verdict")
   int top_windows = 3;              ///< failing time windows reported
   int window_count = 20;            ///< the log is cut into this many windows
   int top_correlations = 8;
@@ -168,6 +169,9 @@ struct AnalysisResult {
   /// m of min(1, m p): the menu's effects that can be tried on this data, one number for every
   /// ranking and step of the path (independent of the starting model).
   int family_size = 0;
+  /// The rule's held-out margin (AnalyzeOptions::min_relative_reduction): a recommended effect
+  /// lowers the held-out sum of squares by more than this fraction.
+  double heldout_margin = 0.0;
   std::vector<ExplainStep> steps;               ///< with explain: the path, first = start
   std::optional<ModelReport> final_report;      ///< with explain: the last model of the path
   /// Why the last model (final, else the starting one) is not physically possible, one line each;

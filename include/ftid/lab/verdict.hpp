@@ -3,9 +3,10 @@
 //
 // A candidate effect E, added to a fitted model M, is RECOMMENDED when
 //   1. significance (the one number that decides): the family-wise p-value
-//      p_fw = min(1, m * p) of the nested-model test M vs M+E (Bonferroni over the m candidates of
-//      one ranking) is below alpha, and the held-out error of M+E is lower than M's by at least
-//      the held-out margin (a step that does not lower the held-out error is never taken);
+//      p_fw = min(1, m * p) of the nested-model test M vs M+E (Bonferroni over the m effects of the
+//      menu the data can show, one m per analysis) is below alpha, and the held-out error of M+E
+//      is lower than M's by more than the held-out margin (a step that does not lower the
+//      held-out error is never taken; why a margin: docs/analyze.md, "The verdict");
 //   2. identifiability (a constraint that refuses, with the reason): judged by M+E's OWN
 //      covariance: the data determine every direction that mixes E's parameters with the payload's
 //      (no rank deficiency), and the payload's parameters stay determined in M+E (standard error
@@ -46,10 +47,10 @@ struct Refusal {
 
 struct RuleInputs {
   double p_value = 1.0;               ///< the candidate's own p-value (nested-model test)
-  int family_size = 1;                ///< candidates in the ranking (Bonferroni)
+  int family_size = 1;                ///< m of the Bonferroni correction (one per analysis)
   double family_alpha = 1e-3;         ///< family-wise significance level
   double heldout_reduction = 0.0;     ///< 1 - SSE_ho(M+E) / SSE_ho(M), unclamped
-  double min_heldout_reduction = 0.01;  ///< held-out margin (> 0: never a step that does not help)
+  double min_heldout_reduction = 0.01;  ///< held-out margin: the reduction must exceed it (0: strictly lower)
   int added_params = 0;               ///< rank gained
   std::vector<Refusal> refusals;      ///< identifiability and physics (identifiabilityRefusals, physicsRefusals)
 };
