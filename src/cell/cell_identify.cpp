@@ -497,7 +497,8 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
         [&](const std::vector<identify::SampleContext>& train) {
           return identify::toParameterSet(identify::fitModelMultiStart(model, train).fit);
         },
-        "ftid analyze " + result.data_csv + " --model " + model.name() + " --explain")));
+        "ftid analyze " + lab::shellQuote(result.data_csv) + " --model " + lab::shellQuote(model.name()) +
+            " --explain")));
     if (o.analyze) {
       lab::AnalyzeOptions aopts;
       aopts.model = model.name();
@@ -530,9 +531,9 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
         result.suggested_effect = top->effect;
         print("A physical effect is missing from the model: " + top->effect + " (" + top->description + ").");
         print("  adding it would cut the held-out residual by " + fmt(0, 100.0 * top->relative_reduction) +
-              " %. Add it with:  ftid --identify --model " + model.name() + "+" + top->effect);
-        print("  or analyse the recorded data:  ftid analyze " + result.data_csv + " --model " + model.name() + "+" +
-              top->effect + " --explain");
+              " %. Add it with:  ftid --identify --model " + lab::shellQuote(model.name() + "+" + top->effect));
+        print("  or analyse the recorded data:  ftid analyze " + lab::shellQuote(result.data_csv) + " --model " +
+              lab::shellQuote(model.name() + "+" + top->effect) + " --explain");
       } else {
         print("No significant effect is missing: the model explains the data down to the sensor noise.");
       }

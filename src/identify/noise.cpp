@@ -256,6 +256,29 @@ std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ct
         begin = i;
       }
     }
+  } else if (n > 0 && !ctx.front().has_joints) {
+    // A pose log (q = qd = 0): held still where the sensor pose does not change (rotation angle
+    // plus displacement per sample: below 1e-3 rad/s or m/s at the median, within 1e-4 per sample).
+    std::vector<double> speed(static_cast<std::size_t>(n), 0.0), step(static_cast<std::size_t>(n), 0.0);
+    for (int i = 1; i < n; ++i) {
+      const auto& a = ctx[static_cast<std::size_t>(i - 1)];
+      const auto& b = ctx[static_cast<std::size_t>(i)];
+      const double cos_angle = std::clamp(((a.R_BS.transpose() * b.R_BS).trace() - 1.0) / 2.0, -1.0, 1.0);
+      step[static_cast<std::size_t>(i)] = std::acos(cos_angle) + (b.p_BS_B - a.p_BS_B).norm();
+      const double dt = b.t - a.t;
+      speed[static_cast<std::size_t>(i)] = dt > 0.0 ? step[static_cast<std::size_t>(i)] / dt : 0.0;
+    }
+    if (n > 1) speed[0] = speed[1];
+    stat = median(speed) < 1e-3;
+    if (stat) {
+      int begin = 0;
+      for (int i = 1; i <= n; ++i) {
+        if (i == n || step[static_cast<std::size_t>(i)] > 1e-4) {
+          groups.emplace_back(begin, i);
+          begin = i;
+        }
+      }
+    }
   } else if (n > 0) {
     std::vector<double> qd(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) qd[static_cast<std::size_t>(i)] = ctx[static_cast<std::size_t>(i)].qd.cwiseAbs().maxCoeff();

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "engine.hpp"
+#include "lab_internal.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
@@ -18,54 +18,9 @@
 
 namespace ftid::lab {
 
-namespace {
+namespace detail {
 
-using detail::Dataset;
-using detail::Engine;
-using detail::Linearization;
-using detail::Mat6X;
-using detail::Solution;
 using effects::Model;
-
-/// Paper effects are the base of every model: never offered as candidates unless missing.
-bool isGenericBase(const std::string& name) { return name == "harmonic" || name == "poly"; }
-
-void say(const AnalyzeOptions& o, const std::string& line) {
-  if (o.progress) o.progress(line);
-}
-
-std::string fmt(double v, int precision = 4) {
-  std::ostringstream s;
-  s.precision(precision);
-  s << v;
-  return s.str();
-}
-
-/// Checks the signals a model needs against the data; "" if fine, else the reason.
-std::string missingSignal(const Model& model, const std::vector<SampleContext>& ctx) {
-  const std::uint32_t s = model.signals();
-  if ((s & effects::kSignalTemperature) && !ctx.front().has_temp) return "the log has no temp column";
-  for (const auto& e : model.effectList()) {
-    const std::string n = e->name();
-    const auto open = n.find('(');
-    if (open == std::string::npos) continue;
-    const auto comma = n.find(',', open);
-    const std::string sig = n.substr(open + 1, (comma == std::string::npos ? n.size() - 1 : comma) - open - 1);
-    if (sig.empty()) continue;
-    try {
-      const auto src = effects::SignalSource::parse(sig);
-      if (!src.available(ctx.front())) {
-        if (!ctx.front().has_joints && (sig.rfind("q", 0) == 0)) {
-          return "needs the joint angle signal '" + sig + "'; the log gives the sensor pose, not joint angles";
-        }
-        return "the log has no signal '" + sig + "'";
-      }
-    } catch (const ConfigError&) {
-      // Effect arguments that are not signals (temperature_drift(20)) are the effect's business.
-    }
-  }
-  return "";
-}
 
 ModelReport makeReport(const Engine& eng, const Model& model, const Linearization& lin, const Solution& sol) {
   ModelReport r;
@@ -78,8 +33,9 @@ ModelReport makeReport(const Engine& eng, const Model& model, const Linearizatio
                         sol.theta(k), stdOf(k)});
   }
   r.tilt_estimated = lin.tilt_columns;
-  r.tilt_u_rad = lin.u + (lin.tilt_columns ? sol.theta(p) : 0.0);
-  r.tilt_v_rad = lin.v + (lin.tilt_columns ? sol.theta(p + 1) : 0.0);
+  // Angles in their principal range (-pi, pi].
+  r.tilt_u_rad = wrapAngle(lin.u + (lin.tilt_columns ? sol.theta(p) : 0.0));
+  r.tilt_v_rad = wrapAngle(lin.v + (lin.tilt_columns ? sol.theta(p + 1) : 0.0));
   if (lin.tilt_columns) {
     r.params.push_back({"tilt_u", "rad", r.tilt_u_rad, stdOf(p)});
     r.params.push_back({"tilt_v", "rad", r.tilt_v_rad, stdOf(p + 1)});
@@ -87,7 +43,7 @@ ModelReport makeReport(const Engine& eng, const Model& model, const Linearizatio
   if (lin.mount_columns) {
     const int c = lin.mountColumn(p);
     for (int k = 0; k < 3; ++k) {
-      r.params.push_back({effects::kMountParamNames[k], "rad", lin.mount(k) + sol.theta(c + k), stdOf(c + k)});
+      r.params.push_back({effects::kMountParamNames[k], "rad", wrapAngle(lin.mount(k) + sol.theta(c + k)), stdOf(c + k)});
     }
   }
   if (lin.delay_column) {
@@ -151,302 +107,21 @@ double totalRatio(const Vec6& rms, const Vec6& noise) {
   return std::sqrt(rms.cwiseQuotient(noise).cwiseAbs2().mean());
 }
 
-struct Fitted {
-  Model model;
-  Linearization lin;
-  Solution sol;
-};
+}  // namespace detail
 
-bool isMassLike(const std::string& n) {
-  return n == "mass" || n.rfind("mass_com_", 0) == 0 || n == "tilt_u" || n == "tilt_v";
-}
+namespace {
 
-/// The payload's physical parameters (what a confound must not corrupt).
-bool isPhysical(const std::string& n) { return isMassLike(n) || n.rfind("i_s_", 0) == 0; }
+using detail::Dataset;
+using detail::Engine;
+using detail::Fitted;
+using detail::Linearization;
+using detail::Mat6X;
+using detail::Solution;
+using detail::fmt;
+using detail::say;
+using effects::Model;
 
-/// Why two parameters cannot be told apart, and what motion would separate them.
-std::pair<std::string, std::string> explainPair(const std::string& a, const std::string& b) {
-  auto has = [&](const std::string& key) { return a.find(key) != std::string::npos || b.find(key) != std::string::npos; };
-  const bool mass = isMassLike(a) || isMassLike(b);
-  if (has("cable_kp_z") && mass) {
-    return {"a constant vertical pull is indistinguishable from the weight without translational acceleration",
-            "move with translational acceleration (a dynamic excitation, e.g. from ftid design) instead of static poses"};
-  }
-  if (has("cable") && mass) {
-    return {"without translational acceleration the cable's pull over these poses looks like the weight or its lever",
-            "move with translational acceleration (a dynamic excitation) and through a larger range of positions, "
-            "not only orientations"};
-  }
-  if (has("cable") && (has("f0_") || has("t0_"))) {
-    return {"the cable's pull over these poses looks like the offsets",
-            "move the tool through a larger range of positions, not only orientations, so the pull changes with position"};
-  }
-  if (has("i_s_") || has("inertia")) {
-    return {"rotational inertia shows only under angular acceleration", "excite wrist rotations with larger angular acceleration"};
-  }
-  if (has("delay")) return {"a delay shows only where the wrench changes", "move faster (a wider excitation bandwidth)"};
-  if ((has("temp") || has("dt_")) && (has("poly(t") || has("time") || has("d_dt"))) {
-    return {"temperature and time change together in this log",
-            "record longer, or at several temperatures, so temperature does not follow time"};
-  }
-  if (mass) {
-    return {"it changes together with the weight in this data", "more distinct orientations and translational acceleration"};
-  }
-  return {"they change together in this data", "a motion that changes one without the other (more distinct orientations, "
-                                               "positions and accelerations)"};
-}
 
-/// Confounds and plausibility of candidate `cand` (solution s) against the base fit; "" if fine.
-void checkConfounds(const Fitted& base, const Model& cand, const Linearization& lin, const Solution& s,
-                    CandidateResult& c) {
-  const auto& cn = cand.paramIndex().names();
-  const int pc = cand.numParams();
-  std::vector<std::string> names = cn;
-  // The nonlinear columns after the linear ones, in the engine's order (tilt, mounting, delay).
-  if (lin.tilt_columns) {
-    names.push_back("tilt_u");
-    names.push_back("tilt_v");
-  }
-  if (lin.mount_columns) {
-    for (const char* m : effects::kMountParamNames) names.push_back(m);
-  }
-  if (lin.delay_column) names.push_back(effects::kDelayParamName);
-  const Eigen::MatrixXd& C = s.covariance;
-  auto sd = [&](int k) { return std::sqrt(std::max(0.0, C(k, k))); };
-  std::vector<std::string> reasons;
-  std::string motion;
-  // Correlations between an added parameter and one of the base model's.
-  double worst = 0.0;
-  int wi = -1, wj = -1;
-  for (int j = 0; j < pc; ++j) {
-    if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) >= 0) continue;  // not added
-    for (int i = 0; i < static_cast<int>(names.size()); ++i) {
-      if (i == j || (i < pc && base.model.paramIndex().column(cn[static_cast<std::size_t>(i)]) < 0)) continue;
-      if (!isPhysical(names[static_cast<std::size_t>(i)])) continue;  // nuisance pairs do not matter
-      const double den = sd(i) * sd(j);
-      if (!(den > 0.0)) continue;
-      const double r = std::abs(C(i, j) / den);
-      if (r > worst) {
-        worst = r;
-        wi = i;
-        wj = j;
-      }
-    }
-  }
-  // Directions the data do not determine at all: which added and which physical parameter share one.
-  for (Eigen::Index nc = 0; nc < s.null_space.cols() && worst <= 0.99; ++nc) {
-    int ja = -1, ib = -1;
-    double va = 0.1, vb = 0.1;
-    for (int k = 0; k < static_cast<int>(names.size()) && k < s.null_space.rows(); ++k) {
-      const double v = std::abs(s.null_space(k, nc));
-      const bool added = k < pc && base.model.paramIndex().column(cn[static_cast<std::size_t>(k)]) < 0;
-      if (added && v > va) {
-        va = v;
-        ja = k;
-      } else if (!added && isPhysical(names[static_cast<std::size_t>(k)]) && v > vb) {
-        vb = v;
-        ib = k;
-      }
-    }
-    if (ja >= 0 && ib >= 0) {
-      worst = 1.0;
-      wi = ib;
-      wj = ja;
-    }
-  }
-  if (worst > 0.99) {
-    const auto [why, how] = explainPair(names[static_cast<std::size_t>(wj)], names[static_cast<std::size_t>(wi)]);
-    reasons.push_back(names[static_cast<std::size_t>(wj)] + " and " + names[static_cast<std::size_t>(wi)] +
-                      " are confounded (|correlation| " + fmt(worst, 4) + "): " + why);
-    motion = how;
-  }
-  // Plausibility of the mass.
-  const int cm = cand.paramIndex().column("mass");
-  const int bm = base.model.paramIndex().column("mass");
-  if (cm >= 0 && bm >= 0) {
-    const double m = s.theta(cm), msd = sd(cm);
-    const double mb = base.sol.theta(bm);
-    const double mbsd = std::sqrt(std::max(0.0, base.sol.covariance(bm, bm)));
-    // How strongly an added parameter takes over the mass's role in the candidate.
-    double mass_corr = 0.0;
-    for (int j = 0; j < pc; ++j) {
-      if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) >= 0) continue;
-      const double den = sd(cm) * sd(j);
-      if (den > 0.0) mass_corr = std::max(mass_corr, std::abs(C(cm, j)) / den);
-    }
-    if (m <= 0.0) {
-      reasons.push_back("it makes the mass " + fmt(m, 4) + " kg (<= 0)");
-    } else if (msd > m) {
-      reasons.push_back("the mass is no longer determined (" + fmt(m, 4) + " +- " + fmt(msd, 3) + " kg)");
-    } else if (mbsd > 0.0 && std::abs(m - mb) > 3.0 * mbsd && mass_corr > 0.99) {
-      reasons.push_back("it moves the mass from " + fmt(mb, 5) + " to " + fmt(m, 5) + " kg, " +
-                        fmt(std::abs(m - mb) / mbsd, 3) + " standard errors of the simpler model's, while its "
-                        "parameters take over the mass's role (|r| " + fmt(mass_corr, 4) + ")");
-    }
-    if (motion.empty() && !reasons.empty()) {
-      std::string partner;
-      for (int j = 0; j < pc; ++j) {
-        if (base.model.paramIndex().column(cn[static_cast<std::size_t>(j)]) < 0) {
-          const double den = sd(cm) * sd(j);
-          if (den > 0.0 && (partner.empty() || std::abs(C(cm, j)) / den > 0.5)) partner = cn[static_cast<std::size_t>(j)];
-        }
-      }
-      const auto [why, how] = explainPair(partner, "mass");
-      reasons.back() += " (" + partner + " and the mass: " + why + ")";
-      motion = how;
-    }
-  }
-  // Plausibility of a newly added rigid body.
-  if (cand.contains("rigid_body") && !base.model.contains("rigid_body") && cm >= 0) {
-    const auto& idx = cand.paramIndex();
-    std::vector<int> cols = {cm, idx.column("mass_com_x"), idx.column("mass_com_y"), idx.column("mass_com_z")};
-    for (const char* n : effects::kInertiaParamNames) cols.push_back(idx.column(n));
-    bool ok = true;
-    for (int k : cols) ok = ok && k >= 0;
-    if (ok) {
-      Eigen::Matrix<double, 10, 1> pv;
-      Eigen::Matrix<double, 10, 10> cv;
-      for (int i = 0; i < 10; ++i) {
-        pv(i) = s.theta(cols[static_cast<std::size_t>(i)]);
-        for (int j = 0; j < 10; ++j) cv(i, j) = C(cols[static_cast<std::size_t>(i)], cols[static_cast<std::size_t>(j)]);
-      }
-      const auto in = effects::inertiaAboutCom(pv, cv);
-      if (!in.valid_within_uncertainty) {
-        reasons.push_back("the inertia it gives is not physical: " + in.explanation);
-        if (motion.empty()) motion = "excite wrist rotations with larger angular acceleration";
-      }
-    }
-  }
-  if (reasons.empty()) return;
-  c.confounded = true;
-  c.significant = false;
-  std::string all;
-  for (const auto& r : reasons) all += (all.empty() ? "" : "; ") + r;
-  c.confound = all;
-  c.separating_motion = motion;
-}
-
-/// The scale uncertainty of a candidate's F statistic that the estimated noise colour brings. The
-/// candidates (and the model) vary at the motion's frequencies, far below the band where phi is
-/// fitted; whitened with an estimate phi^ of the true phi, noise there keeps the factor
-/// r = S_true(0) / S_phi^(0) = ((1 - phi^) / (1 - phi))^2 of its variance, which the F test's
-/// denominator (the whole band, where the factor averages to 1) does not see:
-/// sd(ln r) = 2 sd(phi^) / (1 - phi^). Axes with their own phi: the mean of the variances (an
-/// upper bound for a statistic that pools them).
-double colourScaleSd(const Vec6& ar1, const Vec6& ar1_std) {
-  double v = 0.0;
-  for (int a = 0; a < 6; ++a) {
-    if (ar1(a) > 0.0 && ar1_std(a) > 0.0) v += std::pow(2.0 * ar1_std(a) / std::max(1e-3, 1.0 - ar1(a)), 2) / 6.0;
-  }
-  return std::sqrt(v);
-}
-
-/// Ranks the candidates against the fitted model `base`.
-/// log_scale_sd: the uncertainty of the F statistic's scale from the noise colour's estimate
-/// (colourScaleSd).
-std::vector<CandidateResult> rankCandidates(const Engine& eng, const Fitted& base, const std::vector<std::string>& menu,
-                                            const AnalyzeOptions& options, const std::string& log_cmd,
-                                            double log_scale_sd) {
-  std::vector<CandidateResult> out;
-  std::vector<std::string> todo;
-  for (const auto& name : menu) {
-    CandidateResult c;
-    c.effect = name;
-    try {
-      auto e = effects::createEffect(name);
-      c.description = e->description();
-      if (base.model.contains(e->name())) continue;
-    } catch (const ConfigError& err) {
-      c.skipped = true;
-      c.note = err.what();
-      out.push_back(c);
-      continue;
-    }
-    out.push_back(c);
-  }
-  const int tested = static_cast<int>(std::count_if(out.begin(), out.end(), [](const auto& c) { return !c.skipped; }));
-  const double alpha_each = options.family_alpha / std::max(1, tested);
-  say(options, "ranking " + std::to_string(tested) + " candidate effects against " + base.model.name());
-  const int rows_ho = 6 * base.sol.n_heldout;
-  // The base design and prepared contexts are shared by every candidate (designExtended).
-  const detail::Engine::Design base_design = eng.design(base.model, base.lin);
-  const std::vector<SampleContext> prepared = eng.prepared(base.lin);
-  for (auto& c : out) {
-    if (c.skipped) continue;
-    say(options, "  trying " + c.effect);
-    Model cand = base.model;
-    try {
-      cand = base.model.withEffect(c.effect);
-    } catch (const ConfigError& err) {
-      c.skipped = true;
-      c.note = err.what();
-      continue;
-    }
-    std::string miss = missingSignal(cand, eng.data().ctx);
-    if (miss.empty() && eng.data().static_data && cand.estimatesDelay() && !base.model.estimatesDelay()) {
-      miss = "static pose set: a delay shows only while the wrench changes (the time between poses is not motion)";
-    }
-    if (!miss.empty()) {
-      c.skipped = true;
-      c.note = miss;
-      continue;
-    }
-    Linearization lin = base.lin;
-    if (cand.estimatesTilt() && !lin.tilt_columns) {
-      eng.tiltColumns(base.model, lin, base.sol.theta);
-      lin.tilt_columns = true;
-    }
-    // Nonlinear candidates are screened to first order at the base solution (their Jacobian
-    // columns); --explain then fits them fully (Engine::fitFully).
-    if (cand.estimatesMounting() && !lin.mount_columns) {
-      eng.mountColumns(base.model, lin, base.sol.theta);
-      lin.mount_columns = true;
-    }
-    if (cand.estimatesDelay() && !lin.delay_column) {
-      eng.delayColumn(base.model, lin, base.sol.theta);
-      lin.delay_column = true;
-    }
-    // The base model's columns must keep their meaning in the candidate (nested models).
-    const Solution s = lin.extraColumns() == base.lin.extraColumns()
-                           ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
-                           : eng.solve(eng.design(cand, lin));
-    c.added_params = s.rank - base.sol.rank;
-    c.residual_rms = (s.sse_heldout_axis / std::max(1, s.n_heldout)).cwiseSqrt();
-    const double rr = 1.0 - s.sse_heldout / base.sol.sse_heldout;
-    c.relative_reduction = std::clamp(rr, 0.0, 1.0);
-    c.fit_relative_reduction = std::clamp(1.0 - s.sse_fit / base.sol.sse_fit, 0.0, 1.0);
-    c.delta_bic = rows_ho * std::log(std::max(1e-300, s.sse_heldout / base.sol.sse_heldout)) +
-                  std::max(0, c.added_params) * std::log(static_cast<double>(rows_ho));
-    c.next_command = "ftid analyze " + log_cmd + " --model " + base.model.name() + "+" + c.effect;
-    if (c.added_params <= 0) {
-      c.note = "adds nothing the data can determine";
-      c.p_value = 1.0;
-      continue;
-    }
-    const double dof2 = std::max(1, s.rows_fit - s.rank);
-    c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
-    c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, log_scale_sd);
-    c.significant = c.p_value < alpha_each && rr >= options.min_relative_reduction;
-    if (c.significant) checkConfounds(base, cand, lin, s, c);
-  }
-  std::stable_sort(out.begin(), out.end(), [](const CandidateResult& a, const CandidateResult& b) {
-    if (a.skipped != b.skipped) return !a.skipped;
-    if (a.significant != b.significant) return a.significant;
-    return a.delta_bic < b.delta_bic;
-  });
-  return out;
-}
-
-std::vector<std::string> candidateMenu(const AnalyzeOptions& options) {
-  if (!options.candidates.empty()) return options.candidates;
-  std::vector<std::string> menu;
-  for (const auto& e : effects::registeredEffects()) {
-    if (isGenericBase(e.base_name)) continue;
-    menu.push_back(e.base_name);
-  }
-  for (const auto& g : defaultGenericMenu()) menu.push_back(g);
-  return menu;
-}
 
 /// Signals the residual is correlated against: name and per-sample value.
 struct SignalSeries {
@@ -504,6 +179,33 @@ double pearson(const std::vector<double>& x, const Eigen::RowVectorXd& y) {
   return sxy / std::sqrt(sxx * syy);
 }
 
+/// Whether the robot moves somewhere in the log (whatever its columns): three or more consecutive
+/// samples whose sensor pose moves (rotation angle plus displacement per second, from t, as
+/// identify::poseGroups measures it) faster than ten times the median speed (the jitter of held
+/// poses) and than 0.01 rad/s (+ m/s), ten times the speed poseGroups calls held still. Measured
+/// per second, not per sample, so the same move counts at 10 Hz and at 1 kHz. A pose set's jump
+/// from one pose to the next is one sample.
+bool hasMoves(const std::vector<SampleContext>& ctx) {
+  const std::size_t n = ctx.size();
+  if (n < 4) return false;
+  std::vector<double> speed(n, 0.0);
+  for (std::size_t i = 1; i < n; ++i) {
+    const double c = std::clamp(((ctx[i - 1].R_BS.transpose() * ctx[i].R_BS).trace() - 1.0) / 2.0, -1.0, 1.0);
+    const double dt = ctx[i].t - ctx[i - 1].t;
+    const double step = std::acos(c) + (ctx[i].p_BS_B - ctx[i - 1].p_BS_B).norm();
+    speed[i] = dt > 0.0 ? step / dt : 0.0;  // untrusted clocks: a repeated or backward stamp is no move
+  }
+  std::vector<double> sorted(speed.begin() + 1, speed.end());
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+  const double threshold = std::max(1e-2, 10.0 * sorted[sorted.size() / 2]);
+  int run = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    run = speed[i] > threshold ? run + 1 : 0;
+    if (run >= 3) return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 std::vector<std::string> defaultGenericMenu() {
@@ -554,6 +256,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.noise_floor = nf.std;
   d.ar1 = nf.ar1;
   (void)identify::poseGroups(fit, &d.static_data);
+  // Held poses with moves between them: the moves show what a static pose set cannot (a delay).
+  d.static_data = d.static_data && !hasMoves(fit);
   // Guard noise-free data: a floor far below the signal would make the weights meaningless.
   const double tiny = 1e-9;
   const Vec6 innovation = nf.innovationStd();
@@ -562,7 +266,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.folds = validate != nullptr ? 1 : options.folds;
 
   Model model = Model::fromName(options.model);
-  const std::string miss = missingSignal(model, d.ctx);
+  const std::string miss = detail::missingSignal(model, d.ctx);
   if (!miss.empty()) throw DataError("model '" + model.name() + "' cannot be fitted: " + miss);
   if (d.static_data && model.estimatesDelay()) {
     // As for the candidates below, and as identify::fitModel refuses: no number for a delay.
@@ -570,7 +274,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                     "' cannot be fitted: static pose set: a delay shows only while the wrench changes (the time "
                     "between poses is not motion); leave sensor_delay out");
   }
-  const std::string log_cmd = log_name + (validate != nullptr ? " --validate " + validate_name : "");
+  const std::string log_cmd =
+      shellQuote(log_name) + (validate != nullptr ? " --validate " + shellQuote(validate_name) : "");
 
   say(options, "noise floor: " + nf.detail);
   say(options, "fitting " + model.name() + " (" + std::to_string(model.numParams()) + " parameters) on " +
@@ -660,7 +365,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   }
   const Engine& engine = *eng;
   Fitted base{model, lin, sol};
-  result.report = makeReport(engine, model, lin, sol);
+  result.report = detail::makeReport(engine, model, lin, sol);
 
   // Time series of the evaluated data.
   const auto& tests = engine.testSamples();
@@ -722,37 +427,20 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   }
 
   // Which effect is missing.
-  const auto menu = candidateMenu(options);
-  const double scale_sd = colourScaleSd(result.noise_ar1, result.noise_ar1_std);
-  result.candidates = rankCandidates(engine, base, menu, options, log_cmd, scale_sd);
+  const auto menu = detail::candidateMenu(options);
+  result.family_size = detail::familySize(engine, menu);
+  const detail::RankContext rc{engine, menu, options, log_cmd,
+                               detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};
+  result.candidates = detail::rankCandidates(rc, base);
+  result.family_alpha = options.family_alpha;
+  result.heldout_margin = options.min_relative_reduction;
 
-  if (options.explain) {
-    ExplainStep s0;
-    s0.model = model.name();
-    s0.residual_rms = result.report.residual_rms;
-    s0.total_ratio = totalRatio(s0.residual_rms, result.noise_floor);
-    result.steps.push_back(s0);
-    Fitted cur = base;
-    std::vector<CandidateResult> ranking = result.candidates;
-    for (int step = 0; step < options.max_explain_steps; ++step) {
-      if (ranking.empty() || !ranking.front().significant) break;
-      const CandidateResult best = ranking.front();
-      Model next = cur.model.withEffect(best.effect);
-      say(options, "explain step " + std::to_string(step + 1) + ": adding " + best.effect + " (held-out residual -" +
-                       fmt(100.0 * best.relative_reduction, 3) + "%)");
-      auto [nlin, nsol] = engine.fitFully(next, cur.lin);
-      cur = Fitted{next, nlin, nsol};
-      ExplainStep st;
-      st.model = next.name();
-      st.added = best.effect;
-      st.residual_rms = (nsol.sse_heldout_axis / std::max(1, nsol.n_heldout)).cwiseSqrt();
-      st.total_ratio = totalRatio(st.residual_rms, result.noise_floor);
-      st.p_value = best.p_value;
-      result.steps.push_back(st);
-      ranking = rankCandidates(engine, cur, menu, options, log_cmd, scale_sd);
-    }
-    result.final_report = makeReport(engine, cur.model, cur.lin, cur.sol);
-    result.final_residual = cur.sol.heldout_residual;
+  const Fitted last_fit = options.explain ? detail::explainPath(rc, base, result) : base;
+  // Impossible answers are never exported: what is wrong with the last model, in words.
+  for (const auto& r : physicsRefusals(detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr))) {
+    result.unphysical.push_back(r.reason);
+    result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
+                              "; do not write or export its parameters");
   }
   // What is left: the last model's held-out residual against the noise floor.
   if (nf.observable()) {

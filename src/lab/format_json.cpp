@@ -101,14 +101,33 @@ std::string formatJson(const AnalysisResult& r) {
     e["confounded"] = c.confounded;
     e["confound"] = c.confound;
     e["separating_motion"] = c.separating_motion;
+    e["verdict"] = verdictWord(c.verdict);
+    e["family_p_value"] = jsonNumber(c.family_p);
+    e["reason"] = c.reason;
     candidates.push_back(std::move(e));
   }
   o["candidates"] = std::move(candidates);
+  o["family_alpha"] = jsonNumber(r.family_alpha);
+  o["family_size"] = r.family_size;
+  o["heldout_margin"] = jsonNumber(r.heldout_margin);
+  o["unphysical"] = r.unphysical;
+  if (!r.steps.empty()) {
+    Json why = Json::array();
+    for (const auto& c : r.final_candidates) {
+      why.push_back(Json{{"effect", c.effect},
+                         {"verdict", verdictWord(c.verdict)},
+                         {"family_p_value", jsonNumber(c.family_p)},
+                         {"reason", c.skipped ? c.note : c.reason}});
+    }
+    o["final_candidates"] = std::move(why);
+  }
   if (!r.steps.empty()) {
     Json steps = Json::array();
     for (const auto& s : r.steps) {
       steps.push_back(Json{{"model", s.model},
                            {"added", s.added},
+                           {"removed", s.removed},
+                           {"family_p_value", jsonNumber(s.family_p)},
                            {"residual_rms", axes(s.residual_rms)},
                            {"ratio_to_noise", jsonNumber(s.total_ratio)},
                            {"p_value", jsonNumber(s.p_value)}});

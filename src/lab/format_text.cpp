@@ -1,4 +1,5 @@
 // Human-readable output of `ftid analyze` (analyze.hpp).
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -42,6 +43,27 @@ std::string paramBlock(const ModelReport& r) {
   return s;
 }
 
+/// A p-value as text: below the smallest double's range it underflows to 0 (say how small instead).
+std::string pText(double p) {
+  char b[32];
+  if (p < 1e-300) {
+    std::snprintf(b, sizeof(b), "< 1e-300");
+  } else {
+    std::snprintf(b, sizeof(b), "%.2g", p);
+  }
+  return b;
+}
+
+/// One line per candidate: its verdict and why, in words.
+std::string whyNot(const std::vector<CandidateResult>& ranking) {
+  std::string s;
+  for (const auto& c : ranking) {
+    const std::string why = c.skipped ? c.note : c.reason;
+    s += "  " + c.effect + ": " + verdictWord(c.verdict) + (why.empty() ? "" : " - " + why) + "\n";
+  }
+  return s;
+}
+
 }  // namespace
 
 std::string formatText(const AnalysisResult& r) {
@@ -76,19 +98,20 @@ std::string formatText(const AnalysisResult& r) {
                 c.significant ? "" : "   (not above chance)");
     }
   }
-  s += "\ncandidate effects (held-out reduction of the residual; significance: F-test, Bonferroni over candidates):\n";
+  const int family = r.family_size;
+  std::ostringstream margin;
+  margin << 100.0 * r.heldout_margin;
+  const std::string falls = r.heldout_margin > 0.0 ? "the held-out error falls by more than " + margin.str() + " %"
+                                                   : std::string("the held-out error falls");
+  s += line("\ncandidate effects (one rule, docs/analyze.md: recommended when the family-wise p = min(1, %d p) is below "
+            "alpha = %.2g, %s, and the fit is identifiable and physical):",
+            family, r.family_alpha, falls.c_str());
+  s += line("  %-20s %9s  %-14s %s", "effect", "held-out", "family-wise p", "verdict");
   int shown = 0;
   for (const auto& c : r.candidates) {
     if (c.skipped) continue;
-    // A p-value below the smallest double's range underflows to 0: say how small it is instead.
-    char p[32];
-    if (c.p_value < 1e-300) {
-      std::snprintf(p, sizeof(p), "p < 1e-300");
-    } else {
-      std::snprintf(p, sizeof(p), "p = %.2g", c.p_value);
-    }
-    s += line("  %-20s %6.1f %%  %-13s %-15s %s", c.effect.c_str(), 100.0 * c.relative_reduction, p,
-              c.significant ? "SIGNIFICANT" : (c.confounded ? "CONFOUNDED" : "not significant"), c.description.c_str());
+    s += line("  %-20s %7.1f %%  %-14s %-16s %s", c.effect.c_str(), 100.0 * c.relative_reduction,
+              pText(c.family_p).c_str(), verdictWord(c.verdict), c.description.c_str());
     ++shown;
   }
   for (const auto& c : r.candidates) {
@@ -96,37 +119,50 @@ std::string formatText(const AnalysisResult& r) {
   }
   for (const auto& c : r.candidates) {
     if (!c.confounded) continue;
-    s += "  " + c.effect + " is NOT recommended: " + c.confound + ".\n";
-    s += "    what would separate them: " + c.separating_motion + ".\n";
+    s += "  " + c.effect + " is NOT recommended (refused): " + c.confound + ".\n";
+    if (!c.separating_motion.empty()) s += "    what would resolve it: " + c.separating_motion + ".\n";
   }
   if (shown > 0 && r.candidates.front().significant) {
     const auto& best = r.candidates.front();
     s += "\nmissing effect: " + best.effect + " - " + best.description + "\n";
     s += "next: " + best.next_command + "\n";
   } else {
-    s += "\nnothing significant is missing: no candidate effect reduces the held-out residual beyond chance.\n";
+    s += "\nnothing is missing: no candidate is recommended. Why each was not taken:\n" + whyNot(r.candidates);
   }
   if (!r.steps.empty()) {
-    s += "\nexplain (forward selection, held-out residual RMS per axis):\n";
-    s += line("  %-4s %-40s %8s %8s %8s %8s %8s %8s %9s", "step", "model", "fx", "fy", "fz", "tx", "ty", "tz", "x noise");
+    s += "\nexplain (forward selection with backward elimination under the rule; held-out residual RMS per axis):\n";
+    s += line("  %-4s %-22s %-40s %8s %8s %8s %8s %8s %8s %9s", "step", "change", "model", "fx", "fy", "fz", "tx", "ty",
+              "tz", "x noise");
     for (std::size_t k = 0; k < r.steps.size(); ++k) {
       const auto& st = r.steps[k];
-      s += line("  %-4zu %-40s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %9.2f", k, st.model.c_str(), st.residual_rms(0),
-                st.residual_rms(1), st.residual_rms(2), st.residual_rms(3), st.residual_rms(4), st.residual_rms(5),
-                st.total_ratio);
+      const std::string change = !st.added.empty() ? "+" + st.added : (!st.removed.empty() ? "-" + st.removed : "start");
+      s += line("  %-4zu %-22s %-40s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %9.2f", k, change.c_str(), st.model.c_str(),
+                st.residual_rms(0), st.residual_rms(1), st.residual_rms(2), st.residual_rms(3), st.residual_rms(4),
+                st.residual_rms(5), st.total_ratio);
     }
-    s += line("  noise floor                                   %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f", r.noise_floor(0),
-              r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
-    s += r.steps.size() == 1 ? "  nothing significant to add.\n"
-                             : "  nothing significant is left after step " + std::to_string(r.steps.size() - 1) + ".\n";
+    s += line("  noise floor                                                          %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f",
+              r.noise_floor(0), r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
+    const bool more = std::any_of(r.final_candidates.begin(), r.final_candidates.end(),
+                                  [](const CandidateResult& c) { return c.significant; });
+    s += more ? "  the path stops at " + r.steps.back().model + " at the step limit; the verdicts against it:\n"
+              : "  the path ends at " + r.steps.back().model + ": no candidate is recommended against it (or its full " +
+                    "fit is not) and the rule supports each of its effects. Why each remaining candidate was not taken:\n";
+    s += whyNot(r.final_candidates);
   }
   s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";
-  if (!r.steps.empty()) {
+  if (!r.steps.empty() && r.unphysical.empty()) {
     // --explain closes with the commands that turn the final model into parameters and exports.
     s += "\nidentify the final model, write its parameters and the UR / ros2_control exports:\n";
-    s += "  ftid identify --log " + r.log + " --model " + r.steps.back().model + " --out params.yaml\n";
+    s += "  ftid identify --log " + shellQuote(r.log) + " --model " + shellQuote(r.steps.back().model) +
+         " --out params.yaml\n";
     s += "  (writes params.yaml.ros2.yaml and params.yaml.urscript; or: ftid export --params params.yaml)\n";
+  } else if (!r.unphysical.empty()) {
+    // Impossible answers are never exported: say what is wrong instead.
+    const std::string& m = r.final_report ? r.final_report->model : r.report.model;
+    s += "\n" + m + " is not physically possible, so there are no parameters to write from it:\n";
+    for (const auto& u : r.unphysical) s += "  - " + u + "\n";
+    s += "  (record a richer excitation, check the set-up, or run --explain to find the missing effect)\n";
   }
   return s;
 }

@@ -328,22 +328,27 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</table>\n";
   }
-  o << "<h2>Candidate effects</h2><table><tr><th>effect</th><th>held-out reduction</th><th>p-value</th>"
-       "<th>significant</th><th>meaning</th><th>next command</th></tr>";
+  o << "<h2>Candidate effects</h2><p>One rule decides (docs/analyze.md): the family-wise p-value min(1, "
+    << r.family_size << " p) below alpha = " << f(r.family_alpha, 2) << ", a held-out error lower by more than "
+    << f(100.0 * r.heldout_margin, 3) << " %, identifiable and physical.</p>"
+       "<table><tr><th>effect</th><th>held-out reduction</th><th>family-wise p</th>"
+       "<th>verdict</th><th>meaning</th><th>next command</th></tr>";
   for (const auto& c : r.candidates) {
     if (c.skipped) continue;
+    std::string verdict = verdictWord(c.verdict);
+    if (!c.reason.empty()) verdict += ": " + c.reason;
+    if (!c.separating_motion.empty()) verdict += "; to separate: " + c.separating_motion;
     o << "<tr" << (c.significant ? " class=\"sig\"" : "") << "><td>" << esc(c.effect) << "</td><td>"
-      << f(100.0 * c.relative_reduction, 3) << " %</td><td>" << (c.p_value < 1e-300 ? std::string("&lt; 1e-300") : f(c.p_value, 2)) << "</td><td>"
-      << (c.significant ? "yes" : (c.confounded ? "no: confounded &mdash; " + esc(c.confound) + "; to separate: " +
-                                                     esc(c.separating_motion)
-                                               : std::string("no")))
+      << f(100.0 * c.relative_reduction, 3) << " %</td><td>"
+      << (c.family_p < 1e-300 ? std::string("&lt; 1e-300") : f(c.family_p, 2)) << "</td><td>" << esc(verdict)
       << "</td><td>" << esc(c.description) << "</td><td><code>"
       << esc(c.next_command) << "</code></td></tr>";
   }
   o << "</table>";
+  for (const auto& u : r.unphysical) o << "<p><b>Not physically possible:</b> " << esc(u) << "</p>";
   const bool any = !r.candidates.empty() && r.candidates.front().significant;
   o << "<p><b>" << (any ? "Missing effect: " + esc(r.candidates.front().effect) + " &mdash; " + esc(r.candidates.front().description)
-                        : std::string("Nothing significant is missing."))
+                        : std::string("Nothing is missing: no candidate is recommended."))
     << "</b></p>\n";
   if (!r.steps.empty()) {
     o << "<h2>Explain: the error falling step by step</h2>" << bars(r.steps, r.noise_floor);
@@ -351,9 +356,19 @@ std::string renderHtml(const AnalysisResult& r) {
     for (int a = 0; a < 6; ++a) o << "<th>" << kWrenchAxisNames[a] << "</th>";
     o << "<th>x noise</th></tr>";
     for (std::size_t k = 0; k < r.steps.size(); ++k) {
-      o << "<tr><td>" << k << "</td><td>" << esc(r.steps[k].model) << "</td>";
+      const auto& st = r.steps[k];
+      const std::string change = !st.added.empty() ? "+" + st.added : (!st.removed.empty() ? "-" + st.removed : "");
+      o << "<tr><td>" << k << "</td><td>" << esc(st.model) << (change.empty() ? "" : " (" + esc(change) + ")") << "</td>";
       for (int a = 0; a < 6; ++a) o << "<td>" << f(r.steps[k].residual_rms(a)) << "</td>";
       o << "<td>" << f(r.steps[k].total_ratio, 3) << "</td></tr>";
+    }
+    o << "</table>\n";
+    o << "<p>Against <code>" << esc(r.steps.back().model) << "</code>, why each remaining candidate was not taken:</p>"
+         "<table><tr><th>effect</th><th>verdict</th><th>family-wise p</th><th>why</th></tr>";
+    for (const auto& c : r.final_candidates) {
+      o << "<tr><td>" << esc(c.effect) << "</td><td>" << verdictWord(c.verdict) << "</td><td>"
+        << (c.family_p < 1e-300 ? std::string("&lt; 1e-300") : f(c.family_p, 2)) << "</td><td>"
+        << esc(c.skipped ? c.note : c.reason) << "</td></tr>";
     }
     o << "</table>\n";
   }

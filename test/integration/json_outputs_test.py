@@ -21,10 +21,10 @@ IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "
                  "heldout_rms", "residual_to_noise", "glitches", "warnings", "physical_validity", "imu"]
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "warnings",
-                "raw_rms", "fit", "windows", "correlations", "candidates", "seconds"]
+                "raw_rms", "fit", "windows", "correlations", "candidates", "family_alpha", "family_size", "unphysical", "seconds"]
 CANDIDATE_KEYS = ["effect", "relative_reduction", "significant", "p_value", "f_statistic", "added_params",
                   "delta_bic", "residual_rms", "description", "next_command", "skipped", "note",
-                  "confounded", "confound", "separating_motion"]
+                  "confounded", "confound", "separating_motion", "verdict", "family_p_value", "reason"]
 AXES = ["fx", "fy", "fz", "tx", "ty", "tz"]
 PAPER = ["mass", "weight", "com_x", "com_y", "com_z", "f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z",
          "tilt_u", "tilt_v"]
@@ -113,6 +113,9 @@ def main():
         axes_of(c["residual_rms"], "candidate residual_rms")
     best = ana["candidates"][0]
     check(best["effect"] == "time_drift" and best["significant"] is True, f"best candidate {best['effect']}")
+    check(best["verdict"] == "recommended" and best["family_p_value"] < ana["family_alpha"],
+          f"best candidate's verdict {best['verdict']}, family-wise p {best['family_p_value']}")
+    check(ana["unphysical"] == [], f"unphysical {ana['unphysical']}")
     fit = ana["fit"]
     check(["model", "residual_rms", "fit_residual_rms", "condition_number", "parameters"] == list(fit.keys())[:5],
           f"fit keys {list(fit.keys())}")

@@ -66,7 +66,9 @@ Ar1Noise estimateAr1Noise(const std::vector<std::vector<double>>& segments);
 double differenceVarianceFactor(double phi, int stride);
 
 /// Runs [begin, end) of consecutive samples at the same pose: by the extra column `pose` when
-/// present, else (static data only: median |qd| below 1e-3 rad/s) by q (within 1e-4 rad).
+/// present, else (static data only: median |qd| below 1e-3 rad/s) by q (within 1e-4 rad); for a
+/// pose log (no joint angles) by the sensor pose the same way (its rotation angle plus displacement
+/// per sample: median speed below 1e-3, within 1e-4 per sample).
 /// Empty when the data are a moving time series. *is_static tells which.
 std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static);
 

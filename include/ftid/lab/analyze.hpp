@@ -2,8 +2,9 @@
 // The model laboratory behind `ftid analyze` (docs/analyze.md): fit a composed model with held-out
 // validation, show per axis how far the held-out residual is above the sensor noise floor, where
 // (in time) and with what (measured signals) the residual goes, rank the effects the model lacks by
-// how much each reduces the held-out residual (with a significance test that keeps quiet on clean
-// data), and walk forward adding the best significant effect until nothing significant is left.
+// how much each reduces the held-out residual, judge each by one decision rule (ftid/lab/verdict.hpp:
+// family-wise significance decides; identifiability and physics refuse with a reason), and walk to
+// the model the rule supports (forward with look-ahead, backward elimination; any start, same end).
 //
 // Everything here is offline (not real-time). Frames and units: docs/conventions.md.
 #include <functional>
@@ -15,6 +16,7 @@
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/lab/verdict.hpp"
 
 namespace ftid::lab {
 
@@ -23,14 +25,15 @@ using effects::SampleContext;
 struct AnalyzeOptions {
   std::string model = "paper";      ///< starting model, e.g. "paper" or "paper+rigid_body"
   int folds = 5;                    ///< contiguous time blocks for k-fold validation (>= 2)
-  bool explain = false;             ///< forward selection until nothing significant is left
-  int max_explain_steps = 6;
+  bool explain = false;             ///< walk to the model the rule supports (docs/analyze.md "Explain")
+  int max_explain_steps = 10;       ///< steps of the path (additions and removals)
   /// Candidate effects to try; empty = every registered named effect not in the model plus the
   /// default generic menu (defaultGenericMenu()).
   std::vector<std::string> candidates;
-  double family_alpha = 1e-3;       ///< false-alarm rate per ranking (Bonferroni over candidates)
-  double min_relative_reduction = 0.01;  ///< a significant effect must cut the held-out residual
-                                         ///< (sum of squares) by at least this fraction
+  double family_alpha = 1e-3;       ///< family-wise significance level of a ranking (lab/verdict.hpp)
+  double min_relative_reduction = 0.01;  ///< held-out margin of the rule: a recommended effect must
+                                         ///< cut the held-out residual (sum of squares) by more than this
+                                         ///< fraction (why 1 % and not 0: docs/analyze.md, "The verdict")
   int top_windows = 3;              ///< failing time windows reported
   int window_count = 20;            ///< the log is cut into this many windows
   int top_correlations = 8;
@@ -95,15 +98,20 @@ struct CandidateResult {
   double fit_relative_reduction = 0.0;
   Vec6 residual_rms = Vec6::Zero(); ///< held-out, per axis, with the effect added
   double f_statistic = 0.0;         ///< nested-model F on the fitting data
-  double p_value = 1.0;
-  bool significant = false;
+  double p_value = 1.0;             ///< the candidate's own p-value
+  /// The rule's verdict (lab/verdict.hpp): family_p = min(1, m p) is the one number that decides
+  /// significance; `reason` says in words why a candidate was not taken ("" when recommended).
+  Verdict verdict = Verdict::kNotSignificant;
+  double family_p = 1.0;
+  std::string reason;
+  bool significant = false;         ///< verdict == recommended
   double delta_bic = 0.0;           ///< held-out BIC change (negative = better); ranking key
   std::string next_command;
   std::string note;                 ///< why it was skipped, if it was
   bool skipped = false;
-  /// Confounded or implausible in this data (never significant, never taken by --explain):
+  /// Refused by the rule (not identifiable or not physical; never taken by --explain):
   bool confounded = false;
-  std::string confound;             ///< which parameters and why, in words
+  std::string confound;             ///< which parameters and why, in words (the refusal's reason)
   std::string separating_motion;    ///< what motion would tell them apart
 };
 
@@ -116,10 +124,13 @@ struct OutlierReport {
 
 struct ExplainStep {
   std::string model;
-  std::string added;                ///< effect added at this step ("" for the start)
+  std::string added;                ///< effect added at this step ("" for the start or a removal)
+  std::string removed;              ///< effect removed at this step (backward elimination), else ""
   Vec6 residual_rms = Vec6::Zero(); ///< held-out per axis
   double total_ratio = 0.0;         ///< RMS over axes of residual / noise floor
-  double p_value = 1.0;             ///< of the added effect
+  double p_value = 1.0;             ///< of the added (or removed) effect
+  double family_p = 1.0;            ///< its family-wise p-value (the rule's number)
+  double heldout_sse = 0.0;         ///< weighted held-out sum of squares of the step's model
 };
 
 /// One fitted model with held-out residuals (the core of every step).
@@ -153,9 +164,21 @@ struct AnalysisResult {
   std::vector<double> window_ratio;      ///< every window's ratio, in time order
   double window_length_s = 0.0;
   std::vector<SignalCorrelation> correlations;  ///< strongest first
-  std::vector<CandidateResult> candidates;      ///< best first (significant ones first)
+  std::vector<CandidateResult> candidates;      ///< best first (recommended ones first)
+  double family_alpha = 0.0;                    ///< the rule's family-wise significance level
+  /// m of min(1, m p): the menu's effects that can be tried on this data, one number for every
+  /// ranking and step of the path (independent of the starting model).
+  int family_size = 0;
+  /// The rule's held-out margin (AnalyzeOptions::min_relative_reduction): a recommended effect
+  /// lowers the held-out sum of squares by more than this fraction.
+  double heldout_margin = 0.0;
   std::vector<ExplainStep> steps;               ///< with explain: the path, first = start
   std::optional<ModelReport> final_report;      ///< with explain: the last model of the path
+  /// Why the last model (final, else the starting one) is not physically possible, one line each;
+  /// empty when it is. The lab then gives no advice to write or export its parameters.
+  std::vector<std::string> unphysical;
+  /// With explain: the ranking against the last model of the path (why each was not taken).
+  std::vector<CandidateResult> final_candidates;
   // Time series of the evaluated data for the report (starting model).
   std::vector<double> t;
   Eigen::Matrix<double, 6, Eigen::Dynamic> measured;

@@ -1,9 +1,8 @@
 // Statistical claims of `ftid analyze` tested as claims (issue 11):
 //  - the parameters' reported standard errors match their scatter over many noise seeds (+-30 %),
 //    and the check rejects standard errors 1.7x off (../identify/seed_study.hpp);
-//  - each false-alarm guard of the candidate ranking (Bonferroni over the candidates, and the 1 %
-//    held-out reduction threshold) is needed on its own: on a data set below, only that guard
-//    stops a false alarm;
+//  - each false-alarm guard of the candidate ranking (Bonferroni over the candidates, and the
+//    held-out condition) is measured on its own, on a data set that needs it;
 //  - ranking is by held-out, not in-sample, improvement: an overfitting candidate that gains most
 //    in-sample ranks below the effect that is really there.
 #include <gtest/gtest.h>
@@ -112,17 +111,20 @@ TEST(LabGuards, BonferroniAloneKeepsTheFamilyFalseAlarmRate) {
   EXPECT_LE(alarms, 12) << "family-wise false-alarm rate above family_alpha = 0.05";
 }
 
-// The held-out threshold alone. No effect is missing, but the sensor noise is coloured (AR(1),
-// correlation time 10 samples = 80 ms, as strong as the white part): the F test assumes
-// independent rows, so on the fitting data most candidates are "significant" even after
-// Bonferroni, in every one of 20 seeds. Held out, they predict nothing, and only the held-out
-// reduction threshold keeps the ranking quiet.
-// Known limit (measured, not a target): the guard does not make coloured noise harmless. A few
-// rankings still alarm (2 of these 20 at 80 ms; 6 of 20 at 0.4 s correlation time, where a
-// harmonic of a wrist angle predicts 1-4 % of a held-out block by chance). Serial correlation is
-// the business of a HAC covariance, not of this threshold; the bound below only says that the
-// threshold is what silences the large majority.
-TEST(LabGuards, HeldOutThresholdAloneSilencesFalseAlarmsOnColouredNoise) {
+// The held-out condition on coloured noise, and why it has a margin. No effect is missing, but the
+// sensor noise is coloured (AR(1), correlation time 10 samples = 80 ms, as strong as the white
+// part, beyond the single AR(1) the prewhitening removes): the F test assumes independent rows, so
+// on the fitting data several candidates pass even the family-wise p, in every one of 20 seeds.
+// One analysis per seed with the held-out condition off gives, for every candidate that passes the
+// family-wise p and the constraints, its held-out reduction; the alarms are then counted on the
+// same draws with the condition off, as a bare sign constraint (the held-out error must fall) and
+// with the rule's margin (AnalyzeOptions::min_relative_reduction, 1 %).
+// Measured: 20 of 20 alarm with the condition off, 7 of 20 with the sign constraint alone, 2 of 20
+// with the 1 % margin. Claims: the data set needs a guard (>= 15 alarm without), the rule's margin
+// keeps it to at most 5 of 20, and the sign constraint alone does not (the reason the margin
+// exists, docs/analyze.md). Known limit: no held-out condition makes coloured noise harmless;
+// serial correlation is the business of a HAC covariance.
+TEST(LabGuards, HeldOutSignConstraintOnColouredNoise) {
   const sim::CellSimConfig noisy = labtest::baseConfig(1);
   sim::CellSimConfig clean = noisy;
   clean.noise = sim::NoiseConfig{};
@@ -131,29 +133,36 @@ TEST(LabGuards, HeldOutThresholdAloneSilencesFalseAlarmsOnColouredNoise) {
                                       stats_test::ar1WrenchNoise(noisy.noise.wrench_std, 0.9));
   AnalyzeOptions o;
   o.model = "paper";
+  o.min_relative_reduction = -std::numeric_limits<double>::infinity();
   const int seeds = 20;
-  int alarms = 0;
+  const double rule_margin = AnalyzeOptions{}.min_relative_reduction;
+  int off = 0, sign = 0, margin = 0;
   for (int k = 0; k < seeds; ++k) {
     const std::uint64_t seed = 9201 + static_cast<std::uint64_t>(k);
     std::vector<SampleContext> ctx = ctx0;
     std::mt19937_64 rng(seed);
     noise(ctx, rng);
     const AnalysisResult r = analyze(ctx, nullptr, o, "sim.csv");
-    const double alpha_each = o.family_alpha / testedCandidates(r);
     int past_bonferroni = 0;
+    double best = -1.0;
     for (const auto& c : r.candidates) {
-      if (!c.skipped && c.p_value < alpha_each) ++past_bonferroni;
+      if (!c.skipped && c.family_p < o.family_alpha) ++past_bonferroni;
+      // relative_reduction is clamped to 0..1: > 0 exactly when the held-out error falls.
+      if (c.verdict == Verdict::kRecommended) best = std::max(best, c.relative_reduction);
     }
-    // The data set needs the guard: Bonferroni lets several candidates through.
+    // The data set needs a guard: Bonferroni lets several candidates through.
     EXPECT_GE(past_bonferroni, 3) << "seed " << seed;
-    if (anySignificant(r)) {
-      ++alarms;
-      std::printf("  seed %llu: %s significant, held-out reduction %.4f\n", static_cast<unsigned long long>(seed),
-                  r.candidates.front().effect.c_str(), r.candidates.front().relative_reduction);
-    }
+    off += best >= 0.0 ? 1 : 0;
+    sign += best > 0.0 ? 1 : 0;
+    margin += best > rule_margin ? 1 : 0;
+    std::printf("  seed %llu: %d past Bonferroni, best recommended held-out reduction %.4f\n",
+                static_cast<unsigned long long>(seed), past_bonferroni, best);
   }
-  std::printf("  %d of %d rankings on coloured noise alarm\n", alarms, seeds);
-  EXPECT_LE(alarms, 5) << "the held-out threshold should silence most rankings on coloured noise";
+  std::printf("  of %d rankings on coloured noise: %d alarm with the held-out condition off, %d as a sign "
+              "constraint, %d with the %.3g margin\n", seeds, off, sign, margin, rule_margin);
+  EXPECT_GE(off, 15) << "the data set must need a guard";
+  EXPECT_LE(margin, 5) << "the rule's held-out margin should silence most rankings on coloured noise";
+  EXPECT_GT(sign, margin) << "the margin exists because the sign constraint alone does not silence them";
 }
 
 // --- Ranking by held-out, not in-sample, improvement ---------------------------------------------

@@ -4,6 +4,7 @@
 // the simulator's truth within 4 reported standard errors. Clean runs must raise no alarm.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <random>
 #include <cstdlib>
@@ -215,6 +216,114 @@ TEST(Analyze, JsonHasTheDocumentedKeys) {
     EXPECT_NE(j.find(key), std::string::npos) << key;
   }
   EXPECT_NE(j.find("--model paper+time_drift"), std::string::npos);
+}
+
+// Every suggested command can be pasted into a shell: the shell splits it into the words meant.
+// And when nothing is recommended, the table says for each candidate why, in words.
+TEST(Analyze, SuggestedCommandsPasteIntoAShellAndEveryVerdictHasItsReason) {
+  const auto r = analyzeRun(baseConfig(91), "paper", false);
+  int harmonics = 0;
+  for (const auto& c : r.candidates) {
+    if (c.skipped) continue;
+    EXPECT_FALSE(c.significant) << lab::formatText(r);
+    EXPECT_FALSE(c.reason.empty()) << c.effect;
+    // The printed family-wise p is min(1, m p) with the analysis' one m.
+    if (c.added_params > 0) {
+      EXPECT_DOUBLE_EQ(c.family_p, std::min(1.0, r.family_size * c.p_value)) << c.effect;
+    }
+    EXPECT_NE(lab::formatText(r).find("  " + c.effect + ": " + lab::verdictWord(c.verdict)), std::string::npos)
+        << c.effect << "\n" << lab::formatText(r);
+    if (c.effect.find('(') == std::string::npos) continue;
+    ++harmonics;
+    // printf '%s\n' <the command's words>: one line per word as the shell splits them.
+    const std::string cmd = "printf '%s\\n' " + c.next_command;
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    char buf[512] = {0};
+    const std::size_t got = fread(buf, 1, sizeof(buf) - 1, p);
+    EXPECT_EQ(pclose(p), 0) << cmd;
+    EXPECT_EQ(std::string(buf, got), "ftid\nanalyze\nsim.csv\n--model\npaper+" + c.effect + "\n") << cmd;
+    EXPECT_NE(lab::renderHtml(r).find(c.next_command), std::string::npos) << c.next_command;
+  }
+  EXPECT_GE(harmonics, 3);
+  EXPECT_NE(lab::formatText(r).find("nothing is missing: no candidate is recommended. Why each was not taken:"),
+            std::string::npos);
+}
+
+// Impossible answers are never exported: a payload lighter than the cable's upward pull gives the
+// paper model (which lacks the cable) a negative mass; the lab says so and gives no advice to
+// write parameters from it.
+TEST(Analyze, AnUnphysicalModelIsNamedAndNotExported) {
+  auto cfg = baseConfig(92);
+  cfg.payload.mass_kg = 0.3;
+  cfg.cable.enabled = true;
+  cfg.cable.stiffness_N_per_m = 20.0;
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.explain = true;
+  o.max_explain_steps = 0;  // stay at the (impossible) starting model
+  const auto set = labtest::contexts(cfg);
+  const auto r = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  const auto* m = findParam(r.report, "mass");
+  ASSERT_NE(m, nullptr);
+  ASSERT_LT(m->value, 0.0) << "the case needs a negative mass\n" << lab::formatText(r);
+  ASSERT_FALSE(r.unphysical.empty()) << lab::formatText(r);
+  EXPECT_NE(r.unphysical[0].find("mass"), std::string::npos);
+  const std::string text = lab::formatText(r);
+  EXPECT_EQ(text.find("--out params.yaml"), std::string::npos) << text;
+  EXPECT_NE(text.find("not physically possible"), std::string::npos) << text;
+  EXPECT_NE(text.find("the path stops at paper at the step limit"), std::string::npos) << text;
+  // The whole path: the cable would explain the data, but with it this light payload's weight
+  // (2.9 N against the cable's pull) no longer determines the tilt, so the rule refuses it and the
+  // path ends at the impossible model: still named, still not exported.
+  o.max_explain_steps = 6;
+  const auto r2 = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  ASSERT_TRUE(r2.final_report.has_value());
+  EXPECT_FALSE(r2.unphysical.empty()) << lab::formatText(r2);
+  EXPECT_EQ(lab::formatText(r2).find("--out params.yaml"), std::string::npos) << lab::formatText(r2);
+  bool cable_judged = false;
+  for (const auto& c : r2.final_candidates) {
+    if (c.effect == "cable") {
+      cable_judged = true;
+      EXPECT_NE(c.reason.find("tilt"), std::string::npos) << c.reason;
+    }
+  }
+  EXPECT_TRUE(cable_judged) << "the cable must be among the final verdicts\n" << lab::formatText(r2);
+}
+
+// One family size m for the whole analysis: the menu's effects that can be tried on this data,
+// whatever the starting model. From `paper` it is the count of candidates not skipped (none is in
+// the model); from a start that already holds two of them it is the same m, and every printed
+// family-wise p of the ranking, of the path's steps and of the final verdicts is min(1, m p).
+TEST(Analyze, TheFamilyOfTheCorrectionDoesNotDependOnTheStart) {
+  auto cfg = baseConfig(93);
+  cfg.cable.enabled = true;
+  cfg.cable.stiffness_N_per_m = 3.0;
+  lab::AnalyzeOptions o;
+  o.candidates = {"cable", "time_drift", "temperature_drift", "harmonic(q6,1)"};
+  o.explain = true;
+  o.max_explain_steps = 3;
+  const auto set = labtest::contexts(cfg);
+  o.model = "paper";
+  const auto a = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  const int tried = static_cast<int>(std::count_if(a.candidates.begin(), a.candidates.end(),
+                                                   [](const lab::CandidateResult& c) { return !c.skipped; }));
+  EXPECT_EQ(a.family_size, tried) << lab::formatText(a);
+  o.model = "paper+time_drift+cable";
+  const auto b = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  EXPECT_EQ(b.family_size, a.family_size) << lab::formatText(b);
+  const auto expectM = [](const lab::AnalysisResult& r, double p, double family_p, const std::string& what) {
+    if (p < 1.0) {
+      EXPECT_DOUBLE_EQ(family_p, std::min(1.0, r.family_size * p)) << what << "\n" << lab::formatText(r);
+    }
+  };
+  for (const auto* r : {&a, &b}) {
+    for (const auto& c : r->candidates) {
+      if (c.added_params > 0) expectM(*r, c.p_value, c.family_p, c.effect);
+    }
+    for (std::size_t k = 1; k < r->steps.size(); ++k) expectM(*r, r->steps[k].p_value, r->steps[k].family_p, "step");
+    EXPECT_NE(lab::formatText(*r).find("min(1, " + std::to_string(r->family_size) + " p)"), std::string::npos);
+  }
 }
 
 }  // namespace

@@ -148,6 +148,23 @@ TEST_F(Report, OverlaysTheStartingAndTheFinalModelsResidual) {
   EXPECT_EQ(lab::renderHtml(no_final).find("Before and after"), std::string::npos);
 }
 
+// With --explain the report ends the path with every remaining candidate's verdict in words.
+TEST_F(Report, SaysWhyEachRemainingCandidateWasNotTaken) {
+  const lab::AnalysisResult& r = *result_;
+  const std::string& h = *html_;
+  const std::size_t at = h.find("why each remaining candidate was not taken");
+  ASSERT_NE(at, std::string::npos);
+  const std::string section = h.substr(at, h.find("</table>", at) - at);
+  ASSERT_FALSE(r.final_candidates.empty());
+  for (const auto& c : r.final_candidates) {
+    EXPECT_NE(section.find("<tr><td>" + c.effect + "</td><td>" + lab::verdictWord(c.verdict) + "</td>"),
+              std::string::npos) << c.effect;
+    if (!c.skipped) {
+      EXPECT_FALSE(c.reason.empty()) << c.effect;
+    }
+  }
+}
+
 TEST_F(Report, RendersInHeadlessChromium) {
   const std::string chromium = findChromium();
   if (chromium.empty()) GTEST_SKIP() << "chromium is not installed (apt-get install -y chromium)";

@@ -1,0 +1,201 @@
+// The laboratory's one decision rule (include/ftid/lab/verdict.hpp): each branch of the rule, the
+// identifiability and physics checks on hand-made fits, angle wrapping and shell quoting.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "ftid/effects/model.hpp"
+#include "ftid/lab/verdict.hpp"
+
+namespace ftid {
+namespace {
+
+using lab::Verdict;
+
+lab::RuleInputs significantInputs() {
+  lab::RuleInputs in;
+  in.p_value = 1e-9;
+  in.family_size = 10;
+  in.family_alpha = 1e-3;
+  in.heldout_reduction = 0.5;
+  in.min_heldout_reduction = 0.01;
+  in.added_params = 3;
+  return in;
+}
+
+TEST(Verdict, TheFamilyWisePValueDecidesAndIsMTimesP) {
+  auto in = significantInputs();
+  auto d = lab::decide(in);
+  EXPECT_EQ(d.verdict, Verdict::kRecommended);
+  EXPECT_DOUBLE_EQ(d.family_p, 1e-8);
+  EXPECT_TRUE(d.reason.empty());
+  // Just above alpha / m: not significant, whatever else holds; the reason names the number.
+  in.p_value = 1.01e-4;
+  d = lab::decide(in);
+  EXPECT_EQ(d.verdict, Verdict::kNotSignificant);
+  EXPECT_NEAR(d.family_p, 1.01e-3, 1e-15);
+  EXPECT_NE(d.reason.find("family-wise p = 0.001"), std::string::npos) << d.reason;
+  in.p_value = 0.99e-4;
+  EXPECT_EQ(lab::decide(in).verdict, Verdict::kRecommended);
+  // Capped at 1.
+  in.p_value = 0.5;
+  EXPECT_EQ(lab::decide(in).family_p, 1.0);
+}
+
+TEST(Verdict, NoStepWithoutHeldOutGainAndConstraintsRefuseWithTheirReason) {
+  auto in = significantInputs();
+  in.heldout_reduction = -0.02;
+  auto d = lab::decide(in);
+  EXPECT_EQ(d.verdict, Verdict::kNoHeldOutGain);
+  EXPECT_NE(d.reason.find("does not fall"), std::string::npos) << d.reason;
+  in.heldout_reduction = 0.005;
+  EXPECT_EQ(lab::decide(in).verdict, Verdict::kNoHeldOutGain);
+  in.heldout_reduction = 0.5;
+  in.refusals.push_back({"the mass is -0.3 kg (must be > 0)", "more orientations"});
+  d = lab::decide(in);
+  EXPECT_EQ(d.verdict, Verdict::kRefused);
+  EXPECT_NE(d.reason.find("mass is -0.3"), std::string::npos);
+  EXPECT_EQ(d.separating_motion, "more orientations");
+  EXPECT_STREQ(lab::verdictWord(d.verdict), "refused");
+  // Significance first: a refused effect that is not significant is reported as not significant.
+  in.p_value = 0.2;
+  EXPECT_EQ(lab::decide(in).verdict, Verdict::kNotSignificant);
+  in.added_params = 0;
+  EXPECT_EQ(lab::decide(in).verdict, Verdict::kNothingToAdd);
+}
+
+/// A hand-made fit of paper+rigid_body(+cable) with a diagonal covariance.
+lab::FitView view(const effects::Model& m, double sd) {
+  lab::FitView f;
+  f.model = &m;
+  f.names = m.paramIndex().names();
+  const auto n = static_cast<Eigen::Index>(f.names.size());
+  f.theta = Eigen::VectorXd::Zero(n);
+  f.covariance = Eigen::MatrixXd::Identity(n, n) * sd * sd;
+  f.added.assign(f.names.size(), false);
+  auto set = [&](const std::string& name, double v) {
+    const int c = m.paramIndex().column(name);
+    ASSERT_GE(c, 0) << name;
+    f.theta(c) = v;
+  };
+  set("mass", 2.0);
+  set("mass_com_z", 2.0 * 0.05);
+  // I_S = I_C + m (c^T c 1 - c c^T) with I_C = diag(0.01, 0.01, 0.005), c = (0, 0, 0.05).
+  set("i_s_xx", 0.01 + 2.0 * 0.0025);
+  set("i_s_yy", 0.01 + 2.0 * 0.0025);
+  set("i_s_zz", 0.005);
+  return f;
+}
+
+int col(const lab::FitView& f, const std::string& name) {
+  for (std::size_t k = 0; k < f.names.size(); ++k) {
+    if (f.names[k] == name) return static_cast<int>(k);
+  }
+  return -1;
+}
+
+TEST(Verdict, PhysicsRefusesNegativeMassNonPhysicalInertiaAndAPushingSpring) {
+  const auto m = effects::Model::fromName("paper+rigid_body+cable");
+  auto f = view(m, 1e-4);
+  EXPECT_TRUE(lab::physicsRefusals(f).empty());
+  auto g = f;
+  g.theta(col(g, "mass")) = -0.65;
+  ASSERT_EQ(lab::physicsRefusals(g).size(), 1u);
+  EXPECT_NE(lab::physicsRefusals(g)[0].reason.find("mass is -0.65"), std::string::npos);
+  g = f;
+  g.theta(col(g, "i_s_zz")) = 0.03;  // I_C zz 0.03 > xx + yy = 0.02: triangle inequality broken
+  ASSERT_EQ(lab::physicsRefusals(g).size(), 1u);
+  EXPECT_NE(lab::physicsRefusals(g)[0].reason.find("inertia"), std::string::npos);
+  // ... but not beyond its uncertainty: accepted.
+  auto h = view(m, 0.01);
+  h.theta(col(h, "i_s_zz")) = 0.021;
+  h.theta(col(h, "cable_k")) = 0.0;
+  EXPECT_TRUE(lab::physicsRefusals(h).empty());
+  g = f;
+  g.theta(col(g, "cable_k")) = -0.79;
+  ASSERT_EQ(lab::physicsRefusals(g).size(), 1u);
+  EXPECT_NE(lab::physicsRefusals(g)[0].reason.find("spring constant is -0.79"), std::string::npos);
+  g.covariance(col(g, "cable_k"), col(g, "cable_k")) = 0.5 * 0.5;  // -0.79 +- 0.5: not beyond 2 se
+  EXPECT_TRUE(lab::physicsRefusals(g).empty());
+}
+
+TEST(Verdict, IdentifiabilityIsJudgedByTheRicherModelsOwnCovariance) {
+  const auto m = effects::Model::fromName("paper+cable");
+  auto f = lab::FitView();
+  f.model = &m;
+  f.names = m.paramIndex().names();
+  const auto n = static_cast<Eigen::Index>(f.names.size());
+  f.theta = Eigen::VectorXd::Zero(n);
+  f.added.assign(f.names.size(), false);
+  const int cm = col(f, "mass"), ck = col(f, "cable_ka_z");
+  ASSERT_GE(cm, 0);
+  ASSERT_GE(ck, 0);
+  for (const char* a : {"cable_k", "cable_ka_x", "cable_ka_y", "cable_ka_z"}) f.added[static_cast<std::size_t>(col(f, a))] = true;
+  f.theta(cm) = 2.2;
+  f.theta(ck) = 3.0;
+  // Correlation 0.995 between the mass and the cable's pull, but the mass determined to 0.5 %:
+  // identifiable (the hidden-cable case; the simpler model's errors do not matter).
+  f.covariance = Eigen::MatrixXd::Identity(n, n) * 1e-6;
+  const double sm = 0.011, sk = 0.1;
+  f.covariance(cm, cm) = sm * sm;
+  f.covariance(ck, ck) = sk * sk;
+  f.covariance(cm, ck) = f.covariance(ck, cm) = 0.995 * sm * sk;
+  EXPECT_TRUE(lab::identifiabilityRefusals(f).empty());
+  // The same correlation with the mass no longer determined (0.4 kg of 2.2): refused, named.
+  const double sm2 = 0.4;
+  f.covariance(cm, cm) = sm2 * sm2;
+  f.covariance(cm, ck) = f.covariance(ck, cm) = 0.995 * sm2 * sk;
+  const auto r = lab::identifiabilityRefusals(f);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_NE(r[0].reason.find("mass is no longer determined"), std::string::npos) << r[0].reason;
+  EXPECT_NE(r[0].reason.find("cable_ka_z"), std::string::npos) << r[0].reason;
+  // A direction the data do not determine at all (rank deficiency) mixing the two.
+  f.covariance(cm, cm) = sm * sm;
+  f.covariance(cm, ck) = f.covariance(ck, cm) = 0.0;
+  f.null_space = Eigen::MatrixXd::Zero(n, 1);
+  f.null_space(cm, 0) = std::sqrt(0.5);
+  f.null_space(ck, 0) = std::sqrt(0.5);
+  const auto r2 = lab::identifiabilityRefusals(f);
+  ASSERT_EQ(r2.size(), 1u);
+  EXPECT_NE(r2[0].reason.find("confounded"), std::string::npos) << r2[0].reason;
+}
+
+TEST(Verdict, AnglesWrapToThePrincipalRange) {
+  const double pi = 3.14159265358979323846;
+  EXPECT_NEAR(lab::wrapAngle(17.3), 17.3 - 6.0 * pi, 1e-12);
+  EXPECT_NEAR(lab::wrapAngle(-59.8), -59.8 + 20.0 * pi, 1e-12);
+  EXPECT_DOUBLE_EQ(lab::wrapAngle(pi), pi);
+  EXPECT_DOUBLE_EQ(lab::wrapAngle(-pi), pi);
+  EXPECT_DOUBLE_EQ(lab::wrapAngle(0.25), 0.25);
+  for (double a = -50.0; a < 50.0; a += 0.37) {
+    const double w = lab::wrapAngle(a);
+    EXPECT_GT(w, -pi);
+    EXPECT_LE(w, pi);
+    EXPECT_NEAR(std::cos(w), std::cos(a), 1e-12);
+    EXPECT_NEAR(std::sin(w), std::sin(a), 1e-12);
+  }
+}
+
+TEST(Verdict, SuggestedWordsAreShellQuotedOnlyWhereNeeded) {
+  EXPECT_EQ(lab::shellQuote("paper+rigid_body+cable"), "paper+rigid_body+cable");
+  EXPECT_EQ(lab::shellQuote("run-1.csv"), "run-1.csv");
+  EXPECT_EQ(lab::shellQuote("paper+rigid_body+harmonic(q6,1)"), "'paper+rigid_body+harmonic(q6,1)'");
+  EXPECT_EQ(lab::shellQuote("my log.csv"), "'my log.csv'");
+  EXPECT_EQ(lab::shellQuote("it's.csv"), "'it'\\''s.csv'");
+  EXPECT_EQ(lab::shellQuote(""), "''");
+  // The shell itself reads the quoted word back as the original.
+  for (const std::string w : {"paper+harmonic(q6,1)", "a b$c", "it's;rm"}) {
+    const std::string cmd = "printf %s " + lab::shellQuote(w);
+    FILE* p = popen(cmd.c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    char buf[256] = {0};
+    const std::size_t got = fread(buf, 1, sizeof(buf) - 1, p);
+    pclose(p);
+    EXPECT_EQ(std::string(buf, got), w) << cmd;
+  }
+}
+
+}  // namespace
+}  // namespace ftid
