@@ -16,7 +16,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:-20}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(csv_log parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet)
+[ ${#targets[@]} -eq 0 ] && targets=(csv_log parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet lcm_messages)
 case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS_PER_TARGET must be a whole number, got '$seconds'" >&2; exit 2;; esac
 build=${FTID_FUZZ_BUILD_DIR:-$root/build-fuzz}
 jobs=${FTID_FUZZ_JOBS:-2}

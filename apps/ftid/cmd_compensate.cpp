@@ -3,13 +3,17 @@
 #include <iostream>
 
 #include "command.hpp"
+#include "ftid/cell/exports.hpp"
 #include "ftid/compensate/compensate_log.hpp"
+#include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/plausibility.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace {
 
 const char* const kUsage =
     "usage: ftid compensate --log FILE --params PARAMS.yaml --out OUT.csv [--robot URDF]\n"
-    "                       [--wrench-frame sensor|base]\n"
+    "                       [--wrench-frame sensor|base] [--config ftidd.yaml]\n"
     "\n"
     "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
@@ -19,15 +23,25 @@ const char* const kUsage =
     "  --params FILE     parameters written by `ftid identify --out`\n"
     "  --out FILE        the output CSV (written atomically)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
-    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
+    "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "  --config FILE     the cell's ftidd configuration, for the plausibility limits: the robot's\n"
+    "                    rated payload (robot.rated_payload_kg) and the sensor's rated range (the\n"
+    "                    DBC's signal ranges); default /etc/ftid/ftidd.yaml if it exists, else the\n"
+    "                    shipped ftidd.yaml\n"
+    "\n"
+    "A parameter set that is physically impossible (whatever its standard errors) or beyond what\n"
+    "the robot and sensor can carry is refused before anything is computed (docs/identification.md\n"
+    "\"Plausibility\").\n"
     "\n"
     "Prints the RMS of the reading and of the contact wrench per axis. Exit: 0 written, 1 bad log\n"
     "or parameter file (the message names the file, line or key), 2 usage error.";
 
 int runCompensate(const std::vector<std::string>& argv) {
   ftid::compensate::CompensateRequest req;
-  std::string wrench_frame;
+  std::string wrench_frame, config;
   CLI::App app{"ftid compensate"};
+  app.add_option("--config", config);
   app.add_option("--log", req.log_path);
   app.add_option("--params", req.params_path);
   app.add_option("--out", req.out_csv);
@@ -38,6 +52,10 @@ int runCompensate(const std::vector<std::string>& argv) {
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
+  if (config.empty()) config = ftid::cell::defaultExportConfigPath();
+  ftid::daemon::requirePlausible(ftid::params::readParameterFile(req.params_path),
+                                 ftid::daemon::plausibilityLimits(ftid::config::loadDaemonConfig(config)),
+                                 req.params_path);
   const auto s = ftid::compensate::compensateLogFile(req);
   std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
   if (s.n_without_kinematics > 0) {

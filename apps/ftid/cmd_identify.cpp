@@ -5,6 +5,7 @@
 #include "ftid/cell/exports.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/plausibility.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/noise.hpp"
@@ -31,8 +32,11 @@ const char* const kUsage =
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
     "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
     "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
-    "  --config FILE     ftidd configuration for the exports (sensor mount, `export:` section;\n"
-    "                    default /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml)\n"
+    "  --config FILE     ftidd configuration for the plausibility limits (robot.rated_payload_kg, the\n"
+    "                    sensor's rated range from its DBC) and the exports (sensor mount, `export:`\n"
+    "                    section); default /etc/ftid/ftidd.yaml if it exists, else the shipped one.\n"
+    "                    With --out, a set that is physically impossible or beyond the robot's\n"
+    "                    payload or the sensor's range is not written: exit 1 with the reason\n"
     "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
@@ -78,12 +82,16 @@ int runIdentify(const std::vector<std::string>& argv) {
   const ftid::params::ParameterSet& set = id.set;
   std::string exports;
   if (!out.empty()) {
+    // Plausibility first (issue 26): nothing is written for a set the cell cannot carry.
+    if (config.empty()) config = ftid::cell::defaultExportConfigPath();
+    const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);
+    if (const auto problem = ftid::params::findParameterProblem(set, ftid::daemon::plausibilityLimits(cell_config))) {
+      throw ftid::IdentificationError(out + ": not written: '" + problem->key + "': " + problem->message);
+    }
     ftid::params::writeParameterFile(out, set);
-    // The parameters are written; a bad config only costs the exports (named in the warning).
+    // The parameters are written; a failed export is named in the warning.
     try {
-      if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-      exports = ftid::cell::writeExports(set, ftid::config::loadDaemonConfig(config), out + ".ros2.yaml",
-                                         out + ".urscript");
+      exports = ftid::cell::writeExports(set, cell_config, out + ".ros2.yaml", out + ".urscript");
     } catch (const std::exception& e) {
       std::cerr << "ftid identify: WARNING: exports not written: " << e.what() << "\n";
     }

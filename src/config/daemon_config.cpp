@@ -87,6 +87,9 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.robot.rtde_frequency_hz >= 1.0 && c.robot.rtde_frequency_hz <= 500.0)) {
     fail("robot.rtde_frequency_hz", "must be in 1..500 Hz");
   }
+  if (!(c.robot.rated_payload_kg > 0.0 && c.robot.rated_payload_kg <= 1000.0)) {
+    fail("robot.rated_payload_kg", "must be in (0, 1000] kg (the robot's rated payload: UR10 10, UR10e 12.5)");
+  }
   if (!(c.robot.receive_timeout_ms >= 0.0 && c.robot.receive_timeout_ms <= 1000.0)) {
     fail("robot.receive_timeout_ms", "must be in 0..1000 ms (0 = 1.5 periods)");
   }
@@ -353,6 +356,7 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
         {"rtde_port", integer(c.robot.rtde_port)},
         {"dashboard_port", integer(c.robot.dashboard_port)},
         {"rtde_frequency_hz", number(c.robot.rtde_frequency_hz)},
+        {"rated_payload_kg", number(c.robot.rated_payload_kg)},
         {"urdf_path", path(c.robot.urdf_path)},
         {"base_link", text(c.robot.base_link)},
         {"tip_link", text(c.robot.tip_link)},
@@ -450,6 +454,7 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "robot.rtde_port: " << c.robot.rtde_port << "\n"
      << "robot.dashboard_port: " << c.robot.dashboard_port << "\n"
      << "robot.rtde_frequency_hz: " << c.robot.rtde_frequency_hz << "\n"
+     << "robot.rated_payload_kg: " << c.robot.rated_payload_kg << "\n"
      << "robot.urdf_path: " << c.robot.urdf_path << "\n"
      << "robot.base_link: " << c.robot.base_link << "\n"
      << "robot.tip_link: " << c.robot.tip_link << "\n"

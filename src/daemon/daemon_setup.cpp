@@ -76,8 +76,10 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
       cfg.robot.urdf_path, cfg.robot.base_link, cfg.robot.tip_link);
   kinematics.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   motion = std::make_unique<KinematicsMotionModel>(std::move(kinematics));
+  limits = plausibilityLimits(cfg);
   const CompensationFactory factory = [this](const std::string& path) -> std::unique_ptr<Compensation> {
     LoadedParameters lp = loadParameters(path, apply_tare);
+    requirePlausible(lp.set, limits, path);
     auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path);
     if ((effects::Model::fromName(lp.set.model).signals() & effects::kSignalTime) != 0 &&
         !std::isfinite(lp.set.time_origin_unix_s)) {
