@@ -12,6 +12,7 @@
 namespace ftid::daemon {
 
 std::int64_t realtimeNowUs() noexcept { return realtimeUs(); }
+std::int64_t monotonicNowUs() noexcept { return monotonicNs() / 1000; }
 
 namespace {
 
@@ -87,7 +88,12 @@ DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const Motion
       params_(params),
       sink_(sink),
       options_(options),
-      clock_map_(options.clock_window_s) {}
+      clock_map_(options.clock_window_s),
+      clock_check_(options.clock_check) {
+  if (options_.mono_now_us == nullptr) {
+    options_.mono_now_us = options_.now_us == &realtimeNowUs ? &monotonicNowUs : options_.now_us;
+  }
+}
 
 Status DaemonCycle::waitForTick(std::chrono::nanoseconds timeout) noexcept {
   const Status s = arm_->waitForState(timeout, &robot_);
@@ -160,6 +166,14 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     counters_.invalid_robot.fetch_add(1, std::memory_order_relaxed);
   }
   if (arm_ != nullptr && arm_->robotStopped()) rec.fault_bits |= kFaultRobotStopped;
+  // The controller's clock against the host's monotonic clock (issue 26): stopped, jumping or
+  // running at a wrong rate, the pairing below would pick samples of the wrong time.
+  const bool clock_sane = clock_check_.update(robot.robot_time, options_.mono_now_us());
+  counters_.robot_clock_faults.store(clock_check_.faults(), std::memory_order_relaxed);
+  if (robot_ok && !clock_sane) {
+    rec.fault_bits |= kFaultRobotClock;
+    counters_.robot_clock_invalid.fetch_add(1, std::memory_order_relaxed);
+  }
 
   // Sensor: every new sample into the history; latest_ is the newest with the driver's flags.
   sensor_->drain(now, &history_, &latest_);
@@ -190,9 +204,14 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   // Stale: no sample ever, or the newest one older than the timeout at the start of the cycle
   // (the rule before pairing); the pairing itself (reach_us above) adds the samples' distance
   // from the robot state's time.
+  // Freshness (issue 26): the sample used must itself be younger than the timeout, whatever
+  // the controller's clock says (a frozen RTDE timestamp pairs ever older samples, each
+  // time-consistent with the frozen time); a negative age (the host clock stepped back) is no
+  // proof of freshness either.
   rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
   if (rec.sensor.recv_utime <= 0 || latest_.recv_utime <= 0 ||
-      now - latest_.recv_utime > options_.stale_timeout_us) {
+      now - latest_.recv_utime > options_.stale_timeout_us || rec.sensor_age_us < 0 ||
+      rec.sensor_age_us > options_.stale_timeout_us) {
     rec.sensor.health_flags |= kHealthStale;
   }
   if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= kHealthNonFinite;
@@ -215,7 +234,7 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   rec.contact_S.setZero();
   if (comp == nullptr) {
     counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
-  } else if (robot_ok && rec.sensor.valid) {
+  } else if (robot_ok && clock_sane && rec.sensor.valid) {
     // Sample time t: the robot clock since the session's anchor, re-anchored when the controller
     // clock goes back (a controller reboot; a repeated time keeps the anchor) so it never runs
     // negative (the compensator restarts its delay line when t does not advance).

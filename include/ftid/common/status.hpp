@@ -26,6 +26,7 @@ enum FaultBit : std::uint32_t {
   kFaultOverrun = 1u << 5,
   kFaultPublishDropped = 1u << 6,
   kFaultTrackingError = 1u << 7,
+  kFaultRobotClock = 1u << 8,        ///< the controller's clock stopped, jumped or ran at a wrong rate
 };
 
 class FaultWord {
