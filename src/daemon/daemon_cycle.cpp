@@ -171,6 +171,9 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   const bool clock_sane = clock_check_.update(robot.robot_time, options_.mono_now_us());
   counters_.robot_clock_faults.store(clock_check_.faults(), std::memory_order_relaxed);
   if (robot_ok && !clock_sane) {
+    // Its time cannot be trusted, so neither can any pairing with it: the state is unusable
+    // (not compensated, and left out of identification logs).
+    rec.robot.valid = false;
     rec.fault_bits |= kFaultRobotClock;
     counters_.robot_clock_invalid.fetch_add(1, std::memory_order_relaxed);
   }
@@ -204,16 +207,17 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   // Stale: no sample ever, or the newest one older than the timeout at the start of the cycle
   // (the rule before pairing); the pairing itself (reach_us above) adds the samples' distance
   // from the robot state's time.
-  // Freshness (issue 26): the sample used must itself be younger than the timeout, whatever
-  // the controller's clock says (a frozen RTDE timestamp pairs ever older samples, each
-  // time-consistent with the frozen time); a negative age (the host clock stepped back) is no
-  // proof of freshness either.
   rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
   if (rec.sensor.recv_utime <= 0 || latest_.recv_utime <= 0 ||
-      now - latest_.recv_utime > options_.stale_timeout_us || rec.sensor_age_us < 0 ||
-      rec.sensor_age_us > options_.stale_timeout_us) {
+      now - latest_.recv_utime > options_.stale_timeout_us) {
     rec.sensor.health_flags |= kHealthStale;
   }
+  // Freshness of the output (issue 26): the sample used must itself be younger than the timeout
+  // on the host clock, whatever the controller's clock says, or the published contact wrench is
+  // not the current one; a negative age (the host clock stepped back) proves nothing. The sample
+  // stays valid as data (a backlog's pairing is time-consistent and may be recorded for
+  // identification): only the compensated wrench of this cycle is refused, as stale.
+  const bool sample_fresh = rec.sensor_age_us >= 0 && rec.sensor_age_us <= options_.stale_timeout_us;
   if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= kHealthNonFinite;
   if ((rec.sensor.health_flags & (kHealthStale | kHealthNonFinite)) != 0) {
     rec.sensor.valid = false;
@@ -226,6 +230,9 @@ void DaemonCycle::step(const RobotStateRecord& robot,
       rec.fault_bits |= kFaultSensorInvalid;
       counters_.invalid_sensor.fetch_add(1, std::memory_order_relaxed);
     }
+  } else if (!sample_fresh) {
+    rec.fault_bits |= kFaultSensorStale;
+    counters_.stale_sensor.fetch_add(1, std::memory_order_relaxed);
   }
 
   // Compensation, only from valid inputs.
@@ -234,7 +241,7 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   rec.contact_S.setZero();
   if (comp == nullptr) {
     counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
-  } else if (robot_ok && clock_sane && rec.sensor.valid) {
+  } else if (robot_ok && clock_sane && rec.sensor.valid && sample_fresh) {
     // Sample time t: the robot clock since the session's anchor, re-anchored when the controller
     // clock goes back (a controller reboot; a repeated time keeps the anchor) so it never runs
     // negative (the compensator restarts its delay line when t does not advance).
