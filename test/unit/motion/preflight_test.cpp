@@ -241,3 +241,60 @@ TEST(MotionWatchdog, AStallOfTheCallingThreadBeforeTheLoopIsNotALoss) {
   const ArmedRun later = runArming(false, -1, 0, 400, 19);
   EXPECT_EQ(later.result.status, motion::RunStatus::kLostPackets) << later.result.message;
 }
+
+// Issue 26, item 7: the tracking error is measured against what the arm was commanded. A host
+// stall (the client reads nothing for a tick, the controller holds the last target) must not
+// abort the run; an arm that stops following its commands must still stop it.
+namespace {
+class BlockedArm : public FakeArm {
+ public:
+  using FakeArm::FakeArm;
+  std::size_t block_after = static_cast<std::size_t>(-1);  ///< the arm stops moving after this many targets
+  Status sendServoTarget(const JointVector& q) noexcept override {
+    if (targets >= block_after) {
+      if (!held_) {
+        held_ = true;
+        held_q_ = q;
+      }
+      return FakeArm::sendServoTarget(held_q_);  // blocked: the commands no longer move it
+    }
+    return FakeArm::sendServoTarget(q);
+  }
+
+ private:
+  bool held_ = false;
+  JointVector held_q_ = JointVector::Zero();
+};
+
+motion::RunResult runTracking(double limit, int gap_at_call, std::size_t block_after) {
+  const auto file = shipped();
+  const auto traj = file.toTrajectory();
+  BlockedArm arm(0.008, file.q0);
+  arm.gap_at_call = gap_at_call;
+  arm.gap_ticks = 1;  // 16 ms between two states: within the lost-package limit (24 ms)
+  arm.block_after = block_after;
+  motion::MotionConfig cfg;
+  cfg.realtime.enable = false;
+  cfg.tracking_error_limit = limit;
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  motion::MotionRunner runner(arm, cfg, motion::MotionRunner::capacityFor(traj.duration(), 0.008));
+  return runner.run(src);
+}
+}  // namespace
+
+TEST(MotionTracking, AHostStallIsNoTrackingErrorButABlockedJointIs) {
+  // The arm follows its commands exactly (one tick late): no tracking error at all, so a limit
+  // of 1 mrad is met; with one tick not read 2 s into the excitation the trajectory's time ran 8 ms ahead of the
+  // last command (|qd| x 8 ms, far above 1 mrad on the shipped excitation), which used to abort.
+  const motion::RunResult plain = runTracking(1e-3, -1, static_cast<std::size_t>(-1));
+  ASSERT_EQ(plain.status, motion::RunStatus::kCompleted) << plain.message;
+  // FakeArm's time starts at 100 s and advances one period per call: the call 2 s into the excitation.
+  const int excite_call = static_cast<int>((plain.excitation_start_timestamp - 100.0) / 0.008);
+  const motion::RunResult stall = runTracking(1e-3, excite_call + 250, static_cast<std::size_t>(-1));
+  EXPECT_EQ(stall.status, motion::RunStatus::kCompleted) << stall.message;
+  EXPECT_LT(stall.max_tracking_error, 1e-9);
+  // The arm blocked after 300 targets: aborted with a tracking error at the default limit.
+  const motion::RunResult blocked = runTracking(0.05, -1, 300);
+  EXPECT_EQ(blocked.status, motion::RunStatus::kTrackingError) << blocked.message;
+  EXPECT_GT(blocked.max_tracking_error, 0.05);
+}
