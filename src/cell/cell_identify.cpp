@@ -33,6 +33,7 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/motion/robot_session.hpp"
+#include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
 
@@ -276,7 +277,18 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // ---- the exact targets are checked before any motion, whatever --yes says: here the
   // excitation at the configured controller rate (before asking), in the runner again with the
   // controller's real period and the approach from the robot's current pose.
-  const trajectory::TrajectoryConstraints& limits = traj_file.constraints;
+  // The cell's limits, tightened by the trajectory's own (issue 26: an edited trajectory cannot
+  // move the floor or widen a limit); printed with the file each limit came from.
+  trajectory::LimitSources limit_sources;
+  const trajectory::TrajectoryConstraints limits = trajectory::effectiveConstraints(
+      traj_file.constraints, traj_path,
+      trajectory::readCellLimits(o.cell_limits_path.empty() ? trajectory::defaultCellLimitsPath() : o.cell_limits_path),
+      &limit_sources);
+  print("  limits (a trajectory can only tighten the cell's):");
+  {
+    std::istringstream lines(trajectory::describeLimits(limits, limit_sources));
+    for (std::string line; std::getline(lines, line);) print("    " + line);
+  }
   auto joinViolations = [](const std::vector<std::string>& v) {
     std::string s;
     for (const auto& line : v) s += (s.empty() ? "" : "; ") + line;

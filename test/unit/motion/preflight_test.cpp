@@ -12,6 +12,7 @@
 #include "ftid/drivers/ur/rtde_protocol.hpp"
 #include "ftid/motion/motion_runner.hpp"
 #include "../../support/fake_arm.hpp"
+#include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 
 using ftid::JointVector;
@@ -297,4 +298,64 @@ TEST(MotionTracking, AHostStallIsNoTrackingErrorButABlockedJointIs) {
   const motion::RunResult blocked = runTracking(0.05, -1, 300);
   EXPECT_EQ(blocked.status, motion::RunStatus::kTrackingError) << blocked.message;
   EXPECT_GT(blocked.max_tracking_error, 0.05);
+}
+
+// Issue 26, item 3: the floor and the limits come from the cell's configuration; a trajectory
+// file can only tighten them. The issue's edit: floor_z -10 and a widened limit in the
+// trajectory, whose (edited) start pose swings the tool below the floor.
+TEST(CellLimits, ATrajectoryCanOnlyTightenTheCellsLimits) {
+  const ftid::trajectory::CellLimits cell = ftid::trajectory::readCellLimits(FTID_SOURCE_DIR "/config/cell_limits.yaml");
+  auto file = shipped();
+  file.q0[1] = -0.6;                      // the tool swings ~0.26 m below the floor
+  file.constraints.floor_z_B = -10.0;     // the edit: move the floor away
+  file.constraints.velocity[4] = 100.0;   // and widen a limit
+  ASSERT_TRUE(ftid::design::checkTrajectory(file.toTrajectory(), ur10(), file.constraints).ok())
+      << "the trajectory's own constraints let it pass (what check-trajectory said before)";
+  ftid::trajectory::LimitSources src;
+  const auto eff = ftid::trajectory::effectiveConstraints(file.constraints, "traj.yaml", cell, &src);
+  EXPECT_EQ(eff.floor_z_B, 0.0);
+  EXPECT_EQ(src.floor_z, cell.path);
+  EXPECT_EQ(eff.velocity[4], cell.velocity[4]);
+  EXPECT_EQ(src.velocity[4], cell.path);
+  EXPECT_EQ(eff.velocity[0], 1.0);  // the trajectory's tighter limit stays, and says so
+  EXPECT_EQ(src.velocity[0], "traj.yaml");
+  ASSERT_EQ(eff.keep_out.size(), file.constraints.keep_out.size() + cell.keep_out.size());
+  const auto report = ftid::design::checkTrajectory(file.toTrajectory(), ur10(), eff);
+  ASSERT_FALSE(report.ok());
+  EXPECT_NE(joined(report.violations()).find("above floor"), std::string::npos) << joined(report.violations());
+  const std::string described = ftid::trajectory::describeLimits(eff, src);
+  EXPECT_NE(described.find("floor_z 0 m (" + cell.path + ")"), std::string::npos) << described;
+  EXPECT_NE(described.find("velocity [1, 1, 1.5, 2, 3.1416, 2] rad/s (j1-4 traj.yaml, j5 " + cell.path + ", j6 traj.yaml)"),
+            std::string::npos)
+      << described;
+  // The unedited shipped trajectory holds within the shipped cell's limits.
+  const auto shipped_file = shipped();
+  EXPECT_TRUE(ftid::design::checkTrajectory(shipped_file.toTrajectory(), ur10(),
+                                            ftid::trajectory::effectiveConstraints(shipped_file.constraints, "s",
+                                                                                   cell, nullptr))
+                  .ok());
+}
+
+TEST(CellLimits, BadFilesNameTheFileLineAndKey) {
+  const auto error = [](const std::string& text) {
+    try {
+      (void)ftid::trajectory::parseCellLimitsText(text, "cell.yaml");
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string six = "[0, 0, 0, 0, 0, 0]";
+  const std::string ok_rest = "  velocity: [1, 1, 1, 1, 1, 1]\n  acceleration: [1, 1, 1, 1, 1, 1]\n  floor_z: 0\n";
+  EXPECT_NE(error("limits:\n  position_lower: " + six + "\n" + ok_rest).find("cell.yaml"), std::string::npos);
+  EXPECT_NE(error("limits:\n  position_lower: " + six + "\n" + ok_rest).find("position_upper"), std::string::npos);
+  EXPECT_NE(error("limits:\n  position_lower: [1, 1, 1, 1, 1, 1]\n  position_upper: " + six + "\n" + ok_rest)
+                .find("cell.yaml:3"),
+            std::string::npos);
+  const std::string unknown = error("limits:\n  position_lower: " + six + "\n  position_upper: [1, 1, 1, 1, 1, 1]\n" +
+                                    ok_rest + "  floor: 0\n");
+  EXPECT_NE(unknown.find("cell.yaml:7"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("'limits.floor'"), std::string::npos) << unknown;
+  EXPECT_EQ(error("limits:\n  position_lower: " + six + "\n  position_upper: [1, 1, 1, 1, 1, 1]\n" + ok_rest),
+            "no error");
 }
