@@ -79,9 +79,14 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
   const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
-  const ftid::params::ParameterSet& set = id.set;
+  ftid::params::ParameterSet set = id.set;
   std::string exports;
   if (!out.empty()) {
+    // An inertia estimate just outside the possible set (within 3 standard errors) is written as
+    // the nearest possible one, and said so; beyond that, or implausible: nothing is written.
+    if (const std::string note = ftid::params::projectInertiaWithinUncertainty(&set); !note.empty()) {
+      std::cerr << "ftid identify: note: " << note << "\n";
+    }
     // Plausibility first (issue 26): nothing is written for a set the cell cannot carry.
     if (config.empty()) config = ftid::cell::defaultExportConfigPath();
     const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);

@@ -33,6 +33,7 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/motion/robot_session.hpp"
+#include "ftid/daemon/plausibility.hpp"
 #include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
@@ -533,7 +534,17 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     return result;
   }
 
-  // ---- write parameters atomically (previous version kept) and exports
+  // ---- write parameters atomically (previous version kept) and exports. An inertia estimate
+  // just outside the physically possible set (within 3 standard errors) is written as the nearest
+  // possible one, and said so; the cell's plausibility limits are checked before anything is
+  // written (issue 26).
+  try {
+    if (const std::string note = params::projectInertiaWithinUncertainty(&set); !note.empty()) print("  note: " + note);
+    daemon::requirePlausible(set, daemon::plausibilityLimits(cfg), params_path + " (identified)");
+  } catch (const std::exception& e) {
+    result.message = "identification refused: " + std::string(e.what()) + "; parameters unchanged, " + data_note;
+    return result;
+  }
   try {
     fs::create_directories(fs::path(params_path).parent_path());
     params::writeParameterFile(params_path, set);

@@ -1,8 +1,12 @@
 // Plausibility of a parameter set against what the robot and the sensor can carry (issue 26).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
+#include <Eigen/Eigenvalues>
+
+#include "ftid/effects/rigid_body.hpp"
 #include "ftid/params/parameter_set.hpp"
 
 namespace ftid::params {
@@ -56,6 +60,78 @@ std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set, co
     }
   }
   return std::nullopt;
+}
+
+std::string projectInertiaWithinUncertainty(ParameterSet* set) {
+  if (!findParameterProblem(*set).has_value()) return {};
+  NamedValue* mass = nullptr;
+  NamedValue* h[3] = {nullptr, nullptr, nullptr};
+  NamedValue* is[6] = {nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
+  const char* h_names[3] = {"mass_com_x", "mass_com_y", "mass_com_z"};
+  for (auto& p : set->params) {
+    if (p.name == "mass") mass = &p;
+    for (int k = 0; k < 3; ++k) {
+      if (p.name == h_names[k]) h[k] = &p;
+    }
+    for (int k = 0; k < 6; ++k) {
+      if (p.name == effects::kInertiaParamNames[k]) is[k] = &p;
+    }
+  }
+  for (const NamedValue* v : is) {
+    if (v == nullptr) return {};
+  }
+  if (mass == nullptr || !(mass->value > 0.0)) return {};
+  Eigen::Matrix<double, 10, 1> p = Eigen::Matrix<double, 10, 1>::Zero();
+  Eigen::Matrix<double, 10, 10> cov = Eigen::Matrix<double, 10, 10>::Zero();
+  p(0) = mass->value;
+  cov(0, 0) = mass->std * mass->std;
+  for (int k = 0; k < 3; ++k) {
+    if (h[k] != nullptr) {
+      p(1 + k) = h[k]->value;
+      cov(1 + k, 1 + k) = h[k]->std * h[k]->std;
+    }
+  }
+  for (int k = 0; k < 6; ++k) {
+    p(4 + k) = is[k]->value;
+    cov(4 + k, 4 + k) = is[k]->std * is[k]->std;
+  }
+  const effects::InertiaAboutCom ic = effects::inertiaAboutCom(p, cov);
+  if (!ic.valid_within_uncertainty) return {};
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(effects::inertiaMatrix(ic.value));
+  Vec3 l = eig.eigenvalues();
+  const Mat3 R = eig.eigenvectors();
+  for (int pass = 0; pass < 4; ++pass) {
+    l = l.cwiseMax(0.0);
+    int big = 0;
+    l.maxCoeff(&big);
+    const double excess = l(big) - (l.sum() - l(big));
+    if (excess <= 0.0) break;
+    // Projection onto the half-space l_big <= sum of the others (normal (-1, -1, 1) / sqrt 3).
+    l = (l.array() + excess / 3.0).matrix();
+    l(big) -= 2.0 * excess / 3.0;  // the others + excess / 3 each, l_big - excess / 3
+  }
+  const Vec3 c = p.segment<3>(1) / p(0);
+  const Mat3 I_C = R * l.asDiagonal() * R.transpose();
+  const Mat3 I_S = I_C + p(0) * (c.squaredNorm() * Mat3::Identity() - c * c.transpose());
+  const Vec6 v = effects::inertiaVector(I_S);
+  ParameterSet projected = *set;
+  double max_sigmas = 0.0;
+  for (int k = 0; k < 6; ++k) {
+    for (auto& q : projected.params) {
+      if (q.name == effects::kInertiaParamNames[k]) {
+        if (q.std > 0.0) max_sigmas = std::max(max_sigmas, std::abs(v(k) - q.value) / q.std);
+        q.value = v(k);
+      }
+    }
+  }
+  if (findParameterProblem(projected).has_value()) return {};
+  const std::string note = "inertia projected to the nearest physically possible tensor (principal moments " +
+                           fmt(ic.principal(0)) + ", " + fmt(ic.principal(1)) + ", " + fmt(ic.principal(2)) +
+                           " -> " + fmt(l(0)) + ", " + fmt(l(1)) + ", " + fmt(l(2)) + " kg*m^2 about the centre of "
+                           "mass; i_s_* moved by at most " + fmt(max_sigmas) + " standard errors)";
+  projected.provenance.method += (projected.provenance.method.empty() ? "" : "; ") + note;
+  *set = std::move(projected);
+  return note;
 }
 
 }  // namespace ftid::params

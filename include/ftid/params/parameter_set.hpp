@@ -97,6 +97,16 @@ struct PlausibilityLimits {
 /// plus gravity load; every orientation is reachable, so the worst one bounds what it must carry).
 std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set, const PlausibilityLimits& limits);
 
+/// For an identified set whose rigid-body inertia is physically impossible but within 3 standard
+/// errors of a possible one (effects::inertiaAboutCom's valid_within_uncertainty; a small payload's
+/// inertia estimate lands outside now and then): replaces i_s_* by the nearest possible inertia,
+/// the Euclidean projection of the principal moments about the centre of mass onto the
+/// physically possible set (non-negative, each at most the sum of the other two), in the same
+/// principal axes, and notes it in provenance.method. Returns a one-line description of the
+/// change ("" if nothing changed). A set beyond 3 standard errors is left as it is: refused by
+/// findParameterProblem. Used by `ftid identify --out` and `ftid --identify` before writing.
+std::string projectInertiaWithinUncertainty(ParameterSet* set);
+
 /// Reads a parameter file (YAML): a regular file, no duplicate keys, every value finite, and
 /// findParameterProblem() empty. Throws ConfigError naming the file, line and key.
 ParameterSet readParameterFile(const std::string& path);
