@@ -103,8 +103,10 @@ std::string hostProblem(const std::string& host) {
   return {};
 }
 
-// A path ftidd may create and append to: in an existing, writable directory, not under the
-// kernel's pseudo file systems, and, if it exists, a regular file (never a device, FIFO or link).
+// A path ftidd may create and append to: in an existing directory, not under the kernel's pseudo
+// file systems, and, if it exists, a regular file (never a device, FIFO or link). Whether the
+// directory is writable depends on who runs: ftidd checks it itself at start
+// (recordDirWritableProblem), never whoever else loads ftidd.yaml (ftid tare, export, compensate).
 std::string recordPathProblem(const std::string& path) {
   const std::string dir = dirOf(path);
   char resolved[PATH_MAX];
@@ -118,7 +120,6 @@ std::string recordPathProblem(const std::string& path) {
       return "directory '" + dir + "' is under " + p + " (recordings go to a regular file system)";
     }
   }
-  if (::access(resolved, W_OK) != 0) return "directory '" + dir + "' is not writable";
   struct stat st {};
   if (::lstat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
     return "'" + path + "' exists and is not a regular file";
@@ -515,6 +516,14 @@ DaemonConfig loadDaemonConfig(const std::string& path) {
     throw ConfigError(e.what());
   }
   return parseDaemonConfig(text, path, dirOf(path));
+}
+
+std::string recordDirWritableProblem(const std::string& path) {
+  const std::string dir = dirOf(path);
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    return "directory '" + dir + "' is not writable by this process (uid " + std::to_string(::geteuid()) + ")";
+  }
+  return {};
 }
 
 void validateDaemonConfig(const DaemonConfig& config) {

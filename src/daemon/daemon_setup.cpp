@@ -123,6 +123,13 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   } else if (cfg.record.enabled) {
     out_opt.record_path = expandTimePattern(cfg.record.path);
   }
+  // Writability is checked here, as the user ftidd runs as (User=ftid), not in the config's
+  // validation, which also runs for ftid tare/export/compensate as whoever calls them.
+  if (!out_opt.record_path.empty()) {
+    if (const std::string p = config::recordDirWritableProblem(out_opt.record_path); !p.empty()) {
+      throw ConfigError(options.record_path.empty() ? cfg.source + ": key 'record.path': " + p : "--record: " + p);
+    }
+  }
   outbox = std::make_unique<transport::LcmOutbox>(out_opt);
   // Commands: authenticated with the shared key (docs/operations.md, "Network and commands").
   transport::CommandKey command_key;

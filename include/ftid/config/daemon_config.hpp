@@ -177,6 +177,10 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
 /// ConfigError naming the key.
 void validateDaemonConfig(const DaemonConfig& config);
 
+/// "" if this process may create files in the directory of `path`, else the reason. Not part of
+/// validation (which runs as whoever loads ftidd.yaml): ftidd calls it at start, as its own user.
+std::string recordDirWritableProblem(const std::string& path);
+
 /// Human-readable dump of the effective configuration (for `ftidd --check-config`).
 std::string describeDaemonConfig(const DaemonConfig& config);
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -281,6 +282,37 @@ TEST_F(DaemonConfigTest, HostsRatesRecordPathsAndUrlsAreValidatedStrictly) {
   expectError(base() + "record:\n  enabled: true\n  path: " + dir_ + "\n", "record.path", 7);  // a directory
   EXPECT_TRUE(parse("record:\n  enabled: true\n  path: rec.lcm\n").record.enabled);
   expectError(base() + "lcm:\n  url: file:///dev/sda\n", "lcm.url", 0, "network provider");
+}
+
+// Loading ftidd.yaml must not depend on who loads it (ftid tare, export, compensate run as an
+// operator): a record directory the caller cannot write is not a config error; ftidd checks it
+// at start as its own user (recordDirWritableProblem, called by the daemon set-up).
+TEST_F(DaemonConfigTest, RecordDirWritabilityIsNotPartOfValidation) {
+  const std::string ro = dir_ + "/ro";
+  ASSERT_EQ(::mkdir(ro.c_str(), 0755), 0);
+  ASSERT_EQ(::chmod(ro.c_str(), 0555), 0);
+  ASSERT_EQ(::chmod(dir_.c_str(), 0755), 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {  // child: as an unprivileged user (root may write anywhere)
+    if (::geteuid() == 0 && (::setgid(65534) != 0 || ::setuid(65534) != 0)) ::_exit(10);
+    int code = 0;
+    try {
+      const DaemonConfig c = parse("record:\n  enabled: true\n  path: ro/rec.lcm\n");
+      if (!c.record.enabled) code = 11;
+    } catch (const std::exception&) {
+      code = 12;  // validation refused a directory only this caller cannot write
+    }
+    const std::string problem = recordDirWritableProblem(ro + "/rec.lcm");
+    if (code == 0 && problem.find("not writable") == std::string::npos) code = 13;
+    ::_exit(code);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "10 setuid failed, 12 validation checked writability, 13 no start check";
+  EXPECT_EQ(recordDirWritableProblem(dir_ + "/rec.lcm"), "");
+  ::chmod(ro.c_str(), 0755);
 }
 
 TEST_F(DaemonConfigTest, TheSilenceLimitFollowsTheRate) {
