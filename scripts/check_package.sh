@@ -28,7 +28,7 @@ echo "== package: built $(basename "$deb")"
 
 echo "== package: contents"
 contents="$(dpkg-deb -c "$deb")"
-for f in ./usr/bin/ftid ./usr/sbin/ftidd ./etc/ftid/ftidd.yaml ./lib/systemd/system/ftidd.service \
+for f in ./usr/bin/ftid ./usr/sbin/ftidd ./etc/ftid/ftidd.yaml ./etc/ftid/cell_limits.yaml ./lib/systemd/system/ftidd.service \
          ./usr/lib/sysusers.d/ftid.conf ./usr/share/man/man1/ftid.1.gz ./usr/share/man/man8/ftidd.8.gz; do
   if ! grep -q " $f\$" <<<"$contents"; then
     echo "package: missing $f" >&2
@@ -36,6 +36,7 @@ for f in ./usr/bin/ftid ./usr/sbin/ftidd ./etc/ftid/ftidd.yaml ./lib/systemd/sys
   fi
 done
 dpkg-deb -I "$deb" conffiles | grep -q /etc/ftid/ftidd.yaml || { echo "package: ftidd.yaml is not a conffile" >&2; exit 1; }
+dpkg-deb -I "$deb" conffiles | grep -q /etc/ftid/cell_limits.yaml || { echo "package: cell_limits.yaml is not a conffile" >&2; exit 1; }
 
 echo "== package: lintian"
 lint="$(lintian --tag-display-limit 0 "$deb" 2>&1 | grep -v 'running with root privileges' || true)"

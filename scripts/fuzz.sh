@@ -4,7 +4,7 @@
 #
 #   scripts/fuzz.sh [SECONDS_PER_TARGET] [TARGET...]     (default: 20 s, every target)
 #
-# Targets: csv_log recordings parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet.
+# Targets: csv_log recordings parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet lcm_messages.
 # The seed corpus of each is fuzz/<target>/corpus/ (in git); inputs the fuzzer finds interesting are
 # kept in $FTID_FUZZ_BUILD_DIR/corpus/<target>/ (not in git) so later runs continue from them.
 # Targets run FTID_FUZZ_PARALLEL at a time (default: one per core), each for the full time.
@@ -16,7 +16,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 seconds=${1:-20}
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(csv_log recordings parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet)
+[ ${#targets[@]} -eq 0 ] && targets=(csv_log recordings parameter_yaml trajectory_yaml daemon_config dbc can_assembler rtde_packet lcm_messages)
 case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS_PER_TARGET must be a whole number, got '$seconds'" >&2; exit 2;; esac
 build=${FTID_FUZZ_BUILD_DIR:-$root/build-fuzz}
 jobs=${FTID_FUZZ_JOBS:-2}

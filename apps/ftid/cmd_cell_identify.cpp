@@ -36,6 +36,10 @@ const char* kUsage =
     "  --trajectory FILE    excitation trajectory (traj.yaml from `ftid design`; default: the shipped\n"
     "                       excitation_<robot>.yaml for the config's URDF (ur10, ur10e): 3 s,\n"
     "                       designed for paper+rigid_body)\n"
+    "  --cell FILE          the cell's safety limits (floor, keep-out spheres, joint position, speed\n"
+    "                       and acceleration limits; default /etc/ftid/cell_limits.yaml if it exists,\n"
+    "                       else the shipped config/cell_limits.yaml): the trajectory's own constraints\n"
+    "                       can only tighten them; each limit is printed with the file it came from\n"
     "  --model M            model to identify (default paper+rigid_body; e.g. paper)\n"
     "  --paper              the paper's method as published: its 10 s trajectory\n"
     "                       (excitation_<robot>_paper.yaml) and the paper model\n"
@@ -58,6 +62,7 @@ int run(const std::vector<std::string>& argv) {
   CLI::App app{"ftid --identify"};
   app.add_option("--config", o.config_path);
   app.add_option("--trajectory", o.trajectory_path);
+  app.add_option("--cell", o.cell_limits_path);
   app.add_option("--model", o.model);
   app.add_flag("--paper", o.paper);
   app.add_option("--params", o.params_path);

@@ -4,7 +4,11 @@
 
 #include "command.hpp"
 #include "input_flags.hpp"
+#include "ftid/cell/exports.hpp"
 #include "ftid/compensate/compensate_log.hpp"
+#include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/plausibility.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "mount_option.hpp"
 
 namespace {
@@ -23,12 +27,19 @@ const char* const kUsage =
     "  --out FILE        the output CSV (written atomically)\n"
     "  --wrench-frame F  frame of the log's wrench columns: sensor (default) or base (rotated into\n"
     "                    the robot base B, moments about the S origin; docs/log-format.md)\n"
-    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics\n"
+    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics, and its\n"
+    "                    plausibility limits: the robot's rated payload (robot.rated_payload_kg) and\n"
+    "                    the sensor's rated range (the DBC's signal ranges); for the limits the\n"
+    "                    default is /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml\n"
     "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
     "%INPUT%"
+    "\n"
+    "A parameter set that is physically impossible (whatever its standard errors) or beyond what\n"
+    "the robot and sensor can carry is refused before anything is computed (docs/identification.md\n"
+    "\"Plausibility\").\n"
     "\n"
     "Prints the RMS of the reading and of the contact wrench per axis. Exit: 0 written, 1 bad log\n"
     "or parameter file (the message names the file, line or key), 2 usage error.";
@@ -62,6 +73,10 @@ int runCompensate(const std::vector<std::string>& argv) {
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
+  if (config.empty()) config = ftid::cell::defaultExportConfigPath();
+  ftid::daemon::requirePlausible(ftid::params::readParameterFile(req.params_path),
+                                 ftid::daemon::plausibilityLimits(ftid::config::loadDaemonConfig(config)),
+                                 req.params_path);
   const auto s = ftid::compensate::compensateLogFile(req);
   std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
   if (s.n_without_kinematics > 0) {

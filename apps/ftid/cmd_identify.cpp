@@ -6,6 +6,7 @@
 #include "ftid/cell/exports.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/daemon/plausibility.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/fit_check.hpp"
 #include "ftid/identify/noise.hpp"
@@ -41,13 +42,15 @@ const char* const kUsage =
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
     "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
     "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
-    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics, and the\n"
-    "                    exports use it (`export:` section); for the exports only, the default is\n"
-    "                    /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml\n"
+    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics; with\n"
+    "                    --out its plausibility limits (robot.rated_payload_kg, the sensor's rated\n"
+    "                    range from its DBC) and the exports (`export:` section); for those the\n"
+    "                    default is /etc/ftid/ftidd.yaml if it exists, else the shipped one. A set\n"
+    "                    that is physically impossible or beyond the robot's payload or the sensor's\n"
+    "                    range is not written: exit 1 with the reason\n"
     "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
-
     "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
     "  --imu on|off      the sensor's IMU (default: on when the log has the IMU columns ax..alz):\n"
     "                    its payload-free tilt (accelerometer and kinematics, with the accelerometer's\n"
@@ -140,24 +143,33 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (req.log_path.empty()) throw ftid::cli::UsageError("--log FILE is required");
   if (!out.empty()) ftid::checkOutputPath(out);  // refuse a symlink/device/FIFO/directory before the work
   if (!json) req.progress = [](const std::string& line) { std::cerr << "ftid identify: " << line << "\n"; };
-  const ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
-  const ftid::params::ParameterSet& set = id.set;
+  ftid::identify::CheckedIdentification id = ftid::identify::identifyLogFileChecked(req);
   if (id.setup.explains) {
     // A set-up error explains the data better than the set-up as given: nothing is written.
-    if (!json) std::cout << ftid::identify::formatParameterTable(set) << ftid::identify::formatFitCheck(id.check);
+    if (!json) std::cout << ftid::identify::formatParameterTable(id.set) << ftid::identify::formatFitCheck(id.check);
     throw ftid::IdentificationError(id.setup.lines.back() + "; no parameter file or export written");
   }
+  // An inertia estimate just outside the possible set (within its uncertainty) is reported and
+  // written as the nearest possible one, and said so (params::projectInertiaWithinUncertainty).
+  if (const std::string note = ftid::params::projectInertiaWithinUncertainty(&id.set); !note.empty()) {
+    std::cerr << "ftid identify: note: " << note << "\n";
+  }
+  const ftid::params::ParameterSet& set = id.set;
   // Physical validity first: a set that fails it is printed (to see why) but never written or
   // exported (the parameter writer's own rule, params::findParameterProblem, and a determined mass).
   const ftid::identify::PhysicalValidity validity = ftid::identify::checkPhysicalValidity(set);
   std::string exports;
   if (!out.empty() && validity.valid) {
+    // Plausibility (issue 26): nothing is written for a set the cell cannot carry.
+    if (config.empty()) config = ftid::cell::defaultExportConfigPath();
+    const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);
+    if (const auto problem = ftid::params::findParameterProblem(set, ftid::daemon::plausibilityLimits(cell_config))) {
+      throw ftid::IdentificationError(out + ": not written: '" + problem->key + "': " + problem->message);
+    }
     ftid::params::writeParameterFile(out, set);
-    // The parameters are written; a bad config only costs the exports (named in the warning).
+    // The parameters are written; a failed export is named in the warning.
     try {
-      if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-      exports = ftid::cell::writeExports(set, ftid::config::loadDaemonConfig(config), out + ".ros2.yaml",
-                                         out + ".urscript");
+      exports = ftid::cell::writeExports(set, cell_config, out + ".ros2.yaml", out + ".urscript");
     } catch (const std::exception& e) {
       std::cerr << "ftid identify: WARNING: exports not written: " << e.what() << "\n";
     }

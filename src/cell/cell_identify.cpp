@@ -36,6 +36,8 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/motion/robot_session.hpp"
+#include "ftid/daemon/plausibility.hpp"
+#include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
 
@@ -279,7 +281,18 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // ---- the exact targets are checked before any motion, whatever --yes says: here the
   // excitation at the configured controller rate (before asking), in the runner again with the
   // controller's real period and the approach from the robot's current pose.
-  const trajectory::TrajectoryConstraints& limits = traj_file.constraints;
+  // The cell's limits, tightened by the trajectory's own (issue 26: an edited trajectory cannot
+  // move the floor or widen a limit); printed with the file each limit came from.
+  trajectory::LimitSources limit_sources;
+  const trajectory::TrajectoryConstraints limits = trajectory::effectiveConstraints(
+      traj_file.constraints, traj_path,
+      trajectory::readCellLimits(o.cell_limits_path.empty() ? trajectory::defaultCellLimitsPath() : o.cell_limits_path),
+      &limit_sources);
+  print("  limits (a trajectory can only tighten the cell's):");
+  {
+    std::istringstream lines(trajectory::describeLimits(limits, limit_sources));
+    for (std::string line; std::getline(lines, line);) print("    " + line);
+  }
   auto joinViolations = [](const std::vector<std::string>& v) {
     std::string s;
     for (const auto& line : v) s += (s.empty() ? "" : "; ") + line;
@@ -544,7 +557,17 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     return result;
   }
 
-  // ---- write parameters atomically (previous version kept) and exports
+  // ---- write parameters atomically (previous version kept) and exports. An inertia estimate
+  // just outside the physically possible set (within 3 standard errors) is written as the nearest
+  // possible one, and said so; the cell's plausibility limits are checked before anything is
+  // written (issue 26).
+  try {
+    if (const std::string note = params::projectInertiaWithinUncertainty(&set); !note.empty()) print("  note: " + note);
+    daemon::requirePlausible(set, daemon::plausibilityLimits(cfg), params_path + " (identified)");
+  } catch (const std::exception& e) {
+    result.message = "identification refused: " + std::string(e.what()) + "; parameters unchanged, " + data_note;
+    return result;
+  }
   try {
     fs::create_directories(fs::path(params_path).parent_path());
     params::writeParameterFile(params_path, set);

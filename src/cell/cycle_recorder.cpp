@@ -21,9 +21,20 @@ struct CycleRecorder::Impl {
   std::unique_ptr<lcm::LCM> lcm;
   lcm::Subscription* subscription = nullptr;
   CycleRecorder* owner = nullptr;
-  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
-    owner->onMessage(rbuf->data, rbuf->data_size);
+  // Nothing may escape into LCM's C callback: onMessage decodes with transport::decodeFrom
+  // (malformed bytes are dropped), and an error of the stream it appends to is reported once.
+  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) noexcept {
+    try {
+      owner->onMessage(rbuf->data, rbuf->data_size);
+    } catch (const std::exception& e) {
+      if (!reported) std::fprintf(stderr, "cycle recorder: %s\n", e.what());
+      reported = true;
+    } catch (...) {
+      if (!reported) std::fprintf(stderr, "cycle recorder: unknown error handling a message\n");
+      reported = true;
+    }
   }
+  bool reported = false;
 };
 
 CycleRecorder::CycleRecorder(std::string lcm_url, std::string channel, std::size_t capacity)

@@ -414,14 +414,18 @@ int runDemo(const DemoOptions& opt) {
   struct Collector {
     std::int64_t since_utime = 0;
     std::vector<CycleRecord> recs;
-    void handle(const lcm::ReceiveBuffer* rb, const std::string&) {
+    // Received bytes are untrusted: the one safe decode, and a bounded store (5 s at 125 Hz
+    // is 625 records; a flood beyond 10000 is dropped, never grown without bound).
+    void handle(const lcm::ReceiveBuffer* rb, const std::string&) noexcept {
       ftid_lcm::compensated_wrench_t m;
-      if (m.decode(rb->data, 0, static_cast<int>(rb->data_size)) < 0) return;
+      if (!transport::decodeFrom(rb->data, rb->data_size, &m)) return;
       CycleRecord r;
       transport::fromLcm(m, &r);
-      if (r.utime >= since_utime) recs.push_back(r);
+      if (r.utime < since_utime || recs.size() >= recs.capacity()) return;
+      recs.push_back(r);  // within the reserved capacity: no allocation, no throw
     }
   } collector;
+  collector.recs.reserve(10000);
   auto live = [&](bool push) {
     lcm::LCM lc("udpm://239.255.76.67:7667?ttl=0");
     collector.recs.clear();

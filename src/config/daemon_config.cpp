@@ -5,7 +5,9 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
+#include <climits>
 #include <cstdint>
 #include <cmath>
 #include <fstream>
@@ -113,6 +115,58 @@ void validateMonitor(const MonitorConfig& m, const Fail& fail) {
   }
 }
 
+// An IPv4 or IPv6 address, or a host name by RFC 1123 (labels of 1..63 letters, digits and '-',
+// not starting or ending with '-', at most 253 characters). All-numeric dotted names must be IPv4
+// addresses (999.1.1.1 is neither an address nor a name).
+std::string hostProblem(const std::string& host) {
+  in_addr a4{};
+  in6_addr a6{};
+  if (::inet_pton(AF_INET, host.c_str(), &a4) == 1 || ::inet_pton(AF_INET6, host.c_str(), &a6) == 1) return {};
+  if (host.size() > 253) return "is longer than 253 characters";
+  bool numeric = true;
+  std::size_t start = 0;
+  while (start <= host.size()) {
+    std::size_t dot = host.find('.', start);
+    if (dot == std::string::npos) dot = host.size();
+    const std::string label = host.substr(start, dot - start);
+    if (label.empty() || label.size() > 63) return "is not an IPv4/IPv6 address or a valid host name (empty or over-long label)";
+    if (label.front() == '-' || label.back() == '-') return "is not a valid host name (a label starts or ends with '-')";
+    for (const char ch : label) {
+      if (std::isalnum(static_cast<unsigned char>(ch)) == 0 && ch != '-') {
+        return std::string("is not a valid host name (character '") + ch + "')";
+      }
+      if (std::isdigit(static_cast<unsigned char>(ch)) == 0) numeric = false;
+    }
+    start = dot + 1;
+  }
+  if (numeric) return "is not a valid IPv4 address (each of the four numbers 0..255)";
+  return {};
+}
+
+// A path ftidd may create and append to: in an existing directory, not under the kernel's pseudo
+// file systems, and, if it exists, a regular file (never a device, FIFO or link). Whether the
+// directory is writable depends on who runs: ftidd checks it itself at start
+// (recordDirWritableProblem), never whoever else loads ftidd.yaml (ftid tare, export, compensate).
+std::string recordPathProblem(const std::string& path) {
+  const std::string dir = dirOf(path);
+  char resolved[PATH_MAX];
+  if (::realpath(dir.c_str(), resolved) == nullptr || !isDirectory(resolved)) {
+    return "directory '" + dir + "' does not exist";
+  }
+  const std::string real_dir = resolved;
+  for (const char* pseudo : {"/proc", "/sys", "/dev"}) {
+    const std::string p = pseudo;
+    if (real_dir == p || real_dir.compare(0, p.size() + 1, p + "/") == 0) {
+      return "directory '" + dir + "' is under " + p + " (recordings go to a regular file system)";
+    }
+  }
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    return "'" + path + "' exists and is not a regular file";
+  }
+  return {};
+}
+
 // Cross-field and file checks. `where(key)` gives the location prefix for a key.
 void validate(const DaemonConfig& c, const std::function<std::string(const std::string&)>& where,
               std::vector<std::string>* warnings) {
@@ -120,6 +174,7 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
     throw ConfigError(where(key) + ": key '" + key + "': " + what);
   };
   if (c.robot.host.empty()) fail("robot.host", "must not be empty");
+  if (const std::string p = hostProblem(c.robot.host); !p.empty()) fail("robot.host", "'" + c.robot.host + "' " + p);
   if (c.robot.rtde_port < 1 || c.robot.rtde_port > 65535) fail("robot.rtde_port", "must be 1..65535");
   if (c.robot.dashboard_port < 1 || c.robot.dashboard_port > 65535) {
     fail("robot.dashboard_port", "must be 1..65535");
@@ -127,11 +182,34 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   if (!(c.robot.rtde_frequency_hz >= 1.0 && c.robot.rtde_frequency_hz <= 500.0)) {
     fail("robot.rtde_frequency_hz", "must be in 1..500 Hz");
   }
+  {
+    // The controller sends on its control ticks only (500 Hz e-Series, 125 Hz CB3), every
+    // floor(f_loop / f)-th: the cycle rate is 500 / n (CB3: 125 / n = 500 / 4n). Another value is
+    // not the rate ftidd would get (docs/robot.md).
+    const double n = std::round(500.0 / c.robot.rtde_frequency_hz);
+    if (std::abs(500.0 / n - c.robot.rtde_frequency_hz) > 1e-3) {
+      const double lo = 500.0 / (n + 1.0);
+      const double hi = 500.0 / std::max(1.0, n - 1.0);
+      std::ostringstream os;
+      os << "must be a rate the controller sends at, 500 / n Hz (e-Series; CB3 125 / n), e.g. " << 500.0 / n
+         << " (nearby: " << lo << ", " << hi << ")";
+      fail("robot.rtde_frequency_hz", os.str());
+    }
+  }
+  if (!(c.robot.rated_payload_kg > 0.0 && c.robot.rated_payload_kg <= 1000.0)) {
+    fail("robot.rated_payload_kg", "must be in (0, 1000] kg (the robot's rated payload: UR10 10, UR10e 12.5)");
+  }
   if (!(c.robot.receive_timeout_ms >= 0.0 && c.robot.receive_timeout_ms <= 1000.0)) {
     fail("robot.receive_timeout_ms", "must be in 0..1000 ms (0 = 1.5 periods)");
   }
   if (!(c.robot.silent_publish_after_ms >= 10.0 && c.robot.silent_publish_after_ms <= 10000.0)) {
     fail("robot.silent_publish_after_ms", "must be in 10..10000 ms");
+  }
+  if (c.robot.silent_publish_after_ms < 1500.0 / c.robot.rtde_frequency_hz) {
+    fail("robot.silent_publish_after_ms", "must be at least 1.5 robot periods (" +
+                                              std::to_string(1500.0 / c.robot.rtde_frequency_hz) +
+                                              " ms at robot.rtde_frequency_hz): a shorter silence is every "
+                                              "period (default: max(50, 3 periods))");
   }
   if (!(c.robot.watchdog_silence_s == 0.0 ||
         (c.robot.watchdog_silence_s >= 0.1 && c.robot.watchdog_silence_s <= 3600.0))) {
@@ -242,9 +320,7 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   }
   if (c.record.enabled) {
     if (c.record.path.empty()) fail("record.path", "must not be empty when record.enabled");
-    if (!isDirectory(dirOf(c.record.path))) {
-      fail("record.path", "directory '" + dirOf(c.record.path) + "' does not exist");
-    }
+    if (const std::string p = recordPathProblem(c.record.path); !p.empty()) fail("record.path", p);
   }
 }
 
@@ -258,7 +334,7 @@ void checkLcmUrl(const std::string& url, const std::string& where, std::vector<s
   if (url.empty()) fail("must not be empty");
   if (url.size() > 512) fail("is too long");
   const auto sep = url.find("://");
-  if (sep == std::string::npos) fail("must be an LCM provider URL (udpm://, memq://, file://, tcpq://)");
+  if (sep == std::string::npos) fail("must be an LCM provider URL (udpm://, tcpq://, memq://)");
   const std::string scheme = url.substr(0, sep);
   const std::string rest = url.substr(sep + 3);
   const auto q = rest.find('?');
@@ -269,8 +345,8 @@ void checkLcmUrl(const std::string& url, const std::string& where, std::vector<s
     return;
   }
   if (scheme == "file") {
-    if (target.empty()) fail("file:// needs a path");
-    return;
+    // LCM's file provider reads or writes a log file: not a network provider (file:///dev/sda).
+    fail("must be a network provider (udpm://, or tcpq://; memq:// for tests), not file:// (record with record.path)");
   }
   auto hostPort = [&](bool multicast) {
     const auto colon = target.rfind(':');
@@ -291,7 +367,7 @@ void checkLcmUrl(const std::string& url, const std::string& where, std::vector<s
     hostPort(false);
     return;
   }
-  if (scheme != "udpm") fail("unknown provider '" + scheme + "' (udpm://, memq://, file://, tcpq://)");
+  if (scheme != "udpm") fail("unknown provider '" + scheme + "' (udpm://, tcpq://, memq://)");
   hostPort(true);
   std::size_t start = 0;
   while (start < options.size()) {
@@ -394,6 +470,7 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
         {"rtde_port", integer(c.robot.rtde_port)},
         {"dashboard_port", integer(c.robot.dashboard_port)},
         {"rtde_frequency_hz", number(c.robot.rtde_frequency_hz)},
+        {"rated_payload_kg", number(c.robot.rated_payload_kg)},
         {"urdf_path", path(c.robot.urdf_path)},
         {"base_link", text(c.robot.base_link)},
         {"tip_link", text(c.robot.tip_link)},
@@ -481,6 +558,10 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
       })},
     });
   }
+  // The silence limit follows the rate unless given (at 1 Hz a fixed 50 ms is every period).
+  if (where.find("robot.silent_publish_after_ms") == where.end() && c.robot.rtde_frequency_hz > 0.0) {
+    c.robot.silent_publish_after_ms = std::max(c.robot.silent_publish_after_ms, 3000.0 / c.robot.rtde_frequency_hz);
+  }
   validate(c, [&](const std::string& key) {
     const auto it = where.find(key);
     return it == where.end() ? source_name + " (default value)" : it->second;
@@ -499,6 +580,14 @@ DaemonConfig loadDaemonConfig(const std::string& path) {
   return parseDaemonConfig(text, path, dirOf(path));
 }
 
+std::string recordDirWritableProblem(const std::string& path) {
+  const std::string dir = dirOf(path);
+  if (::access(dir.c_str(), W_OK | X_OK) != 0) {
+    return "directory '" + dir + "' is not writable by this process (uid " + std::to_string(::geteuid()) + ")";
+  }
+  return {};
+}
+
 void validateDaemonConfig(const DaemonConfig& config) {
   const std::string src = config.source.empty() ? std::string("<config>") : config.source;
   validate(config, [&](const std::string&) { return src; }, nullptr);
@@ -512,6 +601,7 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "robot.rtde_port: " << c.robot.rtde_port << "\n"
      << "robot.dashboard_port: " << c.robot.dashboard_port << "\n"
      << "robot.rtde_frequency_hz: " << c.robot.rtde_frequency_hz << "\n"
+     << "robot.rated_payload_kg: " << c.robot.rated_payload_kg << "\n"
      << "robot.urdf_path: " << c.robot.urdf_path << "\n"
      << "robot.base_link: " << c.robot.base_link << "\n"
      << "robot.tip_link: " << c.robot.tip_link << "\n"

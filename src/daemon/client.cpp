@@ -7,6 +7,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/transport/codec.hpp"
 #include "ftid/transport/command_auth.hpp"
 #include "ftid/transport/source_filter.hpp"
 #include <ftid_lcm/ack_t.hpp>
@@ -22,16 +23,27 @@ std::string seconds(double s) {
   return buf;
 }
 
-// Collects the ack with one request id.
+// Collects the ack with one request id. Anyone on the network can send on the ack channel: the
+// bytes go through transport::decodeFrom (a string length of 0 made lcm-gen's decoder throw
+// std::length_error through LCM's callback, ending `ftid tare` and `--identify`'s reload, issue
+// 26); a malformed ack is dropped and counted, and the wait goes on for the real one.
 struct AckWaiter {
   std::int64_t request_id = 0;
   bool got = false;
+  int malformed = 0;
   ftid_lcm::ack_t ack;
-  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
+  void handle(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) noexcept {
     ftid_lcm::ack_t a;
-    if (a.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) return;
+    if (!transport::decodeFrom(rbuf->data, rbuf->data_size, &a)) {
+      ++malformed;
+      return;
+    }
     if (a.request_id != request_id) return;
-    ack = a;
+    try {
+      ack = a;
+    } catch (...) {  // std::bad_alloc copying the message: not an answer we can use
+      return;
+    }
     got = true;
   }
 };
@@ -143,6 +155,10 @@ CommandAck DaemonClient::sendCommand(DaemonCommand command, double timeout_s,
     lc.handleTimeout(50);
   }
   lc.unsubscribe(sub);
+  if (waiter.malformed > 0) {
+    std::fprintf(stderr, "ftid: %d malformed message(s) on %s dropped while waiting for the ack\n",
+                 waiter.malformed, options_.ack_channel.c_str());
+  }
   if (!waiter.got) {
     result.message = "ftidd did not acknowledge the " + name + " within " + seconds(timeout_s) +
                      " s (is it running?)";

@@ -13,6 +13,7 @@
 namespace ftid::daemon {
 
 std::int64_t realtimeNowUs() noexcept { return realtimeUs(); }
+std::int64_t monotonicNowUs() noexcept { return monotonicNs() / 1000; }
 
 namespace {
 
@@ -88,7 +89,12 @@ DaemonCycle::DaemonCycle(ArmStateSource* arm, SensorSource* sensor, const Motion
       params_(params),
       sink_(sink),
       options_(options),
-      clock_map_(options.clock_window_s) {}
+      clock_map_(options.clock_window_s),
+      clock_check_(options.clock_check) {
+  if (options_.mono_now_us == nullptr) {
+    options_.mono_now_us = options_.now_us == &realtimeNowUs ? &monotonicNowUs : options_.now_us;
+  }
+}
 
 Status DaemonCycle::waitForTick(std::chrono::nanoseconds timeout) noexcept {
   const Status s = arm_->waitForState(timeout, &robot_);
@@ -161,6 +167,17 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     counters_.invalid_robot.fetch_add(1, std::memory_order_relaxed);
   }
   if (arm_ != nullptr && arm_->robotStopped()) rec.fault_bits |= kFaultRobotStopped;
+  // The controller's clock against the host's monotonic clock (issue 26): stopped, jumping or
+  // running at a wrong rate, the pairing below would pick samples of the wrong time.
+  const bool clock_sane = clock_check_.update(robot.robot_time, options_.mono_now_us());
+  counters_.robot_clock_faults.store(clock_check_.faults(), std::memory_order_relaxed);
+  if (robot_ok && !clock_sane) {
+    // Its time cannot be trusted, so neither can any pairing with it: the state is unusable
+    // (not compensated, and left out of identification logs).
+    rec.robot.valid = false;
+    rec.fault_bits |= kFaultRobotClock;
+    counters_.robot_clock_invalid.fetch_add(1, std::memory_order_relaxed);
+  }
 
   // Sensor: every new sample into the history; latest_ is the newest with the driver's flags.
   sensor_->drain(now, &history_, &latest_);
@@ -196,6 +213,12 @@ void DaemonCycle::step(const RobotStateRecord& robot,
       now - latest_.recv_utime > options_.stale_timeout_us) {
     rec.sensor.health_flags |= kHealthStale;
   }
+  // Freshness of the output (issue 26): the sample used must itself be younger than the timeout
+  // on the host clock, whatever the controller's clock says, or the published contact wrench is
+  // not the current one; a negative age (the host clock stepped back) proves nothing. The sample
+  // stays valid as data (a backlog's pairing is time-consistent and may be recorded for
+  // identification): only the compensated wrench of this cycle is refused, as stale.
+  const bool sample_fresh = rec.sensor_age_us >= 0 && rec.sensor_age_us <= options_.stale_timeout_us;
   if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= kHealthNonFinite;
   if ((rec.sensor.health_flags & (kHealthStale | kHealthNonFinite)) != 0) {
     rec.sensor.valid = false;
@@ -208,6 +231,9 @@ void DaemonCycle::step(const RobotStateRecord& robot,
       rec.fault_bits |= kFaultSensorInvalid;
       counters_.invalid_sensor.fetch_add(1, std::memory_order_relaxed);
     }
+  } else if (!sample_fresh) {
+    rec.fault_bits |= kFaultSensorStale;
+    counters_.stale_sensor.fetch_add(1, std::memory_order_relaxed);
   }
 
   // Compensation, only from valid inputs.
@@ -216,7 +242,7 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   rec.contact_S.setZero();
   if (comp == nullptr) {
     counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
-  } else if (robot_ok && rec.sensor.valid) {
+  } else if (robot_ok && clock_sane && rec.sensor.valid && sample_fresh) {
     // Sample time t: the robot clock since the session's anchor, re-anchored when the controller
     // clock goes back (a controller reboot; a repeated time keeps the anchor) so it never runs
     // negative (the compensator restarts its delay line when t does not advance).

@@ -76,8 +76,10 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
       cfg.robot.urdf_path, cfg.robot.base_link, cfg.robot.tip_link);
   kinematics.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   motion = std::make_unique<KinematicsMotionModel>(std::move(kinematics));
+  limits = plausibilityLimits(cfg);
   const CompensationFactory factory = [this](const std::string& path) -> std::unique_ptr<Compensation> {
     LoadedParameters lp = loadParameters(path, apply_tare);
+    requirePlausible(lp.set, limits, path);
     auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path);
     if ((effects::Model::fromName(lp.set.model).signals() & effects::kSignalTime) != 0 &&
         !std::isfinite(lp.set.time_origin_unix_s)) {
@@ -120,6 +122,13 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
     out_opt.record_path = expandTimePattern(options.record_path);
   } else if (cfg.record.enabled) {
     out_opt.record_path = expandTimePattern(cfg.record.path);
+  }
+  // Writability is checked here, as the user ftidd runs as (User=ftid), not in the config's
+  // validation, which also runs for ftid tare/export/compensate as whoever calls them.
+  if (!out_opt.record_path.empty()) {
+    if (const std::string p = config::recordDirWritableProblem(out_opt.record_path); !p.empty()) {
+      throw ConfigError(options.record_path.empty() ? cfg.source + ": key 'record.path': " + p : "--record: " + p);
+    }
   }
   outbox = std::make_unique<transport::LcmOutbox>(out_opt);
   // Commands: authenticated with the shared key (docs/operations.md, "Network and commands").

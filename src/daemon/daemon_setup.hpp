@@ -20,6 +20,7 @@
 #include "ftid/daemon/loop_owner.hpp"
 #include "ftid/daemon/output_stage.hpp"
 #include "ftid/daemon/payload_watch.hpp"
+#include "ftid/daemon/plausibility.hpp"
 #include "ftid/daemon/reloader.hpp"
 #include "ftid/daemon/tare.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
@@ -61,6 +62,9 @@ struct DaemonSetup {
   // (applied if it belongs to this content; docs/daemon.md, "Tare") and remembers what it built.
   std::unique_ptr<KinematicsMotionModel> motion;
   bool apply_tare = true;      ///< false during a reload: a reload discards the tare
+  /// What the robot and sensor can carry (robot.rated_payload_kg, the DBC's ranges): every set
+  /// built (start, reload, tare) is checked against it first (issue 26).
+  params::PlausibilityLimits limits;
   LoadedParameters built;      ///< the set of the last successful build
   LoadedParameters active;     ///< the set of the parameters offered to the loop
   bool have_active = false;

@@ -172,6 +172,7 @@ Supervisor::TareAnswer Supervisor::doTare() {
     state.offsets = new_offsets;
     state.utime = realtimeNowUs();
     state.cycles = res.cycles;
+    requirePlausible(next.set, s_.limits, cfg.parameters.path + " with the new offsets");
     comp = std::make_unique<ParameterFileCompensation>(next.set, cfg.parameters.path);
     writeTareState(state_path, state);
   } catch (const std::exception& e) {
@@ -346,7 +347,8 @@ void Supervisor::publishStats() {
   s.commands_refused_auth = refused_.auth;
   s.commands_refused_stale = refused_.stale;
   s.commands_refused_replay = refused_.replay;
-  s.commands_refused_malformed = refused_.malformed;
+  // Malformed = refused by the command checks, or not even a command_t (dropped by the outbox).
+  s.commands_refused_malformed = refused_.malformed + static_cast<std::int32_t>(oc.malformed);
   s.tares_done = tares_done_;
   s.tares_refused = tares_refused_;
   s.fault_bits = faults_since_report_;

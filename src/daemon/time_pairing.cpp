@@ -116,4 +116,44 @@ std::int64_t RobotClockMap::hostTimeUs(double robot_time_s) const noexcept {
   return std::llround(robot_time_s * 1e6) + offsetUs();
 }
 
+bool ControllerClockCheck::update(double robot_time_s, std::int64_t host_mono_us) noexcept {
+  if (!std::isfinite(robot_time_s) || std::abs(robot_time_s) > 1e12) return sane_;
+  const auto robot_us = static_cast<std::int64_t>(std::llround(robot_time_s * 1e6));
+  if (!have_) {
+    have_ = true;
+    prev_robot_us_ = window_robot_us_ = robot_us;
+    prev_host_us_ = window_host_us_ = host_mono_us;
+    return sane_;
+  }
+  const std::int64_t d_robot = robot_us - prev_robot_us_;
+  const std::int64_t d_host = host_mono_us - prev_host_us_;
+  prev_robot_us_ = robot_us;
+  prev_host_us_ = host_mono_us;
+  ClockFault fault = ClockFault::kNone;
+  if (d_robot == 0) {
+    fault = ClockFault::kStopped;
+  } else if (d_robot < 0) {
+    fault = ClockFault::kBackwards;
+  } else if (d_robot > d_host + options_.jump_tolerance_us) {
+    fault = ClockFault::kJump;
+  } else if (host_mono_us - window_host_us_ >= options_.rate_window_us) {
+    const double ratio = static_cast<double>(robot_us - window_robot_us_) /
+                         static_cast<double>(host_mono_us - window_host_us_);
+    if (std::abs(ratio - 1.0) > options_.rate_tolerance) fault = ClockFault::kRate;
+    window_robot_us_ = robot_us;
+    window_host_us_ = host_mono_us;
+  }
+  if (fault != ClockFault::kNone) {
+    ++faults_;
+    last_fault_ = fault;
+    sane_ = false;
+    sane_since_us_ = host_mono_us;
+    window_robot_us_ = robot_us;  // the rate is measured afresh from here
+    window_host_us_ = host_mono_us;
+    return false;
+  }
+  if (!sane_ && host_mono_us - sane_since_us_ >= options_.recovery_us) sane_ = true;
+  return sane_;
+}
+
 }  // namespace ftid::daemon

@@ -134,6 +134,7 @@ struct RunCycle {
   double approach_t0 = -1.0;
   double settle_start = -1.0;
   double excite_t0 = -1.0;
+  double sent_tn = -1.0;  ///< trajectory time of the last excitation target sent (-1: none yet)
   double finish_start = -1.0;
   double max_tracking = 0.0;
   Failure failure{};
@@ -246,6 +247,7 @@ struct RunCycle {
           phase = Phase::kExcite;
           excite_t0 = s.timestamp + period;  // the target sent now is applied at the next tick
           traj.sample(0.0, &target);
+          sent_tn = 0.0;
         } else if (s.timestamp - settle_start > cfg.settle_timeout) {
           int j = 0;
           (s.q - q_a1).cwiseAbs().maxCoeff(&j);
@@ -256,8 +258,15 @@ struct RunCycle {
       case Phase::kExcite: {
         const double tt = s.timestamp - excite_t0;
         if (tt >= 0.0) {
+          // The tracking error is measured against what the arm was commanded: the trajectory at
+          // the time of the last target sent, not beyond it. After a host stall (no target for a
+          // few ticks, the controller holding the last one) the trajectory's time ran on while
+          // the arm rightly stayed at the last target; that lag, |qd| x stall, is the host's and
+          // aborted the demo's identification on a loaded machine (issue 26). An arm that does
+          // not follow its commands (blocked, collided, too slow) deviates from them and still
+          // aborts at once, on the first tick beyond the limit.
           JointVector q_ref;
-          traj.sample(tt, &q_ref);
+          traj.sample(sent_tn >= 0.0 ? std::min(tt, sent_tn) : tt, &q_ref);
           int j = 0;
           const double err = (s.q - q_ref).cwiseAbs().maxCoeff(&j);
           if (err > max_tracking) max_tracking = err;
@@ -274,6 +283,7 @@ struct RunCycle {
           finish_start = s.timestamp;
         } else {
           traj.sample(tn, &target);
+          sent_tn = tn;
         }
         progress.elapsed.store(tn < traj.duration() ? tn : traj.duration(), std::memory_order_relaxed);
         break;

@@ -146,7 +146,22 @@ std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set) {
     }
     if (n_is != 6) return bad("parameters.i_s_xx", "the inertia needs all six i_s_* parameters");
     const effects::InertiaAboutCom ic = effects::inertiaAboutCom(p, cov);
-    if (!ic.valid_within_uncertainty) return bad("parameters.i_s_xx", "invalid inertia: " + ic.explanation);
+    // Physically impossible whatever the standard errors (issue 26): no body has a negative
+    // principal moment about its centre of mass or one larger than the sum of the other two. A
+    // standard error says how well the fit knows the tensor, not that an impossible one may be
+    // used. The tolerance only absorbs rounding (I_C = I_S - m [c]x^T [c]x cancels digits).
+    const Vec3& l = ic.principal;
+    const double scale = std::max(l.cwiseAbs().maxCoeff(), p.tail<3>().cwiseAbs().maxCoeff() +
+                                                               p.segment<3>(4).cwiseAbs().maxCoeff());
+    const double tol = kInertiaRelativeTolerance * scale + 1e-12;
+    if (l(0) < -tol) {
+      return bad("parameters.i_s_xx", "invalid inertia: physically impossible (a negative principal moment about the "
+                                      "centre of mass, whatever its standard error): " + ic.explanation);
+    }
+    if (l(2) > l(0) + l(1) + tol) {
+      return bad("parameters.i_s_xx", "invalid inertia: physically impossible (triangle inequality violated, whatever "
+                                      "its standard error): " + ic.explanation);
+    }
   }
   return std::nullopt;
 }

@@ -1,5 +1,7 @@
 #include "ftid/transport/codec.hpp"
 
+#include <cstring>
+
 namespace ftid::transport {
 namespace {
 
@@ -12,7 +14,88 @@ void copyIn(const double* in, Vec* v) noexcept {
   for (int i = 0; i < N; ++i) (*v)(i) = in[i];
 }
 
+// A cursor over the big-endian LCM wire form that only checks lengths (findWireProblem).
+class WireWalk {
+ public:
+  WireWalk(const void* buf, std::size_t size) noexcept
+      : p_(static_cast<const std::uint8_t*>(buf)), size_(size) {}
+  void skip(std::size_t n) noexcept {
+    if (problem_ != nullptr) return;
+    if (size_ - pos_ < n) {
+      problem_ = "message truncated";
+      return;
+    }
+    pos_ += n;
+  }
+  void string() noexcept {
+    if (problem_ != nullptr) return;
+    if (size_ - pos_ < 4) {
+      problem_ = "message truncated";
+      return;
+    }
+    const std::uint32_t u = (std::uint32_t{p_[pos_]} << 24) | (std::uint32_t{p_[pos_ + 1]} << 16) |
+                            (std::uint32_t{p_[pos_ + 2]} << 8) | std::uint32_t{p_[pos_ + 3]};
+    pos_ += 4;
+    const auto len = static_cast<std::int32_t>(u);
+    if (len < 1) {
+      problem_ = "string length below 1 (an encoded string holds at least its terminating 0)";
+    } else if (static_cast<std::size_t>(len) > size_ - pos_) {
+      problem_ = "string length beyond the end of the message";
+    } else if (p_[pos_ + static_cast<std::size_t>(len) - 1] != 0) {
+      problem_ = "string not terminated by 0";
+    } else if (std::memchr(p_ + pos_, 0, static_cast<std::size_t>(len) - 1) != nullptr) {
+      // The decoder would keep it, every C API (paths, messages) would cut the string there.
+      problem_ = "string with a 0 before its end";
+    } else {
+      pos_ += static_cast<std::size_t>(len);
+    }
+  }
+  const char* finish() const noexcept {
+    if (problem_ != nullptr) return problem_;
+    return pos_ == size_ ? nullptr : "trailing bytes after the message";
+  }
+
+ private:
+  const std::uint8_t* p_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+  const char* problem_ = nullptr;
+};
+
+constexpr std::size_t kHashBytes = 8;
+
 }  // namespace
+
+const char* findWireProblem(const void* buf, std::size_t size, const ftid_lcm::command_t*) noexcept {
+  WireWalk w(buf, size);
+  w.skip(kHashBytes + 8 + 8 + 1);  // fingerprint, utime, request_id, command
+  w.string();                      // argument
+  w.skip(8 + 32);                  // sequence, mac
+  return w.finish();
+}
+
+const char* findWireProblem(const void* buf, std::size_t size, const ftid_lcm::ack_t*) noexcept {
+  WireWalk w(buf, size);
+  w.skip(kHashBytes + 8 + 8 + 1 + 1 + 4);  // fingerprint, utime, request_id, command, ok, version
+  w.string();                              // message
+  w.skip(6 * 8);                           // offsets
+  return w.finish();
+}
+
+const char* findWireProblem(const void* buf, std::size_t size,
+                            const ftid_lcm::identification_result_t*) noexcept {
+  WireWalk w(buf, size);
+  w.skip(kHashBytes + 8);  // fingerprint, utime
+  w.string();              // model
+  w.skip(4);               // num_params
+  for (int i = 0; i < 2 * 64; ++i) w.string();  // param_names, param_units
+  w.skip((64 + 64 + 6) * 8 + 4);                // value, stddev, residual_rms, num_samples
+  w.string();                                   // param_file
+  w.string();                                   // data_file
+  w.skip(1);                                    // ok
+  w.string();                                   // message
+  return w.finish();
+}
 
 void toLcm(const RobotStateRecord& in, ftid_lcm::robot_state_t* out) noexcept {
   out->recv_utime = in.recv_utime;

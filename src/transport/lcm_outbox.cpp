@@ -68,6 +68,8 @@ struct LcmOutbox::Impl {
   std::atomic<std::uint64_t> publish_errors{0};
   std::atomic<std::uint64_t> recorded{0};
   std::atomic<std::uint64_t> commands{0};
+  std::atomic<std::uint64_t> malformed{0};
+  ftid_lcm::command_t received_command;  // decoded into on the publisher thread
 
   int publishLocked(const std::string& channel, const void* data, unsigned size) {
     std::lock_guard<std::mutex> lock(publish_mutex);
@@ -117,10 +119,31 @@ struct LcmOutbox::Impl {
   // lcm-cpp-impl.hpp:88 (`(subs->handler->*subs->handlerMethod)(...)`) and reports a false
   // "invalid vptr" for every message. Reproduction without LCM:
   // test/unit/transport/gcc_vptr_pmf_repro.cpp.
-  static void onCommand(const lcm::ReceiveBuffer*, const std::string&,
-                        const ftid_lcm::command_t* msg, Impl* self) {
+  // The raw form, not the typed one: LCM's typed handler calls lcm-gen's decoder unguarded, and
+  // that decoder throws std::length_error on a string length of 0 (one 69-byte datagram ended
+  // ftidd, issue 26). Here the bytes go through transport::tryDecode; a malformed message is
+  // dropped, counted (counters().malformed, in loop_stats_t's commands_refused_malformed) and
+  // logged (the first and then every 2^k-th), and nothing thrown reaches LCM's C callback.
+  static void onCommandBytes(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/,
+                             Impl* self) noexcept {
     self->commands.fetch_add(1, std::memory_order_relaxed);
-    if (self->command_handler != nullptr) self->command_handler(*msg, self->command_context);
+    const char* problem = tryDecode(rbuf->data, rbuf->data_size, &self->received_command);
+    if (problem != nullptr) {
+      const std::uint64_t n = self->malformed.fetch_add(1, std::memory_order_relaxed) + 1;
+      if ((n & (n - 1)) == 0) {
+        std::fprintf(stderr, "ftidd: malformed command_t dropped (%u bytes: %s); %llu so far\n",
+                     rbuf->data_size, problem, static_cast<unsigned long long>(n));
+      }
+      return;
+    }
+    if (self->command_handler == nullptr) return;
+    try {
+      self->command_handler(self->received_command, self->command_context);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "ftidd: command handler failed: %s\n", e.what());
+    } catch (...) {
+      std::fprintf(stderr, "ftidd: command handler failed\n");
+    }
   }
 
   void run(int lcm_fd) {
@@ -192,7 +215,7 @@ void LcmOutbox::start() {
   if (impl_->command_handler != nullptr) {
     // Subscribed here (a normal thread) so that commands sent right after start() are seen.
     impl_->command_subscription = impl_->lcm->subscribeFunction(
-        impl_->options.channels.command, &Impl::onCommand, impl_.get());
+        impl_->options.channels.command, &Impl::onCommandBytes, impl_.get());
     if (impl_->owned_lcm && !impl_->options.allowed_sources.empty()) {
       try {
         restrictLcmSources(*impl_->lcm, impl_->options.url, impl_->options.allowed_sources);
@@ -278,6 +301,7 @@ LcmOutbox::Counters LcmOutbox::counters() const noexcept {
   c.publish_errors = impl_->publish_errors.load(std::memory_order_relaxed);
   c.recorded = impl_->recorded.load(std::memory_order_relaxed);
   c.commands = impl_->commands.load(std::memory_order_relaxed);
+  c.malformed = impl_->malformed.load(std::memory_order_relaxed);
   return c;
 }
 

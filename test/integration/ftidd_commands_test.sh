@@ -9,6 +9,8 @@
 # own hmac/hashlib (an implementation independent of ftid's), sent as raw LCM datagrams.
 # Checks:
 #   - a correctly signed PING and RELOAD are accepted (Python's HMAC = ftid's);
+#   - the 69-byte command_t with string length 0 (issue 26) leaves ftidd running, is logged and
+#     counted as malformed; `ftid tare` amid a flood of malformed ack_t still gets its ack;
 #   - a signed TARE (robot at rest) is acknowledged with the new offsets, saves
 #     parameters.yaml.tare.yaml with the parameter file's SHA-256, and RELOAD removes it;
 #   - `ftid reidentify --apply` with the robot at rest is refused (no motion), nothing written
@@ -163,6 +165,30 @@ if mode == "stats":
         s.commands_refused_malformed, s.reloads_applied, s.tares_done, s.tares_refused, s.param_version))
     sys.exit(0)
 
+if mode == "malformed":
+    # Issue 26: the 69-byte command_t whose argument length field is 0 (lcm-gen's decoder threw
+    # std::length_error and ftidd aborted), by multicast and by unicast to 127.0.0.1.
+    bad = command_t._get_packed_fingerprint() + struct.pack(">qqbiq", now_us(), 42, command_t.PING, 0, 7) + bytes(32)
+    assert len(bad) == 69, len(bad)
+    if rx is not None:
+        rx.close()  # a unicast datagram goes to one socket bound to the port: ftidd's, not ours
+    tx.sendto(packet(b"FTID_COMMAND", bad, 11), (dest, 7667))
+    tx.sendto(packet(b"FTID_COMMAND", bad, 12), ("127.0.0.1", 7667))
+    print("sent 2")
+    sys.exit(0)
+
+if mode == "ackflood":
+    # The same defect as an ack_t (82 bytes, message length 0), every 10 ms for SECONDS.
+    bad = ack_t._get_packed_fingerprint() + struct.pack(">qqbbii", now_us(), 42, command_t.TARE, 1, 99, 0) + bytes(48)
+    assert len(bad) == 82, len(bad)
+    end = time.monotonic() + float(sys.argv[3])
+    n = 0
+    while time.monotonic() < end:
+        n += 1
+        tx.sendto(packet(b"FTID_ACK", bad, 100 + n), ("239.255.76.67", 7667))
+        time.sleep(0.01)
+    sys.exit(0)
+
 if mode == "taretwice":
     # A client that missed the ack sends the same request again, signed afresh (new sequence):
     # ftidd must answer it again, not tare twice.
@@ -235,6 +261,17 @@ expect() {  # expect MODE REGEX [DEST]
 }
 
 expect ping "^ack ok"
+# Issue 26: one malformed 69-byte command_t (multicast and unicast) must not end ftidd: dropped,
+# counted as malformed in loop_stats_t, and the next command still answered.
+malformed_before=$(send stats | awk '{ print $9 }')
+send malformed
+sleep 0.5
+kill -0 $DAEMON 2>/dev/null || { fail "ftidd died on a malformed 69-byte command_t"; cat "$WORK/ftidd.log"; exit 1; }
+expect ping "^ack ok"
+grep -q "malformed command_t dropped" "$WORK/ftidd.log" || fail "the malformed command_t was not logged"
+malformed_after=$(send stats | awk '{ print $9 }')
+[ "${malformed_after:-0}" -ge $((${malformed_before:-0} + 2)) ] 2>/dev/null ||
+  fail "malformed command_t not counted: commands_refused_malformed $malformed_before -> $malformed_after"
 expect unsigned "^ack refused .*bad authenticator"
 expect wrongkey "^ack refused .*bad authenticator"
 expect path "^ack refused .*takes no path"
@@ -279,7 +316,14 @@ tare_ok() {  # tare_ok OUT [ARGS...]: ftid tare until it exits 0 (3 tries); retu
   done
   return $rc
 }
+# While ftid tare waits, a flood of malformed ack_t (message length 0) on FTID_ACK (issue 26):
+# dropped by its ack waiter, the real ack still counts.
+python3 "$WORK/cmd.py" "$WORK" ackflood 4 & FLOOD=$!
+sleep 0.5   # the flood is running before ftid tare starts waiting
 tare_ok "$WORK/tare.out"; rc=$?
+kill $FLOOD 2>/dev/null; wait $FLOOD 2>/dev/null
+grep -q "malformed message(s) on FTID_ACK dropped" "$WORK/tare.err" ||
+  fail "ftid tare did not report the malformed acks it dropped: $(cat "$WORK/tare.err")"
 cat "$WORK/tare.out"
 [ $rc -eq 0 ] || fail "ftid tare exited $rc, expected 0"
 grep -Eq "^tared: f0 = \(.*\) N, t0 = \(.*\) Nm" "$WORK/tare.out" || fail "ftid tare printed no offsets"

@@ -240,8 +240,10 @@ TEST(RtDaemon, CodecAndQueueDoNotAllocate) {
     transport::toLcm(rec, &cycle_msg);
     transport::toLcm(rec, &wrench_msg);
     EXPECT_GT(transport::encodeInto(cycle_msg, buf, sizeof buf), 0);
-    EXPECT_GT(transport::encodeInto(wrench_msg, buf, sizeof buf), 0);
-    EXPECT_TRUE(transport::decodeFrom(buf, sizeof buf, &wrench_msg));
+    const int n = transport::encodeInto(wrench_msg, buf, sizeof buf);
+    EXPECT_GT(n, 0);
+    // Exactly the message's bytes: received bytes with trailing garbage are refused (issue 26).
+    EXPECT_TRUE(transport::decodeFrom(buf, static_cast<std::size_t>(n), &wrench_msg));
     EXPECT_TRUE(queue.tryPush(rec));
     EXPECT_TRUE(queue.tryPop(&out));
     allocations = counter.count();

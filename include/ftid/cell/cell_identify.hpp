@@ -36,6 +36,9 @@ inline constexpr const char* kDefaultModel = "paper+rigid_body";
 struct CellIdentifyOptions {
   std::string config_path = "/etc/ftid/ftidd.yaml";  ///< ftidd config (robot, LCM, parameters)
   std::string trajectory_path;  ///< traj.yaml; empty = the shipped default for the robot
+  /// The cell's safety limits (trajectory::readCellLimits); empty = defaultCellLimitsPath().
+  /// The trajectory's own constraints can only tighten them.
+  std::string cell_limits_path;
   std::string model = kDefaultModel;  ///< model to identify (e.g. "paper")
   bool paper = false;           ///< without trajectory_path: the paper's 10 s trajectory
   std::string runs_dir;         ///< where recorded runs go; empty = <params dir>/runs

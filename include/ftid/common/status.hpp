@@ -26,14 +26,15 @@ enum FaultBit : std::uint32_t {
   kFaultOverrun = 1u << 5,
   kFaultPublishDropped = 1u << 6,
   kFaultTrackingError = 1u << 7,
+  kFaultRobotClock = 1u << 8,        ///< the controller's clock stopped, jumped or ran at a wrong rate
 };
 
 /// Flags of the compensated wrench that are not faults (compensated_wrench_t.fault_bits, bits
-/// 256 and 512): set by the payload monitor (docs/daemon.md, "Payload monitor") on every wrench
+/// 65536 and 131072, clear of the fault bits below them): set by the payload monitor (docs/daemon.md, "Payload monitor") on every wrench
 /// while a payload change is suspected or confirmed. Never raised in the supervisor's FaultWord.
 enum WrenchFlag : std::uint32_t {
-  kFlagPayloadSuspect = 1u << 8,   ///< something acts on the tool: contact, or a change not yet decided
-  kFlagPayloadChanged = 1u << 9,   ///< the payload changed: the compensation is wrong until re-identified
+  kFlagPayloadSuspect = 1u << 16,  ///< something acts on the tool: contact, or a change not yet decided
+  kFlagPayloadChanged = 1u << 17,  ///< the payload changed: the compensation is wrong until re-identified
 };
 inline constexpr std::uint32_t kWrenchFlagMask = kFlagPayloadSuspect | kFlagPayloadChanged;
 

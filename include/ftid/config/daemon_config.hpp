@@ -16,6 +16,9 @@ struct RobotConfig {
   int rtde_port = 30004;               ///< RTDE port
   int dashboard_port = 29999;          ///< dashboard server port (status queries only)
   double rtde_frequency_hz = 125.0;    ///< RTDE output frequency (CB3: 125, e-Series: <= 500)
+  /// The robot's rated payload [kg] (UR10 10, UR10e 12.5): a parameter set with a larger mass is
+  /// refused (params::PlausibilityLimits; ftidd start and reload, ftid compensate and identify).
+  double rated_payload_kg = 10.0;
   std::string urdf_path = "/usr/share/ftid/config/ur10.urdf";  ///< robot model (must exist)
   std::string base_link = "base";      ///< URDF base link (frame B)
   std::string tip_link = "tool0";      ///< URDF flange link (frame F)
@@ -199,6 +202,10 @@ DaemonConfig parseDaemonConfig(const std::string& yaml_text, const std::string& 
 /// Checks cross-field consistency of a config built in code (the loaders call it). Throws
 /// ConfigError naming the key.
 void validateDaemonConfig(const DaemonConfig& config);
+
+/// "" if this process may create files in the directory of `path`, else the reason. Not part of
+/// validation (which runs as whoever loads ftidd.yaml): ftidd calls it at start, as its own user.
+std::string recordDirWritableProblem(const std::string& path);
 
 /// Human-readable dump of the effective configuration (for `ftidd --check-config`).
 std::string describeDaemonConfig(const DaemonConfig& config);

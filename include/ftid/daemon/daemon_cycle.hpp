@@ -40,6 +40,8 @@ using rt::CycleAction;
 
 /// CLOCK_REALTIME in microseconds (the clock of LCM utime fields and sensor receive times).
 std::int64_t realtimeNowUs() noexcept;
+/// CLOCK_MONOTONIC in microseconds.
+std::int64_t monotonicNowUs() noexcept;
 
 struct CycleOptions {
   /// A sensor sample older than this at the start of a cycle is stale [us]. The same bound
@@ -55,6 +57,11 @@ struct CycleOptions {
   std::int64_t max_sensor_wait_us = 1500;
   /// Clock used for utime and sensor ages (tests inject a fake). Must be noexcept and RT-safe.
   std::int64_t (*now_us)() noexcept = &realtimeNowUs;
+  /// The host's monotonic clock [us] against which the controller's clock is checked
+  /// (ControllerClockCheck). nullptr: CLOCK_MONOTONIC, or, when a test injected now_us, that
+  /// fake clock (one fake serves both). Must be noexcept and RT-safe.
+  std::int64_t (*mono_now_us)() noexcept = nullptr;
+  ControllerClockCheck::Options clock_check;
 };
 
 /// Counters of the loop, written by the loop thread, read by anyone.
@@ -63,7 +70,10 @@ struct CycleCounters {
   std::atomic<std::uint64_t> missed{0};          ///< onMissed() calls
   std::atomic<std::uint64_t> valid{0};           ///< cycles with a valid compensated wrench
   std::atomic<std::uint64_t> invalid{0};         ///< cycles without
-  std::atomic<std::uint64_t> stale_sensor{0};    ///< cycles with a stale sensor sample
+  std::atomic<std::uint64_t> stale_sensor{0};    ///< cycles with a stale sensor sample (the
+                                                 ///< newest or the one used older than the timeout)
+  std::atomic<std::uint64_t> robot_clock_invalid{0};  ///< cycles invalid: controller clock not sane
+  std::atomic<std::uint64_t> robot_clock_faults{0};   ///< controller clock faults detected
   std::atomic<std::uint64_t> invalid_sensor{0};  ///< cycles with an invalid (not stale) sample
   std::atomic<std::uint64_t> invalid_robot{0};   ///< cycles with an unusable robot state
   std::atomic<std::uint64_t> no_parameters{0};   ///< cycles without parameters loaded
@@ -170,9 +180,12 @@ class DaemonCycle {
   /// executor runs this cycle (the loop owner calls it between two sessions, on the loop thread).
   /// Parameters, tare, sensor history and cycle numbering carry over; the output low-pass
   /// restarts at the first valid wrench (the contact may have changed while no package came).
+  /// The controller clock check restarts too: a new connection (or a rebooted controller) is a
+  /// new clock session, not a jump of the old one.
   void setArm(ArmStateSource* arm) noexcept {
     arm_ = arm;
     if (output_stage_ != nullptr) output_stage_->reset();
+    clock_check_ = ControllerClockCheck(options_.clock_check);
   }
   ArmStateSource* arm() const noexcept { return arm_; }
 
@@ -191,6 +204,7 @@ class DaemonCycle {
   /// Host time [us] the most recent robot state was mapped to (0 if none; loop thread / tests).
   std::int64_t lastPairTimeUs() const noexcept { return last_pair_time_us_; }
   const RobotClockMap& clockMap() const noexcept { return clock_map_; }
+  const ControllerClockCheck& clockCheck() const noexcept { return clock_check_; }
 
  private:
   void awaitBracketingSample() noexcept;
@@ -209,6 +223,7 @@ class DaemonCycle {
   effects::SampleContext ctx_;
   SensorHistory history_;
   RobotClockMap clock_map_;
+  ControllerClockCheck clock_check_;
   SensorSampleRecord latest_;
   SensorPairing last_pairing_ = SensorPairing::kNone;
   std::int64_t last_pair_time_us_ = 0;

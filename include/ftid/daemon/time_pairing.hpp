@@ -108,4 +108,59 @@ class RobotClockMap {
   std::uint64_t restarts_ = 0;
 };
 
+/// What ControllerClockCheck found wrong with the controller's clock.
+enum class ClockFault : std::uint8_t {
+  kNone,
+  kStopped,    ///< a new state with the same controller time (a frozen RTDE timestamp)
+  kBackwards,  ///< the controller time went back (a controller restart, or a broken clock)
+  kJump,       ///< it advanced more than the host's elapsed time plus the jump tolerance
+  kRate,       ///< over a window it ran faster or slower than the host's monotonic clock
+};
+
+/// Checks the controller's clock (the RTDE timestamp) against the host's monotonic clock, so
+/// that a stopped, jumping or wrongly running controller clock cannot make ftidd pair stale
+/// sensor samples as if they were current (issue 26). While a fault is present and for
+/// `recovery_us` of sane states after it, sane() is false and the cycle is invalid. Fixed size,
+/// noexcept, allocation-free.
+class ControllerClockCheck {
+ public:
+  struct Options {
+    /// A controller time step beyond the host's elapsed time by more than this is a jump [us].
+    /// Host-side delays only make the host's elapsed time longer (a state processed late), so
+    /// the tolerance only has to cover the receive jitter of one state; 50 ms is 6 periods at
+    /// 125 Hz, far beyond the RTDE jitter measured (docs/performance.md).
+    std::int64_t jump_tolerance_us = 50'000;
+    /// |controller elapsed / host elapsed - 1| above this over a window is a wrong rate. A host
+    /// stall of S at a window's end shifts the ratio by S / window: 5 % of a 5 s window is a
+    /// 250 ms stall, in which every cycle is stale anyway.
+    double rate_tolerance = 0.05;
+    std::int64_t rate_window_us = 5'000'000;
+    /// Sane for this long (host monotonic time) after a fault before cycles are valid again.
+    std::int64_t recovery_us = 500'000;
+  };
+
+  ControllerClockCheck() noexcept = default;
+  explicit ControllerClockCheck(const Options& options) noexcept : options_(options) {}
+
+  /// Feeds one robot state: controller time [s] and the host's monotonic time [us] now. A
+  /// non-finite controller time is not fed (the state is unusable anyway). Returns sane().
+  bool update(double robot_time_s, std::int64_t host_mono_us) noexcept;
+  bool sane() const noexcept { return sane_; }
+  /// Faults detected (each state found faulty counts once).
+  std::uint64_t faults() const noexcept { return faults_; }
+  ClockFault lastFault() const noexcept { return last_fault_; }
+
+ private:
+  Options options_;
+  bool have_ = false;
+  bool sane_ = true;
+  std::int64_t prev_robot_us_ = 0;
+  std::int64_t prev_host_us_ = 0;
+  std::int64_t window_robot_us_ = 0;
+  std::int64_t window_host_us_ = 0;
+  std::int64_t sane_since_us_ = 0;
+  std::uint64_t faults_ = 0;
+  ClockFault last_fault_ = ClockFault::kNone;
+};
+
 }  // namespace ftid::daemon

@@ -69,11 +69,43 @@ struct ParameterProblem {
   std::string message;
 };
 
-/// First reason the set is not physically usable, if any: a non-finite value or standard error;
-/// a non-positive `mass`; a non-finite centre of mass; with rigid_body's i_s_* parameters, an
-/// inertia about the centre of mass that is not positive definite or violates the triangle
-/// inequalities beyond 3 standard errors (effects::inertiaAboutCom).
+/// Relative tolerance of the inertia checks (rounding only, not uncertainty).
+inline constexpr double kInertiaRelativeTolerance = 1e-9;
+
+/// First reason the set is not physically possible, if any, whatever its standard errors: a
+/// non-finite value or standard error; a non-positive `mass`; a non-finite centre of mass; with
+/// rigid_body's i_s_* parameters, an inertia about the centre of mass with a negative principal
+/// moment or a violated triangle inequality (beyond kInertiaRelativeTolerance of the tensor's
+/// scale; effects::inertiaAboutCom).
 std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set);
+
+/// What the robot and the sensor can carry (issue 26): a set beyond them is implausible
+/// (a log with a wrong scale, a hand-edited file) and is refused before it is loaded or written.
+struct PlausibilityLimits {
+  /// The robot's rated payload [kg] (UR10 10, UR10e 12.5); infinity = no limit.
+  double max_payload_kg = std::numeric_limits<double>::infinity();
+  std::string payload_source;  ///< where the limit came from, for messages (file and key)
+  /// The sensor's rated range |Fx| |Fy| |Fz| [N] |Tx| |Ty| |Tz| [Nm]; infinity = no limit.
+  Vec6 sensor_range = Vec6::Constant(std::numeric_limits<double>::infinity());
+  std::string range_source;  ///< e.g. the DBC file whose signal ranges these are
+  double gravity_mps2 = 9.81;
+};
+
+/// findParameterProblem(set), then plausibility: `mass` above limits.max_payload_kg; or a static
+/// model wrench beyond the sensor's rated range in the worst orientation: per force axis
+/// |f0_a| + m g, per moment axis |t0_a| + g |(m c) perpendicular to a| (the sensor reads offsets
+/// plus gravity load; every orientation is reachable, so the worst one bounds what it must carry).
+std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set, const PlausibilityLimits& limits);
+
+/// For an identified set whose rigid-body inertia is physically impossible but within 3 standard
+/// errors of a possible one (effects::inertiaAboutCom's valid_within_uncertainty; a small payload's
+/// inertia estimate lands outside now and then): replaces i_s_* by the nearest possible inertia,
+/// the Euclidean projection of the principal moments about the centre of mass onto the
+/// physically possible set (non-negative, each at most the sum of the other two), in the same
+/// principal axes, and notes it in provenance.method. Returns a one-line description of the
+/// change ("" if nothing changed). A set beyond 3 standard errors is left as it is: refused by
+/// findParameterProblem. Used by `ftid identify --out` and `ftid --identify` before writing.
+std::string projectInertiaWithinUncertainty(ParameterSet* set);
 
 /// Reads a parameter file (YAML): a regular file, no duplicate keys, every value finite, and
 /// findParameterProblem() empty. Throws ConfigError naming the file, line and key.

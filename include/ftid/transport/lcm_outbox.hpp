@@ -50,7 +50,8 @@ struct OutboxOptions {
   std::vector<Ipv4Net> allowed_sources;
 };
 
-/// Called on the publisher thread for each command_t received on channels.command.
+/// Called on the publisher thread for each well-formed command_t received on channels.command
+/// (malformed ones are dropped and counted before it; an exception it throws is caught and logged).
 using CommandHandler = void (*)(const ftid_lcm::command_t& command, void* context);
 
 class LcmOutbox {
@@ -99,7 +100,8 @@ class LcmOutbox {
     std::uint64_t published = 0;       ///< messages published successfully (all channels)
     std::uint64_t publish_errors = 0;  ///< publish() returned an error
     std::uint64_t recorded = 0;        ///< events written to the record file
-    std::uint64_t commands = 0;        ///< command_t messages received
+    std::uint64_t commands = 0;        ///< datagrams received on the command channel
+    std::uint64_t malformed = 0;       ///< of those, not a well-formed command_t: dropped
   };
   Counters counters() const noexcept;
   const OutboxOptions& options() const noexcept;

@@ -1,8 +1,10 @@
 // DBC -> sensor layout, frame grouping by rolling counter, health rules, sample encoding.
 #include "ftid/drivers/can/sensor_layout.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "ftid/common/error.hpp"
 
@@ -334,6 +336,22 @@ int encodeSample(const SensorLayout& layout, const SensorValues& values, std::ui
   }
   if (saturated != nullptr) *saturated = sat;
   return n;
+}
+
+std::array<double, 6> ratedWrenchRange(const DbcDatabase& dbc, const SensorSignalNames& names) {
+  std::array<double, 6> range{};
+  for (int a = 0; a < 6; ++a) {
+    const std::string& name = names.fields[static_cast<std::size_t>(a)];
+    const DbcSignal* found = nullptr;
+    for (const auto& m : dbc.messages) {
+      if (const DbcSignal* s = m.findSignal(name)) found = s;
+    }
+    if (found == nullptr) throw DataError(dbc.source + ": no signal '" + name + "' (a wrench axis)");
+    range[static_cast<std::size_t>(a)] = found->hasRange()
+                                             ? std::min(std::abs(found->minimum), std::abs(found->maximum))
+                                             : std::numeric_limits<double>::infinity();
+  }
+  return range;
 }
 
 }  // namespace ftid::drivers::can

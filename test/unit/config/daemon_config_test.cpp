@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -305,6 +306,74 @@ TEST_F(MonitorConfigTest, BadValuesNameTheKeyAndLine) {
   expectError("monitor:\n  channel: 'A B'\n", "monitor.channel");
   expectError("monitor:\n  onset_margin: -1\n", "monitor.onset_margin");
   EXPECT_THROW(parse("monitor:\n  window: 3\n"), ConfigError);  // unknown key
+}
+
+// Issue 26, item 6: the configuration gaps an unlucky operator hit, each refused naming the key
+// and its line; and the silence limit follows the rate.
+TEST_F(DaemonConfigTest, HostsRatesRecordPathsAndUrlsAreValidatedStrictly) {
+  const std::string sensor = "sensor:\n  dbc_path: sensor.dbc\n";
+  expectError("robot:\n  urdf_path: robot.urdf\n  host: 999.1.1.1\n" + sensor, "robot.host", 3, "IPv4");
+  expectError("robot:\n  urdf_path: robot.urdf\n  host: -bad-.example\n" + sensor, "robot.host", 3);
+  expectError("robot:\n  urdf_path: robot.urdf\n  host: 'a b'\n" + sensor, "robot.host", 3);
+  for (const char* ok : {"192.168.1.10", "ur10-cell.local", "::1", "controller"}) {
+    const DaemonConfig c = parseDaemonConfig(std::string("robot:\n  urdf_path: robot.urdf\n  host: '") + ok + "'\n" + sensor,
+                                             "test.yaml", dir_);
+    EXPECT_EQ(c.robot.host, ok);
+  }
+  expectError("robot:\n  urdf_path: robot.urdf\n  rtde_frequency_hz: 125.5\n" + sensor, "robot.rtde_frequency_hz", 3,
+              "500 / n");
+  expectError("robot:\n  urdf_path: robot.urdf\n  rtde_frequency_hz: 300\n" + sensor, "robot.rtde_frequency_hz", 3);
+  for (const double ok : {500.0, 250.0, 125.0, 62.5, 100.0, 1.0}) {
+    const DaemonConfig c = parseDaemonConfig(
+        "robot:\n  urdf_path: robot.urdf\n  rtde_frequency_hz: " + std::to_string(ok) + "\n" + sensor, "test.yaml", dir_);
+    EXPECT_EQ(c.robot.rtde_frequency_hz, ok);
+  }
+  expectError(base() + "record:\n  enabled: true\n  path: /proc/self/mem\n", "record.path", 7, "/proc");
+  expectError(base() + "record:\n  enabled: true\n  path: /dev/null\n", "record.path", 7, "/dev");
+  expectError(base() + "record:\n  enabled: true\n  path: /sys/kernel/x.lcm\n", "record.path", 7);
+  expectError(base() + "record:\n  enabled: true\n  path: " + dir_ + "\n", "record.path", 7);  // a directory
+  EXPECT_TRUE(parse("record:\n  enabled: true\n  path: rec.lcm\n").record.enabled);
+  expectError(base() + "lcm:\n  url: file:///dev/sda\n", "lcm.url", 0, "network provider");
+}
+
+// Loading ftidd.yaml must not depend on who loads it (ftid tare, export, compensate run as an
+// operator): a record directory the caller cannot write is not a config error; ftidd checks it
+// at start as its own user (recordDirWritableProblem, called by the daemon set-up).
+TEST_F(DaemonConfigTest, RecordDirWritabilityIsNotPartOfValidation) {
+  const std::string ro = dir_ + "/ro";
+  ASSERT_EQ(::mkdir(ro.c_str(), 0755), 0);
+  ASSERT_EQ(::chmod(ro.c_str(), 0555), 0);
+  ASSERT_EQ(::chmod(dir_.c_str(), 0755), 0);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {  // child: as an unprivileged user (root may write anywhere)
+    if (::geteuid() == 0 && (::setgid(65534) != 0 || ::setuid(65534) != 0)) ::_exit(10);
+    int code = 0;
+    try {
+      const DaemonConfig c = parse("record:\n  enabled: true\n  path: ro/rec.lcm\n");
+      if (!c.record.enabled) code = 11;
+    } catch (const std::exception&) {
+      code = 12;  // validation refused a directory only this caller cannot write
+    }
+    const std::string problem = recordDirWritableProblem(ro + "/rec.lcm");
+    if (code == 0 && problem.find("not writable") == std::string::npos) code = 13;
+    ::_exit(code);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "10 setuid failed, 12 validation checked writability, 13 no start check";
+  EXPECT_EQ(recordDirWritableProblem(dir_ + "/rec.lcm"), "");
+  ::chmod(ro.c_str(), 0755);
+}
+
+TEST_F(DaemonConfigTest, TheSilenceLimitFollowsTheRate) {
+  EXPECT_EQ(parse("").robot.silent_publish_after_ms, 50.0);  // 125 Hz: 50 ms > 3 periods
+  const DaemonConfig slow = parseDaemonConfig("robot:\n  urdf_path: robot.urdf\n  rtde_frequency_hz: 1\n"
+                                              "sensor:\n  dbc_path: sensor.dbc\n", "test.yaml", dir_);
+  EXPECT_EQ(slow.robot.silent_publish_after_ms, 3000.0);  // 3 periods at 1 Hz
+  expectError("robot:\n  urdf_path: robot.urdf\n  rtde_frequency_hz: 1\n  silent_publish_after_ms: 50\n"
+              "sensor:\n  dbc_path: sensor.dbc\n", "robot.silent_publish_after_ms", 4, "1.5 robot periods");
 }
 
 }  // namespace

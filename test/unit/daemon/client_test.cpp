@@ -17,6 +17,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/client.hpp"
@@ -130,7 +131,10 @@ TEST(DaemonClient, AnLcmThatCannotBeOpenedMeansNothingSent) {
 // commands it receives per kind and, if `answer`, acks each with fixed offsets.
 class FakeDaemon {
  public:
-  FakeDaemon(const std::string& url, bool answer) : lc_(url), answer_(answer) {
+  // poison: before the real ack, send the issue-26 ack with the same request id whose message
+  // length field is 0 (82 bytes; lcm-gen's decoder throws std::length_error on it).
+  FakeDaemon(const std::string& url, bool answer, bool poison = false)
+      : lc_(url), answer_(answer), poison_(poison) {
     lc_.subscribe("T_COMMAND", &FakeDaemon::handle, this);
     (void)lc_.getFileno();  // the receive socket exists before the client sends
     thread_ = std::thread([this] {
@@ -156,6 +160,21 @@ class FakeDaemon {
       if (cmd.command >= 0 && cmd.command < 4) ++counts_[cmd.command];
     }
     if (!answer_) return;
+    if (poison_) {
+      std::vector<std::uint8_t> bad;
+      auto put = [&bad](std::uint64_t v, int n) {
+        for (int i = n - 1; i >= 0; --i) bad.push_back(static_cast<std::uint8_t>(v >> (8 * i)));
+      };
+      put(static_cast<std::uint64_t>(ftid_lcm::ack_t::getHash()), 8);
+      put(0, 8);                                             // utime
+      put(static_cast<std::uint64_t>(cmd.request_id), 8);    // the request id the client waits for
+      put(static_cast<std::uint64_t>(cmd.command), 1);
+      put(1, 1);   // ok
+      put(99, 4);  // param_version
+      put(0, 4);   // message length 0
+      bad.insert(bad.end(), 48, 0);
+      lc_.publish("T_ACK", bad.data(), static_cast<unsigned>(bad.size()));
+    }
     ftid_lcm::ack_t ack{};
     ack.request_id = cmd.request_id;
     ack.command = cmd.command;
@@ -167,6 +186,7 @@ class FakeDaemon {
   }
   lcm::LCM lc_;
   bool answer_;
+  bool poison_;
   std::atomic<bool> stop_{false};
   std::mutex mutex_;
   int counts_[4] = {0, 0, 0, 0};
@@ -221,6 +241,27 @@ TEST(DaemonClientOverLcm, TheAckOffsetsReachTheCaller) {
   EXPECT_EQ(a.param_version, 7);
   for (int i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(a.offsets[static_cast<std::size_t>(i)], 0.5 * (i + 1));
   EXPECT_EQ(daemon.count(DaemonCommand::kTare), 1);
+  ::unlink(key.c_str());
+}
+
+// Issue 26: an ack whose message length is 0 (sent before the real one, with the request id
+// the client waits for) is dropped; `ftid tare` and --identify's reload then get the real
+// answer. Before the fix the decoder's std::length_error escaped sendCommand (ftid tare exit 1,
+// --identify reporting failure after it had loaded the new parameters).
+TEST(DaemonClientOverLcm, AMalformedAckIsDroppedAndTheRealOneCounts) {
+  const std::string key = writeKey("poison.key");
+  const DaemonClientOptions o = privateOptions(key);
+  FakeDaemon daemon(o.lcm_url, /*answer=*/true, /*poison=*/true);
+  if (!daemon.good()) GTEST_SKIP() << "no udpm multicast here (" << o.lcm_url << ")";
+  DaemonClient client(o);
+  for (const DaemonCommand c : {DaemonCommand::kTare, DaemonCommand::kReloadParameters}) {
+    CommandAck a;
+    EXPECT_NO_THROW(a = client.sendCommand(c, 2.0));
+    ASSERT_TRUE(a.answered) << a.describe();
+    EXPECT_TRUE(a.ok);
+    EXPECT_EQ(a.message, "tared");
+    EXPECT_EQ(a.param_version, 7);  // the real ack's, not the malformed one's 99
+  }
   ::unlink(key.c_str());
 }
 

@@ -485,27 +485,129 @@ TEST(DaemonCyclePairing, ARobotStateOlderThanTheHistoryIsStaleNotMispaired) {
   // are inside the history they are paired exactly again (old, but time-consistent).
   ClockedSensor sensor(&linearWrench, kT0 - 50'000 + 337, 1000.0);
   const RunResult run = runCycles(&sensor, 60, kT0, 8000, 1500, 30, 200'000);
+  // Issue 26: whatever the pairing, a cycle is valid only if the sample it uses is at most the
+  // stale timeout old on the host clock; the backlog's exact (time-consistent) pairings are no
+  // longer published as valid once their samples are older than that.
   int stale = 0, one_sided = 0, backlog_exact = 0;
   for (const CycleResult& r : run.cycles) {
     const std::int64_t oldest_t = sensor.time(r.newest.counter - (SensorHistory::kCapacity - 1));
     const std::int64_t before_oldest = oldest_t - r.robot_host_us;
+    const bool fresh = r.now_us - r.rec.sensor.recv_utime <= 20'000;
+    EXPECT_EQ(r.rec.sensor_age_us, r.now_us - r.rec.sensor.recv_utime);
     if (before_oldest > 0) {
       EXPECT_EQ(r.pairing, SensorPairing::kOldest);
       EXPECT_EQ(r.rec.sensor.recv_utime, oldest_t);
       const bool too_far = before_oldest > 20'000;
-      EXPECT_EQ(r.rec.wrench_valid, !too_far);
-      EXPECT_EQ((r.rec.fault_bits & kFaultSensorStale) != 0, too_far);
+      EXPECT_EQ(r.rec.wrench_valid, !too_far && fresh);
+      EXPECT_EQ((r.rec.fault_bits & kFaultSensorStale) != 0, too_far || !fresh);
+      EXPECT_EQ(r.rec.sensor.valid, !too_far);  // the sample itself: stale only by the pairing
       ++(too_far ? stale : one_sided);
     } else {
-      EXPECT_TRUE(r.rec.wrench_valid) << r.rec.cycle;
+      EXPECT_EQ(r.rec.wrench_valid, fresh) << r.rec.cycle;
       EXPECT_EQ(r.pairing, SensorPairing::kInterpolated);
       EXPECT_LE(maxAbs(r.rec.sensor.wrench_S - sensor.value(r.robot_host_us)), 1e-9);
-      if (r.now_us - r.robot_host_us > 20'000) ++backlog_exact;
+      if (r.now_us - r.robot_host_us > 20'000) {
+        ++backlog_exact;
+        EXPECT_FALSE(r.rec.wrench_valid) << "a backlog cycle with a " << r.rec.sensor_age_us << " us old sample";
+        EXPECT_TRUE(r.rec.sensor.valid);  // time-consistent data, still recorded for identification
+        EXPECT_NE(r.rec.fault_bits & kFaultSensorStale, 0u);
+      }
     }
   }
   EXPECT_GE(stale, 5);
   EXPECT_GE(one_sided, 1);
   EXPECT_GE(backlog_exact, 5);
+}
+
+// Issue 26, item 2: the RTDE timestamp frozen for 1 s at a time while the arm moves. Before,
+// the robot state's frozen time paired ever older samples, each time-consistent with it, and
+// cycles were published valid with samples up to 128 ms old. Now no valid cycle uses a sample
+// older than the stale timeout, the frozen clock is detected and counted, and cycles are
+// invalid while it is frozen and for the recovery time after it.
+TEST(DaemonCyclePairing, AFrozenControllerClockNeverPublishesStaleSamplesAsValid) {
+  ClockedSensor sensor(&smoothWrench, kT0 - 50'000 + 337, 1000.0);
+  ScriptedArm arm;
+  test::FixedMotion motion;
+  rt::OwnedSwapSlot<Compensation> slot(std::make_unique<test::OffsetCompensation>(Wrench::Zero()));
+  CycleOptions opt;
+  opt.stale_timeout_us = 20'000;
+  opt.now_us = &test::fakeNowUs;  // and the monotonic clock of the clock check (one fake)
+  DaemonCycle cycle(&arm, &sensor, &motion, &slot, nullptr, opt);
+  std::mt19937 rng(7);
+  std::exponential_distribution<double> jitter(1.0 / 250.0);
+  const int n_cycles = 1000;  // 8 s at 125 Hz: frozen during [1, 2) s and [4, 5) s
+  auto frozen = [](int n) { return (n >= 125 && n < 250) || (n >= 500 && n < 625); };
+  double robot_time = 7200.0;
+  int valid = 0, valid_after_recovery = 0, cycles_after_recovery = 0;
+  std::int64_t oldest_valid_age = 0;
+  for (int n = 0; n < n_cycles; ++n) {
+    const std::int64_t host_us = kT0 + 8000LL * n;
+    if (!frozen(n)) robot_time = 7200.0 + 0.008 * n;  // resumes at its true value: a jump
+    arm.next.valid = true;
+    arm.next.robot_time = robot_time;
+    arm.next.recv_utime = host_us + (n % 10 == 0 ? 0 : static_cast<std::int64_t>(std::min(jitter(rng), 3000.0)));
+    test::g_fake_now_us = arm.next.recv_utime + 15;
+    ASSERT_EQ(cycle.waitForTick(std::chrono::milliseconds(12)), Status::kOk);
+    cycle.onTick();
+    const CycleRecord& r = cycle.lastRecord();
+    if (r.wrench_valid) {
+      ++valid;
+      oldest_valid_age = std::max(oldest_valid_age, r.sensor_age_us);
+      EXPECT_FALSE(frozen(n)) << "cycle " << n << " valid with a frozen controller clock";
+    }
+    if (frozen(n)) {
+      EXPECT_NE(r.fault_bits & kFaultRobotClock, 0u) << n;
+      EXPECT_FALSE(r.robot.valid) << n;  // left out of identification logs as well
+    }
+    // 0.5 s (63 cycles) after each freeze the clock is sane again and cycles are valid.
+    const bool recovered = (n >= 250 + 63 && n < 500) || n >= 625 + 63;
+    if (recovered) {
+      ++cycles_after_recovery;
+      if (r.wrench_valid) ++valid_after_recovery;
+    }
+  }
+  EXPECT_LE(oldest_valid_age, 20'000);
+  EXPECT_GE(cycle.counters().robot_clock_faults.load(), 2u * 124u);  // every frozen state after the first
+  EXPECT_GT(cycle.counters().robot_clock_invalid.load(), 2u * 124u);
+  EXPECT_EQ(valid_after_recovery, cycles_after_recovery);
+  EXPECT_GT(valid, 600);
+}
+
+TEST(ControllerClockCheck, DetectsStopsJumpsAndWrongRatesAndRecovers) {
+  ControllerClockCheck::Options o;
+  ControllerClockCheck c(o);
+  std::int64_t host = 1'000'000;
+  double robot = 50.0;
+  for (int k = 0; k < 1000; ++k, host += 8000, robot += 0.008) EXPECT_TRUE(c.update(robot, host)) << k;
+  EXPECT_EQ(c.faults(), 0u);
+  EXPECT_FALSE(c.update(robot - 0.008, host));  // the same time again: stopped
+  EXPECT_EQ(c.lastFault(), ClockFault::kStopped);
+  host += 8000;
+  EXPECT_FALSE(c.update(robot + 1.0, host));  // 1 s ahead in one 8 ms step: a jump
+  EXPECT_EQ(c.lastFault(), ClockFault::kJump);
+  robot += 1.0;
+  int k = 0;
+  for (; !c.update(robot, host); ++k, host += 8000, robot += 0.008) {
+  }
+  EXPECT_NEAR(k * 8000, o.recovery_us, 8000);  // sane after the recovery time
+  EXPECT_FALSE(c.update(1.0, host + 8000));    // backwards
+  EXPECT_EQ(c.lastFault(), ClockFault::kBackwards);
+  // 10 % fast for longer than the rate window: a rate fault (no single step is a jump).
+  ControllerClockCheck fast(o);
+  host = 0;
+  robot = 10.0;
+  bool seen = false;
+  for (int i = 0; i < 1000 && !seen; ++i, host += 8000, robot += 0.0088) seen = !fast.update(robot, host);
+  EXPECT_TRUE(seen);
+  EXPECT_EQ(fast.lastFault(), ClockFault::kRate);
+  // Host-side stalls (a state processed 200 ms late, then the backlog quickly) are no fault.
+  ControllerClockCheck stall(o);
+  host = 0;
+  robot = 10.0;
+  for (int i = 0; i < 2000; ++i, robot += 0.008) {
+    host += (i % 500 == 100) ? 200'000 : (i % 500 > 100 && i % 500 < 125 ? 0 : 8000);
+    EXPECT_TRUE(stall.update(robot, host)) << i;
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "ftid/drivers/ur/rtde_protocol.hpp"
 #include "ftid/motion/motion_runner.hpp"
 #include "../../support/fake_arm.hpp"
+#include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 
 using ftid::JointVector;
@@ -240,4 +241,121 @@ TEST(MotionWatchdog, AStallOfTheCallingThreadBeforeTheLoopIsNotALoss) {
   // The same gap later in the run is a loss.
   const ArmedRun later = runArming(false, -1, 0, 400, 19);
   EXPECT_EQ(later.result.status, motion::RunStatus::kLostPackets) << later.result.message;
+}
+
+// Issue 26, item 7: the tracking error is measured against what the arm was commanded. A host
+// stall (the client reads nothing for a tick, the controller holds the last target) must not
+// abort the run; an arm that stops following its commands must still stop it.
+namespace {
+class BlockedArm : public FakeArm {
+ public:
+  using FakeArm::FakeArm;
+  std::size_t block_after = static_cast<std::size_t>(-1);  ///< the arm stops moving after this many targets
+  Status sendServoTarget(const JointVector& q) noexcept override {
+    if (targets >= block_after) {
+      if (!held_) {
+        held_ = true;
+        held_q_ = q;
+      }
+      return FakeArm::sendServoTarget(held_q_);  // blocked: the commands no longer move it
+    }
+    return FakeArm::sendServoTarget(q);
+  }
+
+ private:
+  bool held_ = false;
+  JointVector held_q_ = JointVector::Zero();
+};
+
+motion::RunResult runTracking(double limit, int gap_at_call, std::size_t block_after) {
+  const auto file = shipped();
+  const auto traj = file.toTrajectory();
+  BlockedArm arm(0.008, file.q0);
+  arm.gap_at_call = gap_at_call;
+  arm.gap_ticks = 1;  // 16 ms between two states: within the lost-package limit (24 ms)
+  arm.block_after = block_after;
+  motion::MotionConfig cfg;
+  cfg.realtime.enable = false;
+  cfg.tracking_error_limit = limit;
+  motion::EvaluatedTrajectory<ftid::trajectory::FourierTrajectory> src(traj);
+  motion::MotionRunner runner(arm, cfg, motion::MotionRunner::capacityFor(traj.duration(), 0.008));
+  return runner.run(src);
+}
+}  // namespace
+
+TEST(MotionTracking, AHostStallIsNoTrackingErrorButABlockedJointIs) {
+  // The arm follows its commands exactly (one tick late): no tracking error at all, so a limit
+  // of 1 mrad is met; with one tick not read 2 s into the excitation the trajectory's time ran 8 ms ahead of the
+  // last command (|qd| x 8 ms, far above 1 mrad on the shipped excitation), which used to abort.
+  const motion::RunResult plain = runTracking(1e-3, -1, static_cast<std::size_t>(-1));
+  ASSERT_EQ(plain.status, motion::RunStatus::kCompleted) << plain.message;
+  // FakeArm's time starts at 100 s and advances one period per call: the call 2 s into the excitation.
+  const int excite_call = static_cast<int>((plain.excitation_start_timestamp - 100.0) / 0.008);
+  const motion::RunResult stall = runTracking(1e-3, excite_call + 250, static_cast<std::size_t>(-1));
+  EXPECT_EQ(stall.status, motion::RunStatus::kCompleted) << stall.message;
+  EXPECT_LT(stall.max_tracking_error, 1e-9);
+  // The arm blocked after 300 targets: aborted with a tracking error at the default limit.
+  const motion::RunResult blocked = runTracking(0.05, -1, 300);
+  EXPECT_EQ(blocked.status, motion::RunStatus::kTrackingError) << blocked.message;
+  EXPECT_GT(blocked.max_tracking_error, 0.05);
+}
+
+// Issue 26, item 3: the floor and the limits come from the cell's configuration; a trajectory
+// file can only tighten them. The issue's edit: floor_z -10 and a widened limit in the
+// trajectory, whose (edited) start pose swings the tool below the floor.
+TEST(CellLimits, ATrajectoryCanOnlyTightenTheCellsLimits) {
+  const ftid::trajectory::CellLimits cell = ftid::trajectory::readCellLimits(FTID_SOURCE_DIR "/config/cell_limits.yaml");
+  auto file = shipped();
+  file.q0[1] = -0.6;                      // the tool swings ~0.26 m below the floor
+  file.constraints.floor_z_B = -10.0;     // the edit: move the floor away
+  file.constraints.velocity[4] = 100.0;   // and widen a limit
+  ASSERT_TRUE(ftid::design::checkTrajectory(file.toTrajectory(), ur10(), file.constraints).ok())
+      << "the trajectory's own constraints let it pass (what check-trajectory said before)";
+  ftid::trajectory::LimitSources src;
+  const auto eff = ftid::trajectory::effectiveConstraints(file.constraints, "traj.yaml", cell, &src);
+  EXPECT_EQ(eff.floor_z_B, 0.0);
+  EXPECT_EQ(src.floor_z, cell.path);
+  EXPECT_EQ(eff.velocity[4], cell.velocity[4]);
+  EXPECT_EQ(src.velocity[4], cell.path);
+  EXPECT_EQ(eff.velocity[0], 1.0);  // the trajectory's tighter limit stays, and says so
+  EXPECT_EQ(src.velocity[0], "traj.yaml");
+  ASSERT_EQ(eff.keep_out.size(), file.constraints.keep_out.size() + cell.keep_out.size());
+  const auto report = ftid::design::checkTrajectory(file.toTrajectory(), ur10(), eff);
+  ASSERT_FALSE(report.ok());
+  EXPECT_NE(joined(report.violations()).find("above floor"), std::string::npos) << joined(report.violations());
+  const std::string described = ftid::trajectory::describeLimits(eff, src);
+  EXPECT_NE(described.find("floor_z 0 m (" + cell.path + ")"), std::string::npos) << described;
+  EXPECT_NE(described.find("velocity [1, 1, 1.5, 2, 3.1416, 2] rad/s (j1-4 traj.yaml, j5 " + cell.path + ", j6 traj.yaml)"),
+            std::string::npos)
+      << described;
+  // The unedited shipped trajectory holds within the shipped cell's limits.
+  const auto shipped_file = shipped();
+  EXPECT_TRUE(ftid::design::checkTrajectory(shipped_file.toTrajectory(), ur10(),
+                                            ftid::trajectory::effectiveConstraints(shipped_file.constraints, "s",
+                                                                                   cell, nullptr))
+                  .ok());
+}
+
+TEST(CellLimits, BadFilesNameTheFileLineAndKey) {
+  const auto error = [](const std::string& text) {
+    try {
+      (void)ftid::trajectory::parseCellLimitsText(text, "cell.yaml");
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string six = "[0, 0, 0, 0, 0, 0]";
+  const std::string ok_rest = "  velocity: [1, 1, 1, 1, 1, 1]\n  acceleration: [1, 1, 1, 1, 1, 1]\n  floor_z: 0\n";
+  EXPECT_NE(error("limits:\n  position_lower: " + six + "\n" + ok_rest).find("cell.yaml"), std::string::npos);
+  EXPECT_NE(error("limits:\n  position_lower: " + six + "\n" + ok_rest).find("position_upper"), std::string::npos);
+  EXPECT_NE(error("limits:\n  position_lower: [1, 1, 1, 1, 1, 1]\n  position_upper: " + six + "\n" + ok_rest)
+                .find("cell.yaml:3"),
+            std::string::npos);
+  const std::string unknown = error("limits:\n  position_lower: " + six + "\n  position_upper: [1, 1, 1, 1, 1, 1]\n" +
+                                    ok_rest + "  floor: 0\n");
+  EXPECT_NE(unknown.find("cell.yaml:7"), std::string::npos) << unknown;
+  EXPECT_NE(unknown.find("'limits.floor'"), std::string::npos) << unknown;
+  EXPECT_EQ(error("limits:\n  position_lower: " + six + "\n  position_upper: [1, 1, 1, 1, 1, 1]\n" + ok_rest),
+            "no error");
 }

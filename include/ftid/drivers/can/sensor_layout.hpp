@@ -32,6 +32,11 @@ struct SensorSignalNames {
   std::string counter = "Counter";  ///< must be present, same length, in every sample message
 };
 
+/// The sensor's rated wrench range from the DBC (issue 26, parameter plausibility): per wrench
+/// axis Fx..Tz the smaller of |minimum| and |maximum| of the signal's [min|max]; infinity where
+/// the DBC gives no range. Throws DataError naming the DBC if a wrench signal is missing.
+std::array<double, 6> ratedWrenchRange(const DbcDatabase& dbc, const SensorSignalNames& names = {});
+
 /// The frames making up one sample, compiled from a DBC (set-up time; throws DataError naming the
 /// DBC file and the missing/inconsistent signal).
 class SensorLayout {
