@@ -159,31 +159,47 @@ std::vector<Refusal> identifiabilityRefusals(const FitView& f) {
       return out;
     }
   }
-  // A payload parameter that the richer model no longer determines, because an added parameter
-  // takes over its role (the richer model's own standard error against the value).
+  // A payload parameter that the richer model no longer determines, because the added parameters
+  // take over its role: its multiple correlation with the whole added block in M+E's own
+  // covariance, R^2 = S_iA S_AA^-1 S_Ai / S_ii (several added parameters can share the role, each
+  // with a modest pairwise correlation). The added parameter with the largest |r| is named.
+  std::vector<int> block;
+  for (int j = 0; j < n; ++j) {
+    if (isAdded(f, j) && sdOf(f, j) > 0.0) block.push_back(j);
+  }
+  if (block.empty()) return out;
+  const auto na = static_cast<Eigen::Index>(block.size());
+  Eigen::MatrixXd s_aa(na, na);
+  for (Eigen::Index a = 0; a < na; ++a) {
+    for (Eigen::Index b = 0; b < na; ++b) s_aa(a, b) = f.covariance(block[static_cast<std::size_t>(a)], block[static_cast<std::size_t>(b)]);
+  }
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> s_aa_inv(s_aa);
   for (int i = 0; i < n; ++i) {
     if (isAdded(f, i)) continue;
     const std::string& name = f.names[static_cast<std::size_t>(i)];
     const double bound = determinedBound(f, name);
     const double sd = sdOf(f, i);
     if (!(bound > 0.0) || sd <= bound) continue;
+    Eigen::VectorXd s_ai(na);
     double worst = 0.0;
     int partner = -1;
-    for (int j = 0; j < n; ++j) {
-      if (!isAdded(f, j)) continue;
-      const double den = sd * sdOf(f, j);
-      if (!(den > 0.0)) continue;
-      const double r = std::abs(f.covariance(i, j) / den);
+    for (Eigen::Index a = 0; a < na; ++a) {
+      const int j = block[static_cast<std::size_t>(a)];
+      s_ai(a) = f.covariance(j, i);
+      const double r = std::abs(s_ai(a) / (sd * sdOf(f, j)));
       if (r > worst) {
         worst = r;
         partner = j;
       }
     }
-    if (partner < 0 || worst < 0.9) continue;  // not the candidate's doing
+    const double r2 = std::clamp(s_ai.dot(s_aa_inv.solve(s_ai)) / (sd * sd), 0.0, 1.0);
+    const double multiple_r = std::sqrt(r2);
+    if (partner < 0 || multiple_r < 0.9) continue;  // not the candidate's doing
     const auto& pname = f.names[static_cast<std::size_t>(partner)];
     const auto [why, how] = explainPair(pname, name);
     out.push_back({name + " is no longer determined with " + pname + " (" + fmt(f.theta(i), 4) + " +- " + fmt(sd, 3) +
-                       ", |correlation| " + fmt(worst, 4) + "): " + pname + " and the " +
+                       ", multiple correlation with the added parameters " + fmt(multiple_r, 4) + ", |correlation| with " +
+                       pname + " " + fmt(worst, 4) + "): " + pname + " and the " +
                        (name == "mass" ? std::string("mass") : name) + " are confounded: " + why,
                    how});
     return out;

@@ -21,7 +21,7 @@ IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "
                  "heldout_rms", "residual_to_noise", "glitches", "warnings", "physical_validity", "imu"]
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "warnings",
-                "raw_rms", "fit", "windows", "correlations", "candidates", "family_alpha", "family_size", "unphysical", "seconds"]
+                "raw_rms", "fit", "windows", "correlations", "candidates", "family_alpha", "family_size", "heldout_margin", "unphysical", "seconds"]
 CANDIDATE_KEYS = ["effect", "relative_reduction", "significant", "p_value", "f_statistic", "added_params",
                   "delta_bic", "residual_rms", "description", "next_command", "skipped", "note",
                   "confounded", "confound", "separating_motion", "verdict", "family_p_value", "reason"]

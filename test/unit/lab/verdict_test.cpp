@@ -151,6 +151,23 @@ TEST(Verdict, IdentifiabilityIsJudgedByTheRicherModelsOwnCovariance) {
   ASSERT_EQ(r.size(), 1u);
   EXPECT_NE(r[0].reason.find("mass is no longer determined"), std::string::npos) << r[0].reason;
   EXPECT_NE(r[0].reason.find("cable_ka_z"), std::string::npos) << r[0].reason;
+  // Two added parameters, each correlated only 0.7 with the undetermined mass (no pair reaches
+  // 0.9) and not with each other, together explain 98 % of its variance (multiple correlation 0.99):
+  // refused. With one of them at 0.6 and the other at 0 (multiple correlation 0.6): not the
+  // candidate's doing, not refused.
+  const int ck2 = col(f, "cable_ka_x");
+  ASSERT_GE(ck2, 0);
+  f.covariance(ck2, ck2) = sk * sk;
+  f.covariance(cm, ck) = f.covariance(ck, cm) = 0.7 * sm2 * sk;
+  f.covariance(cm, ck2) = f.covariance(ck2, cm) = 0.7 * sm2 * sk;
+  const auto r3 = lab::identifiabilityRefusals(f);
+  ASSERT_EQ(r3.size(), 1u);
+  EXPECT_NE(r3[0].reason.find("mass is no longer determined"), std::string::npos) << r3[0].reason;
+  EXPECT_NE(r3[0].reason.find("multiple correlation with the added parameters 0.9899"), std::string::npos) << r3[0].reason;
+  f.covariance(cm, ck) = f.covariance(ck, cm) = 0.6 * sm2 * sk;
+  f.covariance(cm, ck2) = f.covariance(ck2, cm) = 0.0;
+  EXPECT_TRUE(lab::identifiabilityRefusals(f).empty());
+  f.covariance(ck2, ck2) = 1e-6;
   // A direction the data do not determine at all (rank deficiency) mixing the two.
   f.covariance(cm, cm) = sm * sm;
   f.covariance(cm, ck) = f.covariance(ck, cm) = 0.0;
