@@ -4,6 +4,7 @@
 
 #include "command.hpp"
 #include "ftid/cell/exports.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/compensate/compensate_log.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/plausibility.hpp"
@@ -28,7 +29,9 @@ const char* const kUsage =
     "  --config FILE     the cell's ftidd configuration, for the plausibility limits: the robot's\n"
     "                    rated payload (robot.rated_payload_kg) and the sensor's rated range (the\n"
     "                    DBC's signal ranges); default /etc/ftid/ftidd.yaml if it exists, else the\n"
-    "                    shipped ftidd.yaml\n"
+    "                    shipped ftidd.yaml. Only these two keys are read; if the file or a key\n"
+    "                    cannot be read, the defaults are used (10 kg; the shipped DBC's ranges).\n"
+    "                    The limits used and their sources are printed on stderr\n"
     "\n"
     "A parameter set that is physically impossible (whatever its standard errors) or beyond what\n"
     "the robot and sensor can carry is refused before anything is computed (docs/identification.md\n"
@@ -52,11 +55,18 @@ int runCompensate(const std::vector<std::string>& argv) {
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
-  if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-  ftid::daemon::requirePlausible(ftid::params::readParameterFile(req.params_path),
-                                 ftid::daemon::plausibilityLimits(ftid::config::loadDaemonConfig(config)),
-                                 req.params_path);
-  const auto s = ftid::compensate::compensateLogFile(req);
+  if (config.empty()) {
+    try {
+      config = ftid::cell::defaultExportConfigPath();
+    } catch (const ftid::ConfigError&) {  // none installed: the default limits (said in the note)
+    }
+  }
+  // Only the plausibility inputs are read from the config; a bad or absent one means defaults.
+  const ftid::daemon::OfflineLimits limits = ftid::daemon::offlinePlausibilityLimits(config);
+  std::fprintf(stderr, "ftid compensate: %s\n", limits.note.c_str());
+  const ftid::params::ParameterSet set = ftid::params::readParameterFile(req.params_path);
+  ftid::daemon::requirePlausible(set, limits.limits, req.params_path);
+  const auto s = ftid::compensate::compensateLogFile(req, set);  // the checked set, not a re-read
   std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
   if (s.n_without_kinematics > 0) {
     std::printf("%d samples left out: with the identified sensor delay their kinematics lie outside the log\n",

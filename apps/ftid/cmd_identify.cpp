@@ -36,7 +36,10 @@ const char* const kUsage =
     "                    sensor's rated range from its DBC) and the exports (sensor mount, `export:`\n"
     "                    section); default /etc/ftid/ftidd.yaml if it exists, else the shipped one.\n"
     "                    With --out, a set that is physically impossible or beyond the robot's\n"
-    "                    payload or the sensor's range is not written: exit 1 with the reason\n"
+    "                    payload or the sensor's range is not written: exit 1 with the reason.\n"
+    "                    For the limits only those two keys are read; a file or key that cannot\n"
+    "                    be read means the defaults (10 kg, the shipped DBC), and the limits used\n"
+    "                    are printed on stderr (the exports then are not written, with a warning)\n"
     "  --max-delay S     models with sensor_delay: search the delay in +-S seconds (default 1)\n"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
@@ -84,18 +87,30 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!out.empty()) {
     // An inertia estimate just outside the possible set (within 3 standard errors) is written as
     // the nearest possible one, and said so; beyond that, or implausible: nothing is written.
-    if (const std::string note = ftid::params::projectInertiaWithinUncertainty(&set); !note.empty()) {
+    std::string not_projected;
+    if (const std::string note = ftid::params::projectInertiaWithinUncertainty(&set, &not_projected); !note.empty()) {
       std::cerr << "ftid identify: note: " << note << "\n";
     }
     // Plausibility first (issue 26): nothing is written for a set the cell cannot carry.
-    if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-    const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);
-    if (const auto problem = ftid::params::findParameterProblem(set, ftid::daemon::plausibilityLimits(cell_config))) {
-      throw ftid::IdentificationError(out + ": not written: '" + problem->key + "': " + problem->message);
+    // Only the plausibility inputs are read from the config: a bad or absent one means defaults.
+    if (config.empty()) {
+      try {
+        config = ftid::cell::defaultExportConfigPath();
+      } catch (const ftid::ConfigError&) {  // none installed: the default limits (said in the note)
+      }
+    }
+    const ftid::daemon::OfflineLimits limits = ftid::daemon::offlinePlausibilityLimits(config);
+    std::cerr << "ftid identify: " << limits.note << "\n";
+    if (const auto problem = ftid::params::findParameterProblem(set, limits.limits)) {
+      throw ftid::IdentificationError(out + ": not written: '" + problem->key + "': " + problem->message +
+                                      (not_projected.empty() ? "" : " (" + not_projected + ")"));
     }
     ftid::params::writeParameterFile(out, set);
-    // The parameters are written; a failed export is named in the warning.
+    // The parameters are written; a failed export (the exports need the whole, valid config) is
+    // named in the warning.
     try {
+      if (config.empty()) throw ftid::ConfigError("no ftidd configuration found");
+      const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);
       exports = ftid::cell::writeExports(set, cell_config, out + ".ros2.yaml", out + ".urscript");
     } catch (const std::exception& e) {
       std::cerr << "ftid identify: WARNING: exports not written: " << e.what() << "\n";

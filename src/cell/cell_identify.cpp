@@ -539,7 +539,11 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // possible one, and said so; the cell's plausibility limits are checked before anything is
   // written (issue 26).
   try {
-    if (const std::string note = params::projectInertiaWithinUncertainty(&set); !note.empty()) print("  note: " + note);
+    std::string not_projected;
+    if (const std::string note = params::projectInertiaWithinUncertainty(&set, &not_projected); !note.empty()) {
+      print("  note: " + note);
+    }
+    if (!not_projected.empty()) print("  " + not_projected);
     daemon::requirePlausible(set, daemon::plausibilityLimits(cfg), params_path + " (identified)");
   } catch (const std::exception& e) {
     result.message = "identification refused: " + std::string(e.what()) + "; parameters unchanged, " + data_note;
