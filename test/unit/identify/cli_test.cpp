@@ -190,8 +190,9 @@ TEST(IdentifyCli, OutRefusesAnImplausibleSetAndABadConfigMeansDefaults) {
   const std::string negative = dir() + "negative_inertia.yaml";
   std::ofstream(negative) << "model: paper+rigid_body\nparameters:\n  mass: {value: 0.9, std: 0.01}\n"
                              "  mass_com_z: {value: 0.045, std: 0.001}\n  i_s_xx: {value: -5, std: 100}\n"
-                             "  i_s_yy: {value: 0.01, std: 0.001}\n  i_s_zz: {value: 0.002, std: 0.001}\n";
-  for (const auto& [file, key] : {std::pair<std::string, std::string>{negative, "i_s_xx"}, {heavy, "mass"}}) {
+                             "  i_s_yy: {value: 0.01, std: 0.001}\n  i_s_zz: {value: 0.002, std: 0.001}\n"
+                             "  i_s_xy: {value: 0}\n  i_s_xz: {value: 0}\n  i_s_yz: {value: 0}\n";
+  for (const auto& [file, key] : {std::pair<std::string, std::string>{negative, "parameters.i_s_xx': invalid inertia"}, {heavy, "mass"}}) {
     std::remove(csv.c_str());
     const CliRun x = ftidRun("compensate --log " + good_log + " --params " + file + " --out " + csv);
     EXPECT_EQ(x.code, 1) << key << ": " << x.err;
