@@ -283,8 +283,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   trajectory::LimitSources limit_sources;
   const trajectory::TrajectoryConstraints limits = trajectory::effectiveConstraints(
       traj_file.constraints, traj_path,
-      trajectory::readCellLimits(o.cell_limits_path.empty() ? trajectory::defaultCellLimitsPath() : o.cell_limits_path),
-      &limit_sources);
+      trajectory::applicableCellLimits(o.cell_limits_path), &limit_sources);  // --cell only tightens
   print("  limits (a trajectory can only tighten the cell's):");
   {
     std::istringstream lines(trajectory::describeLimits(limits, limit_sources));
