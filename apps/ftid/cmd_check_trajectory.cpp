@@ -32,7 +32,9 @@ const char* kUsage =
     "the\n"
     "                  constraints recorded in the file\n"
     "  --cell FILE     the cell's safety limits (floor, keep-out spheres, joint position, speed\n"
-    "                  and acceleration limits; default /etc/ftid/cell_limits.yaml if it exists,\n"
+    "                  and acceleration limits; more limits ON TOP of the installed\n"
+    "                  /etc/ftid/cell_limits.yaml, which always applies when present: --cell only tightens;\n"
+    "                  default: the installed file if it exists,\n"
     "                  else the shipped config/cell_limits.yaml). The trajectory's own constraints\n"
     "                  (or --config's) can only tighten them; the limits checked are printed with\n"
     "                  the file each came from\n"
@@ -60,10 +62,9 @@ int runCheck(const std::vector<std::string>& argv) {
   const auto kin = model::RobotKinematics::fromUrdfFile(robot);
   trajectory::TrajectoryConstraints constraints = file.constraints;
   if (!config.empty()) constraints = design::loadDesignConstraints(config, kin, file.q0);
-  if (cell.empty()) cell = trajectory::defaultCellLimitsPath();
-  trajectory::LimitSources sources;
+  trajectory::LimitSources sources;  // the installed cell limits always apply; --cell only tightens them
   constraints = trajectory::effectiveConstraints(constraints, config.empty() ? pos[0] : config,
-                                                 trajectory::readCellLimits(cell), &sources);
+                                                 trajectory::applicableCellLimits(cell), &sources);
 
   const design::CheckReport report =
       design::checkTrajectory(file.toTrajectory(), kin, constraints, dt);

@@ -5,6 +5,7 @@
 #include "command.hpp"
 #include "input_flags.hpp"
 #include "ftid/cell/exports.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/compensate/compensate_log.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/plausibility.hpp"
@@ -30,7 +31,10 @@ const char* const kUsage =
     "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics, and its\n"
     "                    plausibility limits: the robot's rated payload (robot.rated_payload_kg) and\n"
     "                    the sensor's rated range (the DBC's signal ranges); for the limits the\n"
-    "                    default is /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml\n"
+    "                    default is /etc/ftid/ftidd.yaml if it exists, else the shipped ftidd.yaml;\n"
+    "                    for the limits only those two keys are read, and a file or key that cannot\n"
+    "                    be read means the defaults (10 kg; the shipped DBC's ranges), printed on\n"
+    "                    stderr with their sources\n"
     "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
@@ -73,11 +77,18 @@ int runCompensate(const std::vector<std::string>& argv) {
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
     throw ftid::cli::UsageError("--log, --params and --out are required");
   }
-  if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-  ftid::daemon::requirePlausible(ftid::params::readParameterFile(req.params_path),
-                                 ftid::daemon::plausibilityLimits(ftid::config::loadDaemonConfig(config)),
-                                 req.params_path);
-  const auto s = ftid::compensate::compensateLogFile(req);
+  if (config.empty()) {
+    try {
+      config = ftid::cell::defaultExportConfigPath();
+    } catch (const ftid::ConfigError&) {  // none installed: the default limits (said in the note)
+    }
+  }
+  // Only the plausibility inputs are read from the config; a bad or absent one means defaults.
+  const ftid::daemon::OfflineLimits limits = ftid::daemon::offlinePlausibilityLimits(config);
+  std::fprintf(stderr, "ftid compensate: %s\n", limits.note.c_str());
+  const ftid::params::ParameterSet set = ftid::params::readParameterFile(req.params_path);
+  ftid::daemon::requirePlausible(set, limits.limits, req.params_path);
+  const auto s = ftid::compensate::compensateLogFile(req, set);  // the checked set, not a re-read
   std::printf("%d samples compensated -> %s\n", s.n_samples, req.out_csv.c_str());
   if (s.n_without_kinematics > 0) {
     std::printf("%d samples left out: with the identified sensor delay their kinematics lie outside the log\n",

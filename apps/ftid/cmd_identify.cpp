@@ -42,12 +42,15 @@ const char* const kUsage =
     "  --out FILE        write the parameter file (YAML, atomically; the previous one kept as .bak)\n"
     "                    and its exports beside it: FILE.ros2.yaml (ros2_control) and FILE.urscript\n"
     "                    (UR set_target_payload); docs/operations.md \"Exports\", `ftid export`\n"
-    "  --config FILE     ftidd configuration: its sensor mount (X_FS) builds the kinematics; with\n"
-    "                    --out its plausibility limits (robot.rated_payload_kg, the sensor's rated\n"
-    "                    range from its DBC) and the exports (`export:` section); for those the\n"
-    "                    default is /etc/ftid/ftidd.yaml if it exists, else the shipped one. A set\n"
-    "                    that is physically impossible or beyond the robot's payload or the sensor's\n"
-    "                    range is not written: exit 1 with the reason\n"
+    "  --config FILE     ftidd configuration for the plausibility limits (robot.rated_payload_kg, the\n"
+    "                    sensor's rated range from its DBC) and the exports (sensor mount, `export:`\n"
+    "                    section); default /etc/ftid/ftidd.yaml if it exists, else the shipped one.\n"
+    "                    With --out, a set that is physically impossible or beyond the robot's\n"
+    "                    payload or the sensor's range is not written: exit 1 with the reason.\n"
+    "                    For the limits only those two keys are read; a file or key that cannot\n"
+    "                    be read means the defaults (10 kg, the shipped DBC), and the limits used\n"
+    "                    are printed on stderr (the exports then are not written, with a warning).\n"
+    "                    Its sensor mount (X_FS) also builds the kinematics\n"
     "  --mount-rpy R,P,Y the sensor's orientation in the flange frame, R_FS = Rz(Y) Ry(P) Rx(R) [rad]\n"
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
@@ -151,7 +154,10 @@ int runIdentify(const std::vector<std::string>& argv) {
   }
   // An inertia estimate just outside the possible set (within its uncertainty) is reported and
   // written as the nearest possible one, and said so (params::projectInertiaWithinUncertainty).
-  if (const std::string note = ftid::params::projectInertiaWithinUncertainty(&id.set); !note.empty()) {
+  // Beyond that (too far, or standard errors too large against the tensor) nothing is changed and
+  // `not_projected` says why.
+  std::string not_projected;
+  if (const std::string note = ftid::params::projectInertiaWithinUncertainty(&id.set, &not_projected); !note.empty()) {
     std::cerr << "ftid identify: note: " << note << "\n";
   }
   const ftid::params::ParameterSet& set = id.set;
@@ -161,14 +167,25 @@ int runIdentify(const std::vector<std::string>& argv) {
   std::string exports;
   if (!out.empty() && validity.valid) {
     // Plausibility (issue 26): nothing is written for a set the cell cannot carry.
-    if (config.empty()) config = ftid::cell::defaultExportConfigPath();
-    const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);
-    if (const auto problem = ftid::params::findParameterProblem(set, ftid::daemon::plausibilityLimits(cell_config))) {
-      throw ftid::IdentificationError(out + ": not written: '" + problem->key + "': " + problem->message);
+    // Only the plausibility inputs are read from the config: a bad or absent one means defaults.
+    if (config.empty()) {
+      try {
+        config = ftid::cell::defaultExportConfigPath();
+      } catch (const ftid::ConfigError&) {  // none installed: the default limits (said in the note)
+      }
+    }
+    const ftid::daemon::OfflineLimits limits = ftid::daemon::offlinePlausibilityLimits(config);
+    std::cerr << "ftid identify: " << limits.note << "\n";
+    if (const auto problem = ftid::params::findParameterProblem(set, limits.limits)) {
+      throw ftid::IdentificationError(out + ": not written: '" + problem->key + "': " + problem->message +
+                                      (not_projected.empty() ? "" : " (" + not_projected + ")"));
     }
     ftid::params::writeParameterFile(out, set);
-    // The parameters are written; a failed export is named in the warning.
+    // The parameters are written; a failed export (the exports need the whole, valid config) is
+    // named in the warning.
     try {
+      if (config.empty()) throw ftid::ConfigError("no ftidd configuration found");
+      const ftid::config::DaemonConfig cell_config = ftid::config::loadDaemonConfig(config);
       exports = ftid::cell::writeExports(set, cell_config, out + ".ros2.yaml", out + ".urscript");
     } catch (const std::exception& e) {
       std::cerr << "ftid identify: WARNING: exports not written: " << e.what() << "\n";
@@ -190,7 +207,10 @@ int runIdentify(const std::vector<std::string>& argv) {
     if (!out.empty() && validity.valid) std::cout << "parameters written to " << out << "\n";
     if (!exports.empty()) std::cout << "exports: " << exports << "\n";
   }
-  if (!validity.valid) throw ftid::IdentificationError(ftid::identify::physicalRefusal(validity));
+  if (!validity.valid) {
+    throw ftid::IdentificationError(ftid::identify::physicalRefusal(validity) +
+                                    (not_projected.empty() ? "" : " (" + not_projected + ")"));
+  }
   return 0;
 }
 

@@ -286,8 +286,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   trajectory::LimitSources limit_sources;
   const trajectory::TrajectoryConstraints limits = trajectory::effectiveConstraints(
       traj_file.constraints, traj_path,
-      trajectory::readCellLimits(o.cell_limits_path.empty() ? trajectory::defaultCellLimitsPath() : o.cell_limits_path),
-      &limit_sources);
+      trajectory::applicableCellLimits(o.cell_limits_path), &limit_sources);  // --cell only tightens
   print("  limits (a trajectory can only tighten the cell's):");
   {
     std::istringstream lines(trajectory::describeLimits(limits, limit_sources));
@@ -562,7 +561,11 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // possible one, and said so; the cell's plausibility limits are checked before anything is
   // written (issue 26).
   try {
-    if (const std::string note = params::projectInertiaWithinUncertainty(&set); !note.empty()) print("  note: " + note);
+    std::string not_projected;
+    if (const std::string note = params::projectInertiaWithinUncertainty(&set, &not_projected); !note.empty()) {
+      print("  note: " + note);
+    }
+    if (!not_projected.empty()) print("  " + not_projected);
     daemon::requirePlausible(set, daemon::plausibilityLimits(cfg), params_path + " (identified)");
   } catch (const std::exception& e) {
     result.message = "identification refused: " + std::string(e.what()) + "; parameters unchanged, " + data_note;

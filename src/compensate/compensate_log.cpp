@@ -15,8 +15,11 @@
 namespace ftid::compensate {
 
 CompensateSummary compensateLogFile(const CompensateRequest& request) {
+  return compensateLogFile(request, params::readParameterFile(request.params_path));
+}
+
+CompensateSummary compensateLogFile(const CompensateRequest& request, const params::ParameterSet& set) {
   checkOutputPath(request.out_csv);  // refuse a symlink, device, FIFO or directory before the work
-  const params::ParameterSet set = params::readParameterFile(request.params_path);
   const effects::Model model = effects::Model::fromName(set.model);
   const Eigen::VectorXd theta = params::thetaFor(model, set, request.params_path);
   // The model's time from the set's time origin, as ftidd does (docs/conventions.md).

@@ -25,6 +25,9 @@ double valueOr(const ParameterSet& set, const char* name, double fallback) {
   return fallback;
 }
 
+// The largest relative standard error of i_s_* for which an impossible estimate is projected.
+constexpr double kProjectMaxRelStd = 0.1;
+
 constexpr const char* kAxisKeys[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
 
 }  // namespace
@@ -62,8 +65,12 @@ std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set, co
   return std::nullopt;
 }
 
-std::string projectInertiaWithinUncertainty(ParameterSet* set) {
+std::string projectInertiaWithinUncertainty(ParameterSet* set, std::string* refused) {
   if (!findParameterProblem(*set).has_value()) return {};
+  auto refuse = [refused](const std::string& why) {
+    if (refused != nullptr) *refused = why;
+    return std::string();
+  };
   NamedValue* mass = nullptr;
   NamedValue* h[3] = {nullptr, nullptr, nullptr};
   NamedValue* is[6] = {nullptr, nullptr, nullptr, nullptr, nullptr, nullptr};
@@ -81,6 +88,22 @@ std::string projectInertiaWithinUncertainty(ParameterSet* set) {
     if (v == nullptr) return {};
   }
   if (mass == nullptr || !(mass->value > 0.0)) return {};
+  // The estimate must be a measurement of the tensor, not noise around it: every i_s_* standard
+  // error at most kProjectMaxRelStd of the estimated tensor's own scale (its largest |eigenvalue|).
+  {
+    Vec6 v6;
+    double max_std = 0.0;
+    for (int k = 0; k < 6; ++k) {
+      v6(k) = is[k]->value;
+      max_std = std::max(max_std, is[k]->std);
+    }
+    const double scale = Eigen::SelfAdjointEigenSolver<Mat3>(effects::inertiaMatrix(v6)).eigenvalues().cwiseAbs().maxCoeff();
+    if (!(std::isfinite(max_std) && max_std <= kProjectMaxRelStd * scale)) {
+      return refuse("not projected: the inertia's standard errors (up to " + fmt(max_std) + " kg*m^2) are not small "
+                    "against the tensor's own scale (" + fmt(scale) + " kg*m^2; at most " +
+                    fmt(100.0 * kProjectMaxRelStd) + " % allowed): the data do not determine the inertia");
+    }
+  }
   Eigen::Matrix<double, 10, 1> p = Eigen::Matrix<double, 10, 1>::Zero();
   Eigen::Matrix<double, 10, 10> cov = Eigen::Matrix<double, 10, 10>::Zero();
   p(0) = mass->value;
@@ -96,7 +119,9 @@ std::string projectInertiaWithinUncertainty(ParameterSet* set) {
     cov(4 + k, 4 + k) = is[k]->std * is[k]->std;
   }
   const effects::InertiaAboutCom ic = effects::inertiaAboutCom(p, cov);
-  if (!ic.valid_within_uncertainty) return {};
+  if (!ic.valid_within_uncertainty) {
+    return refuse("not projected: no physically possible inertia within 3 standard errors of the estimate");
+  }
   Eigen::SelfAdjointEigenSolver<Mat3> eig(effects::inertiaMatrix(ic.value));
   Vec3 l = eig.eigenvalues();
   const Mat3 R = eig.eigenvectors();
@@ -124,7 +149,7 @@ std::string projectInertiaWithinUncertainty(ParameterSet* set) {
       }
     }
   }
-  if (findParameterProblem(projected).has_value()) return {};
+  if (findParameterProblem(projected).has_value()) return refuse("not projected: the projection is not possible either");
   const std::string note = "inertia projected to the nearest physically possible tensor (principal moments " +
                            fmt(ic.principal(0)) + ", " + fmt(ic.principal(1)) + ", " + fmt(ic.principal(2)) +
                            " -> " + fmt(l(0)) + ", " + fmt(l(1)) + ", " + fmt(l(2)) + " kg*m^2 about the centre of "

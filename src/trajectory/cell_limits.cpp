@@ -60,8 +60,48 @@ CellLimits parseCellLimitsText(const std::string& text, const std::string& path)
 
 std::string defaultCellLimitsPath() {
   struct stat st {};
-  if (::stat("/etc/ftid/cell_limits.yaml", &st) == 0 && S_ISREG(st.st_mode)) return "/etc/ftid/cell_limits.yaml";
+  if (::stat(kInstalledCellLimitsPath, &st) == 0 && S_ISREG(st.st_mode)) return kInstalledCellLimitsPath;
   return findDefaultFile("cell_limits.yaml");
+}
+
+std::vector<CellLimits> applicableCellLimits(const std::string& extra_path, const std::string& installed_path) {
+  std::vector<CellLimits> out;
+  struct stat st {};
+  if (!installed_path.empty() && ::stat(installed_path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+    out.push_back(readCellLimits(installed_path));
+  }
+  if (!extra_path.empty() && (out.empty() || extra_path != installed_path)) out.push_back(readCellLimits(extra_path));
+  if (out.empty()) out.push_back(readCellLimits(findDefaultFile("cell_limits.yaml")));
+  return out;
+}
+
+TrajectoryConstraints effectiveConstraints(const TrajectoryConstraints& traj, const std::string& traj_source,
+                                           const std::vector<CellLimits>& cells, LimitSources* sources) {
+  TrajectoryConstraints e = traj;
+  LimitSources s;
+  bool first = true;
+  const std::string prev = "\x01previous";  // a limit kept from the step before
+  for (const CellLimits& cell : cells) {
+    LimitSources step;
+    e = effectiveConstraints(e, first ? traj_source : prev, cell, &step);
+    if (!first) {
+      const auto keep = [&prev](std::string* now, const std::string& before) {
+        if (*now == prev) *now = before;
+      };
+      for (std::size_t j = 0; j < static_cast<std::size_t>(kNumJoints); ++j) {
+        keep(&step.position_lower[j], s.position_lower[j]);
+        keep(&step.position_upper[j], s.position_upper[j]);
+        keep(&step.velocity[j], s.velocity[j]);
+        keep(&step.acceleration[j], s.acceleration[j]);
+      }
+      keep(&step.floor_z, s.floor_z);
+      for (std::size_t k = 0; k < step.keep_out.size() && k < s.keep_out.size(); ++k) keep(&step.keep_out[k], s.keep_out[k]);
+    }
+    s = std::move(step);
+    first = false;
+  }
+  if (sources != nullptr) *sources = std::move(s);
+  return e;
 }
 
 TrajectoryConstraints effectiveConstraints(const TrajectoryConstraints& traj, const std::string& traj_source,

@@ -10,6 +10,7 @@
 // and ftidd's own recording converts to a CSV log.
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -17,6 +18,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <sstream>
 #include <string>
 
 #include "ftid/effects/model.hpp"
@@ -52,6 +54,56 @@ void writePaperParams(const std::string& path, double f0_x_extra) {
   set.tilt_u_rad = -9.8716 * deg;
   set.tilt_v_rad = -5.3709 * deg;
   ftid::params::writeParameterFile(path, set);
+}
+
+// Issue 26: with parameters.required, ftidd does not start on an implausible (10^6 kg) or a
+// physically impossible (i_s_xx = -5, standard error 100) parameter file; the reason names the key.
+TEST(FtiddEndToEnd, RefusesToStartOnAnImplausibleRequiredParameterFile) {
+  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  if (!fileExists(ftidd)) GTEST_SKIP() << "ftidd not built";
+  const std::string dir = ::testing::TempDir() + "ftidd_implausible_" + std::to_string(::getpid());
+  ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
+  writePaperParams(dir + "/good.yaml", 0.0);
+  std::stringstream good;
+  good << std::ifstream(dir + "/good.yaml").rdbuf();
+  std::string heavy = good.str();
+  const std::string mass_key = "\n  mass: {value: ";
+  const auto at = heavy.find(mass_key);
+  ASSERT_NE(at, std::string::npos) << heavy;
+  const auto value_at = at + mass_key.size();
+  heavy.replace(value_at, heavy.find_first_of(",}", value_at) - value_at, "1e6");
+  std::ofstream(dir + "/heavy.yaml") << heavy;
+  std::ofstream(dir + "/negative.yaml") << "model: paper+rigid_body\nparameters:\n  mass: {value: 0.9, std: 0.01}\n"
+                                          "  mass_com_z: {value: 0.045, std: 0.001}\n  i_s_xx: {value: -5, std: 100}\n"
+                                          "  i_s_yy: {value: 0.01, std: 0.001}\n  i_s_zz: {value: 0.002, std: 0.001}\n"
+                             "  i_s_xy: {value: 0}\n  i_s_xz: {value: 0}\n  i_s_yz: {value: 0}\n";
+  for (const auto& [file, key] : {std::pair<std::string, std::string>{"good.yaml", ""}, {"heavy.yaml", "parameters.mass"},
+                                  {"negative.yaml", "parameters.i_s_xx': invalid inertia"}}) {
+    {
+      std::ofstream cfg(dir + "/ftidd.yaml");
+      cfg << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
+          << "sensor:\n  socket_path: " << dir << "/no-sensor.sock\n  dbc_path: " FTID_SOURCE_DIR
+          << "/config/ftsensor.dbc\n"
+          << "parameters:\n  path: " << dir << "/" << file << "\n  required: true\n"
+          << "lcm:\n  url: \"memq://\"\n"
+          << "rt:\n  lock_memory: false\n  priority: 10\n";
+    }
+    // No sensor: a good file gets past the parameters and fails later, on the sensor.
+    const int status = std::system(("'" + ftidd + "' --config '" + dir + "/ftidd.yaml' --connect-timeout 0 > '" + dir +
+                                    "/out.log' 2>&1").c_str());
+    std::stringstream log;
+    log << std::ifstream(dir + "/out.log").rdbuf();
+    ASSERT_TRUE(WIFEXITED(status)) << log.str();
+    EXPECT_NE(WEXITSTATUS(status), 0) << file << ": " << log.str();
+    const bool refused_params = log.str().find("parameters loaded") == std::string::npos;
+    if (key.empty()) {
+      EXPECT_FALSE(refused_params) << log.str();
+    } else {
+      EXPECT_TRUE(refused_params) << file << ": " << log.str();
+      EXPECT_EQ(WEXITSTATUS(status), 2) << log.str();
+      EXPECT_NE(log.str().find(key), std::string::npos) << log.str();
+    }
+  }
 }
 
 TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {

@@ -7,6 +7,10 @@
 #include "ftid/common/types.hpp"
 #include "ftid/samples/context.hpp"
 
+namespace ftid::params {
+struct ParameterSet;
+}  // namespace ftid::params
+
 namespace ftid::compensate {
 
 struct CompensateRequest {
@@ -32,5 +36,8 @@ struct CompensateSummary {
 /// compensator (ftidd's code). With a `sensor_delay`, samples whose delayed kinematics lie outside
 /// the log (the first |delay| seconds, or the last ones for a negative delay) are left out.
 CompensateSummary compensateLogFile(const CompensateRequest& request);
+/// The same with the parameter set already read (and checked) from request.params_path (used in
+/// messages): the caller's checked set is the set used, the file is not read again.
+CompensateSummary compensateLogFile(const CompensateRequest& request, const params::ParameterSet& set);
 
 }  // namespace ftid::compensate

@@ -11,6 +11,17 @@ namespace ftid::daemon {
 /// Throws ConfigError naming the DBC if it cannot be read or lacks a wrench signal.
 params::PlausibilityLimits plausibilityLimits(const config::DaemonConfig& config);
 
+/// The limits for an offline command (`ftid compensate`, `ftid identify --out`): only the two
+/// plausibility inputs are read from `config_path` (robot.rated_payload_kg, sensor.dbc_path; the
+/// rest of ftidd.yaml is not validated, so a config with a problem elsewhere does not matter);
+/// what cannot be read falls back to the defaults (10 kg; the shipped DBC, else no range limit).
+/// Never throws for a bad or absent config; `note` says which limits were used and from where.
+struct OfflineLimits {
+  params::PlausibilityLimits limits;
+  std::string note;
+};
+OfflineLimits offlinePlausibilityLimits(const std::string& config_path);
+
 /// Throws ConfigError "SOURCE: key 'K': reason" if `set` (read from `source`) is physically
 /// impossible or beyond the limits (params::findParameterProblem(set, limits)).
 void requirePlausible(const params::ParameterSet& set, const params::PlausibilityLimits& limits,

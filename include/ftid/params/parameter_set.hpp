@@ -103,9 +103,12 @@ std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set, co
 /// the Euclidean projection of the principal moments about the centre of mass onto the
 /// physically possible set (non-negative, each at most the sum of the other two), in the same
 /// principal axes, and notes it in provenance.method. Returns a one-line description of the
-/// change ("" if nothing changed). A set beyond 3 standard errors is left as it is: refused by
-/// findParameterProblem. Used by `ftid identify --out` and `ftid --identify` before writing.
-std::string projectInertiaWithinUncertainty(ParameterSet* set);
+/// change ("" if nothing changed). Projected only if (a) a possible tensor lies within 3 standard
+/// errors and (b) every i_s_* standard error is at most 10 % of the estimated tensor's largest
+/// |eigenvalue| (an estimate that is mostly noise, e.g. i_s_xx = -5 with std 100, is not an
+/// inertia to correct); otherwise the set is left as it is (refused by findParameterProblem) and
+/// `refused` (if given) gets the reason. Used by `ftid identify --out` and `ftid --identify`.
+std::string projectInertiaWithinUncertainty(ParameterSet* set, std::string* refused = nullptr);
 
 /// Reads a parameter file (YAML): a regular file, no duplicate keys, every value finite, and
 /// findParameterProblem() empty. Throws ConfigError naming the file, line and key.

@@ -33,6 +33,15 @@ CellLimits parseCellLimitsText(const std::string& text, const std::string& path)
 /// /etc/ftid/cell_limits.yaml if it exists, else the shipped config/cell_limits.yaml.
 std::string defaultCellLimitsPath();
 
+/// The installed, root-owned cell limits.
+constexpr const char* kInstalledCellLimitsPath = "/etc/ftid/cell_limits.yaml";
+
+/// The cell limits that apply, in order: the installed file (when it exists) always; `extra_path`
+/// (`--cell FILE`, "" = none) on top of it, so it can only tighten the installed limits; neither:
+/// the shipped config/cell_limits.yaml. Throws ConfigError naming a file that cannot be read.
+std::vector<CellLimits> applicableCellLimits(const std::string& extra_path,
+                                             const std::string& installed_path = kInstalledCellLimitsPath);
+
 /// Where each effective limit came from (a file name), per joint where the limit is per joint.
 struct LimitSources {
   std::array<std::string, kNumJoints> position_lower, position_upper, velocity, acceleration;
@@ -46,6 +55,10 @@ struct LimitSources {
 /// A limit where the trajectory is tighter is the trajectory's (sources say so).
 TrajectoryConstraints effectiveConstraints(const TrajectoryConstraints& traj, const std::string& traj_source,
                                            const CellLimits& cell, LimitSources* sources);
+
+/// The same tightened by each of `cells` in turn (applicableCellLimits): every file only tightens.
+TrajectoryConstraints effectiveConstraints(const TrajectoryConstraints& traj, const std::string& traj_source,
+                                           const std::vector<CellLimits>& cells, LimitSources* sources);
 
 /// One line per limit group: "floor_z 0 m (cell_limits.yaml)", "velocity [..] rad/s (j1-3 ...)".
 std::string describeLimits(const TrajectoryConstraints& c, const LimitSources& sources);

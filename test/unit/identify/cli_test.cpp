@@ -110,6 +110,66 @@ TEST(IdentifyCli, BadInputGivesOneLineAndNonZeroExit) {
   EXPECT_EQ(std::count(s.err.begin(), s.err.end(), '\n'), 1) << s.err;
 }
 
+bool exists(const std::string& path) { return std::ifstream(path).good(); }
+
+// Issue 26: nothing is written for a log with a wrong scale; a bad config does not stop offline
+// work (only the plausibility inputs are read, defaults otherwise, and the limits are named).
+TEST(IdentifyCli, OutRefusesAnImplausibleSetAndABadConfigMeansDefaults) {
+  ftid::logio::LogData log = ftid::sim::CellSim(ftid::test::paperConfig(true, 9)).run();
+  const std::string good_log = dir() + "good.csv";
+  ftid::logio::writeLog(good_log, log);
+  for (auto& sample : log.samples) sample.wrench_S(2) *= 4000.0;
+  const std::string scaled = dir() + "scaled.csv";
+  ftid::logio::writeLog(scaled, log);
+  const std::string out = dir() + "scaled_params.yaml";
+  std::remove(out.c_str());
+  const CliRun r = ftidRun("identify --log " + scaled + " --out " + out);
+  EXPECT_EQ(r.code, 1) << r.err;
+  EXPECT_FALSE(exists(out));
+  EXPECT_NE(r.err.find("not written"), std::string::npos) << r.err;
+
+  const std::string bad_config = dir() + "bad_ftidd.yaml";
+  std::ofstream(bad_config) << "robot:\n  rated_payload_kg: 12.5\n  no_such_key: 1\n";  // invalid as a whole
+  const std::string good_out = dir() + "good_params.yaml";
+  const CliRun g = ftidRun("identify --log " + good_log + " --out " + good_out + " --config " + bad_config);
+  EXPECT_EQ(g.code, 0) << g.err;
+  EXPECT_TRUE(exists(good_out));
+  EXPECT_NE(g.err.find("rated payload 12.5 kg (" + bad_config + ": robot.rated_payload_kg)"), std::string::npos) << g.err;
+  const CliRun none = ftidRun("identify --log " + good_log + " --out " + good_out + " --config " + dir() + "absent.yaml");
+  EXPECT_EQ(none.code, 0) << none.err;
+  EXPECT_NE(none.err.find("rated payload 10 kg (the built-in default"), std::string::npos) << none.err;
+
+  // ftid compensate: same config handling; refuses an impossible or implausible parameter file.
+  const std::string csv = dir() + "contact.csv";
+  const CliRun c = ftidRun("compensate --log " + good_log + " --params " + good_out + " --out " + csv + " --config " +
+                           bad_config);
+  EXPECT_EQ(c.code, 0) << c.err;
+  // Hand edits of the written file: the mass set to 10^6 kg (physically possible, beyond the
+  // robot); and a rigid-body set with i_s_xx = -5, standard error 100 (the issue's case).
+  std::stringstream written;
+  written << std::ifstream(good_out).rdbuf();
+  std::string heavy_text = written.str();
+  const std::string mass_key = "\n  mass: {value: ";
+  const auto at = heavy_text.find(mass_key);
+  ASSERT_NE(at, std::string::npos) << heavy_text;
+  const auto value_at = at + mass_key.size();
+  heavy_text.replace(value_at, heavy_text.find_first_of(",}", value_at) - value_at, "1e6");
+  const std::string heavy = dir() + "heavy.yaml";
+  std::ofstream(heavy) << heavy_text;
+  const std::string negative = dir() + "negative_inertia.yaml";
+  std::ofstream(negative) << "model: paper+rigid_body\nparameters:\n  mass: {value: 0.9, std: 0.01}\n"
+                             "  mass_com_z: {value: 0.045, std: 0.001}\n  i_s_xx: {value: -5, std: 100}\n"
+                             "  i_s_yy: {value: 0.01, std: 0.001}\n  i_s_zz: {value: 0.002, std: 0.001}\n"
+                             "  i_s_xy: {value: 0}\n  i_s_xz: {value: 0}\n  i_s_yz: {value: 0}\n";
+  for (const auto& [file, key] : {std::pair<std::string, std::string>{negative, "parameters.i_s_xx': invalid inertia"}, {heavy, "mass"}}) {
+    std::remove(csv.c_str());
+    const CliRun x = ftidRun("compensate --log " + good_log + " --params " + file + " --out " + csv);
+    EXPECT_EQ(x.code, 1) << key << ": " << x.err;
+    EXPECT_NE(x.err.find(key), std::string::npos) << x.err;
+    EXPECT_FALSE(exists(csv)) << key;
+  }
+}
+
 }  // namespace
 
 namespace {

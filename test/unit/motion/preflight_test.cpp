@@ -5,6 +5,11 @@
 // one must run.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -334,6 +339,45 @@ TEST(CellLimits, ATrajectoryCanOnlyTightenTheCellsLimits) {
                                             ftid::trajectory::effectiveConstraints(shipped_file.constraints, "s",
                                                                                    cell, nullptr))
                   .ok());
+}
+
+// The installed cell limits always apply; --cell FILE is applied on top of them, so it can only
+// tighten (a looser --cell cannot widen the installed limits or lower the installed floor).
+TEST(CellLimits, ACellFileCanOnlyTightenTheInstalledLimits) {
+  const std::string dir = ::testing::TempDir() + "cell_limits_" + std::to_string(::getpid());
+  ASSERT_EQ(std::system(("mkdir -p '" + dir + "'").c_str()), 0);
+  const std::string installed = dir + "/installed.yaml";
+  const std::string loose = dir + "/loose.yaml";
+  const auto limitsText = [](double v4, double floor_z) {
+    std::ostringstream os;
+    os << "limits:\n  position_lower: [-6, -6, -6, -6, -6, -6]\n  position_upper: [6, 6, 6, 6, 6, 6]\n"
+       << "  velocity: [2, 2, 3, 3, " << v4 << ", 3]\n  acceleration: [4, 4, 8, 12, 12, 12]\n"
+       << "  floor_z: " << floor_z << "\n";
+    return os.str();
+  };
+  std::ofstream(installed) << limitsText(1.5, 0.0);
+  std::ofstream(loose) << limitsText(100.0, -10.0);  // wider speed, lower floor ...
+  {
+    std::ofstream append(loose, std::ios::app);
+    append << "  keep_out:\n    - {name: \"extra\", center: [1, 1, 1], radius: 0.1}\n";  // ... one more sphere
+  }
+  const auto cells = ftid::trajectory::applicableCellLimits(loose, installed);
+  ASSERT_EQ(cells.size(), 2u);
+  auto file = shipped();
+  file.constraints.velocity[4] = 100.0;
+  file.constraints.floor_z_B = -10.0;
+  ftid::trajectory::LimitSources src;
+  const auto eff = ftid::trajectory::effectiveConstraints(file.constraints, "traj.yaml", cells, &src);
+  EXPECT_EQ(eff.velocity[4], 1.5);
+  EXPECT_EQ(src.velocity[4], installed);
+  EXPECT_EQ(eff.floor_z_B, 0.0);
+  EXPECT_EQ(src.floor_z, installed);
+  EXPECT_EQ(src.velocity[0], "traj.yaml");  // the trajectory's tighter 1.0 stays
+  ASSERT_FALSE(src.keep_out.empty());
+  EXPECT_EQ(src.keep_out.back(), loose);  // the tightening file's sphere is added
+  // Without an installed file, --cell is the cell's limits.
+  EXPECT_EQ(ftid::trajectory::applicableCellLimits(loose, dir + "/absent.yaml").front().path, loose);
+  std::system(("rm -rf '" + dir + "'").c_str());
 }
 
 TEST(CellLimits, BadFilesNameTheFileLineAndKey) {

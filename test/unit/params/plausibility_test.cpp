@@ -216,6 +216,23 @@ TEST(Plausibility, AnInertiaJustOutsideIsProjectedOneFarOutsideIsNot) {
   ParameterSet far = rigidSet(m, c, I_S, 2e-6);
   EXPECT_TRUE(projectInertiaWithinUncertainty(&far).empty());
   EXPECT_TRUE(findParameterProblem(far).has_value());
+  // The case: i_s_xx = -5 with standard error 100 is within 3 standard errors of a
+  // possible tensor, but the estimate is noise, not a measurement: not projected, with the reason.
+  ParameterSet noise = rigidSet(m, c, I_S_expected, 2e-4);
+  param(noise, "i_s_xx") = -5.0;
+  for (auto& q : noise.params) {
+    if (q.name == "i_s_xx") q.std = 100.0;
+  }
+  ASSERT_TRUE(findParameterProblem(noise).has_value());
+  std::string why;
+  EXPECT_TRUE(projectInertiaWithinUncertainty(&noise, &why).empty());
+  EXPECT_EQ(param(noise, "i_s_xx"), -5.0);
+  EXPECT_TRUE(findParameterProblem(noise).has_value());
+  EXPECT_NE(why.find("not small against the tensor's own scale"), std::string::npos) << why;
+  // The same estimate with standard errors at 20 % of the tensor's scale: still not projected; at
+  // 5 % (the case above) it is.
+  ParameterSet loose = rigidSet(m, c, I_S, 0.2 * I_S.eigenvalues().cwiseAbs().maxCoeff());
+  EXPECT_TRUE(projectInertiaWithinUncertainty(&loose).empty());
   // A possible set is never changed.
   ParameterSet fine = rigidSet(m, c, I_S_expected + 1e-5 * Eigen::Matrix3d::Identity(), 2e-4);
   const ParameterSet before = fine;
