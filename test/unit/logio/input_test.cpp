@@ -257,6 +257,24 @@ TEST(ColumnNames, AliasesAndCase) {
   EXPECT_EQ(columnAlias("Fx"), "fx");
   EXPECT_EQ(columnAlias("force_y"), "fy");
   EXPECT_EQ(columnAlias("Torque Z [Nm]"), "tz");
+  EXPECT_EQ(columnAlias("Tz (N-m)"), "tz");
+  EXPECT_EQ(columnAlias("Tz (N\xc2\xb7m)"), "tz");
+  EXPECT_EQ(columnAlias("Fx [N]"), "fx");
+  EXPECT_EQ(columnAlias("Time [s]"), "t");
+  EXPECT_EQ(columnAlias("comment [text]"), "");  // not a column ftid reads: its unit does not matter
+  // Any other unit is refused, naming the column and the unit (no silent ms-as-s or lbf-as-N).
+  const auto unitError = [](const char* name) {
+    try {
+      columnAlias(name);
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(unitError("Time [ms]"), "column 'Time [ms]': unit 'ms' (ftid reads 't' in s only; convert the column or rename it)");
+  EXPECT_NE(unitError("Fx [lbf]").find("column 'Fx [lbf]': unit 'lbf'"), std::string::npos);
+  EXPECT_NE(unitError("Tz (N-mm)").find("column 'Tz (N-mm)': unit 'N-mm'"), std::string::npos);
+  EXPECT_NE(unitError("Fz [kN]").find("unit 'kN'"), std::string::npos);
   EXPECT_EQ(columnAlias("Mx"), "tx");
   EXPECT_EQ(columnAlias("Tx"), "tx");
   EXPECT_EQ(columnAlias("TIME"), "t");
