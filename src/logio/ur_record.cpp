@@ -90,7 +90,7 @@ std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initiali
   }
   const std::vector<bool> stair = stairSteps(same, moving);
   std::vector<std::size_t> keep;
-  std::size_t stairs = 0, duplicates = 0;
+  std::size_t stairs = 0, duplicates = 0, same_time = 0;
   for (std::size_t r = 0; r < rows; ++r) {
     if (stair[r]) {
       ++stairs;
@@ -100,6 +100,11 @@ std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initiali
       const std::size_t p = keep.back();
       if (same[r] && at(table, t_col, r) == at(table, t_col, p)) {
         ++duplicates;  // the same row twice
+        continue;
+      }
+      if (at(table, t_col, r) == at(table, t_col, p)) {
+        ++same_time;  // a torn or repeated row: the later one is the recorder's last word
+        keep.back() = r;
         continue;
       }
       if (!(at(table, t_col, r) > at(table, t_col, p))) {
@@ -122,6 +127,10 @@ std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initiali
                         "them would be wrong)");
   }
   if (duplicates > 0) notes.push_back("dropped " + std::to_string(duplicates) + " duplicate rows");
+  if (same_time > 0) {
+    notes.push_back("dropped " + std::to_string(same_time) + " rows whose timestamp equals the next row's (kept the "
+                    "last row of each timestamp: the recorder wrote a torn or repeated row)");
+  }
   return keep;
 }
 

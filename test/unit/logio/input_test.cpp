@@ -247,6 +247,22 @@ TEST(UrRecord, Refusals) {
                     "1 0 0 0 0 0 0\n0.5 1 0 0 0 0 0\n";
   EXPECT_EQ(errorOf([&] { urRecordToLog(parseTable(bad, "r.txt"), {}); }),
             "r.txt:3: column 'timestamp': time 0.5 is not greater than 1 on line 2 (timestamps must increase)");
+  // Equal timestamps (ur_rtde's recorder can write a torn or repeated row): the last row of each
+  // timestamp is kept and the drop reported; a decrease is still refused.
+  const std::string torn = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n"
+                           "1 0 0 0 0 0 0\n2 0.1 0 0 0 0 0\n2 0.2 0 0 0 0 0\n3 0.3 0 0 0 0 0\n4 0.4 0 0 0 0 0\n"
+                           "4 0.5 0 0 0 0 0\n5 0.6 0 0 0 0 0\n";
+  const InputLog in = urRecordToLog(parseTable(torn, "torn.txt"), {});
+  ASSERT_EQ(in.log.samples.size(), 5U);
+  EXPECT_EQ(in.log.samples[1].t, 2.0);
+  EXPECT_EQ(in.log.samples[1].q[0], 0.2);
+  EXPECT_EQ(in.log.samples[2].q[0], 0.3);
+  EXPECT_EQ(in.log.samples[3].q[0], 0.5);
+  EXPECT_NE(std::find_if(in.notes.begin(), in.notes.end(),
+                         [](const std::string& n) { return n.find("dropped 2 rows whose timestamp equals") == 0; }),
+            in.notes.end());
+  EXPECT_EQ(errorOf([&] { urRecordToLog(parseTable(torn + "4.5 0 0 0 0 0 0\n", "d.txt"), {}); }),
+            "d.txt:9: column 'timestamp': time 4.5 is not greater than 5 on line 8 (timestamps must increase)");
   std::string huge = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n"
                      "1 0 0 0 0 0 0\n2 0 0 1e9 0 0 0\n";
   EXPECT_NE(errorOf([&] { urRecordToLog(parseTable(huge, "h.txt"), {}); }).find("h.txt:3: column 'actual_q_2': value 1e+09 is outside the plausible range"),
