@@ -414,6 +414,17 @@ LogData jointLogOf(const std::string& dir, const BagMessages& bag, const InputOp
   notes.push_back(std::to_string(js.size()) + " JointState messages on '" + bag.joint_topic + "' (" +
                   (stamps ? "header stamps" : "the bag's receive times: the header stamps are zero") + ")");
   differenceJointLog(robot, has_qd, options.derivative_half_window, "JointState message", notes);
+  for (const LogSample& s : robot.samples) {
+    for (Eigen::Index j = 0; j < 6; ++j) {
+      if (std::abs(s.qd[j]) <= options.read.max_abs_qd_rad_s && std::abs(s.qdd[j]) <= options.read.max_abs_qdd_rad_s2) {
+        continue;
+      }
+      throw DataError(dir + ": topic '" + bag.joint_topic + "', at t = " + std::to_string(s.t) + " s: joint " +
+                      std::to_string(j + 1) + ": the velocity " + std::to_string(s.qd[j]) + " rad/s or acceleration " +
+                      std::to_string(s.qdd[j]) + " rad/s^2 from smoothed differences is outside the plausible range "
+                      "(the joint states jump there)");
+    }
+  }
   return robot;
 }
 

@@ -175,6 +175,26 @@ QddSource parseQddSource(const std::string& text) {
   throw ConfigError("--qdd-source must be 'diff' or 'target', not '" + text + "'");
 }
 
+namespace {
+
+/// Refuses a differenced velocity or acceleration outside the plausible range, naming the line.
+void checkDifferenced(const Table& table, const std::vector<std::size_t>& keep, const std::vector<JointVector>& v,
+                      double limit, const char* what) {
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    for (int j = 0; j < 6; ++j) {
+      if (std::abs(v[i][j]) <= limit) continue;
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "%s:%zu: joint %d: the %s from smoothed differences is %.6g, outside the plausible range "
+                    "(|value| <= %.6g): the recording jumps there",
+                    table.source.c_str(), table.row_line[keep[i]], j + 1, what, v[i][j], limit);
+      throw DataError(buf);
+    }
+  }
+}
+
+}  // namespace
+
 InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   InputLog out;
   LogData& log = out.log;
@@ -229,6 +249,7 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   if (log.has_joints) {
     if (!has(qd)) {
       qdv = smoothedDerivative(t, qv, h);
+      checkDifferenced(table, keep, qdv, lim.max_abs_qd_rad_s, "velocity [rad/s]");
       out.notes.push_back("joint velocities from smoothed differences of actual_q (no actual_qd columns)");
     }
     std::vector<JointVector> qddv;
@@ -243,6 +264,7 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
       out.notes.push_back("joint accelerations: the controller's target_qdd (--qdd-source target)");
     } else {
       qddv = smoothedDerivative(t, qdv, h);
+      checkDifferenced(table, keep, qddv, lim.max_abs_qdd_rad_s2, "acceleration [rad/s^2]");
       out.notes.push_back("joint accelerations from smoothed differences of actual_qd (centred least-squares slope "
                           "over +-" + std::to_string(h) + " samples; no lag)");
     }

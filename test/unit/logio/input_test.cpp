@@ -263,6 +263,13 @@ TEST(UrRecord, Refusals) {
             in.notes.end());
   EXPECT_EQ(errorOf([&] { urRecordToLog(parseTable(torn + "4.5 0 0 0 0 0 0\n", "d.txt"), {}); }),
             "d.txt:9: column 'timestamp': time 4.5 is not greater than 5 on line 8 (timestamps must increase)");
+  // A jump in the positions: the differenced velocity and acceleration are refused, naming the line.
+  std::string jump = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n";
+  for (int i = 0; i < 20; ++i) jump += std::to_string(i * 0.00001) + (i == 10 ? " 12 0 0 0 0 0\n" : " 0 0 0 0 0 0\n");
+  const std::string e = errorOf([&] { urRecordToLog(parseTable(jump, "jump.txt"), {}); });
+  EXPECT_NE(e.find("from smoothed differences is"), std::string::npos) << e;
+  EXPECT_EQ(e.rfind("jump.txt:", 0), 0U) << e;
+  EXPECT_NE(e.find("outside the plausible range"), std::string::npos) << e;
   std::string huge = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n"
                      "1 0 0 0 0 0 0\n2 0 0 1e9 0 0 0\n";
   EXPECT_NE(errorOf([&] { urRecordToLog(parseTable(huge, "h.txt"), {}); }).find("h.txt:3: column 'actual_q_2': value 1e+09 is outside the plausible range"),
