@@ -255,12 +255,12 @@ TEST(Cdr, EveryTruncationAndDamageIsADataError) {
   bad = bytes;
   bad[12] = 0xff;  // frame_id length 255 + ...: longer than the message
   bad[13] = 0xff;
-  EXPECT_NE(errorOf([&] { decodeJointState(bad.data(), bad.size()); }).find("header.frame_id at byte 16: string of"),
+  EXPECT_NE(errorOf([&] { decodeJointState(bad.data(), bad.size()); }).find("header.frame_id at byte 12: string of"),
             std::string::npos);
   bad = bytes;
   bad[24] = 0xff;  // name count (bytes 24..27, after "base\0" at 16..20 and padding) 255: more than 64
   EXPECT_EQ(errorOf([&] { decodeJointState(bad.data(), bad.size()); }),
-            "CDR sensor_msgs/msg/JointState: name at byte 28: 255 elements (at most 64)");
+            "CDR sensor_msgs/msg/JointState: name at byte 24: 255 elements (at most 64)");
   bad = bytes;
   bad[20] = 'X';  // the frame_id's NUL
   EXPECT_NE(errorOf([&] { decodeJointState(bad.data(), bad.size()); }).find("not terminated by NUL"), std::string::npos);
