@@ -1,6 +1,7 @@
 // CDR decoders of sensor_msgs/JointState and geometry_msgs/WrenchStamped (include/ftid/logio/cdr.hpp).
 #include "ftid/logio/cdr.hpp"
 
+#include <algorithm>
 #include <cstring>
 
 #include "ftid/common/error.hpp"
@@ -20,10 +21,11 @@ class CdrReader {
     }
     little_ = data[1] == 0x01;
     pos_ = 4;
+    start_ = 4;
   }
 
   [[noreturn]] void fail(const std::string& field, const std::string& problem) const {
-    throw DataError(std::string("CDR ") + type_ + ": " + field + " at byte " + std::to_string(pos_) + ": " + problem);
+    throw DataError(std::string("CDR ") + type_ + ": " + field + " at byte " + std::to_string(start_) + ": " + problem);
   }
 
   std::uint32_t u32(const char* field) {
@@ -70,7 +72,8 @@ class CdrReader {
     return v;
   }
 
-  void end() const {
+  void end() {
+    start_ = pos_;
     if (size_ - pos_ > 8) fail("end", std::to_string(size_ - pos_) + " bytes left after the message");
   }
 
@@ -82,6 +85,7 @@ class CdrReader {
   void raw(const char* field, void* out, std::size_t n) {
     const std::size_t rel = pos_ - 4;
     const std::size_t pad = (n - rel % n) % n;
+    start_ = pos_ + std::min(pad, size_ - pos_);  // the field's first byte (after alignment)
     if (pad + n > size_ - pos_) fail(field, "message ends early");
     pos_ += pad;
     std::uint8_t b[8];
@@ -103,6 +107,7 @@ class CdrReader {
   std::size_t size_;
   const char* type_;
   std::size_t pos_ = 0;
+  std::size_t start_ = 0;  ///< first byte of the field being read (errors name it)
   bool little_ = true;
 };
 

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -112,7 +113,22 @@ struct StmtCloser {
 using Db = std::unique_ptr<sqlite3, DbCloser>;
 using Stmt = std::unique_ptr<sqlite3_stmt, StmtCloser>;
 
-Db openDb(const std::string& path) {
+/// Counts sqlite's progress-handler calls (one per kProgressOps VM instructions) against a budget.
+struct StepBudget {
+  std::uint64_t calls = 0;
+  std::uint64_t max_calls = 0;
+};
+constexpr int kProgressOps = 1000;
+
+int onProgress(void* p) {
+  auto* b = static_cast<StepBudget*>(p);
+  return ++b->calls > b->max_calls ? 1 : 0;
+}
+
+/// Opens a storage file read-only and hardened (the file is untrusted): defensive mode, no trusted
+/// schema, values limited to 1 MiB, and a VM step budget proportional to the file size (a
+/// legitimate query over `messages` costs a bounded number of steps per stored byte).
+Db openDb(const std::string& path, StepBudget& budget) {
   struct stat st {};
   if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) {
     throw DataError(path + ": cannot read the bag's storage file: not a regular file (listed in metadata.yaml)");
@@ -122,6 +138,14 @@ Db openDb(const std::string& path) {
   const int rc = sqlite3_open_v2(path.c_str(), &raw, SQLITE_OPEN_READONLY | SQLITE_OPEN_NOMUTEX, nullptr);
   Db db(raw);
   if (rc != SQLITE_OK) throw DataError(path + ": cannot open as sqlite3: " + (raw ? sqlite3_errmsg(raw) : "out of memory"));
+  sqlite3_db_config(raw, SQLITE_DBCONFIG_DEFENSIVE, 1, nullptr);
+  sqlite3_db_config(raw, SQLITE_DBCONFIG_TRUSTED_SCHEMA, 0, nullptr);
+  sqlite3_db_config(raw, SQLITE_DBCONFIG_ENABLE_TRIGGER, 0, nullptr);
+  sqlite3_db_config(raw, SQLITE_DBCONFIG_ENABLE_VIEW, 0, nullptr);
+  sqlite3_limit(raw, SQLITE_LIMIT_LENGTH, static_cast<int>(kMaxCdrMessageBytes));
+  budget.calls = 0;
+  budget.max_calls = (static_cast<std::uint64_t>(st.st_size) * 200 + 100'000'000) / kProgressOps;
+  sqlite3_progress_handler(raw, kProgressOps, onProgress, &budget);
   return db;
 }
 
@@ -131,6 +155,40 @@ Stmt prepare(sqlite3* db, const std::string& path, const char* sql) {
     throw DataError(path + ": not a rosbag2 sqlite3 file (" + sqlite3_errmsg(db) + ")");
   }
   return Stmt(raw);
+}
+
+/// Refuses a storage file whose `topics` or `messages` is not a plain table (a view or virtual
+/// table could produce endless rows from a few bytes).
+void requirePlainTables(sqlite3* db, const std::string& path) {
+  for (const char* name : {"topics", "messages"}) {
+    Stmt s = prepare(db, path, "SELECT type, sql FROM sqlite_schema WHERE name = ?");
+    sqlite3_bind_text(s.get(), 1, name, -1, SQLITE_STATIC);
+    const int rc = sqlite3_step(s.get());
+    if (rc != SQLITE_ROW) {
+      throw DataError(path + ": not a rosbag2 sqlite3 file (no table '" + name + "'" +
+                      (rc == SQLITE_DONE ? std::string() : std::string(": ") + sqlite3_errmsg(db)) + ")");
+    }
+    const unsigned char* type = sqlite3_column_text(s.get(), 0);
+    const unsigned char* sql = sqlite3_column_text(s.get(), 1);
+    const std::string sql_head = sql == nullptr ? "" : std::string(reinterpret_cast<const char*>(sql)).substr(0, 20);
+    std::string upper;
+    for (char c : sql_head) upper += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    const bool table = type != nullptr && std::string(reinterpret_cast<const char*>(type)) == "table" &&
+                       upper.rfind("CREATE TABLE", 0) == 0;
+    if (!table) {
+      throw DataError(path + ": '" + name + "' is a " + (type == nullptr ? "?" : reinterpret_cast<const char*>(type)) +
+                      " (" + sql_head + "...), not a plain table: not a rosbag2 storage file ftid will read");
+    }
+  }
+}
+
+/// The error of a failed sqlite3_step, naming the step budget if that interrupted it.
+std::string stepError(sqlite3* db, const StepBudget& budget) {
+  if (budget.calls > budget.max_calls) {
+    return "interrupted after " + std::to_string(budget.max_calls * kProgressOps) +
+           " sqlite steps (far more than a bag of this size needs)";
+  }
+  return sqlite3_errmsg(db);
 }
 
 std::string text(sqlite3_stmt* s, int col) {
@@ -192,7 +250,8 @@ struct BagMessages {
 };
 
 /// The topics of one storage file (id, topic); adds new names to `all`.
-std::vector<std::pair<std::int64_t, Topic>> readTopics(sqlite3* db, const std::string& path, std::vector<Topic>& all) {
+std::vector<std::pair<std::int64_t, Topic>> readTopics(sqlite3* db, const std::string& path, std::vector<Topic>& all,
+                                                      const StepBudget& budget) {
   std::vector<std::pair<std::int64_t, Topic>> ids;
   Stmt s = prepare(db, path, "SELECT id, name, type, serialization_format FROM topics");
   int rc = 0;
@@ -205,48 +264,78 @@ std::vector<std::pair<std::int64_t, Topic>> readTopics(sqlite3* db, const std::s
     ids.emplace_back(sqlite3_column_int64(s.get(), 0), t);
     if (std::none_of(all.begin(), all.end(), [&](const Topic& x) { return x.name == t.name; })) all.push_back(t);
   }
-  if (rc != SQLITE_DONE) throw DataError(path + ": reading the topics table: " + sqlite3_errmsg(db));
+  if (rc != SQLITE_DONE) throw DataError(path + ": reading the topics table: " + stepError(db, budget));
   return ids;
+}
+
+/// Reads the chosen topics' messages of one storage file into `out`; `bytes_read` counts the
+/// message bytes over every file (capped at kMaxLogBytes).
+void readFileMessages(sqlite3* db, const std::string& path, const std::string& file,
+                      const std::vector<std::pair<std::int64_t, Topic>>& ids, bool want_wrench, const StepBudget& budget,
+                      BagMessages& out, std::size_t& bytes_read) {
+  std::int64_t joint_id = -1, wrench_id = -1;
+  for (const auto& [id, t] : ids) {
+    if (t.name == out.joint_topic) joint_id = id;
+    if (want_wrench && t.name == out.wrench_topic) wrench_id = id;
+  }
+  if (joint_id < 0 && wrench_id < 0) return;
+  Stmt s = prepare(db, path, "SELECT topic_id, timestamp, data FROM messages WHERE topic_id IN (?, ?) ORDER BY timestamp, id");
+  sqlite3_bind_int64(s.get(), 1, joint_id);
+  sqlite3_bind_int64(s.get(), 2, wrench_id);
+  int rc = 0;
+  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) {
+    const std::int64_t id = sqlite3_column_int64(s.get(), 0);
+    const bool joint = id == joint_id;
+    if (!joint && id != wrench_id) throw DataError(path + ": the messages query returned topic id " + std::to_string(id));
+    const std::string& topic = joint ? out.joint_topic : out.wrench_topic;
+    std::vector<Raw>& into = joint ? out.joint : out.wrench;
+    if (into.size() >= kMaxMessagesPerTopic) throw DataError(path + ": more than 20 million messages on '" + topic + "'");
+    const int n = sqlite3_column_bytes(s.get(), 2);
+    if (n < 0 || static_cast<std::size_t>(n) > kMaxCdrMessageBytes) {
+      throw DataError(path + ": a message of " + std::to_string(n) + " bytes on '" + topic + "'");
+    }
+    bytes_read += static_cast<std::size_t>(n) + sizeof(Raw);
+    if (bytes_read > kMaxLogBytes) {
+      throw DataError(path + ": the bag's messages on '" + out.joint_topic + "'" +
+                      (want_wrench ? " and '" + out.wrench_topic + "'" : std::string()) +
+                      " exceed 2 GiB over all storage files (ftid reads at most 2 GiB of a bag)");
+    }
+    const auto* b = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 2));
+    Raw r;
+    r.bag_ns = sqlite3_column_int64(s.get(), 1);
+    if (r.bag_ns < 0 || r.bag_ns > kMaxBagNs) {
+      throw DataError(path + ": a message on '" + topic + "' has the receive time " + std::to_string(r.bag_ns) +
+                      " ns (not a time between 1970 and 2096)");
+    }
+    if (b != nullptr) r.data.assign(b, b + n);
+    r.file = file;
+    into.push_back(std::move(r));
+  }
+  if (rc != SQLITE_DONE) throw DataError(path + ": reading the messages table: " + stepError(db, budget));
 }
 
 BagMessages readBagMessages(const std::string& dir, const Metadata& meta, const InputOptions& options, bool want_wrench) {
   BagMessages out;
   std::vector<Topic> topics;
+  // Topics first, over every storage file (a topic may first appear in a later file).
   for (const std::string& f : meta.files) {
     const std::string path = dir + "/" + f;
-    Db db = openDb(path);
-    const auto ids = readTopics(db.get(), path, topics);
-    if (out.joint_topic.empty()) {
-      out.joint_topic = chooseTopic(topics, options.joint_topic, kJointStateType, "--joint-topic", dir);
-      if (want_wrench) out.wrench_topic = chooseTopic(topics, options.wrench_topic, kWrenchType, "--wrench-topic", dir);
-    }
-    Stmt s = prepare(db.get(), path, "SELECT topic_id, timestamp, data FROM messages ORDER BY timestamp, id");
-    int rc = 0;
-    while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) {
-      const std::int64_t id = sqlite3_column_int64(s.get(), 0);
-      const auto it = std::find_if(ids.begin(), ids.end(), [&](const auto& p) { return p.first == id; });
-      if (it == ids.end()) continue;
-      std::vector<Raw>* into = it->second.name == out.joint_topic                  ? &out.joint
-                               : (want_wrench && it->second.name == out.wrench_topic) ? &out.wrench
-                                                                                     : nullptr;
-      if (into == nullptr) continue;
-      if (into->size() >= kMaxMessagesPerTopic) throw DataError(path + ": more than 20 million messages on one topic");
-      const int n = sqlite3_column_bytes(s.get(), 2);
-      if (n < 0 || static_cast<std::size_t>(n) > kMaxCdrMessageBytes) {
-        throw DataError(path + ": a message of " + std::to_string(n) + " bytes on '" + it->second.name + "'");
-      }
-      const auto* b = static_cast<const std::uint8_t*>(sqlite3_column_blob(s.get(), 2));
-      Raw r;
-      r.bag_ns = sqlite3_column_int64(s.get(), 1);
-      if (r.bag_ns < 0 || r.bag_ns > kMaxBagNs) {
-        throw DataError(path + ": a message on '" + it->second.name + "' has the receive time " +
-                        std::to_string(r.bag_ns) + " ns (not a time between 1970 and 2096)");
-      }
-      if (b != nullptr) r.data.assign(b, b + n);
-      r.file = f;
-      into->push_back(std::move(r));
-    }
-    if (rc != SQLITE_DONE) throw DataError(path + ": reading the messages table: " + sqlite3_errmsg(db.get()));
+    StepBudget budget;
+    Db db = openDb(path, budget);
+    requirePlainTables(db.get(), path);
+    readTopics(db.get(), path, topics, budget);
+  }
+  out.joint_topic = chooseTopic(topics, options.joint_topic, kJointStateType, "--joint-topic", dir);
+  if (want_wrench) out.wrench_topic = chooseTopic(topics, options.wrench_topic, kWrenchType, "--wrench-topic", dir);
+  std::size_t bytes_read = 0;
+  for (const std::string& f : meta.files) {
+    const std::string path = dir + "/" + f;
+    StepBudget budget;
+    Db db = openDb(path, budget);
+    requirePlainTables(db.get(), path);
+    std::vector<Topic> unused;
+    const auto ids = readTopics(db.get(), path, unused, budget);
+    readFileMessages(db.get(), path, f, ids, want_wrench, budget, out, bytes_read);
   }
   return out;
 }
@@ -325,6 +414,17 @@ LogData jointLogOf(const std::string& dir, const BagMessages& bag, const InputOp
   notes.push_back(std::to_string(js.size()) + " JointState messages on '" + bag.joint_topic + "' (" +
                   (stamps ? "header stamps" : "the bag's receive times: the header stamps are zero") + ")");
   differenceJointLog(robot, has_qd, options.derivative_half_window, "JointState message", notes);
+  for (const LogSample& s : robot.samples) {
+    for (Eigen::Index j = 0; j < 6; ++j) {
+      if (std::abs(s.qd[j]) <= options.read.max_abs_qd_rad_s && std::abs(s.qdd[j]) <= options.read.max_abs_qdd_rad_s2) {
+        continue;
+      }
+      throw DataError(dir + ": topic '" + bag.joint_topic + "', at t = " + std::to_string(s.t) + " s: joint " +
+                      std::to_string(j + 1) + ": the velocity " + std::to_string(s.qd[j]) + " rad/s or acceleration " +
+                      std::to_string(s.qdd[j]) + " rad/s^2 from smoothed differences is outside the plausible range "
+                      "(the joint states jump there)");
+    }
+  }
   return robot;
 }
 

@@ -90,7 +90,7 @@ std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initiali
   }
   const std::vector<bool> stair = stairSteps(same, moving);
   std::vector<std::size_t> keep;
-  std::size_t stairs = 0, duplicates = 0;
+  std::size_t stairs = 0, duplicates = 0, same_time = 0;
   for (std::size_t r = 0; r < rows; ++r) {
     if (stair[r]) {
       ++stairs;
@@ -100,6 +100,11 @@ std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initiali
       const std::size_t p = keep.back();
       if (same[r] && at(table, t_col, r) == at(table, t_col, p)) {
         ++duplicates;  // the same row twice
+        continue;
+      }
+      if (at(table, t_col, r) == at(table, t_col, p)) {
+        ++same_time;  // a torn or repeated row: the later one is the recorder's last word
+        keep.back() = r;
         continue;
       }
       if (!(at(table, t_col, r) > at(table, t_col, p))) {
@@ -122,6 +127,10 @@ std::vector<std::size_t> selectRows(const Table& table, int t_col, std::initiali
                         "them would be wrong)");
   }
   if (duplicates > 0) notes.push_back("dropped " + std::to_string(duplicates) + " duplicate rows");
+  if (same_time > 0) {
+    notes.push_back("dropped " + std::to_string(same_time) + " rows whose timestamp equals the next row's (kept the "
+                    "last row of each timestamp: the recorder wrote a torn or repeated row)");
+  }
   return keep;
 }
 
@@ -165,6 +174,26 @@ QddSource parseQddSource(const std::string& text) {
   if (text == "target") return QddSource::kTarget;
   throw ConfigError("--qdd-source must be 'diff' or 'target', not '" + text + "'");
 }
+
+namespace {
+
+/// Refuses a differenced velocity or acceleration outside the plausible range, naming the line.
+void checkDifferenced(const Table& table, const std::vector<std::size_t>& keep, const std::vector<JointVector>& v,
+                      double limit, const char* what) {
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    for (int j = 0; j < 6; ++j) {
+      if (std::abs(v[i][j]) <= limit) continue;
+      char buf[300];
+      std::snprintf(buf, sizeof buf,
+                    "%s:%zu: joint %d: the %s from smoothed differences is %.6g, outside the plausible range "
+                    "(|value| <= %.6g): the recording jumps there",
+                    table.source.c_str(), table.row_line[keep[i]], j + 1, what, v[i][j], limit);
+      throw DataError(buf);
+    }
+  }
+}
+
+}  // namespace
 
 InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   InputLog out;
@@ -220,6 +249,7 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
   if (log.has_joints) {
     if (!has(qd)) {
       qdv = smoothedDerivative(t, qv, h);
+      checkDifferenced(table, keep, qdv, lim.max_abs_qd_rad_s, "velocity [rad/s]");
       out.notes.push_back("joint velocities from smoothed differences of actual_q (no actual_qd columns)");
     }
     std::vector<JointVector> qddv;
@@ -234,6 +264,7 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options) {
       out.notes.push_back("joint accelerations: the controller's target_qdd (--qdd-source target)");
     } else {
       qddv = smoothedDerivative(t, qdv, h);
+      checkDifferenced(table, keep, qddv, lim.max_abs_qdd_rad_s2, "acceleration [rad/s^2]");
       out.notes.push_back("joint accelerations from smoothed differences of actual_qd (centred least-squares slope "
                           "over +-" + std::to_string(h) + " samples; no lag)");
     }

@@ -74,7 +74,12 @@ LogData wrenchLogFromTable(const Table& table, const LogReadOptions& read) {
   col.fill(-1);
   const std::string where = table.source + ":" + std::to_string(table.header_line) + ":";
   for (std::size_t c = 0; c < table.names.size(); ++c) {
-    const std::string alias = columnAlias(table.names[c]);
+    std::string alias;
+    try {
+      alias = columnAlias(table.names[c]);
+    } catch (const DataError& e) {
+      throw DataError(where + std::to_string(table.name_position[c]) + ": " + e.what());
+    }
     for (std::size_t k = 0; k < kWrenchLogColumns.size(); ++k) {
       if (alias != kWrenchLogColumns[k]) continue;
       if (col[k] >= 0) {

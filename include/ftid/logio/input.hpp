@@ -123,7 +123,9 @@ std::size_t dropRepeatedPoses(LogData& log);
 
 /// The ftid column a header name means, if it is a known alias or differs only in case, spaces,
 /// '_' or a unit suffix ("Fx" -> "fx", "force_x" -> "fx", "Torque Z [Nm]" -> "tz",
-/// "timestamp" -> "t", "actual_q_0" -> "q1"); "" if none.
+/// "timestamp" -> "t", "actual_q_0" -> "q1"); "" if none. A unit suffix must be the SI unit ftid
+/// reads (s; N; Nm, N·m, N-m, N*m; rad, rad/s, rad/s^2): any other (`Time [ms]`, `Fx [lbf]`) throws
+/// a DataError naming the column and the unit.
 std::string columnAlias(std::string_view name);
 
 /// For an error about missing columns: " (the header has 'Fx': rename it to 'fx'; ...)" naming

@@ -247,6 +247,29 @@ TEST(UrRecord, Refusals) {
                     "1 0 0 0 0 0 0\n0.5 1 0 0 0 0 0\n";
   EXPECT_EQ(errorOf([&] { urRecordToLog(parseTable(bad, "r.txt"), {}); }),
             "r.txt:3: column 'timestamp': time 0.5 is not greater than 1 on line 2 (timestamps must increase)");
+  // Equal timestamps (ur_rtde's recorder can write a torn or repeated row): the last row of each
+  // timestamp is kept and the drop reported; a decrease is still refused.
+  const std::string torn = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n"
+                           "1 0 0 0 0 0 0\n2 0.1 0 0 0 0 0\n2 0.2 0 0 0 0 0\n3 0.3 0 0 0 0 0\n4 0.4 0 0 0 0 0\n"
+                           "4 0.5 0 0 0 0 0\n5 0.6 0 0 0 0 0\n";
+  const InputLog in = urRecordToLog(parseTable(torn, "torn.txt"), {});
+  ASSERT_EQ(in.log.samples.size(), 5U);
+  EXPECT_EQ(in.log.samples[1].t, 2.0);
+  EXPECT_EQ(in.log.samples[1].q[0], 0.2);
+  EXPECT_EQ(in.log.samples[2].q[0], 0.3);
+  EXPECT_EQ(in.log.samples[3].q[0], 0.5);
+  EXPECT_NE(std::find_if(in.notes.begin(), in.notes.end(),
+                         [](const std::string& n) { return n.find("dropped 2 rows whose timestamp equals") == 0; }),
+            in.notes.end());
+  EXPECT_EQ(errorOf([&] { urRecordToLog(parseTable(torn + "4.5 0 0 0 0 0 0\n", "d.txt"), {}); }),
+            "d.txt:9: column 'timestamp': time 4.5 is not greater than 5 on line 8 (timestamps must increase)");
+  // A jump in the positions: the differenced velocity and acceleration are refused, naming the line.
+  std::string jump = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n";
+  for (int i = 0; i < 20; ++i) jump += std::to_string(i * 0.00001) + (i == 10 ? " 12 0 0 0 0 0\n" : " 0 0 0 0 0 0\n");
+  const std::string e = errorOf([&] { urRecordToLog(parseTable(jump, "jump.txt"), {}); });
+  EXPECT_NE(e.find("from smoothed differences is"), std::string::npos) << e;
+  EXPECT_EQ(e.rfind("jump.txt:", 0), 0U) << e;
+  EXPECT_NE(e.find("outside the plausible range"), std::string::npos) << e;
   std::string huge = "timestamp actual_q_0 actual_q_1 actual_q_2 actual_q_3 actual_q_4 actual_q_5\n"
                      "1 0 0 0 0 0 0\n2 0 0 1e9 0 0 0\n";
   EXPECT_NE(errorOf([&] { urRecordToLog(parseTable(huge, "h.txt"), {}); }).find("h.txt:3: column 'actual_q_2': value 1e+09 is outside the plausible range"),
@@ -257,6 +280,24 @@ TEST(ColumnNames, AliasesAndCase) {
   EXPECT_EQ(columnAlias("Fx"), "fx");
   EXPECT_EQ(columnAlias("force_y"), "fy");
   EXPECT_EQ(columnAlias("Torque Z [Nm]"), "tz");
+  EXPECT_EQ(columnAlias("Tz (N-m)"), "tz");
+  EXPECT_EQ(columnAlias("Tz (N\xc2\xb7m)"), "tz");
+  EXPECT_EQ(columnAlias("Fx [N]"), "fx");
+  EXPECT_EQ(columnAlias("Time [s]"), "t");
+  EXPECT_EQ(columnAlias("comment [text]"), "");  // not a column ftid reads: its unit does not matter
+  // Any other unit is refused, naming the column and the unit (no silent ms-as-s or lbf-as-N).
+  const auto unitError = [](const char* name) {
+    try {
+      columnAlias(name);
+    } catch (const DataError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(unitError("Time [ms]"), "column 'Time [ms]': unit 'ms' (ftid reads 't' in s only; convert the column or rename it)");
+  EXPECT_NE(unitError("Fx [lbf]").find("column 'Fx [lbf]': unit 'lbf'"), std::string::npos);
+  EXPECT_NE(unitError("Tz (N-mm)").find("column 'Tz (N-mm)': unit 'N-mm'"), std::string::npos);
+  EXPECT_NE(unitError("Fz [kN]").find("unit 'kN'"), std::string::npos);
   EXPECT_EQ(columnAlias("Mx"), "tx");
   EXPECT_EQ(columnAlias("Tx"), "tx");
   EXPECT_EQ(columnAlias("TIME"), "t");

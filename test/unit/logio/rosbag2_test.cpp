@@ -1,12 +1,14 @@
 // ROS 2 bags (docs/log-format.md "ROS 2 bags"): the checked-in fixtures of
 // test/unit/logio/rosbag2/make_bags.py (an independent Python writer) and the CDR decoders on
 // hand-made and damaged messages.
+#include <sqlite3.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstdint>
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -132,6 +134,42 @@ TEST(Rosbag2, RefusalsNameTheBagTopicAndFix) {
   ASSERT_EQ(::system(("rm -rf " + dir).c_str()), 0);
 }
 
+/// Runs `sql` on the storage file `db3` (read-write): the tests' way of crafting hostile bags.
+void execSql(const std::string& db3, const char* sql) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(db3.c_str(), &db), SQLITE_OK);
+  char* err = nullptr;
+  const int rc = sqlite3_exec(db, sql, nullptr, nullptr, &err);
+  EXPECT_EQ(rc, SQLITE_OK) << (err ? err : "");
+  sqlite3_free(err);
+  sqlite3_close(db);
+}
+
+TEST(Rosbag2, HostileStorageFilesAreRefusedQuickly) {
+  const std::string dir = std::string(FTID_BINARY_DIR) + "/rosbag2_hostile_" + std::to_string(::getpid());
+  const std::string db3 = dir + "/ur_ft_0.db3";
+  // `messages` as a recursive view: endless rows from a few bytes.
+  ASSERT_EQ(::system(("rm -rf " + dir + " && cp -r " + kBags + "ur_ft " + dir).c_str()), 0);
+  execSql(db3, "ALTER TABLE messages RENAME TO m0; CREATE VIEW messages AS WITH RECURSIVE r(i) AS "
+               "(SELECT 1 UNION ALL SELECT i + 1 FROM r) SELECT i AS id, 1 AS topic_id, i AS timestamp, "
+               "x'00' AS data FROM r;");
+  auto t0 = std::chrono::steady_clock::now();
+  std::string e = errorOf([&] { readInput(dir); });
+  EXPECT_NE(e.find(db3 + ": 'messages' is a view (CREATE VIEW messages...), not a plain table"), std::string::npos) << e;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 5.0);
+  // `topics` as a view too.
+  ASSERT_EQ(::system(("rm -rf " + dir + " && cp -r " + kBags + "ur_ft " + dir).c_str()), 0);
+  execSql(db3, "ALTER TABLE topics RENAME TO t0; CREATE VIEW topics AS SELECT * FROM t0;");
+  e = errorOf([&] { readInput(dir); });
+  EXPECT_NE(e.find(db3 + ": 'topics' is a view"), std::string::npos) << e;
+  // A stored value larger than 1 MiB: refused by the connection's length limit.
+  ASSERT_EQ(::system(("rm -rf " + dir + " && cp -r " + kBags + "ur_ft " + dir).c_str()), 0);
+  execSql(db3, "UPDATE messages SET data = zeroblob(2000000) WHERE id = (SELECT min(id) FROM messages);");
+  e = errorOf([&] { readInput(dir); });
+  EXPECT_NE(e.find(db3 + ": reading the messages table: string or blob too big"), std::string::npos) << e;
+  ASSERT_EQ(::system(("rm -rf " + dir).c_str()), 0);
+}
+
 /// A hand-made CDR message (little- or big-endian).
 struct Writer {
   std::vector<std::uint8_t> b;
@@ -217,12 +255,12 @@ TEST(Cdr, EveryTruncationAndDamageIsADataError) {
   bad = bytes;
   bad[12] = 0xff;  // frame_id length 255 + ...: longer than the message
   bad[13] = 0xff;
-  EXPECT_NE(errorOf([&] { decodeJointState(bad.data(), bad.size()); }).find("header.frame_id at byte 16: string of"),
+  EXPECT_NE(errorOf([&] { decodeJointState(bad.data(), bad.size()); }).find("header.frame_id at byte 12: string of"),
             std::string::npos);
   bad = bytes;
   bad[24] = 0xff;  // name count (bytes 24..27, after "base\0" at 16..20 and padding) 255: more than 64
   EXPECT_EQ(errorOf([&] { decodeJointState(bad.data(), bad.size()); }),
-            "CDR sensor_msgs/msg/JointState: name at byte 28: 255 elements (at most 64)");
+            "CDR sensor_msgs/msg/JointState: name at byte 24: 255 elements (at most 64)");
   bad = bytes;
   bad[20] = 'X';  // the frame_id's NUL
   EXPECT_NE(errorOf([&] { decodeJointState(bad.data(), bad.size()); }).find("not terminated by NUL"), std::string::npos);
