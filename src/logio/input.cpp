@@ -90,7 +90,7 @@ InputLog readInput(const std::string& path, const InputOptions& options) {
     }
   }
   if (!options.wrench_log.empty()) {
-    const LogData wrench = wrenchLogFromTable(readTable(options.wrench_log), options.read);
+    const LogData wrench = wrenchLogFromTable(readTable(options.wrench_log, TableSeparator::kAuto, wrenchLogUsesColumn), options.read);
     if (in.log.has_wrench) {
       in.notes.push_back("the wrench columns of " + path + " are replaced by those of " + options.wrench_log +
                          " (--wrench-log)");

@@ -36,6 +36,7 @@ std::string trimmed(const std::string& s) {
 struct Metadata {
   std::string storage;
   std::vector<std::string> files;
+  std::string compression, compression_mode;
 };
 
 /// The two things ftid needs from metadata.yaml (a line scan: the file is untrusted and only
@@ -72,6 +73,8 @@ Metadata readMetadata(const std::string& dir) {
       in_files = false;
     }
     if (t.rfind("storage_identifier:", 0) == 0) m.storage = trimmed(t.substr(19));
+    if (t.rfind("compression_format:", 0) == 0) m.compression = trimmed(t.substr(19));
+    if (t.rfind("compression_mode:", 0) == 0) m.compression_mode = trimmed(t.substr(17));
     if (t.rfind("relative_file_paths:", 0) == 0) {
       in_files = true;
       const std::string rest = trimmed(t.substr(20));
@@ -93,6 +96,12 @@ Metadata readMetadata(const std::string& dir) {
   if (m.storage == "mcap") {
     throw DataError(dir + ": MCAP storage: ftid reads rosbag2 with sqlite3 storage (Debian 12 has no MCAP "
                           "library); convert it: ros2 bag convert -i " + dir + " -o out.yaml with storage_id: sqlite3");
+  }
+  if (!m.compression.empty() || (!m.compression_mode.empty() && m.compression_mode != "NONE")) {
+    throw DataError(path + ": a compressed bag (compression_format '" + m.compression.substr(0, 40) +
+                    "', compression_mode '" + m.compression_mode.substr(0, 40) +
+                    "'): ftid reads uncompressed bags; decompress it: ros2 bag convert -i " + dir +
+                    " -o out.yaml (out.yaml without compression)");
   }
   if (m.storage != "sqlite3") throw DataError(path + ": storage_identifier '" + m.storage.substr(0, 40) + "' (ftid reads sqlite3)");
   if (m.files.empty()) throw DataError(path + ": relative_file_paths lists no storage file");

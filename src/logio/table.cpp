@@ -3,6 +3,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <system_error>
 #include <unordered_map>
 
@@ -122,7 +123,8 @@ struct Lines {
 
 }  // namespace
 
-Table parseTable(std::string_view text, const std::string& path, TableSeparator separator) {
+Table parseTable(std::string_view text, const std::string& path, TableSeparator separator,
+                 const ColumnFilter& use_column) {
   Table table;
   table.source = path;
   Lines lines{text};
@@ -162,6 +164,10 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
   }
   const std::size_t n = table.names.size();
   table.columns.assign(n, {});
+  std::vector<bool> used(n, true);
+  if (use_column) {
+    for (std::size_t k = 0; k < n; ++k) used[k] = use_column(table.names[k]);
+  }
   std::string why;
   while (lines.next(line)) {
     if (blankOrComment(line)) continue;
@@ -175,8 +181,8 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
                      std::to_string(fields.size()));
     }
     for (std::size_t k = 0; k < n; ++k) {
-      double v = 0.0;
-      if (!parseFinite(fields[k].text, v, why)) {
+      double v = std::numeric_limits<double>::quiet_NaN();
+      if (used[k] && !parseFinite(fields[k].text, v, why)) {
         tableError(path, lines.line_no, fields[k].position, "column '" + table.names[k] + "': " + why);
       }
       table.columns[k].push_back(v);
@@ -187,9 +193,9 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
   return table;
 }
 
-Table readTable(const std::string& path, TableSeparator separator) {
+Table readTable(const std::string& path, TableSeparator separator, const ColumnFilter& use_column) {
   try {
-    return parseTable(readInputFile(path, "log file", kMaxLogBytes), path, separator);
+    return parseTable(readInputFile(path, "log file", kMaxLogBytes), path, separator, use_column);
   } catch (const FileError& e) {
     throw DataError(e.what());
   }

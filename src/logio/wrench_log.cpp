@@ -69,6 +69,15 @@ std::string hz(double step) {
 
 }  // namespace
 
+bool wrenchLogUsesColumn(const std::string& name) {
+  try {
+    const std::string alias = columnAlias(name);
+    return std::find(kWrenchLogColumns.begin(), kWrenchLogColumns.end(), alias) != kWrenchLogColumns.end();
+  } catch (const DataError&) {
+    return true;  // a refused unit: the reader reports it
+  }
+}
+
 LogData wrenchLogFromTable(const Table& table, const LogReadOptions& read) {
   std::array<int, 7> col{};
   col.fill(-1);

@@ -95,6 +95,10 @@ InputLog urRecordToLog(const Table& table, const InputOptions& options);
 /// wrench columns in ftid's or common spellings (columnAlias). Other columns are ignored.
 LogData wrenchLogFromTable(const Table& table, const LogReadOptions& read = {});
 
+/// Whether a wrench log's reader uses the column `name` (time, wrench, or a unit it refuses):
+/// the column filter that lets other columns hold anything.
+bool wrenchLogUsesColumn(const std::string& name);
+
 /// The robot log with the wrench of `wrench` (times + offset_s) aligned to it: over the span
 /// both cover only, the faster stream is interpolated linearly at the slower one's instants (a
 /// pose log always keeps the robot's instants). Appends what it did to `notes`.

@@ -3,6 +3,7 @@
 // reads besides its own log (UR's record.py / ur_rtde files, a sensor's own wrench log;
 // docs/log-format.md). Every value is a finite number; every error names FILE:LINE:COLUMN.
 #include <cstddef>
+#include <functional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -29,10 +30,15 @@ enum class TableSeparator { kAuto, kComma, kWhitespace };
 /// the first other line is the header. Limits as for ftid logs (kMaxColumns, kMaxHeaderBytes).
 /// Throws DataError("FILE:LINE:COLUMN: message") for an empty table, empty or duplicate names, a
 /// field that is not a finite number, or a row with too few or too many fields.
-Table parseTable(std::string_view text, const std::string& path, TableSeparator separator = TableSeparator::kAuto);
+/// With `use_column`, only the columns it accepts (by header name) are parsed as numbers; the
+/// others may hold anything (a hex status, a date) and read as NaN.
+using ColumnFilter = std::function<bool(const std::string&)>;
+Table parseTable(std::string_view text, const std::string& path, TableSeparator separator = TableSeparator::kAuto,
+                 const ColumnFilter& use_column = {});
 
 /// Reads a regular file (fileio's bounded, non-blocking input reader) and parses it.
-Table readTable(const std::string& path, TableSeparator separator = TableSeparator::kAuto);
+Table readTable(const std::string& path, TableSeparator separator = TableSeparator::kAuto,
+                const ColumnFilter& use_column = {});
 
 /// The header row of a text (its first line that is neither blank nor a comment; for recognising
 /// the format), at most kMaxHeaderBytes long; empty if there is none.

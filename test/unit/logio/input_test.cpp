@@ -355,6 +355,17 @@ TEST(WrenchLog, ReadsCommonSpellingsAndRefusesWithTheHeaderShown) {
             "ati.csv:1:1: a wrench log needs a time column (t, time or timestamp, in seconds) and the six wrench columns "
             "fx..tz (also Fx..Tz, Mx..Mz, force_x.., torque_x..); missing: t, tz (the header has: stamp_ms, Fx, Fy, Fz, "
             "Tx, Ty)");
+  // Other columns may hold anything (a hex status, a date): only the used columns are parsed.
+  const std::string extra = "time,status,Fx,Fy,Fz,Tx,Ty,Tz,date\n0.0,0x1F,1,2,3,4,5,6,2026-12-03\n"
+                            "0.5,0xA0,2,3,4,5,6,7,2026-12-03\n";
+  const LogData w3 = wrenchLogFromTable(parseTable(extra, "x.csv", TableSeparator::kAuto, wrenchLogUsesColumn));
+  ASSERT_EQ(w3.samples.size(), 2U);
+  EXPECT_EQ(w3.samples[1].t, 0.5);
+  EXPECT_EQ(w3.samples[1].wrench_S[5], 7.0);
+  // A used column still must be numeric, named with its line.
+  EXPECT_NE(errorOf([&] { parseTable(extra + "1.0,0x00,oops,3,4,5,6,7,x\n", "x.csv", TableSeparator::kAuto, wrenchLogUsesColumn); })
+                .find("x.csv:4:"),
+            std::string::npos);
   EXPECT_EQ(errorOf([] { wrenchLogFromTable(parseTable("t,Fx,fx,Fy,Fz,Tx,Ty,Tz\n1,2,3,4,5,6,7,8\n", "d.csv")); }),
             "d.csv:1:6: columns 'Fx' and 'fx' both mean 'fx'; keep one");
   EXPECT_EQ(errorOf([] { wrenchLogFromTable(parseTable("t,Fx,Fy,Fz,Tx,Ty,Tz\n1,0,0,0,0,0,0\n1,0,0,0,0,0,0\n", "m.csv")); }),

@@ -167,6 +167,13 @@ TEST(Rosbag2, HostileStorageFilesAreRefusedQuickly) {
   execSql(db3, "UPDATE messages SET data = zeroblob(2000000) WHERE id = (SELECT min(id) FROM messages);");
   e = errorOf([&] { readInput(dir); });
   EXPECT_NE(e.find(db3 + ": reading the messages table: string or blob too big"), std::string::npos) << e;
+  // A compressed bag is refused, saying how to decompress it.
+  std::ofstream(dir + "/metadata.yaml", std::ios::trunc)
+      << "rosbag2_bagfile_information:\n  storage_identifier: sqlite3\n  compression_format: zstd\n"
+         "  compression_mode: FILE\n  relative_file_paths:\n    - ur_ft_0.db3.zstd\n";
+  e = errorOf([&] { readInput(dir); });
+  EXPECT_NE(e.find("metadata.yaml: a compressed bag (compression_format 'zstd', compression_mode 'FILE')"),
+            std::string::npos) << e;
   ASSERT_EQ(::system(("rm -rf " + dir).c_str()), 0);
 }
 
