@@ -47,7 +47,7 @@ Metadata readMetadata(const std::string& dir) {
   try {
     text = readInputFile(path, "rosbag2 metadata", std::size_t{1} << 20);
   } catch (const FileError& e) {
-    throw DataError(dir + ": a directory but not a rosbag2 (" + e.what() + ")");
+    throw DataError(dir + ": cannot read the log file: it is a directory, and not a rosbag2 bag (" + e.what() + ")");
   }
   Metadata m;
   bool in_files = false;
