@@ -121,7 +121,7 @@ TEST(Rosbag2, RefusalsNameTheBagTopicAndFix) {
   EXPECT_NE(errorOf([&] { readInput(kBags + "mcap"); }).find("MCAP storage: ftid reads rosbag2 with sqlite3 storage"),
             std::string::npos);
   // A directory that is not a bag.
-  EXPECT_NE(errorOf([&] { readInput(kBags); }).find("a directory but not a rosbag2"), std::string::npos);
+  EXPECT_NE(errorOf([&] { readInput(kBags); }).find("it is a directory, and not a rosbag2 bag"), std::string::npos);
   // A damaged storage file.
   const std::string dir = std::string(FTID_BINARY_DIR) + "/rosbag2_damaged_" + std::to_string(::getpid());
   ASSERT_EQ(::system(("rm -rf " + dir + " && cp -r " + kBags + "ur_ft " + dir).c_str()), 0);
