@@ -52,15 +52,16 @@ std::string inertiaPart(const ParameterSet& set, const NamedValue& mass) {
 
 PhysicalValidity checkPhysicalValidity(const ParameterSet& set) {
   PhysicalValidity out;
-  out.problem = params::findParameterProblem(set);
   const NamedValue* mass = findParam(set, "mass");
-  // A mass whose standard error exceeds a third of it is not determined (zero lies within 3
-  // standard errors): its inertia and centre of mass then pass any check within the uncertainty
-  // while the point values may be impossible.
-  if (!out.problem && mass != nullptr && !(kMaxMassRelativeStd * mass->value >= mass->std)) {
+  // A positive mass whose standard error exceeds a third of it is not determined (zero lies within
+  // 3 standard errors): the root cause, named first, since its inertia and centre of mass then
+  // carry no information whatever their point values (a non-positive mass is findParameterProblem's).
+  if (mass != nullptr && mass->value > 0.0 && !(kMaxMassRelativeStd * mass->value >= mass->std)) {
     out.problem = params::ParameterProblem{
         "parameters.mass", "mass " + number(mass->value) + " +- " + number(mass->std) +
                                " kg is not determined by the data (its standard error exceeds a third of it)"};
+  } else {
+    out.problem = params::findParameterProblem(set);
   }
   out.valid = !out.problem.has_value();
   std::string s = "physical validity: ";

@@ -25,8 +25,10 @@ double valueOr(const ParameterSet& set, const char* name, double fallback) {
   return fallback;
 }
 
-// The largest relative standard error of i_s_* for which an impossible estimate is projected.
-constexpr double kProjectMaxRelStd = 0.1;
+// The largest relative standard error of i_s_* for which an impossible estimate is projected: the
+// tensor's scale at least 3 standard errors, the same "determined" rule as identify's for the mass
+// (identify/physical_check.hpp).
+constexpr double kProjectMaxRelStd = 1.0 / 3.0;
 
 constexpr const char* kAxisKeys[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
 

@@ -30,7 +30,7 @@ TEST(IdentifyPhysical, UndeterminedInertiaIsRefusedAndNothingWritten) {
   const std::string log = simulateCableDelay("short.csv", 3, 1);
   const std::string out = dir() + "params.yaml";
   for (const char* ext : {"", ".ros2.yaml", ".urscript", ".bak"}) std::remove((out + ext).c_str());  // an earlier run's
-  const CliRun r = ftidRun("identify --log " + log + " --model paper+cable+sensor_delay+rigid_body --out " + out);
+  const CliRun r = ftidRun("identify --log " + log + " --model paper+cable+sensor_delay+rigid_body --imu off --out " + out);
   EXPECT_EQ(r.code, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("physical validity: mass"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("principal moments"), std::string::npos) << r.out;
@@ -40,7 +40,7 @@ TEST(IdentifyPhysical, UndeterminedInertiaIsRefusedAndNothingWritten) {
   EXPECT_FALSE(fileExists(out + ".ros2.yaml"));
   EXPECT_FALSE(fileExists(out + ".urscript"));
   // The JSON says the same.
-  const CliRun j = ftidRun("identify --log " + log + " --model paper+cable+sensor_delay+rigid_body --json");
+  const CliRun j = ftidRun("identify --log " + log + " --model paper+cable+sensor_delay+rigid_body --imu off --json");
   EXPECT_EQ(j.code, 1);
   EXPECT_NE(j.out.find("\"physical_validity\":{\"valid\":false,\"key\":\"parameters.mass\""), std::string::npos) << j.out;
 }
