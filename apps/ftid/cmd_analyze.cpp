@@ -88,11 +88,7 @@ std::vector<std::string> splitList(const std::string& s) {
 }
 
 const std::string& usage() {
-  static const std::string text = [] {
-    std::string u = kUsage;
-    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
-    return u;
-  }();
+  static const std::string text = ftid::cli::withInputFlagsHelp(kUsage);
   return text;
 }
 

@@ -49,11 +49,7 @@ const char* const kUsage =
     "or parameter file (the message names the file, line or key), 2 usage error.";
 
 const std::string& usage() {
-  static const std::string text = [] {
-    std::string u = kUsage;
-    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
-    return u;
-  }();
+  static const std::string text = ftid::cli::withInputFlagsHelp(kUsage);
   return text;
 }
 

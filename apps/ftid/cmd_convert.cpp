@@ -25,11 +25,7 @@ const char* const kUsage =
     "read OUT with --wrench-frame base. Exit: 0 written, 1 bad input (named), 2 usage error.";
 
 const std::string& usage() {
-  static const std::string text = [] {
-    std::string u = kUsage;
-    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
-    return u;
-  }();
+  static const std::string text = ftid::cli::withInputFlagsHelp(kUsage);
   return text;
 }
 

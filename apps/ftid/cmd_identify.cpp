@@ -94,11 +94,7 @@ const char* const kUsage =
 
 /// The usage with the shared recording options inserted.
 const std::string& usage() {
-  static const std::string text = [] {
-    std::string u = kUsage;
-    u.replace(u.find("%INPUT%"), 7, ftid::cli::kInputFlagsHelp);
-    return u;
-  }();
+  static const std::string text = ftid::cli::withInputFlagsHelp(kUsage);
   return text;
 }
 

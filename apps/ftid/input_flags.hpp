@@ -27,6 +27,14 @@ inline constexpr const char* kInputFlagsHelp =
     "                    sensor_msgs/JointState topic (default /joint_states; UR joint names)\n"
     "  --wrench-topic T  ROS 2 bags: the geometry_msgs/WrenchStamped topic (default: the only one)\n";
 
+/// `usage` with its "%INPUT%" marker replaced by kInputFlagsHelp (each recording command's --help).
+inline std::string withInputFlagsHelp(std::string usage) {
+  const std::string marker = "%INPUT%";
+  const auto at = usage.find(marker);
+  if (at != std::string::npos) usage.replace(at, marker.size(), kInputFlagsHelp);
+  return usage;
+}
+
 struct InputFlags {
   std::string wrench_log;
   double wrench_time_offset_s = 0.0;
