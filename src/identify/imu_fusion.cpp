@@ -17,11 +17,20 @@ constexpr double kRadToDeg = 180.0 / kPiHere;
 
 double wrapAngle(double a) { return std::remainder(a, 2.0 * kPiHere); }
 
-ImuComparison compare(const std::string& quantity, const Eigen::VectorXd& d, const Eigen::MatrixXd& S) {
+// The IMU estimators stop once a Gauss-Newton step is below 1e-12 (rad, s; imu.cpp), and the
+// estimates are computed in double precision from kinematics: a difference below this resolution
+// is not resolved. Its variance is part of every compared difference's covariance. It matters only
+// when the IMU is noise-free (a simulator's default), where the residual-based covariance would
+// otherwise be ~1e-35 and rounding alone would read as a disagreement.
+constexpr double kEstimateResolution = 1e-12;
+
+ImuComparison compare(const std::string& quantity, const Eigen::VectorXd& d, const Eigen::MatrixXd& S_estimates) {
   ImuComparison c;
   c.quantity = quantity;
   c.dof = static_cast<int>(d.size());
   c.limit = chiSquare999(c.dof);
+  const Eigen::MatrixXd S =
+      S_estimates + Eigen::MatrixXd::Identity(d.size(), d.size()) * (kEstimateResolution * kEstimateResolution);
   const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
   const bool pd = ldlt.info() == Eigen::Success && ldlt.isPositive() && (ldlt.vectorD().array() > 0.0).all();
   c.chi2 = pd ? d.dot(ldlt.solve(d)) : (d.isZero(0.0) ? 0.0 : std::numeric_limits<double>::infinity());

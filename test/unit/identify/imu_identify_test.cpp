@@ -119,6 +119,29 @@ TEST(ImuIdentify, MisalignedAccelerometerIsReportedAndNotFused) {
   EXPECT_NEAR(set.tilt_u_rad, w.tilt_u_rad, 1e-3 * w.tilt_u_std);
 }
 
+TEST(ImuIdentify, NoiseFreeImuAgreesWithTheRightSetUpAndStillSeesAHundredthOfADegree) {
+  // A noise-free IMU (the simulator's default): its residual-based covariance is ~1e-35, so the
+  // estimates' numerical resolution decides; the right set-up raises no warning (it used to read
+  // rounding as chi2 ~ 700), and a mount off by 0.01 deg is still reported.
+  sim::CellSimConfig cfg = noisyImuCell(3.0);
+  cfg.noise.acc_std = 0.0;
+  cfg.noise.gyro_std = 0.0;
+  IdentifyRequest req;
+  req.model = "paper+rigid_body";
+  req.imu = ImuUse::kOn;
+  ImuReport report;
+  (void)identify::identifyContexts(test::contextsOf(cfg).samples, req, &report);
+  ASSERT_TRUE(report.used);
+  EXPECT_TRUE(report.warnings.empty()) << report.warnings.front();
+  cfg.mounting.enabled = true;
+  cfg.mounting.rpy_rad = Vec3(0.0, 0.0, 0.01) * test::kDegToRad;
+  cfg.mounting.rotate_imu = true;  // the IMU turns with the sensor; the configuration says it does not
+  (void)identify::identifyContexts(test::contextsOf(cfg).samples, req, &report);
+  bool mount = false;
+  for (const auto& w : report.warnings) mount = mount || w.find("disagree on the mount") != std::string::npos;
+  EXPECT_TRUE(mount);
+}
+
 TEST(ImuIdentify, GyroMountAndDelayAgainstTheWrenchFit) {
   // The sensor is mounted rotated; the IMU is not rotated with it (rotate_imu = false) and its
   // stream lags by 20 ms while the model assumes none: both are reported.
