@@ -14,6 +14,17 @@ root="$(dirname "$here")"
 build="${FTID_BUILD_DIR:-$root/build}"
 jobs="$(nproc)"
 start=$(date +%s)
+# Wall time per step, printed at the end (docs/testing.md "Time" keeps the measured figures).
+step_times=""
+step_name=""
+step_start=$start
+step() {
+  local now
+  now=$(date +%s)
+  [ -n "$step_name" ] && step_times="${step_times}${step_name} $((now - step_start)) s, "
+  step_name="$1"
+  step_start=$now
+}
 # ccache where installed (scripts/packages.txt), keyed on paths relative to the checkout: a rerun
 # or another clone recompiles only what changed (setup.sh and fuzz.sh do the same).
 launcher=()
@@ -22,19 +33,24 @@ if command -v ccache >/dev/null 2>&1; then
   launcher=(-DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 fi
 
+step "setup+build"
 "$here/setup.sh" "$build"
+step "clang-tidy"
 # clang-tidy with the repository's .clang-tidy on every source (a few minutes; fails on findings).
 echo "== test: clang-tidy (scripts/tidy.sh)"
 "$here/tidy.sh" "$build"
+step "ctest"
 echo "== test: ctest ($build)"
 summary="$(mktemp)"
 (cd "$build" && ctest --output-on-failure -j"$jobs" --timeout 600) | tee "$summary"
 # Real SocketCAN (vcan0) and PREEMPT_RT: Debian's RT kernel in qemu (docs/kernel-rig.md, ~1 min).
+step "kernel rig"
 echo "== test: kernel rig (PREEMPT_RT kernel in qemu: SocketCAN on vcan0, RT set-up, ftidd)"
 "$here/kernel-rig.sh" "$build" | tee -a "$summary"
 
 if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   asan="$root/build-asan"
+  step "sanitizer build"
   echo "== test: AddressSanitizer + UBSan build of the unit tests ($asan)"
   # -g1 (line tables) is all the sanitizer reports need and compiles about 20 % faster than -g.
   cmake -S "$root" -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug -DFTID_SANITIZE=ON \
@@ -42,16 +58,20 @@ if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   cmake --build "$asan" -j"$jobs" --target ftid_unit_tests
   # Every unit test, DaemonClientOverLcm.* included (its LCM-facing files are built without the
   # vptr check only: cmake/FtidDefaults.cmake, docs/testing.md "Sanitizers").
+  step "sanitizer run"
   (cd "$asan" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
       ctest --output-on-failure -j"$jobs" --timeout 900 -LE 'integration|slow' -E '_NOT_BUILT$')
+  step "fuzzing"
   echo "== test: fuzzing (scripts/fuzz.sh)"
   "$here/fuzz.sh" "${FTID_FUZZ_SECONDS:-20}"
   if [ -x "$here/check_package.sh" ]; then
+    step "package"
     echo "== test: Debian package and systemd unit"
     "$here/check_package.sh"
   fi
 fi
-echo "== test: everything passed in $(( $(date +%s) - start )) s"
+step ""
+echo "== test: everything passed in $(( $(date +%s) - start )) s (${step_times%, })"
 # One plain closing line for CI: the main CTest run's counts.
 total=$(grep -oE 'tests failed out of [0-9]+' "$summary" | grep -oE '[0-9]+$' || echo 0)
 skipped=$(grep -cE '\(Skipped\)$' "$summary" || true)
