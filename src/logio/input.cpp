@@ -66,12 +66,7 @@ InputLog readInput(const std::string& path, const InputOptions& options) {
     in = readRosbag2(path, options);
     if (options.wrench_log.empty()) return in;  // aligned with the bag's wrench topic
   } else {
-    std::string text;
-    try {
-      text = readInputFile(path, "log file", kMaxLogBytes);
-    } catch (const FileError& e) {
-      throw DataError(e.what());
-    }
+    const std::string text = readLogText(path);
     if (isUrRecordHeader(headerRow(text))) {
       const Table table = parseTable(text, path);
       in = urRecordToLog(table, options);

@@ -120,13 +120,7 @@ bool parseNumber(std::string_view field, double& out, std::string& why) {
   return true;
 }
 
-std::string readWholeFile(const std::string& path) {
-  try {
-    return readInputFile(path, "log file", kMaxLogBytes);
-  } catch (const FileError& e) {
-    throw DataError(e.what());
-  }
-}
+std::string readWholeFile(const std::string& path) { return readLogText(path); }
 
 struct LineCursor {
   std::string_view text;

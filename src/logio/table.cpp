@@ -194,11 +194,7 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
 }
 
 Table readTable(const std::string& path, TableSeparator separator, const ColumnFilter& use_column) {
-  try {
-    return parseTable(readInputFile(path, "log file", kMaxLogBytes), path, separator, use_column);
-  } catch (const FileError& e) {
-    throw DataError(e.what());
-  }
+  return parseTable(readLogText(path), path, separator, use_column);
 }
 
 std::string_view headerRow(std::string_view text) {

@@ -51,6 +51,23 @@ enum class LogKind {
 /// Limits on what the reader accepts from an untrusted file (docs/log-format.md).
 inline constexpr std::size_t kMaxColumns = 1024;         ///< header columns
 inline constexpr std::size_t kMaxHeaderBytes = 65536;    ///< header row length
+/// Data rows a log may have unless FTID_MAX_LOG_ROWS says otherwise (docs/log-format.md
+/// "Limits"): identification holds about 2 KB per row in memory (the text, the samples, the
+/// contexts, the stacked regressor), so 2 M rows need about 4 GB.
+inline constexpr std::size_t kDefaultMaxLogRows = 2000000;
+/// Measured working memory per row of `ftid identify` (200,000 rows: 382 MB peak).
+inline constexpr std::size_t kWorkingBytesPerRow = 2000;
+
+/// The row limit: FTID_MAX_LOG_ROWS (a positive integer) or kDefaultMaxLogRows. Throws
+/// ConfigError naming the variable when it is set to anything else.
+std::size_t maxLogRows();
+
+/// Reads a log-like text file (readInputFile: a regular file of at most kMaxLogBytes) and refuses
+/// it at once, before any parsing allocates, when its header row is longer than kMaxHeaderBytes
+/// or it has more lines than maxLogRows() allows (the message gives the rows, the memory they
+/// would need and how to proceed). Throws DataError naming the file.
+std::string readLogText(const std::string& path);
+
 /// Rated range of the shipped sensor (config/ftsensor.dbc): Fx, Fy, Fz [N], Tx, Ty, Tz [Nm].
 inline constexpr std::array<double, 6> kDefaultRatedWrench_S = {300.0, 300.0, 500.0, 25.0, 25.0, 25.0};
 

@@ -13,6 +13,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
+#include "ftid/logio/table.hpp"
 
 namespace ftid::logio {
 namespace {
@@ -330,6 +331,33 @@ TEST(LogIo, HugeHeadersAreRefusedAndDuplicatesFoundAtTheEnd) {
   dup += ",e30";
   expectError("dupend.csv", dup + "\n" + many_row + "\n", 1, static_cast<int>(dup.rfind(',')) + 2,
               "duplicate column 'e30' (first at column");
+}
+
+TEST(LogIo, RowsBeyondTheLimitAreRefusedBeforeParsingWithTheMemoryTheyWouldNeed) {
+  // The limit comes from FTID_MAX_LOG_ROWS (default kDefaultMaxLogRows); 3 rows against a limit of 2.
+  std::string text = std::string(kHeader) + "\n" + row(0.1) + "\n" + row(0.2) + "\n";
+  const std::string ok = writeText("rows_ok.csv", text);
+  const std::string over = writeText("rows_over.csv", text + row(0.3));  // no final line end
+  ASSERT_EQ(::setenv("FTID_MAX_LOG_ROWS", "2", 1), 0);
+  EXPECT_EQ(readLog(ok).samples.size(), 2U);
+  try {
+    (void)readLog(over);
+    ADD_FAILURE() << "3 rows read against a limit of 2";
+  } catch (const DataError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(over + ": 3 data rows; ftid reads at most 2 (it would need about 0.0 GB"), std::string::npos)
+        << msg;
+    EXPECT_NE(msg.find("FTID_MAX_LOG_ROWS"), std::string::npos) << msg;
+  }
+  // The same limit holds for every reader of log-like files (UR recordings and wrench logs: readTable).
+  EXPECT_THROW((void)readTable(over), DataError);
+  for (const char* bad : {"0", "-5", "two", "1e6", ""}) {
+    ASSERT_EQ(::setenv("FTID_MAX_LOG_ROWS", bad, 1), 0);
+    EXPECT_THROW((void)readLog(ok), ConfigError) << bad;
+  }
+  ASSERT_EQ(::unsetenv("FTID_MAX_LOG_ROWS"), 0);
+  EXPECT_EQ(maxLogRows(), kDefaultMaxLogRows);
+  EXPECT_EQ(readLog(over).samples.size(), 3U);
 }
 
 TEST(LogIo, FifoAndDirectoryAreRefusedNamingTheFile) {
