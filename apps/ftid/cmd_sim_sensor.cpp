@@ -39,7 +39,9 @@ const char* kUsage =
     "  --duration S        stop after S seconds of robot time (default: run until stopped)\n"
     "  --effect NAME       switch on a hidden effect; repeatable: cable, temperature_drift,\n"
     "                      time_drift, sensor_delay, crosstalk, contact, rigid_body, paper_only,\n"
-    "                      noise (typical sensor noise)\n"
+    "                      noise (typical sensor noise), grasp[:t=S,mass=KG,com=X/Y/Z,side=M]\n"
+    "                      (an object held from t on; default 0.6 kg, com 0/0/0.12 m, a 6 cm\n"
+    "                      cube, at SIGRTMIN+2 unless t is given)\n"
     "  --seed N            noise seed (default 1)\n"
     "  --fault T:KIND[:N]  inject a sensor fault T seconds after the first robot state; repeatable.\n"
     "                      KIND = silent | counter_gap | out_of_range | error_frame | bus_off |\n"
@@ -50,7 +52,8 @@ const char* kUsage =
     "  --verbose           a status line every second instead of every 5 s\n"
     "\n"
     "At run time: SIGUSR1 injects one error frame, SIGUSR2 silences the sensor for 100 samples,\n"
-    "SIGRTMIN+1 starts the configured contact push (effects.contact) now.\n"
+    "SIGRTMIN+1 starts the configured contact push (effects.contact) now; SIGRTMIN+2 grasps the\n"
+    "--effect grasp object now (`kill -s RTMIN+2 PID`).\n"
     "Default payload: the paper's Table 2 (8.862 N, c = (0.5, 0.2, 5.1) cm, tilt -9.87/-5.37 deg).\n"
     "Layout, health rules and the simulator: docs/sensor.md.\n"
     "\n"
@@ -123,7 +126,7 @@ int runSimSensor(const std::vector<std::string>& argv) {
   // Signals go to the waiter thread only (blocked before any thread starts).
   sigset_t set;
   sigemptyset(&set);
-  for (int s : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGRTMIN + 1}) sigaddset(&set, s);
+  for (int s : {SIGINT, SIGTERM, SIGUSR1, SIGUSR2, SIGRTMIN + 1, SIGRTMIN + 2}) sigaddset(&set, s);
   pthread_sigmask(SIG_BLOCK, &set, nullptr);
 
   SimSensor sensor(cfg);
@@ -138,6 +141,7 @@ int runSimSensor(const std::vector<std::string>& argv) {
       if (sig == SIGUSR1) sensor.inject(SensorFault::kErrorFrame, 1);
       if (sig == SIGUSR2) sensor.inject(SensorFault::kSilent, 100);
       if (sig == SIGRTMIN + 1) sensor.startContactPush();
+      if (sig == SIGRTMIN + 2) sensor.startGrasp();
     }
   });
   std::mutex print_mutex;

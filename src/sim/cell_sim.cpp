@@ -441,6 +441,12 @@ logio::LogData CellSim::run() const {
   return log;
 }
 
+void CellSim::setPayloadChangeTime(double t_s) {
+  if (!std::isfinite(t_s)) throw ConfigError("payload change: the time must be finite");
+  config_.payload_change.enabled = true;
+  config_.payload_change.t_s = t_s;
+}
+
 void CellSim::setContactWindow(double t_start_s, double t_end_s) {
   if (!(t_end_s > t_start_s)) throw ConfigError("contact window: t_end must be after t_start");
   config_.contact.enabled = true;

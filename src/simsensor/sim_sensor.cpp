@@ -226,6 +226,7 @@ int SensorFrameSource::nextSample(const RobotHistory& history, double t_robot, d
     const double length = c.t_end_s > c.t_start_s ? c.t_end_s - c.t_start_s : 2.0;
     cell_.setContactWindow(t_phys, t_phys + length);
   }
+  if (grasp_requested_.exchange(false)) cell_.setPayloadChangeTime(t_phys);
 
   const sim::SensorReading r = readingAt(history, t_robot, t_phys);
   drivers::can::SensorValues v;
@@ -336,6 +337,7 @@ SimSensor::~SimSensor() = default;
 void SimSensor::inject(SensorFault kind, int count) { impl_->source->inject(kind, count); }
 
 void SimSensor::startContactPush() noexcept { impl_->source->requestContactPush(); }
+void SimSensor::startGrasp() noexcept { impl_->source->requestGrasp(); }
 
 SimSensorStats SimSensor::stats() const {
   std::lock_guard<std::mutex> lock(impl_->stats_mutex);

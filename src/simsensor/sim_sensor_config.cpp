@@ -6,6 +6,7 @@
 #include "ftid/fileio/yaml_reader.hpp"
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/sim/effect_spec.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
 
 namespace ftid::simsensor {
@@ -41,6 +42,11 @@ void enableEffect(const std::string& name, SimSensorConfig& config) {
     c.full_rigid_body = true;
   } else if (name == "paper_only") {
     c.full_rigid_body = false;
+  } else if (name == "grasp" || name.rfind("grasp:", 0) == 0) {
+    // An object grasped at t (default: never, until SIGRTMIN+2), the `ftid simulate` spec.
+    const bool timed = name.find("t=") != std::string::npos;
+    sim::applyEffectSpec(name, c);
+    if (!timed) c.payload_change.enabled = false;  // the object is set; SIGRTMIN+2 grasps it
   } else if (name == "noise") {
     // Typical sensor noise, about the resolution of paper Table 1.
     c.noise.wrench_std << 0.05, 0.05, 0.05, 0.005, 0.005, 0.005;
@@ -51,7 +57,7 @@ void enableEffect(const std::string& name, SimSensorConfig& config) {
   } else {
     throw ConfigError("unknown effect '" + name +
                       "' (cable, temperature_drift, time_drift, sensor_delay, crosstalk, contact, "
-                      "rigid_body, paper_only, noise)");
+                      "rigid_body, paper_only, noise, grasp[:t=S,mass=KG,com=X/Y/Z,side=M])");
   }
 }
 

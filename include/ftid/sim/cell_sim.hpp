@@ -259,6 +259,9 @@ class CellSim {
   /// simulator driven live (ftid sim-sensor starts a push on request). Not thread-safe with the
   /// per-instant readers: call it from the thread that uses them.
   void setContactWindow(double t_start_s, double t_end_s);
+  /// The configured payload change (payload_change.added, e.g. `grasp`) happens at t_s from now
+  /// on (the sensor simulator's "grasp now"). Throws ConfigError if t_s is not finite.
+  void setPayloadChangeTime(double t_s);
   const model::RobotKinematics& robot() const { return *config_.robot; }
 
  private:

@@ -124,6 +124,9 @@ class SensorFrameSource {
   /// Thread-safe: the configured contact push (effects.contact force, point and window length)
   /// starts at the next sample.
   void requestContactPush() noexcept { contact_requested_.store(true); }
+  /// Thread-safe: the configured object (`grasp`, payload_change.added) is held from the next
+  /// sample on.
+  void requestGrasp() noexcept { grasp_requested_.store(true); }
   std::uint32_t counter() const noexcept { return counter_; }
   const sim::CellSim& cell() const noexcept { return cell_; }
 
@@ -135,6 +138,7 @@ class SensorFrameSource {
   std::uint32_t counter_ = 0;
   std::array<std::atomic<int>, 7> pending_{};  ///< injected faults, by SensorFault
   std::atomic<bool> contact_requested_{false};
+  std::atomic<bool> grasp_requested_{false};
   int silent_left_ = 0, out_of_range_left_ = 0, stuck_left_ = 0, status_left_ = 0;
   std::array<double, 6> wrench_max_{};  ///< DBC maximum per wrench axis (overload status bit)
   double fx_fault_value_ = 360.0;
@@ -170,6 +174,8 @@ class SimSensor {
   void inject(SensorFault kind, int count = 1);
   /// Starts the configured contact push now (thread-safe; used on SIGRTMIN+1 by the CLI).
   void startContactPush() noexcept;
+  /// Grasps the configured object now (thread-safe; used on SIGRTMIN+2 by the CLI).
+  void startGrasp() noexcept;
   SimSensorStats stats() const;
   const SimSensorConfig& config() const noexcept { return config_; }
 

@@ -324,6 +324,34 @@ TEST_F(FrameSourceTest, SensorDelayShiftsOnlyTheWrench) {
   EXPECT_LT((d.w_S - now.w_S).norm(), 1e-12);
 }
 
+TEST_F(FrameSourceTest, GraspOnRequestAddsTheObjectsWeightFromTheNextSampleOn) {
+  // `--effect grasp:mass=0.6,com=0/0/0.12` without t: nothing until requestGrasp() (SIGRTMIN+2),
+  // then the object's static wrench m g_S and p x m g_S (independent statics, gravityInSensor).
+  enableEffect("grasp:mass=0.6,com=0/0/0.12,side=0.06", config_);
+  EXPECT_FALSE(config_.cell.payload_change.enabled);
+  const auto kin = model::RobotKinematics::fromUrdfFile(kSrc + "/config/ur10.urdf");
+  SensorFrameSource src(config_, layout_, kin);
+  const JointVector q = (JointVector() << 0.3, -1.2, 1.9, -0.4, 1.1, 2.0).finished();
+  holdAt(q);
+  std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
+  const sim::SensorReading before = src.readingAt(history_, 50.02, 3.0);
+  ASSERT_EQ(src.nextSample(history_, 50.02, 3.0, frames), 6);
+  EXPECT_LT((src.readingAt(history_, 50.02, 100.0).wrench_S - before.wrench_S).norm(), 1e-9);  // never by itself
+  src.requestGrasp();
+  ASSERT_EQ(src.nextSample(history_, 50.02, 3.0, frames), 6);
+  const sim::SensorReading after = src.readingAt(history_, 50.02, 3.001);
+  const Vec3 g_S = gravityInSensor(q, config_.cell.tilt_u_rad, config_.cell.tilt_v_rad);
+  const Vec3 df = 0.6 * g_S;
+  const Vec3 dt = Vec3(0.0, 0.0, 0.12).cross(df);
+  EXPECT_LT((after.wrench_S.head<3>() - before.wrench_S.head<3>() - df).norm(), 1e-6);
+  EXPECT_LT((after.wrench_S.tail<3>() - before.wrench_S.tail<3>() - dt).norm(), 1e-6);
+  // Before the grasp's time (the source's t_phys 3.0) the object is not there.
+  EXPECT_LT((src.readingAt(history_, 50.02, 2.9).wrench_S - before.wrench_S).norm(), 1e-9);
+  SimSensorConfig bad = defaultSimSensorConfig();
+  EXPECT_THROW(enableEffect("grasp:mass=-1", bad), ConfigError);
+  EXPECT_THROW(enableEffect("grasp:weight=1", bad), ConfigError);
+}
+
 // ---- the whole chain: sim-robot --RTDE--> sim-sensor --seqpacket--> CanFtImuSensor ----------
 
 TEST(SimSensorEndToEnd, ServesValidSamplesFromTheRobotSimulator) {
