@@ -25,8 +25,10 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/cell/exports.hpp"
