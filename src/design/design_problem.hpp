@@ -87,7 +87,10 @@ class Problem {
   /// the design samples (closed form: q - q0, qd, qdd are linear in s).
   double jointScaleLimit(const std::vector<double>& x) const;
 
-  /// Scales x into the feasible set: joint limits in closed form, workspace by bisection.
+  /// Scales x into the feasible set: s x with s = min(s_cap, jointScaleLimit(x)) if that satisfies
+  /// every aggregated constraint, else the largest such s found by 30 bisections of [0, s] (the
+  /// workspace, or the soft maximum's conservatism: the joints then end within ln(2K)/kKsRho of
+  /// their tightened limits).
   std::vector<double> makeFeasible(std::vector<double> x, double s_cap = 1.0);
 
   /// Full evaluation (objective + constraints) with a one-entry cache; throws BudgetSpent when the
