@@ -1,3 +1,16 @@
+// `ftid --identify` (cell_identify.hpp): one run as a sequence of named steps over one explicit
+// state, IdentifyRun. Each step either continues or ends the run with a message in the result
+// (nothing moved before the motion; after it: the arm stopped, the previous parameters intact,
+// the recorded data kept and named). The steps:
+//   IdentifyRun's constructor  load config, trajectory, model and kinematics; the run directory
+//   connectToDaemon            ftidd publishing and the sensor valid, recorded from now on
+//   checkBeforeMotion          the trajectory inside the cell's limits; the operator's yes
+//   runMotion                  the motion on the robot clock, watched (identify_watch.cpp)
+//   keepData                   the recorded stream checked, run.csv written, the data named
+//   judgeRun                   refused, aborted, foreign stream or too few samples: no fit
+//   identifyAndAnalyse         the robust fit, physical validity, fit check, the laboratory
+//   writeParameters            plausibility, the atomic parameter write, the exports
+//   reloadDaemon               ftidd's RELOAD, acknowledged
 #include "ftid/common/default_files.hpp"
 #include "ftid/cell/cell_identify.hpp"
 
@@ -12,8 +25,10 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/cell/exports.hpp"
@@ -40,6 +55,7 @@
 #include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "ftid/transport/codec.hpp"
+#include "identify_watch.hpp"
 
 namespace fs = std::filesystem;
 
@@ -109,93 +125,11 @@ std::string expectedAccuracy(const trajectory::TrajectoryFile& f, const std::str
   return s;
 }
 
-/// Shared between the real-time hook and the UI thread (atomics only).
-/// Abort reasons: 0 none, 1 user, 2 ftidd silent, 3 sensor invalid, 4 this process was stalled
-/// (SIGSTOP, overload), 5 our receive thread was starved, 6 the controller stalled.
-struct HookContext {
-  const CycleRecorder* recorder = nullptr;
-  const std::atomic<bool>* user_abort = nullptr;
-  std::atomic<bool> abort{false};
-  std::atomic<int> reason{0};
-  std::atomic<std::int64_t> detail_ms{0};  ///< the gap behind reasons 4..6 [ms]
-  std::int64_t timeout_ns = 250000000;
-  std::int64_t max_invalid = 5;
-  double period = 0.008;                   ///< controller period [s] (configured)
-  std::atomic<double> elapsed{0.0};
-  std::atomic<int> phase{0};
-  // Loop-thread state.
-  std::int64_t last_hook_ns = 0;
-  double last_robot_time = -1.0;
-  double last_robot_gap_at = -1e300;       ///< robot time of the last state-package gap
-  std::int64_t last_robot_gap_ms = 0;
-};
-
-void cycleHook(void* context, const motion::RecordedTick& tick) noexcept {
-  auto* c = static_cast<HookContext*>(context);
-  const std::int64_t now = monotonicNs();
-  const std::int64_t since_hook = c->last_hook_ns > 0 ? now - c->last_hook_ns : 0;
-  c->last_hook_ns = now;
-  const double rt = tick.state.timestamp;
-  if (c->last_robot_time >= 0.0 && rt - c->last_robot_time > 3.0 * c->period) {
-    c->last_robot_gap_at = rt;
-    c->last_robot_gap_ms = static_cast<std::int64_t>((rt - c->last_robot_time) * 1000.0);
-  }
-  c->last_robot_time = rt;
-  c->phase.store(static_cast<int>(tick.phase), std::memory_order_relaxed);
-  if (tick.t_traj >= 0.0) c->elapsed.store(tick.t_traj, std::memory_order_relaxed);
-  if (c->abort.load(std::memory_order_relaxed)) return;
-  if (c->user_abort && c->user_abort->load(std::memory_order_relaxed)) {
-    c->reason.store(1);
-    c->abort.store(true);
-    return;
-  }
-  // This loop itself was stopped or starved (SIGSTOP, overload): named first, whatever else the
-  // gap caused (after SIGCONT the receive thread may already have caught up with ftidd's queued
-  // data, and the robot program's watchdog may have stopped the program: this tick reports that).
-  if (since_hook > c->timeout_ns) {
-    c->detail_ms.store(since_hook / 1000000);
-    c->reason.store(4);
-    c->abort.store(true);
-    return;
-  }
-  const std::int64_t age = now - c->recorder->lastReceiveNs();
-  if (age > c->timeout_ns) {
-    // Who went quiet? This loop itself (stopped or starved: the gap is between our own calls),
-    // our LCM receive thread (it polls every 50 ms), or ftidd (our side is alive).
-    const std::int64_t poll_age = now - c->recorder->lastPollNs();
-    if (since_hook > c->timeout_ns) {
-      c->detail_ms.store(since_hook / 1000000);
-      c->reason.store(4);
-    } else if (poll_age > c->timeout_ns) {
-      c->detail_ms.store(poll_age / 1000000);
-      c->reason.store(5);
-    } else {
-      c->reason.store(2);
-    }
-    c->abort.store(true);
-    return;
-  }
-  if (c->recorder->invalidSensorStreak() > c->max_invalid) {
-    // Right after a gap in the robot's own packages ftidd cannot pair samples with robot states:
-    // that is a controller stall, not a silent sensor.
-    if (rt - c->last_robot_gap_at < 1.0) {
-      c->detail_ms.store(c->last_robot_gap_ms);
-      c->reason.store(6);
-    } else {
-      c->reason.store(3);
-    }
-    c->abort.store(true);
-  }
-}
-
-const char* phaseName(int p) {
-  switch (p) {
-    case 0: return "moving to start";
-    case 1: return "settling";
-    case 2: return "excitation";
-    case 3: return "finishing";
-    default: return "stopping";
-  }
+/// The violations of a motion check as one line.
+std::string joinViolations(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& line : v) s += (s.empty() ? "" : "; ") + line;
+  return s;
 }
 
 std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
@@ -211,31 +145,61 @@ std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
   return o.str();
 }
 
-}  // namespace
+using internal::HookContext;
 
-std::string defaultTrajectoryName(const std::string& urdf_path, bool paper) {
-  const std::string robot = fs::path(urdf_path).stem().string();
-  return "excitation_" + robot + (paper ? "_paper" : "") + ".yaml";
-}
-
-CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
-  CellIdentifyResult result;
-  auto print = [&](const std::string& s) {
-    if (o.print) o.print(s);
-  };
-
-  // ---- set-up: everything here may throw ConfigError before anything moves
-  const config::DaemonConfig cfg = config::loadDaemonConfig(o.config_path);
-  const std::string traj_path = o.trajectory_path.empty()
-                                    ? findDefaultFile(defaultTrajectoryName(cfg.robot.urdf_path, o.paper))
-                                    : o.trajectory_path;
-  const trajectory::TrajectoryFile traj_file = trajectory::readTrajectoryFile(traj_path);
-  const trajectory::FourierTrajectory traj = traj_file.toTrajectory();
-  const effects::Model model = effects::Model::fromName(o.model);
+/// Model::fromName's model with the kinematics of the config's robot and sensor mount.
+model::RobotKinematics cellKinematics(const config::DaemonConfig& cfg) {
   model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(cfg.robot.urdf_path, cfg.robot.base_link,
                                                                      cfg.robot.tip_link);
   kin.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
-  const std::string params_path = o.params_path.empty() ? cfg.parameters.path : o.params_path;
+  return kin;
+}
+
+/// The state of one run, from step to step. Constructed by the set-up, which may throw
+/// ConfigError before anything moves (members are initialised in the order they are declared).
+struct IdentifyRun {
+  explicit IdentifyRun(const CellIdentifyOptions& options);
+  void print(const std::string& s) const {
+    if (o.print) o.print(s);
+  }
+
+  const CellIdentifyOptions& o;
+  CellIdentifyResult result;
+  // set-up
+  const config::DaemonConfig cfg;
+  const std::string traj_path;
+  const trajectory::TrajectoryFile traj_file;
+  const trajectory::FourierTrajectory traj;
+  const effects::Model model;
+  const model::RobotKinematics kin;
+  const std::string params_path;
+  fs::path run_dir;
+  double rate = 125.0;  ///< controller rate [Hz] (configured)
+  // connection and limits
+  std::unique_ptr<CycleRecorder> recorder;
+  trajectory::TrajectoryConstraints limits;
+  // the motion and its record
+  HookContext hook;
+  motion::RunResult run;
+  std::vector<CycleRecord> records;
+  CycleStreamReport stream;
+  RecordsToLogReport conv;
+  logio::LogData log;
+  std::string data_note;
+  // the identification
+  params::ParameterSet set;
+};
+
+IdentifyRun::IdentifyRun(const CellIdentifyOptions& options)
+    : o(options),
+      cfg(config::loadDaemonConfig(o.config_path)),
+      traj_path(o.trajectory_path.empty() ? findDefaultFile(defaultTrajectoryName(cfg.robot.urdf_path, o.paper))
+                                          : o.trajectory_path),
+      traj_file(trajectory::readTrajectoryFile(traj_path)),
+      traj(traj_file.toTrajectory()),
+      model(effects::Model::fromName(o.model)),
+      kin(cellKinematics(cfg)),
+      params_path(o.params_path.empty() ? cfg.parameters.path : o.params_path) {
   if (o.reload_daemon && !sameFile(params_path, cfg.parameters.path)) {
     // ftidd reloads only its configured file (a RELOAD command carries no path), and a restart
     // would go back to it anyway: writing elsewhere and "reloading" would be a silent lie.
@@ -245,7 +209,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
                       "--no-reload to write " + params_path + " without touching ftidd; nothing moved");
   }
   const fs::path runs_dir = o.runs_dir.empty() ? fs::path(params_path).parent_path() / "runs" : fs::path(o.runs_dir);
-  const fs::path run_dir = runs_dir / utcStamp(false);
+  run_dir = runs_dir / utcStamp(false);
   fs::create_directories(run_dir);
 
   print("ftid --identify: model " + model.name() + ", trajectory " + traj_path + " (" +
@@ -253,19 +217,25 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   print("  robot " + cfg.robot.host + ":" + std::to_string(cfg.robot.rtde_port) + ", ftidd data on " +
         cfg.lcm.channels.cycle + " (" + cfg.lcm.url + ")");
   print(expectedAccuracy(traj_file, model.name()));
+  rate = cfg.robot.rtde_frequency_hz > 0 ? cfg.robot.rtde_frequency_hz : 125.0;
+}
 
-  // ---- ftidd and sensor ready?
-  const double rate = cfg.robot.rtde_frequency_hz > 0 ? cfg.robot.rtde_frequency_hz : 125.0;
-  CycleRecorder recorder(cfg.lcm.url, cfg.lcm.channels.cycle,
-                         static_cast<std::size_t>((traj.duration() + 180.0) * rate * 1.2));
+/// ftidd and sensor ready? Starts recording ftidd's cycle stream (streamed to cycles.csv).
+bool connectToDaemon(IdentifyRun& r) {
+  const CellIdentifyOptions& o = r.o;
+  const config::DaemonConfig& cfg = r.cfg;
+  CellIdentifyResult& result = r.result;
+  r.recorder = std::make_unique<CycleRecorder>(cfg.lcm.url, cfg.lcm.channels.cycle,
+                                               static_cast<std::size_t>((r.traj.duration() + 180.0) * r.rate * 1.2));
+  CycleRecorder& recorder = *r.recorder;
   if (!cfg.lcm.accept_remote) recorder.restrictSources(transport::localSources());
-  const std::string stream_path = (run_dir / "cycles.csv").string();
+  const std::string stream_path = (r.run_dir / "cycles.csv").string();
   recorder.streamTo(std::make_unique<RunStreamWriter>(stream_path));
   recorder.start();
   if (!recorder.waitForRecords(10, std::chrono::milliseconds(static_cast<int>(o.startup_wait_s * 1000)))) {
     result.message = "ftidd is not publishing cycle samples on " + cfg.lcm.channels.cycle + " (" + cfg.lcm.url +
                      "): start it (systemctl start ftidd) and check `journalctl -u ftidd`; nothing moved";
-    return result;
+    return false;
   }
   // One stale sample now and then is normal on a busy host; a sensor that stays invalid is not.
   for (int i = 0; i < 100 && recorder.invalidSensorStreak() > 0; ++i) {
@@ -274,34 +244,37 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   if (recorder.invalidSensorStreak() > 0) {
     result.message = "the F/T sensor is not delivering valid data through ftidd (stale or invalid samples); "
                      "check the sensor and its CAN link; nothing moved";
-    return result;
+    return false;
   }
-  print("  ftidd and the sensor are up (" + std::to_string(recorder.count()) + " cycle samples received)");
+  r.print("  ftidd and the sensor are up (" + std::to_string(recorder.count()) + " cycle samples received)");
+  return true;
+}
 
-  // ---- the exact targets are checked before any motion, whatever --yes says: here the
-  // excitation at the configured controller rate (before asking), in the runner again with the
-  // controller's real period and the approach from the robot's current pose.
+/// The exact targets are checked before any motion, whatever --yes says: here the excitation at
+/// the configured controller rate (before asking), in the runner again (runMotion's preflight)
+/// with the controller's real period and the approach from the robot's current pose. Then the
+/// operator's confirmation unless --yes. False if refused or cancelled (nothing moved).
+bool checkBeforeMotion(IdentifyRun& r) {
+  const CellIdentifyOptions& o = r.o;
+  const trajectory::FourierTrajectory& traj = r.traj;
+  const std::string& traj_path = r.traj_path;
+  CellIdentifyResult& result = r.result;
   // The cell's limits, tightened by the trajectory's own (issue 26: an edited trajectory cannot
   // move the floor or widen a limit); printed with the file each limit came from.
   trajectory::LimitSources limit_sources;
-  const trajectory::TrajectoryConstraints limits = trajectory::effectiveConstraints(
-      traj_file.constraints, traj_path,
+  r.limits = trajectory::effectiveConstraints(
+      r.traj_file.constraints, traj_path,
       trajectory::applicableCellLimits(o.cell_limits_path), &limit_sources);  // --cell only tightens
-  print("  limits (a trajectory can only tighten the cell's):");
+  r.print("  limits (a trajectory can only tighten the cell's):");
   {
-    std::istringstream lines(trajectory::describeLimits(limits, limit_sources));
-    for (std::string line; std::getline(lines, line);) print("    " + line);
+    std::istringstream lines(trajectory::describeLimits(r.limits, limit_sources));
+    for (std::string line; std::getline(lines, line);) r.print("    " + line);
   }
-  auto joinViolations = [](const std::vector<std::string>& v) {
-    std::string s;
-    for (const auto& line : v) s += (s.empty() ? "" : "; ") + line;
-    return s;
-  };
   {
     const motion::EvaluatedTrajectory<trajectory::FourierTrajectory> source(traj);
     std::vector<double> t_traj;
     std::vector<JointVector> q_traj;
-    const double period = 1.0 / rate;
+    const double period = 1.0 / r.rate;
     for (long k = 0;; ++k) {
       const double t = std::min(static_cast<double>(k) * period, traj.duration());
       JointVector q = JointVector::Zero();
@@ -310,11 +283,11 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
       q_traj.push_back(q);
       if (t >= traj.duration()) break;
     }
-    const auto v = design::checkMotionSamples(period, {}, t_traj, q_traj, kin, limits);
+    const auto v = design::checkMotionSamples(period, {}, t_traj, q_traj, r.kin, r.limits);
     if (!v.empty()) {
       result.message = "trajectory " + traj_path + " refused before any motion (`ftid check-trajectory " +
                        traj_path + "` shows all margins): " + joinViolations(v) + "; nothing moved";
-      return result;
+      return false;
     }
   }
 
@@ -324,35 +297,42 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
                                             " s excitation trajectory. Is the workspace clear? [y/N] ");
     if (!yes) {
       result.message = "cancelled by the operator; nothing moved";
-      return result;
+      return false;
     }
   }
+  return true;
+}
 
-  // ---- motion, on the robot clock; cycle samples recorded meanwhile
+/// The motion, on the robot clock, watched by the hook; cycle samples recorded meanwhile. False if
+/// the robot could not be set up (nothing moved).
+bool runMotion(IdentifyRun& r) {
+  const CellIdentifyOptions& o = r.o;
+  const config::DaemonConfig& cfg = r.cfg;
+  const trajectory::FourierTrajectory& traj = r.traj;
+  CycleRecorder& recorder = *r.recorder;
+  HookContext& hook = r.hook;
   motion::RobotSessionConfig session;
   session.arm.host = cfg.robot.host;
   session.arm.rtde_port = static_cast<std::uint16_t>(cfg.robot.rtde_port);
   session.arm.script_port = static_cast<std::uint16_t>(o.script_port);
   session.arm.register_offset = o.register_offset;
   session.motion.realtime.require = o.require_realtime;
-  session.motion.preflight = [&](const motion::PlannedMotion& p) {
-    return joinViolations(design::checkMotionSamples(p.period, p.approach, p.t_traj, p.q_traj, kin, limits));
+  session.motion.preflight = [&r](const motion::PlannedMotion& p) {
+    return joinViolations(design::checkMotionSamples(p.period, p.approach, p.t_traj, p.q_traj, r.kin, r.limits));
   };
-
-  HookContext hook;
   hook.recorder = &recorder;
   hook.user_abort = o.abort;
   hook.timeout_ns = static_cast<std::int64_t>(o.ftidd_timeout_s * 1e9);
   hook.max_invalid = o.max_invalid_sensor_cycles;
-  hook.period = 1.0 / rate;
+  hook.period = 1.0 / r.rate;
   recorder.clear();
 
   std::atomic<bool> ui_running{true};
   std::thread ui;
   if (o.progress) {
-    ui = std::thread([&] {
+    ui = std::thread([&o, &hook, &traj, &ui_running] {
       while (ui_running.load()) {
-        o.progress(phaseName(hook.phase.load()), hook.elapsed.load(), traj.duration());
+        o.progress(internal::phaseName(hook.phase.load()), hook.elapsed.load(), traj.duration());
         std::this_thread::sleep_for(std::chrono::milliseconds(200));
       }
     });
@@ -361,7 +341,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   std::string setup_error;
   try {
     const motion::EvaluatedTrajectory<trajectory::FourierTrajectory> source(traj);
-    session_result = motion::runOnRobot(session, source, &hook.abort, &cycleHook, &hook);
+    session_result = motion::runOnRobot(session, source, &hook.abort, &internal::cycleHook, &hook);
   } catch (const std::exception& e) {
     setup_error = e.what();
   }
@@ -370,33 +350,39 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
   // Let the last samples arrive, then stop recording.
   std::this_thread::sleep_for(std::chrono::milliseconds(100));
   recorder.stop();
-  const std::vector<CycleRecord> records = recorder.snapshot();
+  r.records = recorder.snapshot();
 
   if (!setup_error.empty()) {
-    result.message = "robot set-up failed: " + setup_error + "; nothing moved, parameters unchanged";
-    return result;
+    r.result.message = "robot set-up failed: " + setup_error + "; nothing moved, parameters unchanged";
+    return false;
   }
-  const motion::RunResult& run = session_result.run;
+  r.run = session_result.run;
+  return true;
+}
 
-  // ---- keep the data, whatever happened
+/// Keeps the data, whatever happened: the stream checked against the controller's clock, run.csv
+/// written, and r.data_note saying where the data are.
+void keepData(IdentifyRun& r) {
+  const motion::RunResult& run = r.run;
+  const fs::path& run_dir = r.run_dir;
+  CellIdentifyResult& result = r.result;
   double t0 = -1e300;
   double t1 = 1e300;
   if (run.excitation_start_timestamp >= 0.0) {
     t0 = run.excitation_start_timestamp;
-    t1 = t0 + traj.duration();
+    t1 = t0 + r.traj.duration();
   }
   // The stream must follow the controller's clock: duplicates are dropped, a second publisher
   // (conflicting samples, off-grid times) makes the run unusable.
   std::vector<CycleRecord> clean;
-  const CycleStreamReport stream =
-      checkCycleStream(records, rate, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, &clean);
-  RecordsToLogReport conv;
-  logio::LogData log = recordsToLog(clean, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300,
-                                    (run_dir / "run.csv").string(), &conv);
+  r.stream =
+      checkCycleStream(r.records, r.rate, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, &clean);
+  r.log = recordsToLog(clean, run.ok() ? t0 : -1e300, run.ok() ? t1 : 1e300, (run_dir / "run.csv").string(),
+                       &r.conv);
   std::string save_error;
-  if (!log.samples.empty()) {
+  if (!r.log.samples.empty()) {
     try {
-      logio::writeLog((run_dir / "run.csv").string(), log);
+      logio::writeLog((run_dir / "run.csv").string(), r.log);
       result.data_csv = (run_dir / "run.csv").string();
     } catch (const std::exception& e) {
       save_error = e.what();
@@ -404,12 +390,12 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
       if (::statvfs(run_dir.c_str(), &fs_info) == 0 && fs_info.f_bavail * fs_info.f_frsize < 1024 * 1024) {
         save_error += " (no space left on the file system of " + run_dir.string() + ")";
       }
-      print("  WARNING: could not save " + (run_dir / "run.csv").string() + ": " + save_error);
+      r.print("  WARNING: could not save " + (run_dir / "run.csv").string() + ": " + save_error);
     }
   }
   // The streamed capture holds everything received, whatever happened to run.csv.
-  const RunStreamWriter* streamed = recorder.stream();
-  std::string data_note;
+  const RunStreamWriter* streamed = r.recorder->stream();
+  std::string& data_note = r.data_note;
   if (!result.data_csv.empty()) {
     data_note = "recorded data saved in " + result.data_csv;
   } else if (streamed != nullptr && streamed->rows() > 0) {
@@ -419,61 +405,110 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     data_note = "no data recorded";
   }
   if (streamed != nullptr && streamed->failed()) data_note += "; streaming stopped: " + streamed->error();
+}
 
+/// The run's verdict before any fit: refused, aborted (the watch's reason), a stream that does not
+/// match the controller, or too few samples end the run with the parameters unchanged.
+bool judgeRun(IdentifyRun& r) {
+  const motion::RunResult& run = r.run;
+  const CycleStreamReport& stream = r.stream;
+  const std::string& data_note = r.data_note;
+  CellIdentifyResult& result = r.result;
   if (run.status == motion::RunStatus::kRefused) {
     result.message = "motion refused before it started: " + run.message + "; nothing moved, parameters unchanged";
-    return result;
+    return false;
   }
   if (!run.ok()) {
-    std::string why = std::string(motion::runStatusName(run.status)) + ": " + run.message;
-    switch (hook.reason.load()) {
-      case 1: why = "stopped by the operator (Ctrl-C)"; break;
-      case 2: why = "ftidd stopped publishing (killed or stalled) during the motion"; break;
-      case 3: why = "the F/T sensor went silent or invalid during the motion"; break;
-      case 4:
-        why = "ftid --identify itself was stopped or stalled for " + std::to_string(hook.detail_ms.load()) +
-              " ms (SIGSTOP, or an overloaded host); ftidd was not at fault";
-        break;
-      case 5:
-        why = "ftid --identify's receive thread was starved for " + std::to_string(hook.detail_ms.load()) +
-              " ms (overloaded host), so ftidd's data could not be watched";
-        break;
-      case 6:
-        why = "the robot controller stalled (no state package for " + std::to_string(hook.detail_ms.load()) +
-              " ms), so ftidd could not pair sensor samples with robot states";
-        break;
-      default: break;
-    }
+    std::string why = internal::abortReason(r.hook, std::string(motion::runStatusName(run.status)) + ": " + run.message);
     if (!stream.ok()) {  // say so too: a second publisher may be behind the abort
-      why += "; also, the recorded " + cfg.lcm.channels.cycle + " stream does not match the controller (" +
+      why += "; also, the recorded " + r.cfg.lcm.channels.cycle + " stream does not match the controller (" +
              stream.describe() + ")";
     }
     result.message = "identification run aborted: " + why + "; the arm is stopped, parameters unchanged, " + data_note;
-    return result;
+    return false;
   }
-  print("  cycle stream: " + stream.describe());
+  r.print("  cycle stream: " + stream.describe());
   if (!stream.ok()) {
-    result.message = "identification refused: the recorded " + cfg.lcm.channels.cycle +
+    result.message = "identification refused: the recorded " + r.cfg.lcm.channels.cycle +
                      " stream does not match the controller (" + stream.describe() +
                      "); parameters unchanged, " + data_note;
-    return result;
+    return false;
   }
-  print("  motion complete: " + std::to_string(conv.converted) + " synchronised samples (" +
-        std::to_string(conv.skipped_invalid) + " invalid dropped), max tracking error " +
+  r.print("  motion complete: " + std::to_string(r.conv.converted) + " synchronised samples (" +
+        std::to_string(r.conv.skipped_invalid) + " invalid dropped), max tracking error " +
         fmt(4, run.max_tracking_error) + " rad");
-  if (log.samples.size() < 50) {
-    result.message = "too few valid samples recorded during the excitation (" + std::to_string(log.samples.size()) +
+  if (r.log.samples.size() < 50) {
+    result.message = "too few valid samples recorded during the excitation (" + std::to_string(r.log.samples.size()) +
                      "); parameters unchanged, " + data_note;
-    return result;
+    return false;
   }
+  return true;
+}
 
-  // ---- identify and analyse
-  samples::ContextOptions copts;
-  copts.R_FS = cfg.sensor.R_FS();
-  copts.p_FS_F = cfg.sensor.p_FS_F();
-  params::ParameterSet set;
+/// The model laboratory on the run (o.analyze): held-out residuals per axis, the missing effect
+/// it names and the command that adds it; analysis.json and report.html in the run directory.
+void analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
+  const CellIdentifyOptions& o = r.o;
+  const effects::Model& model = r.model;
+  const fs::path& run_dir = r.run_dir;
+  CellIdentifyResult& result = r.result;
+  params::ParameterSet& set = r.set;
+  const auto print = [&r](const std::string& s) { r.print(s); };
+  lab::AnalyzeOptions aopts;
+  aopts.model = model.name();
+  aopts.folds = o.folds;
+  const lab::AnalysisResult ar = lab::analyze(contexts.samples, nullptr, aopts, result.data_csv);
+  result.heldout_rms = ar.report.residual_rms;
+  result.noise_floor = ar.noise_floor;
+  if (ar.report.inertia) {
+    const char* in[6] = {"i_c_xx", "i_c_yy", "i_c_zz", "i_c_xy", "i_c_xz", "i_c_yz"};
+    for (int k = 0; k < 6; ++k)
+      set.derived.push_back({in[k], ar.report.inertia->value(k), ar.report.inertia->std(k), "kg*m^2"});
+  }
+  result.analysis_json = lab::formatJson(ar);
   try {
-    const samples::ContextSet contexts = samples::buildContexts(log, kin, copts);
+    writeTextAtomic((run_dir / "analysis.json").string(), result.analysis_json + "\n");
+    writeTextAtomic((run_dir / "report.html").string(), lab::renderHtml(ar));
+  } catch (const std::exception& e) {
+    print("  WARNING: " + std::string(e.what()));
+  }
+  print("Held-out residual per axis (" + std::to_string(ar.folds) + "-fold, contiguous time blocks):");
+  print(axisTable(ar.report.residual_rms, ar.noise_floor, ar.report.raw_rms));
+  const lab::CandidateResult* top = nullptr;
+  for (const auto& c : ar.candidates) {
+    if (c.significant && !c.skipped) {
+      top = &c;
+      break;
+    }
+  }
+  if (top) {
+    result.suggested_effect = top->effect;
+    print("A physical effect is missing from the model: " + top->effect + " (" + top->description + ").");
+    print("  adding it would cut the held-out residual by " + fmt(0, 100.0 * top->relative_reduction) +
+          " %. Add it with:  ftid --identify --model " + lab::shellQuote(model.name() + "+" + top->effect));
+    print("  or analyse the recorded data:  ftid analyze " + lab::shellQuote(result.data_csv) + " --model " +
+          lab::shellQuote(model.name() + "+" + top->effect) + " --explain");
+  } else {
+    print("No significant effect is missing: the model explains the data down to the sensor noise.");
+  }
+  print("Report: " + (run_dir / "report.html").string());
+}
+
+/// Identify and analyse: the offline identification's treatment (several tilt starts, glitches
+/// left out, robust_data.hpp), the physical-validity verdict, the held-out fit check and the
+/// laboratory. False, parameters unchanged, if the fit fails or is refused.
+bool identifyAndAnalyse(IdentifyRun& r) {
+  const CellIdentifyOptions& o = r.o;
+  const effects::Model& model = r.model;
+  const std::string& data_note = r.data_note;
+  CellIdentifyResult& result = r.result;
+  params::ParameterSet& set = r.set;
+  const auto print = [&r](const std::string& s) { r.print(s); };
+  samples::ContextOptions copts;
+  copts.R_FS = r.cfg.sensor.R_FS();
+  copts.p_FS_F = r.cfg.sensor.p_FS_F();
+  try {
+    const samples::ContextSet contexts = samples::buildContexts(r.log, r.kin, copts);
     // The offline identification's treatment: several tilt starts, glitches left out (robust_data.hpp).
     std::vector<std::string> notes;
     auto fitOn = [&](const std::vector<identify::SampleContext>& s) {
@@ -493,7 +528,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     set.provenance.data_file = result.data_csv;
     set.time_origin_unix_s = contexts.time_origin_unix_s;  // the recording's first host_time
     set.provenance.method = "fit";
-    set.provenance.trajectory = traj_path;
+    set.provenance.trajectory = r.traj_path;
     set.provenance.n_samples = static_cast<int>(robust.samples.size());
     print("");
     print(identify::formatParameterTable(set));
@@ -501,7 +536,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     print(validity.line);
     if (!validity.valid) {
       result.message = "identification refused: " + identify::physicalRefusal(validity) + "; parameters unchanged, " + data_note;
-      return result;
+      return false;
     }
     // Does the model fit? Held-out residual against the noise floor, warning above 1.2x.
     print(identify::formatFitCheck(identify::checkFit(
@@ -511,55 +546,25 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
         },
         "ftid analyze " + lab::shellQuote(result.data_csv) + " --model " + lab::shellQuote(model.name()) +
             " --explain")));
-    if (o.analyze) {
-      lab::AnalyzeOptions aopts;
-      aopts.model = model.name();
-      aopts.folds = o.folds;
-      const lab::AnalysisResult ar = lab::analyze(contexts.samples, nullptr, aopts, result.data_csv);
-      result.heldout_rms = ar.report.residual_rms;
-      result.noise_floor = ar.noise_floor;
-      if (ar.report.inertia) {
-        const char* in[6] = {"i_c_xx", "i_c_yy", "i_c_zz", "i_c_xy", "i_c_xz", "i_c_yz"};
-        for (int k = 0; k < 6; ++k)
-          set.derived.push_back({in[k], ar.report.inertia->value(k), ar.report.inertia->std(k), "kg*m^2"});
-      }
-      result.analysis_json = lab::formatJson(ar);
-      try {
-        writeTextAtomic((run_dir / "analysis.json").string(), result.analysis_json + "\n");
-        writeTextAtomic((run_dir / "report.html").string(), lab::renderHtml(ar));
-      } catch (const std::exception& e) {
-        print("  WARNING: " + std::string(e.what()));
-      }
-      print("Held-out residual per axis (" + std::to_string(ar.folds) + "-fold, contiguous time blocks):");
-      print(axisTable(ar.report.residual_rms, ar.noise_floor, ar.report.raw_rms));
-      const lab::CandidateResult* top = nullptr;
-      for (const auto& c : ar.candidates) {
-        if (c.significant && !c.skipped) {
-          top = &c;
-          break;
-        }
-      }
-      if (top) {
-        result.suggested_effect = top->effect;
-        print("A physical effect is missing from the model: " + top->effect + " (" + top->description + ").");
-        print("  adding it would cut the held-out residual by " + fmt(0, 100.0 * top->relative_reduction) +
-              " %. Add it with:  ftid --identify --model " + lab::shellQuote(model.name() + "+" + top->effect));
-        print("  or analyse the recorded data:  ftid analyze " + lab::shellQuote(result.data_csv) + " --model " +
-              lab::shellQuote(model.name() + "+" + top->effect) + " --explain");
-      } else {
-        print("No significant effect is missing: the model explains the data down to the sensor noise.");
-      }
-      print("Report: " + (run_dir / "report.html").string());
-    }
+    if (o.analyze) analyseRun(r, contexts);
   } catch (const std::exception& e) {
     result.message = "identification failed: " + std::string(e.what()) + "; parameters unchanged, " + data_note;
-    return result;
+    return false;
   }
+  return true;
+}
 
-  // ---- write parameters atomically (previous version kept) and exports. An inertia estimate
-  // just outside the physically possible set (within 3 standard errors) is written as the nearest
-  // possible one, and said so; the cell's plausibility limits are checked before anything is
-  // written (issue 26).
+/// Writes the parameters atomically (previous version kept) and the exports. An inertia estimate
+/// just outside the physically possible set (within 3 standard errors) is written as the nearest
+/// possible one, and said so; the cell's plausibility limits are checked before anything is
+/// written (issue 26). False if refused or not written (the previous parameters intact).
+bool writeParameters(IdentifyRun& r) {
+  const config::DaemonConfig& cfg = r.cfg;
+  const std::string& params_path = r.params_path;
+  const std::string& data_note = r.data_note;
+  CellIdentifyResult& result = r.result;
+  params::ParameterSet& set = r.set;
+  const auto print = [&r](const std::string& s) { r.print(s); };
   try {
     std::string not_projected;
     if (const std::string note = params::projectInertiaWithinUncertainty(&set, &not_projected); !note.empty()) {
@@ -569,7 +574,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     daemon::requirePlausible(set, daemon::plausibilityLimits(cfg), params_path + " (identified)");
   } catch (const std::exception& e) {
     result.message = "identification refused: " + std::string(e.what()) + "; parameters unchanged, " + data_note;
-    return result;
+    return false;
   }
   try {
     fs::create_directories(fs::path(params_path).parent_path());
@@ -586,7 +591,7 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     }
     result.message = "could not write the parameter file: " + why +
                      "; the previous parameters are intact, " + data_note;
-    return result;
+    return false;
   }
   try {
     print("Exports: " + writeExports(set, cfg, params_path + ".ros2.yaml", params_path + ".urscript"));
@@ -594,22 +599,46 @@ CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
     print("  WARNING: exports not written: " + std::string(e.what()));
   }
   print("Parameters written to " + params_path + " (previous version: " + params_path + ".bak)");
+  return true;
+}
 
+/// Asks ftidd to reload its parameter file (o.reload_daemon) and waits for its acknowledgement.
+bool reloadDaemon(IdentifyRun& r) {
+  const CellIdentifyOptions& o = r.o;
+  const config::DaemonConfig& cfg = r.cfg;
+  const std::string& params_path = r.params_path;
+  const std::string& data_note = r.data_note;
+  CellIdentifyResult& result = r.result;
   if (o.reload_daemon) {
     daemon::DaemonClient client(daemon::DaemonClientOptions::fromConfig(cfg));
     const std::string err = client.sendCommand(daemon::DaemonCommand::kReloadParameters, 3.0).describe();
     if (err.empty()) {
       result.reloaded = true;
-      print("ftidd reloaded the new parameters.");
+      r.print("ftidd reloaded the new parameters.");
     } else {
       result.message = "parameters written to " + params_path + " but " + err + "; " + data_note;
-      return result;
+      return false;
     }
   }
-  result.exit_code = 0;
-  result.message = "identified " + model.name() + " from " + std::to_string(log.samples.size()) + " samples; " +
-                   data_note;
-  return result;
+  return true;
+}
+
+}  // namespace
+
+std::string defaultTrajectoryName(const std::string& urdf_path, bool paper) {
+  const std::string robot = fs::path(urdf_path).stem().string();
+  return "excitation_" + robot + (paper ? "_paper" : "") + ".yaml";
+}
+
+CellIdentifyResult runCellIdentify(const CellIdentifyOptions& o) {
+  IdentifyRun r(o);  // everything here may throw ConfigError before anything moves
+  if (!connectToDaemon(r) || !checkBeforeMotion(r) || !runMotion(r)) return r.result;
+  keepData(r);  // whatever happened
+  if (!judgeRun(r) || !identifyAndAnalyse(r) || !writeParameters(r) || !reloadDaemon(r)) return r.result;
+  r.result.exit_code = 0;
+  r.result.message = "identified " + r.model.name() + " from " + std::to_string(r.log.samples.size()) +
+                     " samples; " + r.data_note;
+  return r.result;
 }
 
 }  // namespace ftid::cell

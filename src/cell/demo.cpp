@@ -1,3 +1,9 @@
+// `ftid demo` (demo.hpp): a whole cell on loopback, as a sequence of named steps over one explicit
+// state, DemoCell: check the hidden effect, write the cell's files (command key, ftidd.yaml, the
+// sensor simulator's configuration, read back as the truth), start the three processes, identify
+// with the default model, watch the live compensation while the tool is pushed, let the laboratory
+// name the missing effect and identify again with it (the error falls), watch live again, and say
+// where everything is. The processes are children of this one, stopped when the demo ends.
 #include "ftid/common/default_files.hpp"
 #include "ftid/cell/demo.hpp"
 
@@ -20,6 +26,7 @@
 #include <random>
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
+#include <memory>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -272,10 +279,8 @@ double errorScore(const Vec6& heldout, const Vec6& noise) {
   return s;
 }
 
-}  // namespace
-
-int runDemo(const DemoOptions& opt) {
-  const auto t_start = std::chrono::steady_clock::now();
+/// Throws ConfigError unless the hidden effect is one the demo offers (one the default model lacks).
+void checkHiddenEffect(const DemoOptions& opt) {
   bool known_effect = false;
   for (const char* e : kDemoHiddenEffects) known_effect = known_effect || opt.hidden_effect == e;
   if (!known_effect) {
@@ -285,205 +290,268 @@ int runDemo(const DemoOptions& opt) {
                       kDefaultModel + " lacks: " + list +
                       (opt.hidden_effect == "rigid_body" ? " (rigid_body is part of the default model)" : ""));
   }
-  const fs::path work = fs::absolute(opt.workdir);
+}
+
+/// The live receiver's store of ftidd's compensated wrench (FTID_WRENCH): only cycles that
+/// started at or after since_utime, at most the reserved 10000.
+struct Collector {
+  std::int64_t since_utime = 0;
+  std::vector<CycleRecord> recs;
+  // Received bytes are untrusted: the one safe decode, and a bounded store (5 s at 125 Hz
+  // is 625 records; a flood beyond 10000 is dropped, never grown without bound).
+  void handle(const lcm::ReceiveBuffer* rb, const std::string&) noexcept {
+    ftid_lcm::compensated_wrench_t m;
+    if (!transport::decodeFrom(rb->data, rb->data_size, &m)) return;
+    CycleRecord r;
+    transport::fromLcm(m, &r);
+    if (r.utime < since_utime || recs.size() >= recs.capacity()) return;
+    recs.push_back(r);  // within the reserved capacity: no allocation, no throw
+  }
+};
+
+/// The absolute work directory, with its logs/ directory created.
+fs::path makeWorkDir(const std::string& workdir) {
+  const fs::path work = fs::absolute(workdir);
   fs::create_directories(work / "logs");
-  const fs::path cfgdir = findConfigDir();
-  const fs::path ftid = fs::read_symlink("/proc/self/exe");
-  const fs::path ftidd = findFtidd();
+  return work;
+}
+
+/// The demo's state: its paths, the sensor simulator's truth, the three processes (stopped in
+/// reverse order of their start when the demo ends) and the live receiver's store.
+struct DemoCell {
+  explicit DemoCell(const DemoOptions& options);
+
+  const DemoOptions& opt;
+  const fs::path work;
+  const fs::path cfgdir;
+  const fs::path ftid;
+  const fs::path ftidd;
+  const fs::path sock;
+  const fs::path params;
+  const fs::path key;
+  std::vector<std::string> effects;  ///< the sensor's physics switches
+  simsensor::SimSensorConfig truth;
+  std::unique_ptr<Child> robot;
+  std::unique_ptr<Child> sensor;
+  std::unique_ptr<Child> daemon;
+  Collector collector;
+};
+
+DemoCell::DemoCell(const DemoOptions& options)
+    : opt(options),
+      work(makeWorkDir(opt.workdir)),
+      cfgdir(findConfigDir()),
+      ftid(fs::read_symlink("/proc/self/exe")),
+      ftidd(findFtidd()),
+      sock(work / "ftsensor.sock"),
+      params(work / "parameters.yaml"),
+      key(work / "command.key") {
+  collector.recs.reserve(10000);
   say("== ftid demo: a UR10 cell with an F/T+IMU sensor, simulated on loopback");
   say("   work directory: " + work.string());
   if (opt.private_netns) {
     enterPrivateNetwork();
     say("   network: a private network namespace (LCM multicast stays inside it)");
   }
+}
 
-  // ---- configuration files for this run
-  const fs::path sock = work / "ftsensor.sock";
-  const fs::path params = work / "parameters.yaml";
-  fs::remove(params);
-  fs::remove(fs::path(params.string() + ".bak"));
-  // The demo's own command key (ftidd refuses unsigned commands; the installed key in /etc/ftid
-  // is root's): 32 random bytes as hex, readable by this user only.
-  const fs::path key = work / "command.key";
-  {
-    std::random_device rd;
-    std::string hex = "# command key of this demo cell (docs/operations.md, \"Network and commands\")\n";
-    const char* digits = "0123456789abcdef";
-    for (int i = 0; i < 32; ++i) {
-      const unsigned b = rd() & 0xFFu;
-      hex += digits[b >> 4];
-      hex += digits[b & 0xFu];
-    }
-    writeFile(key, hex + "\n");
-    fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+/// The demo's own command key (ftidd refuses unsigned commands; the installed key in /etc/ftid is
+/// root's): 32 random bytes as hex, readable by this user only.
+void writeCommandKey(const fs::path& key) {
+  std::random_device rd;
+  std::string hex = "# command key of this demo cell (docs/operations.md, \"Network and commands\")\n";
+  const char* digits = "0123456789abcdef";
+  for (int i = 0; i < 32; ++i) {
+    const unsigned b = rd() & 0xFFu;
+    hex += digits[b >> 4];
+    hex += digits[b & 0xFu];
   }
-  {
-    YAML::Emitter y;
-    y << YAML::BeginMap;
-    y << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
-    y << YAML::Key << "host" << YAML::Value << "127.0.0.1";
-    y << YAML::Key << "rtde_port" << YAML::Value << 30004;
-    y << YAML::Key << "dashboard_port" << YAML::Value << 29999;
-    y << YAML::Key << "rtde_frequency_hz" << YAML::Value << 125;
-    y << YAML::Key << "urdf_path" << YAML::Value << (cfgdir / "ur10.urdf").string();
-    y << YAML::EndMap;
-    y << YAML::Key << "sensor" << YAML::Value << YAML::BeginMap;
-    y << YAML::Key << "transport" << YAML::Value << "seqpacket";
-    y << YAML::Key << "socket_path" << YAML::Value << sock.string();
-    y << YAML::Key << "dbc_path" << YAML::Value << (cfgdir / "ftsensor.dbc").string();
-    y << YAML::Key << "stale_timeout_ms" << YAML::Value << 20;
-    y << YAML::EndMap;
-    y << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
-    y << YAML::Key << "path" << YAML::Value << params.string();
-    y << YAML::Key << "required" << YAML::Value << false;
-    y << YAML::EndMap;
-    y << YAML::Key << "lcm" << YAML::Value << YAML::BeginMap;
-    y << YAML::Key << "url" << YAML::Value << YAML::DoubleQuoted << "udpm://239.255.76.67:7667?ttl=0";
-    y << YAML::Key << "command_key_path" << YAML::Value << key.string();
-    y << YAML::EndMap;
-    y << YAML::Key << "rt" << YAML::Value << YAML::BeginMap << YAML::Key << "require_rt" << YAML::Value << false
-      << YAML::EndMap;
-    y << YAML::EndMap;
-    writeFile(work / "ftidd.yaml",
-              yamlDocument("# ftidd configuration written by `ftid demo` (see config/ftidd.yaml for every key)\n", y));
-  }
+  writeFile(key, hex + "\n");
+  fs::permissions(key, fs::perms::owner_read | fs::perms::owner_write, fs::perm_options::replace);
+}
+
+/// ftidd's configuration for the cell: the simulated robot and sensor on loopback, the demo's
+/// parameter file and command key.
+void writeDaemonConfig(const DemoCell& c) {
+  const fs::path& work = c.work;
+  const fs::path& cfgdir = c.cfgdir;
+  const fs::path& sock = c.sock;
+  const fs::path& params = c.params;
+  const fs::path& key = c.key;
+  YAML::Emitter y;
+  y << YAML::BeginMap;
+  y << YAML::Key << "robot" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "host" << YAML::Value << "127.0.0.1";
+  y << YAML::Key << "rtde_port" << YAML::Value << 30004;
+  y << YAML::Key << "dashboard_port" << YAML::Value << 29999;
+  y << YAML::Key << "rtde_frequency_hz" << YAML::Value << 125;
+  y << YAML::Key << "urdf_path" << YAML::Value << (cfgdir / "ur10.urdf").string();
+  y << YAML::EndMap;
+  y << YAML::Key << "sensor" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "transport" << YAML::Value << "seqpacket";
+  y << YAML::Key << "socket_path" << YAML::Value << sock.string();
+  y << YAML::Key << "dbc_path" << YAML::Value << (cfgdir / "ftsensor.dbc").string();
+  y << YAML::Key << "stale_timeout_ms" << YAML::Value << 20;
+  y << YAML::EndMap;
+  y << YAML::Key << "parameters" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "path" << YAML::Value << params.string();
+  y << YAML::Key << "required" << YAML::Value << false;
+  y << YAML::EndMap;
+  y << YAML::Key << "lcm" << YAML::Value << YAML::BeginMap;
+  y << YAML::Key << "url" << YAML::Value << YAML::DoubleQuoted << "udpm://239.255.76.67:7667?ttl=0";
+  y << YAML::Key << "command_key_path" << YAML::Value << key.string();
+  y << YAML::EndMap;
+  y << YAML::Key << "rt" << YAML::Value << YAML::BeginMap << YAML::Key << "require_rt" << YAML::Value << false
+    << YAML::EndMap;
+  y << YAML::EndMap;
+  writeFile(work / "ftidd.yaml",
+            yamlDocument("# ftidd configuration written by `ftid demo` (see config/ftidd.yaml for every key)\n", y));
+}
+
+/// The configuration files for this run; the sensor simulator's own configuration is read back
+/// with its own loader into c.truth, with the effects it will be started with.
+void writeCellFiles(DemoCell& c) {
+  fs::remove(c.params);
+  fs::remove(fs::path(c.params.string() + ".bak"));
+  writeCommandKey(c.key);
+  writeDaemonConfig(c);
   std::string sensor_yaml;
   {
-    std::ifstream in(cfgdir / "sim_sensor.yaml");
+    std::ifstream in(c.cfgdir / "sim_sensor.yaml");
     std::stringstream ss;
     ss << in.rdbuf();
     sensor_yaml = ss.str();
   }
-  writeFile(work / "sim_sensor.yaml", sensor_yaml);
+  writeFile(c.work / "sim_sensor.yaml", sensor_yaml);
   // The sensor's physics: full rigid body, typical noise, and the one hidden effect.
-  const std::vector<std::string> effects{"rigid_body", "noise", opt.hidden_effect};
-  simsensor::SimSensorConfig truth = simsensor::defaultSimSensorConfig();
-  simsensor::loadSimSensorYaml((work / "sim_sensor.yaml").string(), truth);
-  for (const auto& e : effects) simsensor::enableEffect(e, truth);
+  c.effects = {"rigid_body", "noise", c.opt.hidden_effect};
+  c.truth = simsensor::defaultSimSensorConfig();
+  simsensor::loadSimSensorYaml((c.work / "sim_sensor.yaml").string(), c.truth);
+  for (const auto& e : c.effects) simsensor::enableEffect(e, c.truth);
+}
 
-  // ---- processes
+/// Steps 1-3: the robot simulator, the sensor simulator (its truth printed) and ftidd. False, with
+/// the failing process's log, if a simulator did not start.
+bool startProcesses(DemoCell& c) {
+  const DemoOptions& opt = c.opt;
+  const fs::path& work = c.work;
+  const fs::path& cfgdir = c.cfgdir;
+  const fs::path& ftid = c.ftid;
+  const fs::path& sock = c.sock;
   say("[1/7] UR10 controller simulator (CB3, 125 Hz): RTDE 127.0.0.1:30004, dashboard 29999, script 30003");
-  Child robot("sim-robot", {ftid.string(), "sim-robot", "--model", "ur10"}, work / "logs" / "sim-robot.log");
+  c.robot = std::make_unique<Child>("sim-robot", std::vector<std::string>{ftid.string(), "sim-robot", "--model", "ur10"},
+                                    work / "logs" / "sim-robot.log");
+  const Child& robot = *c.robot;
   if (!waitFor([] { return tcpPortOpen(30004) && tcpPortOpen(29999); }, 10.0)) {
     say("demo: the robot simulator did not start:\n" + tail(robot.log(), 10));
-    return 1;
+    return false;
   }
   say("[2/7] F/T+IMU sensor simulator (CAN frames on a SocketCAN stand-in); what it simulates:");
-  say(truthText(truth, opt.hidden_effect) + " (the default model lacks it)");
+  say(truthText(c.truth, opt.hidden_effect) + " (the default model lacks it)");
   std::vector<std::string> sensor_args{ftid.string(), "sim-sensor", "--config", (work / "sim_sensor.yaml").string(),
                                        "--urdf", (cfgdir / "ur10.urdf").string(), "--dbc",
                                        (cfgdir / "ftsensor.dbc").string(), "--socket", sock.string(), "--seed",
                                        std::to_string(opt.seed)};
-  for (const auto& e : effects) sensor_args.insert(sensor_args.end(), {"--effect", e});
-  Child sensor("sim-sensor", sensor_args, work / "logs" / "sim-sensor.log");
+  for (const auto& e : c.effects) sensor_args.insert(sensor_args.end(), {"--effect", e});
+  c.sensor = std::make_unique<Child>("sim-sensor", sensor_args, work / "logs" / "sim-sensor.log");
+  Child& sensor = *c.sensor;
   if (!waitFor([&] { return fs::exists(sock) || !sensor.alive(); }, 10.0) || !sensor.alive()) {
     say("demo: the sensor simulator did not start:\n" + tail(sensor.log(), 10));
-    return 1;
+    return false;
   }
   say("[3/7] ftidd, the real-time compensation daemon (robot-clocked loop, LCM publishing)");
-  Child daemon("ftidd", {ftidd.string(), "--config", (work / "ftidd.yaml").string()}, work / "logs" / "ftidd.log");
+  c.daemon = std::make_unique<Child>("ftidd", std::vector<std::string>{c.ftidd.string(), "--config", (work / "ftidd.yaml").string()},
+                                     work / "logs" / "ftidd.log");
+  return true;
+}
 
-  auto identify = [&](const std::string& model, const std::string& step) {
-    say("");
-    say(step + " ftid --identify" + (model == kDefaultModel ? std::string() : " --model " + model) + " --yes" +
-        (model == kDefaultModel ? "    (the default: model " + model + ", the shipped 3 s trajectory)" : ""));
-    CellIdentifyOptions o;
-    o.config_path = (work / "ftidd.yaml").string();
-    o.model = model;
-    o.assume_yes = true;
-    o.runs_dir = (work / "runs").string();
-    o.startup_wait_s = 15.0;
-    o.print = [](const std::string& s) {
-      std::istringstream in(s);
-      for (std::string l; std::getline(in, l);) say("    " + l);
-    };
-    double last = -1;
-    o.progress = [&last](const std::string& phase, double el, double tot) {
-      if (std::floor(el) != last) {
-        last = std::floor(el);
-        std::printf("    [%-16s] %4.1f / %4.1f s\n", phase.c_str(), el, tot);
-        std::fflush(stdout);
-      }
-    };
-    return runCellIdentify(o);
-  };
-
-  // ---- live compensated wrench from ftidd: 1.5 s with the tool free, then (push) the
-  // simulator's contact push, 3 s. A fresh LCM receiver each time, and only cycles that started
-  // after it: nothing queued from before (e.g. during an identification) is counted.
-  struct Collector {
-    std::int64_t since_utime = 0;
-    std::vector<CycleRecord> recs;
-    // Received bytes are untrusted: the one safe decode, and a bounded store (5 s at 125 Hz
-    // is 625 records; a flood beyond 10000 is dropped, never grown without bound).
-    void handle(const lcm::ReceiveBuffer* rb, const std::string&) noexcept {
-      ftid_lcm::compensated_wrench_t m;
-      if (!transport::decodeFrom(rb->data, rb->data_size, &m)) return;
-      CycleRecord r;
-      transport::fromLcm(m, &r);
-      if (r.utime < since_utime || recs.size() >= recs.capacity()) return;
-      recs.push_back(r);  // within the reserved capacity: no allocation, no throw
-    }
-  } collector;
-  collector.recs.reserve(10000);
-  auto live = [&](bool push) {
-    lcm::LCM lc("udpm://239.255.76.67:7667?ttl=0");
-    collector.recs.clear();
-    collector.since_utime = transport::realtimeUs();
-    lc.subscribe("FTID_WRENCH", &Collector::handle, &collector);
-    auto collect = [&](double seconds) {
-      const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-      while (std::chrono::steady_clock::now() < end) lc.handleTimeout(20);
-    };
-    collect(1.5);
-    const std::size_t quiet_end = collector.recs.size();
-    if (push) {
-      sensor.signal(SIGRTMIN + 1);  // the sensor simulator starts its configured contact push now
-      collect(3.0);
-    }
-    LiveStats st;
-    double raw_quiet = 0.0;  // mean |raw force| with the tool free
-    int quiet_n = 0;
-    for (std::size_t i = 0; i < collector.recs.size(); ++i) {
-      const auto& r = collector.recs[i];
-      ++st.samples;
-      if (!r.wrench_valid) continue;
-      ++st.valid;
-      const double fc = r.contact_S.head<3>().norm();
-      if (i < quiet_end) {
-        st.rms_quiet_force += fc * fc;
-        st.rms_quiet_torque += r.contact_S.tail<3>().squaredNorm();
-        raw_quiet += (r.contact_S + r.modelled_S).head<3>().norm();
-        ++quiet_n;
-      } else {
-        st.peak_push_force = std::max(st.peak_push_force, fc);
-      }
-    }
-    if (quiet_n > 0) {
-      st.rms_quiet_force = std::sqrt(st.rms_quiet_force / quiet_n);
-      st.rms_quiet_torque = std::sqrt(st.rms_quiet_torque / quiet_n);
-      st.raw_quiet_force = raw_quiet / quiet_n;
-    }
-    return st;
-  };
-
-  const CellIdentifyResult first = identify(kDefaultModel, "[4/7]");
-  if (first.exit_code != 0) {
-    say("demo: identification failed: " + first.message);
-    say("ftidd log:\n" + tail(daemon.log(), 15) + "sensor log:\n" + tail(sensor.log(), 8));
-    return 1;
-  }
+/// `ftid --identify --yes` on the cell with `model`, its output indented under the step's title.
+CellIdentifyResult identifyOnCell(const DemoCell& c, const std::string& model, const std::string& step) {
+  const fs::path& work = c.work;
   say("");
-  say("   identified (" + std::string(kDefaultModel) + ") beside the simulator's truth:");
-  say(identifiedText(first.params_path, truth.cell));
+  say(step + " ftid --identify" + (model == kDefaultModel ? std::string() : " --model " + model) + " --yes" +
+      (model == kDefaultModel ? "    (the default: model " + model + ", the shipped 3 s trajectory)" : ""));
+  CellIdentifyOptions o;
+  o.config_path = (work / "ftidd.yaml").string();
+  o.model = model;
+  o.assume_yes = true;
+  o.runs_dir = (work / "runs").string();
+  o.startup_wait_s = 15.0;
+  o.print = [](const std::string& s) {
+    std::istringstream in(s);
+    for (std::string l; std::getline(in, l);) say("    " + l);
+  };
+  double last = -1;
+  o.progress = [&last](const std::string& phase, double el, double tot) {
+    if (std::floor(el) != last) {
+      last = std::floor(el);
+      std::printf("    [%-16s] %4.1f / %4.1f s\n", phase.c_str(), el, tot);
+      std::fflush(stdout);
+    }
+  };
+  return runCellIdentify(o);
+}
 
+/// The live compensated wrench: 1.5 s with the tool free, then (push) 3 s of the simulator's
+/// contact push. Only cycles that started after the receiver did are counted.
+LiveStats liveStats(DemoCell& c, bool push) {
+  Collector& collector = c.collector;
+  lcm::LCM lc("udpm://239.255.76.67:7667?ttl=0");
+  collector.recs.clear();
+  collector.since_utime = transport::realtimeUs();
+  lc.subscribe("FTID_WRENCH", &Collector::handle, &collector);
+  auto collect = [&](double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) lc.handleTimeout(20);
+  };
+  collect(1.5);
+  const std::size_t quiet_end = collector.recs.size();
+  if (push) {
+    c.sensor->signal(SIGRTMIN + 1);  // the sensor simulator starts its configured contact push now
+    collect(3.0);
+  }
+  LiveStats st;
+  double raw_quiet = 0.0;  // mean |raw force| with the tool free
+  int quiet_n = 0;
+  for (std::size_t i = 0; i < collector.recs.size(); ++i) {
+    const auto& r = collector.recs[i];
+    ++st.samples;
+    if (!r.wrench_valid) continue;
+    ++st.valid;
+    const double fc = r.contact_S.head<3>().norm();
+    if (i < quiet_end) {
+      st.rms_quiet_force += fc * fc;
+      st.rms_quiet_torque += r.contact_S.tail<3>().squaredNorm();
+      raw_quiet += (r.contact_S + r.modelled_S).head<3>().norm();
+      ++quiet_n;
+    } else {
+      st.peak_push_force = std::max(st.peak_push_force, fc);
+    }
+  }
+  if (quiet_n > 0) {
+    st.rms_quiet_force = std::sqrt(st.rms_quiet_force / quiet_n);
+    st.rms_quiet_torque = std::sqrt(st.rms_quiet_torque / quiet_n);
+    st.raw_quiet_force = raw_quiet / quiet_n;
+  }
+  return st;
+}
+
+/// |contact| RMS of the simulated noise alone (three independent axes).
+std::string noiseOnlyText(const sim::CellSimConfig& truth) {
+  return "noise alone: " + f3(std::sqrt(3.0) * truth.noise.wrench_std(0)) + " N, " +
+         f3(std::sqrt(3.0) * truth.noise.wrench_std(3)) + " Nm";
+}
+
+/// Step 5: the live compensation with the first parameters while the tool is pushed. Returns the
+/// figures; *ok says whether the contact alone remained (and the free tool read near zero).
+LiveStats liveWithPush(DemoCell& c, bool* ok) {
+  const DemoOptions& opt = c.opt;
+  const simsensor::SimSensorConfig& truth = c.truth;
   say("[5/7] live compensated wrench from ftidd (LCM FTID_WRENCH) with these parameters, while someone pushes"
       " the tool");
   const double push_peak_N = truth.cell.contact.force_B.norm();
-  // |contact| RMS of the simulated noise alone (three independent axes).
-  const std::string noise_only = "noise alone: " + f3(std::sqrt(3.0) * truth.cell.noise.wrench_std(0)) + " N, " +
-                                 f3(std::sqrt(3.0) * truth.cell.noise.wrench_std(3)) + " Nm";
-  const LiveStats st = live(true);
+  const std::string noise_only = noiseOnlyText(truth.cell);
+  const LiveStats st = liveStats(c, true);
   say("   " + std::to_string(st.samples) + " compensated samples (" + std::to_string(st.valid) + " valid)");
   say("   tool free:   |contact force| RMS " + f3(st.rms_quiet_force) + " N, |contact torque| RMS " +
       f3(st.rms_quiet_torque) + " Nm (" + noise_only + "; the raw reading's |force| is " +
@@ -491,28 +559,17 @@ int runDemo(const DemoOptions& opt) {
       (opt.hidden_effect == "cable" ? ", and the cable's pull)" : ")"));
   say("   during push: peak |contact force| " + f3(st.peak_push_force) + " N (the simulated push peaks at " +
       f3(push_peak_N) + " N): only the contact remains");
-  const bool live_ok = st.valid > 0 && st.peak_push_force > 0.5 * push_peak_N && st.rms_quiet_force < 0.5;
-  if (!live_ok) say("demo: the live compensation did not behave as expected (see the figures above)");
+  *ok = st.valid > 0 && st.peak_push_force > 0.5 * push_peak_N && st.rms_quiet_force < 0.5;
+  if (!*ok) say("demo: the live compensation did not behave as expected (see the figures above)");
+  return st;
+}
 
-  // ---- the laboratory on what is left
-  say("");
-  if (first.suggested_effect.empty()) {
-    say("demo: the analysis of " + first.data_csv + " found nothing missing from " + kDefaultModel +
-        ", but the sensor carries a hidden '" + opt.hidden_effect + "'");
-    return 1;
-  }
-  say("[6/7] the model laboratory (step 4's analysis) names an effect " + std::string(kDefaultModel) +
-      " lacks: " + first.suggested_effect + " (hidden: " + opt.hidden_effect + "); identify again with it");
-  const bool found = first.suggested_effect == opt.hidden_effect;
-  if (!found) say("demo: the laboratory named " + first.suggested_effect + ", not the hidden " + opt.hidden_effect);
-  const std::string model2 = std::string(kDefaultModel) + "+" + first.suggested_effect;
-  const CellIdentifyResult second = identify(model2, "     ");
-  if (second.exit_code != 0) {
-    say("demo: second identification failed: " + second.message);
-    return 1;
-  }
+/// Step 6's comparison: both models on the same data (the second run), the default one refitted
+/// by the laboratory; per axis and as one score. True if the error falls.
+bool errorFalls(const DemoCell& c, const CellIdentifyResult& first, const CellIdentifyResult& second,
+                const std::string& model2) {
   // Both models on the same data (this run): the default one refitted by the laboratory.
-  const Vec6 default_rms = heldoutOn(second.data_csv, kDefaultModel, (cfgdir / "ur10.urdf").string(),
+  const Vec6 default_rms = heldoutOn(second.data_csv, kDefaultModel, (c.cfgdir / "ur10.urdf").string(),
                                      first.suggested_effect);
   say("");
   say("   The error falls (held-out residual RMS per axis on this run's data, N and Nm; noise floor in brackets):");
@@ -528,17 +585,12 @@ int runDemo(const DemoOptions& opt) {
   std::snprintf(fall, sizeof(fall), "   sum over the axes of (residual / noise floor)^2: %.1f -> %.1f (6 = noise only)",
                 score1, score2);
   say(fall);
-  const bool falls = score2 < score1;
-  if (!falls) say("demo: the error did not fall with " + model2);
+  return score2 < score1;
+}
 
-  say("");
-  say("[7/7] live again, with " + model2 + " in ftidd");
-  const LiveStats st2 = live(false);
-  say("   tool free:   |contact force| RMS " + f3(st2.rms_quiet_force) + " N, |contact torque| RMS " +
-      f3(st2.rms_quiet_torque) + " Nm (" + kDefaultModel + " in step 5: " + f3(st.rms_quiet_force) + " N, " +
-      f3(st.rms_quiet_torque) + " Nm; " + noise_only + ")");
-
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+/// Where things are, after the demo.
+void sayWhereThingsAre(const DemoCell& c, const CellIdentifyResult& first, const CellIdentifyResult& second,
+                       double secs) {
   say("");
   say("== demo finished in " + std::to_string(static_cast<int>(secs)) + " s. Where things are:");
   say("   parameters:     " + second.params_path + " (previous: " + second.params_path + ".bak)");
@@ -546,8 +598,61 @@ int runDemo(const DemoOptions& opt) {
   say("   recorded runs:  " + first.data_csv + "\n                   " + second.data_csv);
   say("   reports:        " + fs::path(first.data_csv).parent_path().string() + "/report.html\n                   " +
       fs::path(second.data_csv).parent_path().string() + "/report.html");
-  say("   process logs:   " + (work / "logs").string());
+  say("   process logs:   " + (c.work / "logs").string());
   say("   try:            ftid analyze " + first.data_csv + " --model " + kDefaultModel + " --explain");
+}
+
+}  // namespace
+
+int runDemo(const DemoOptions& opt) {
+  const auto t_start = std::chrono::steady_clock::now();
+  checkHiddenEffect(opt);
+  DemoCell c(opt);
+  writeCellFiles(c);
+  if (!startProcesses(c)) return 1;
+
+  const CellIdentifyResult first = identifyOnCell(c, kDefaultModel, "[4/7]");
+  if (first.exit_code != 0) {
+    say("demo: identification failed: " + first.message);
+    say("ftidd log:\n" + tail(c.daemon->log(), 15) + "sensor log:\n" + tail(c.sensor->log(), 8));
+    return 1;
+  }
+  say("");
+  say("   identified (" + std::string(kDefaultModel) + ") beside the simulator's truth:");
+  say(identifiedText(first.params_path, c.truth.cell));
+
+  bool live_ok = false;
+  const LiveStats st = liveWithPush(c, &live_ok);
+
+  // ---- the laboratory on what is left
+  say("");
+  if (first.suggested_effect.empty()) {
+    say("demo: the analysis of " + first.data_csv + " found nothing missing from " + kDefaultModel +
+        ", but the sensor carries a hidden '" + opt.hidden_effect + "'");
+    return 1;
+  }
+  say("[6/7] the model laboratory (step 4's analysis) names an effect " + std::string(kDefaultModel) +
+      " lacks: " + first.suggested_effect + " (hidden: " + opt.hidden_effect + "); identify again with it");
+  const bool found = first.suggested_effect == opt.hidden_effect;
+  if (!found) say("demo: the laboratory named " + first.suggested_effect + ", not the hidden " + opt.hidden_effect);
+  const std::string model2 = std::string(kDefaultModel) + "+" + first.suggested_effect;
+  const CellIdentifyResult second = identifyOnCell(c, model2, "     ");
+  if (second.exit_code != 0) {
+    say("demo: second identification failed: " + second.message);
+    return 1;
+  }
+  const bool falls = errorFalls(c, first, second, model2);
+  if (!falls) say("demo: the error did not fall with " + model2);
+
+  say("");
+  say("[7/7] live again, with " + model2 + " in ftidd");
+  const LiveStats st2 = liveStats(c, false);
+  say("   tool free:   |contact force| RMS " + f3(st2.rms_quiet_force) + " N, |contact torque| RMS " +
+      f3(st2.rms_quiet_torque) + " Nm (" + kDefaultModel + " in step 5: " + f3(st.rms_quiet_force) + " N, " +
+      f3(st.rms_quiet_torque) + " Nm; " + noiseOnlyText(c.truth.cell) + ")");
+
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  sayWhereThingsAre(c, first, second, secs);
   return live_ok && found && falls && st2.valid > 0 ? 0 : 1;
 }
 

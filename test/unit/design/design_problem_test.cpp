@@ -1,0 +1,104 @@
+// The designer's optimisation problem (src/design/design_problem.hpp), checked against direct
+// formulations: the Kreisselmeier-Steinhauser soft maximum against the plain maximum (its
+// documented bounds), and Problem::makeFeasible against the joint limits evaluated sample by
+// sample on the parametrisation's own motion (no soft maximum involved).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "design_problem.hpp"
+#include "ftid/design/designer.hpp"
+#include "ftid/model/kinematics.hpp"
+
+namespace ftid::design::internal {
+namespace {
+
+TEST(DesignSoftMax, BoundedByTheMaximumAndTheMaximumPlusLogNOverRho) {
+  std::mt19937_64 rng(11);
+  for (int n : {1, 2, 3, 10, 100, 1000}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      SoftMax ks;
+      double max_g = -std::numeric_limits<double>::infinity();
+      for (int i = 0; i < n; ++i) {
+        // Constraint values around the feasibility border, some of them tied.
+        const double g = trial % 3 == 0 && i % 2 == 1 ? 0.25 : 6.0 * uniform01(rng) - 5.0;
+        ks.add(g);
+        max_g = std::max(max_g, g);
+      }
+      const double v = ks.value();
+      EXPECT_GE(v, max_g) << "n " << n << " trial " << trial;
+      EXPECT_LE(v, max_g + std::log(static_cast<double>(n)) / kKsRho + 1e-12) << "n " << n << " trial " << trial;
+    }
+  }
+  // n equal values: exactly the upper bound.
+  SoftMax equal;
+  for (int i = 0; i < 8; ++i) equal.add(-0.5);
+  EXPECT_NEAR(equal.value(), -0.5 + std::log(8.0) / kKsRho, 1e-12);
+}
+
+TEST(DesignSoftMax, EmptyIsFeasibleAndNanOrInfinityIsInfeasible) {
+  SoftMax ks;
+  EXPECT_LT(ks.value(), 0.0);
+  ks.add(-1.0);
+  ks.add(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_GT(ks.value(), 0.0);
+  ks.clear();
+  ks.add(-1.0);
+  ks.add(std::numeric_limits<double>::infinity());
+  EXPECT_GT(ks.value(), 0.0);
+}
+
+TEST(DesignProblem, MakeFeasibleScalesToTheLargestAmplitudeWithinTheJointLimits) {
+  const model::RobotKinematics kin =
+      model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+  DesignOptions opt;
+  opt.duration_s = 6.0;
+  opt.harmonics = 4;
+  opt.constraints = loadDesignConstraints("", kin, opt.q0);
+  opt.constraints.tool.clear();  // joint limits only: the scale then has a closed form to check
+  opt.constraints.keep_out.clear();
+  Problem p(opt, kin);
+  std::mt19937_64 rng(5);
+  const double m = 1.0 - opt.constraint_margin;
+  const auto& c = opt.constraints;
+  for (int trial = 0; trial < 10; ++trial) {
+    const std::vector<double> x = randomDirection(rng, p.n());
+    const std::vector<double> y = p.makeFeasible(x);
+    // y = s x with s in [0, 1].
+    const double s = y[0] / x[0];
+    ASSERT_GE(s, 0.0);
+    ASSERT_LE(s, 1.0);
+    for (std::size_t k = 0; k < x.size(); ++k) ASSERT_NEAR(y[k], s * x[k], 1e-12);
+    // The worst ratio of motion to (margin-tightened) limit over the design samples, directly.
+    SampledMotion mo;
+    p.param().sample(y.data(), mo);
+    double worst = 0.0;
+    for (int j : opt.joints) {
+      const int i = j - 1;
+      for (Eigen::Index t = 0; t < mo.q.cols(); ++t) {
+        const double dq = mo.q(i, t) - opt.q0[i];
+        worst = std::max(worst, dq > 0 ? dq / ((c.position_upper[i] - opt.q0[i]) * m)
+                                       : -dq / ((opt.q0[i] - c.position_lower[i]) * m));
+        worst = std::max(worst, std::abs(mo.qd(i, t)) / (c.velocity[i] * m));
+        worst = std::max(worst, std::abs(mo.qdd(i, t)) / (c.acceleration[i] * m));
+      }
+    }
+    // Within the limits, and (unless x itself was) no further inside them than the soft maximum's
+    // conservatism allows: makeFeasible stops where KS = 0, and KS <= max + ln(n)/rho with at
+    // most n = 2K values per constraint (the two signs of the velocity and the acceleration).
+    EXPECT_LE(worst, 1.0 + 1e-12) << "trial " << trial;
+    if (s < 1.0) {
+      const double slack = std::log(2.0 * static_cast<double>(mo.q.cols())) / kKsRho;
+      EXPECT_GE(worst, 1.0 - slack - 1e-6) << "trial " << trial << ": not the largest amplitude";
+    }
+    EXPECT_TRUE(p.evaluateConstraintsOnly(y)) << "trial " << trial;
+  }
+}
+
+}  // namespace
+}  // namespace ftid::design::internal
