@@ -23,8 +23,8 @@ namespace ftid::identify {
 
 namespace {
 
-using internal::FitState;
 using effects::NonlinearParams;
+using internal::FitState;
 using internal::Problem;
 using Mat6X = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
@@ -342,6 +342,8 @@ FitResult fitModel(const Model& model, const std::vector<SampleContext>& context
   for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
   return fitModel(model, contexts, all, options);
 }
+
+// The steps in order (fit_steps.hpp); each passes on what it found in FitState.
 FitResult fitModel(const Model& model, const std::vector<SampleContext>& contexts,
                    const std::vector<int>& indices, const FitOptions& options) {
   FitState f(model, contexts, indices, options);
