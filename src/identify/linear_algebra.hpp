@@ -1,7 +1,7 @@
 #pragma once
 // The identify module's linear algebra (implemented in linear_algebra.cpp; private to
-// ftid_identify): rank reports and the column-scaled QR that the general fit (fit.cpp) and the
-// paper method (paper_method.cpp) both solve with. It depends on nothing else in the module, so
+// ftid_identify): rank reports and the column-scaled QR that the general fit (fit.cpp and its
+// steps, fit_steps.hpp) and the paper method (paper_method.cpp) both solve with. It depends on nothing else in the module, so
 // either may include it (it sits below both).
 #include <string>
 #include <vector>
