@@ -109,7 +109,7 @@ class Effect {
 
   /// True if this effect's regressor is Y(ctx) = Y(ctx with g_S = 0) + sum_j g_S(j) D_j with slopes
   /// D_j that depend on no field of ctx (e.g. gravity: the force m g_S at the centre of mass). The
-  /// compressed tilt search (identify/fit.cpp) then evaluates the effect once per sample, at
+  /// compressed tilt search (identify/gravity_compression.cpp) then evaluates the effect once per sample, at
   /// g_S = 0, and forms its gravity columns from D_j (taken once from addRegressor at g_S = e_j).
   /// Default false (the fitter evaluates the effect at g_S = 0 and at three gravity directions).
   virtual bool constantGravitySlope() const { return false; }
@@ -121,7 +121,7 @@ class Effect {
   /// Add this effect's contribution for one sample into Y (6 rows, one column per model
   /// parameter). Must not allocate, throw or do I/O (real-time safe: used by the compensator), and
   /// must keep no state (no mutable members): the fit calls it for two halves of the samples on
-  /// two threads at once (identify/fit.cpp, from 4,096 samples).
+  /// two threads at once (identify/gravity_compression.cpp, from 4,096 samples).
   virtual void addRegressor(const SampleContext& ctx,
                             Eigen::Ref<Eigen::Matrix<double, 6, Eigen::Dynamic>> Y) const noexcept = 0;
 

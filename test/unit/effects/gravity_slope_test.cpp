@@ -1,4 +1,4 @@
-// Effect::constantGravitySlope (the compressed tilt search's shortcut, identify/fit.cpp): every
+// Effect::constantGravitySlope (the compressed tilt search's shortcut, identify/gravity_compression.cpp): every
 // registered effect that declares it must satisfy Y(ctx) = Y(ctx, g_S = 0) + sum_j g_S(j) D_j with
 // D_j taken once on another sample, checked against the effect's own full regressor on seeded
 // random samples (every field of the context random, so a slope that reads anything but g_S fails).
