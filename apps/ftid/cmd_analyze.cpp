@@ -1,12 +1,10 @@
 // `ftid analyze`: the model laboratory (docs/analyze.md).
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "command.hpp"
 #include "input_flags.hpp"
-#include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/identify/noise.hpp"
@@ -92,70 +90,6 @@ const std::string& usage() {
   return text;
 }
 
-/// Refuses a log too short for the analysis with what would make it possible (the lab's own
-/// check, lab::analyze, says only how many it needs).
-void checkEnoughSamples(const ftid::samples::ContextSet& fit, const ftid::lab::AnalyzeFilesRequest& req) {
-  const bool validate = !req.validate_path.empty();
-  const int folds = req.options.folds;
-  const std::size_t need = validate ? 20 : 20 * static_cast<std::size_t>(folds);
-  if (fit.size() >= need) return;
-  double max_w = 0.0;
-  for (const auto& c : fit.samples) max_w = std::max(max_w, c.w_S.norm());
-  const int pose_col = fit.extraIndex("pose");
-  std::size_t poses = 0;
-  for (std::size_t i = 0; i < fit.size(); ++i) {
-    const std::size_t k = fit.extra_names.size();
-    if (pose_col < 0 || i == 0 || fit.extra_rows[i * k + static_cast<std::size_t>(pose_col)] !=
-                                      fit.extra_rows[(i - 1) * k + static_cast<std::size_t>(pose_col)]) {
-      ++poses;
-    }
-  }
-  const bool is_static = max_w < 1e-3;
-  std::string what = req.log_path + ": " + std::to_string(fit.size()) + " samples are too few for the analysis (need " +
-                     std::to_string(need) + (validate ? ")" : ": 20 per held-out block x " + std::to_string(folds) +
-                                                                   " blocks)") + ". What would do: ";
-  if (is_static) {
-    const std::size_t per_pose = (need + poses - 1) / std::max<std::size_t>(poses, 1);
-    what += "repeated readings at each pose (e.g. " + std::to_string(std::max<std::size_t>(per_pose, 2)) +
-            " at each of the " + std::to_string(poses) + " poses, consecutive rows with a 'pose' column: their "
-            "spread is the noise floor) or more poses; ";
-  } else {
-    what += "a longer recording; ";
-  }
-  if (!validate && folds > 2) what += "fewer held-out blocks (--folds 2 needs 40); ";
-  if (!validate) what += "a separate validation log (--validate LOG2: 20 samples each); ";
-  what += std::string("or the identification alone: ftid identify --log ") + req.log_path +
-          (is_static ? " --method static" : "") + " (docs/analyze.md)";
-  throw ftid::DataError(what);
-}
-
-/// lab::analyzeLogFiles with the recording read through samples::loadLogContexts (UR recordings,
-/// --wrench-log; docs/log-format.md).
-ftid::lab::AnalysisResult analyzeRecordings(const ftid::lab::AnalyzeFilesRequest& req) {
-  const auto& say = req.options.progress;
-  const ftid::samples::ContextSet fit = ftid::samples::loadLogContexts(req.log_path, req.robot_urdf, req.context, say);
-  checkEnoughSamples(fit, req);
-  // The set-up diagnosis (identify's, setup_check.hpp) on the log as it was read.
-  for (const auto& l : ftid::identify::diagnoseSetup(fit.samples, req.context).lines) {
-    if (say) say(l);
-  }
-  ftid::samples::ContextSet val;
-  if (!req.validate_path.empty()) {
-    // The validation log's model time counts from the fitted log's origin (as analyzeLogFiles).
-    ftid::samples::ContextOptions vopt = req.context;
-    vopt.input.wrench_log.clear();
-    if (std::isfinite(fit.time_origin_unix_s)) vopt.time_origin_unix_s = fit.time_origin_unix_s;
-    val = ftid::samples::loadLogContexts(req.validate_path, req.robot_urdf, vopt, say);
-    if (val.extra_names != fit.extra_names) {
-      throw ftid::DataError(req.validate_path + ": its extra columns differ from those of " + req.log_path);
-    }
-  }
-  ftid::lab::AnalysisResult result = ftid::lab::analyze(
-      fit.samples, req.validate_path.empty() ? nullptr : &val.samples, req.options, req.log_path, req.validate_path);
-  result.robot_urdf = req.robot_urdf.empty() ? ftid::defaultRobotUrdf() : req.robot_urdf;
-  return result;
-}
-
 int runAnalyze(const std::vector<std::string>& argv) {
   namespace cli = ftid::cli;
   ftid::lab::AnalyzeFilesRequest req;
@@ -201,7 +135,7 @@ int runAnalyze(const std::vector<std::string>& argv) {
   if (!report.empty()) ftid::checkOutputPath(report);  // before the work
   if (!candidates.empty()) req.options.candidates = splitList(candidates);
   req.options.progress = [](const std::string& line) { std::cerr << "ftid analyze: " << line << "\n"; };
-  const ftid::lab::AnalysisResult result = analyzeRecordings(req);
+  const ftid::lab::AnalysisResult result = ftid::lab::analyzeRecordings(req);
   if (!report.empty()) {
     ftid::lab::writeTextFileAtomically(report, ftid::lab::renderHtml(result));
     std::cerr << "ftid analyze: report written to " << report << "\n";

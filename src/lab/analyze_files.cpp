@@ -1,4 +1,5 @@
 // File front end of the model laboratory (include/ftid/lab/analyze.hpp).
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
@@ -10,6 +11,7 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/samples/context.hpp"
 #include "ftid/identify/offline.hpp"
+#include "ftid/identify/setup_check.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/model/kinematics.hpp"
@@ -45,6 +47,68 @@ AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request) {
   AnalysisResult result = analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples,
                                   request.options, request.log_path, request.validate_path);
   result.robot_urdf = urdf;
+  return result;
+}
+
+void checkEnoughSamples(const samples::ContextSet& fit, const AnalyzeFilesRequest& request) {
+  const bool validate = !request.validate_path.empty();
+  const int folds = request.options.folds;
+  const std::size_t need = validate ? 20 : 20 * static_cast<std::size_t>(folds);
+  if (fit.size() >= need) return;
+  double max_w = 0.0;
+  for (const auto& c : fit.samples) max_w = std::max(max_w, c.w_S.norm());
+  const int pose_col = fit.extraIndex("pose");
+  std::size_t poses = 0;
+  for (std::size_t i = 0; i < fit.size(); ++i) {
+    const std::size_t k = fit.extra_names.size();
+    if (pose_col < 0 || i == 0 || fit.extra_rows[i * k + static_cast<std::size_t>(pose_col)] !=
+                                      fit.extra_rows[(i - 1) * k + static_cast<std::size_t>(pose_col)]) {
+      ++poses;
+    }
+  }
+  const bool is_static = max_w < 1e-3;
+  std::string what = request.log_path + ": " + std::to_string(fit.size()) +
+                     " samples are too few for the analysis (need " + std::to_string(need) +
+                     (validate ? ")" : ": 20 per held-out block x " + std::to_string(folds) + " blocks)") +
+                     ". What would do: ";
+  if (is_static) {
+    const std::size_t per_pose = (need + poses - 1) / std::max<std::size_t>(poses, 1);
+    what += "repeated readings at each pose (e.g. " + std::to_string(std::max<std::size_t>(per_pose, 2)) +
+            " at each of the " + std::to_string(poses) + " poses, consecutive rows with a 'pose' column: their "
+            "spread is the noise floor) or more poses; ";
+  } else {
+    what += "a longer recording; ";
+  }
+  if (!validate && folds > 2) what += "fewer held-out blocks (--folds 2 needs 40); ";
+  if (!validate) what += "a separate validation log (--validate LOG2: 20 samples each); ";
+  what += std::string("or the identification alone: ftid identify --log ") + request.log_path +
+          (is_static ? " --method static" : "") + " (docs/analyze.md)";
+  throw DataError(what);
+}
+
+AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request) {
+  const auto& say = request.options.progress;
+  const samples::ContextSet fit =
+      samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, say);
+  checkEnoughSamples(fit, request);
+  // The set-up diagnosis (identify's, setup_check.hpp) on the log as it was read.
+  for (const auto& l : identify::diagnoseSetup(fit.samples, request.context).lines) {
+    if (say) say(l);
+  }
+  samples::ContextSet val;
+  if (!request.validate_path.empty()) {
+    // The validation log's model time counts from the fitted log's origin (as analyzeLogFiles).
+    samples::ContextOptions vopt = request.context;
+    vopt.input.wrench_log.clear();
+    if (std::isfinite(fit.time_origin_unix_s)) vopt.time_origin_unix_s = fit.time_origin_unix_s;
+    val = samples::loadLogContexts(request.validate_path, request.robot_urdf, vopt, say);
+    if (val.extra_names != fit.extra_names) {
+      throw DataError(request.validate_path + ": its extra columns differ from those of " + request.log_path);
+    }
+  }
+  AnalysisResult result = analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples,
+                                  request.options, request.log_path, request.validate_path);
+  result.robot_urdf = request.robot_urdf.empty() ? defaultRobotUrdf() : request.robot_urdf;
   return result;
 }
 

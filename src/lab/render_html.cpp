@@ -227,10 +227,8 @@ std::string axisTable(const AnalysisResult& r) {
   return o.str();
 }
 
-}  // namespace
-
-std::string renderHtml(const AnalysisResult& r) {
-  std::ostringstream o;
+/// The title, the data and provenance, the noise floor, glitches, warnings and the residual per axis.
+void writeSummary(std::ostringstream& o, const AnalysisResult& r) {
   o << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>ftid analyze: " << esc(r.report.model)
     << "</title>\n<style>body{font-family:sans-serif;margin:20px;color:#222;background:#fafafa}"
        "h1{font-size:22px}h2{font-size:17px;margin-top:28px}table{border-collapse:collapse;margin:8px 0}"
@@ -265,7 +263,11 @@ std::string renderHtml(const AnalysisResult& r) {
   }
   for (const auto& w : r.warnings) o << "<p class=\"warn\"><b>Warning:</b> " << esc(w) << "</p>\n";
   o << "<h2>Residual per axis</h2>" << axisTable(r);
+}
 
+/// Measured against the held-out prediction and the held-out residual over time per axis (worst
+/// windows shaded, k-fold block boundaries dotted), and the table of the worst windows.
+void writeTimePlots(std::ostringstream& o, const AnalysisResult& r) {
   const std::size_t n = r.t.size();
   // k-fold: the boundaries between the contiguous held-out blocks (dotted lines in the plots).
   std::vector<double> folds;
@@ -310,6 +312,11 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</table>\n";
   }
+}
+
+/// The residual against the signal it is most related to, and the table of correlations.
+void writeCorrelations(std::ostringstream& o, const AnalysisResult& r) {
+  const std::size_t n = r.t.size();
   if (!r.correlations.empty() && r.top_signal.size() == n) {
     const auto& c = r.correlations.front();
     o << "<h2>Residual against the most related signal</h2>";
@@ -328,6 +335,10 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</table>\n";
   }
+}
+
+/// Each candidate effect with its verdict under the one rule, and the missing effect if any.
+void writeCandidates(std::ostringstream& o, const AnalysisResult& r) {
   o << "<h2>Candidate effects</h2><p>One rule decides (docs/analyze.md): the family-wise p-value min(1, "
     << r.family_size << " p) below alpha = " << f(r.family_alpha, 2) << ", a held-out error lower by more than "
     << f(100.0 * r.heldout_margin, 3) << " %, identifiable and physical.</p>"
@@ -350,6 +361,10 @@ std::string renderHtml(const AnalysisResult& r) {
   o << "<p><b>" << (any ? "Missing effect: " + esc(r.candidates.front().effect) + " &mdash; " + esc(r.candidates.front().description)
                         : std::string("Nothing is missing: no candidate is recommended."))
     << "</b></p>\n";
+}
+
+/// --explain's path: the error at each step, and why each remaining candidate was not taken.
+void writeExplainSteps(std::ostringstream& o, const AnalysisResult& r) {
   if (!r.steps.empty()) {
     o << "<h2>Explain: the error falling step by step</h2>" << bars(r.steps, r.noise_floor);
     o << "<table><tr><th>step</th><th>model</th>";
@@ -372,6 +387,11 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</table>\n";
   }
+}
+
+/// The held-out residual of the starting and of the final model, in a table and per axis.
+void writeBeforeAfter(std::ostringstream& o, const AnalysisResult& r) {
+  const std::size_t n = r.t.size();
   if (r.final_report && r.final_residual.cols() == static_cast<Eigen::Index>(n) && n > 0) {
     // Before / after: the same held-out samples, residual of the starting and of the final model.
     o << "<h2>Before and after: held-out residual of the starting model <code>" << esc(r.report.model)
@@ -401,6 +421,10 @@ std::string renderHtml(const AnalysisResult& r) {
     }
     o << "</div>\n";
   }
+}
+
+/// The parameters of the final (or the only) model, and the footer.
+void writeParameters(std::ostringstream& o, const AnalysisResult& r) {
   const ModelReport& fr = r.final_report ? *r.final_report : r.report;
   o << "<h2>Parameters of <code>" << esc(fr.model) << "</code></h2><table><tr><th>name</th><th>value</th><th>std</th><th>unit</th></tr>";
   for (const auto& p : fr.params) {
@@ -411,6 +435,19 @@ std::string renderHtml(const AnalysisResult& r) {
   if (fr.inertia) o << "<p>Inertia about the centre of mass: " << esc(fr.inertia->explanation) << "</p>";
   o << "<p style=\"font-size:11px;color:#777\">Analysis took " << f(r.seconds, 3)
     << " s. Conventions: docs/conventions.md; method: docs/analyze.md.</p>\n</body></html>\n";
+}
+
+}  // namespace
+
+std::string renderHtml(const AnalysisResult& r) {
+  std::ostringstream o;
+  writeSummary(o, r);
+  writeTimePlots(o, r);
+  writeCorrelations(o, r);
+  writeCandidates(o, r);
+  writeExplainSteps(o, r);
+  writeBeforeAfter(o, r);
+  writeParameters(o, r);
   return o.str();
 }
 

@@ -187,13 +187,20 @@ LogData readLog(const std::string& path, LogKind kind, const LogReadOptions& opt
   return parseLogText(readWholeFile(path), path, kind, options);
 }
 
-LogData parseLogText(std::string_view text, const std::string& path, LogKind kind, const LogReadOptions& options) {
-  LogData log;
-  log.source = path;
-  LineCursor cur{text};
-  std::string_view line;
+namespace {
 
-  // Header.
+/// The header row's mapping of fields to columns.
+struct ColumnMap {
+  std::size_t header_line = 0;           ///< line of the header row (1-based)
+  std::vector<int> field_known;          ///< per field: known column index or -1
+  std::vector<int> field_extra;          ///< per field: extra column index or -1
+  std::array<int, kNumKnown> known_field{};  ///< per known column: its field or -1
+};
+
+/// Advances `cur` to the header row (the first line that is neither blank nor a comment) and
+/// returns it; refuses an empty log, a UR recording's header and an overlong header row.
+std::string_view readHeaderRow(LineCursor& cur, const std::string& path) {
+  std::string_view line;
   bool have_header = false;
   while (cur.next(line)) {
     if (!isBlankOrComment(line)) {
@@ -202,79 +209,88 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     }
   }
   if (!have_header) dataError(path, cur.line_no == 0 ? 1 : cur.line_no, 1, "empty log: no header row");
-  const std::size_t header_line = cur.line_no;
   if (isUrRecordHeader(line)) {
-    dataError(path, header_line, 1,
+    dataError(path, cur.line_no, 1,
               "this is a UR RTDE recording (record.py or ur_rtde), not an ftid log: ftid identify, analyze, "
               "compensate and convert read it (docs/log-format.md \"UR recordings\")");
   }
-
-  const auto& known = knownColumns();
   if (line.size() > kMaxHeaderBytes) {
-    dataError(path, header_line, 1,
+    dataError(path, cur.line_no, 1,
               "header row is " + std::to_string(line.size()) + " characters long; at most " +
                   std::to_string(kMaxHeaderBytes) + " are accepted");
   }
-  std::vector<int> field_known;       // per field: known column index or -1
-  std::vector<int> field_extra;       // per field: extra column index or -1
-  std::array<int, kNumKnown> known_field;
-  known_field.fill(-1);
-  {
-    // Duplicate names are found with a hash map: linear in the header length.
-    std::unordered_map<std::string_view, std::size_t> seen;  // name -> its 1-based column
-    std::size_t start = 0;
-    int field = 0;
-    while (true) {
-      std::size_t comma = line.find(',', start);
-      std::string_view name = trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
-      if (name.empty()) dataError(path, header_line, start + 1, "empty column name in header");
-      if (static_cast<std::size_t>(field) >= kMaxColumns) {
-        dataError(path, header_line, start + 1,
-                  "too many columns in the header (at most " + std::to_string(kMaxColumns) + ")");
-      }
-      const auto [it, inserted] = seen.emplace(name, start + 1);
-      if (!inserted) {
-        dataError(path, header_line, start + 1,
-                  "duplicate column '" + shown(name) + "' (first at column " + std::to_string(it->second) + ")");
-      }
-      int k = -1;
-      for (int i = 0; i < kNumKnown; ++i) {
-        if (name == known[static_cast<std::size_t>(i)].name) k = i;
-      }
-      if (k >= 0) {
-        known_field[static_cast<std::size_t>(k)] = field;
-        field_known.push_back(k);
-        field_extra.push_back(-1);
-      } else {
-        field_known.push_back(-1);
-        field_extra.push_back(static_cast<int>(log.extra_names.size()));
-        log.extra_names.emplace_back(name);
-      }
-      ++field;
-      if (comma == std::string_view::npos) break;
-      start = comma + 1;
+  return line;
+}
+
+/// Maps each field of the header row to a known column or a new extra column of `log` (its
+/// name appended to log.extra_names); refuses empty and duplicate names and too many columns.
+ColumnMap mapColumns(std::string_view line, std::size_t header_line, const std::string& path, LogData& log) {
+  const auto& known = knownColumns();
+  ColumnMap map;
+  map.header_line = header_line;
+  map.known_field.fill(-1);
+  // Duplicate names are found with a hash map: linear in the header length.
+  std::unordered_map<std::string_view, std::size_t> seen;  // name -> its 1-based column
+  std::size_t start = 0;
+  int field = 0;
+  while (true) {
+    std::size_t comma = line.find(',', start);
+    std::string_view name = trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+    if (name.empty()) dataError(path, header_line, start + 1, "empty column name in header");
+    if (static_cast<std::size_t>(field) >= kMaxColumns) {
+      dataError(path, header_line, start + 1,
+                "too many columns in the header (at most " + std::to_string(kMaxColumns) + ")");
+    }
+    const auto [it, inserted] = seen.emplace(name, start + 1);
+    if (!inserted) {
+      dataError(path, header_line, start + 1,
+                "duplicate column '" + shown(name) + "' (first at column " + std::to_string(it->second) + ")");
+    }
+    int k = -1;
+    for (int i = 0; i < kNumKnown; ++i) {
+      if (name == known[static_cast<std::size_t>(i)].name) k = i;
+    }
+    if (k >= 0) {
+      map.known_field[static_cast<std::size_t>(k)] = field;
+      map.field_known.push_back(k);
+      map.field_extra.push_back(-1);
+    } else {
+      map.field_known.push_back(-1);
+      map.field_extra.push_back(static_cast<int>(log.extra_names.size()));
+      log.extra_names.emplace_back(name);
+    }
+    ++field;
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  return map;
+}
+
+/// The known columns of group `g` the header lacks (", "-separated), how many it has, and of how many.
+std::tuple<std::string, int, int> missingOf(const ColumnMap& map, Group g) {
+  const auto& known = knownColumns();
+  std::string missing;
+  int present = 0, total = 0;
+  for (int i = 0; i < kNumKnown; ++i) {
+    if (known[static_cast<std::size_t>(i)].group != g) continue;
+    ++total;
+    if (map.known_field[static_cast<std::size_t>(i)] >= 0) {
+      ++present;
+    } else {
+      missing += (missing.empty() ? "" : ", ") + std::string(known[static_cast<std::size_t>(i)].name);
     }
   }
-  // Required columns and all-or-nothing groups.
-  auto missingOf = [&](Group g) {
-    std::string missing;
-    int present = 0, total = 0;
-    for (int i = 0; i < kNumKnown; ++i) {
-      if (known[static_cast<std::size_t>(i)].group != g) continue;
-      ++total;
-      if (known_field[static_cast<std::size_t>(i)] >= 0) {
-        ++present;
-      } else {
-        missing += (missing.empty() ? "" : ", ") + std::string(known[static_cast<std::size_t>(i)].name);
-      }
-    }
-    return std::make_tuple(missing, present, total);
-  };
+  return std::make_tuple(missing, present, total);
+}
+
+/// Required columns and all-or-nothing groups; sets log.has_joints, has_wrench, has_imu, has_temp.
+void checkColumnGroups(const ColumnMap& map, const std::string& path, LogKind kind, LogData& log) {
+  const std::size_t header_line = map.header_line;
   {
     // t always; the joint columns q, qd, qdd unless the log gives the sensor pose instead
     // (qx,qy,qz,qw or rx,ry,rz: kept as extra columns, read by samples::buildContexts).
-    auto [missing, present, total] = missingOf(kCore);
-    if (known_field[0] < 0) {
+    auto [missing, present, total] = missingOf(map, kCore);
+    if (map.known_field[0] < 0) {
       dataError(path, header_line, 1, "missing required column(s): " + missing + hintFor(missing, log.extra_names));
     }
     const auto hasExtra = [&](std::initializer_list<const char*> names) {
@@ -293,7 +309,7 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     }
   }
   {
-    auto [missing, present, total] = missingOf(kWrench);
+    auto [missing, present, total] = missingOf(map, kWrench);
     if (kind == LogKind::kMeasurement && present != total) {
       dataError(path, header_line, 1,
                 "missing required wrench column(s): " + missing + hintFor(missing, log.extra_names) +
@@ -307,69 +323,86 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     log.has_wrench = present == total;
   }
   {
-    auto [missing, present, total] = missingOf(kImu);
+    auto [missing, present, total] = missingOf(map, kImu);
     if (present != 0 && present != total) {
       dataError(path, header_line, 1,
                 "incomplete IMU columns (ax..alz must be all present or all absent), missing: " + missing);
     }
     log.has_imu = present == total;
   }
-  log.has_temp = known_field[kNumKnown - 1] >= 0;
-  log.extra_columns.assign(log.extra_names.size(), {});
+  log.has_temp = map.known_field[kNumKnown - 1] >= 0;
+}
 
-  // Rows.
+/// Parses the fields of the data row `line` (line `line_no`) into `sample` (known columns,
+/// each within its plausible range `limits`) and the extra columns of `log`; returns the
+/// 1-based character position of the t field. Refuses a field that is not a number and a row
+/// with more or fewer fields than the header.
+std::size_t parseRow(std::string_view line, std::size_t line_no, const ColumnMap& map,
+                     const std::array<double, kNumKnown>& limits, const std::string& path, LogSample& sample,
+                     LogData& log) {
+  const auto& known = knownColumns();
+  const std::size_t n_fields = map.field_known.size();
+  std::string why;
+  std::size_t t_column = 1;
+  std::size_t start = 0;
+  std::size_t field = 0;
+  while (true) {
+    const std::size_t comma = line.find(',', start);
+    const std::string_view f = line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+    if (field >= n_fields) {
+      dataError(path, line_no, start + 1,
+                "too many fields: expected " + std::to_string(n_fields) + " (as in the header on line " +
+                    std::to_string(map.header_line) + ")");
+    }
+    double v = 0.0;
+    const int k = map.field_known[field];
+    if (!parseNumber(f, v, why)) {
+      const std::string name = k >= 0 ? known[static_cast<std::size_t>(k)].name
+                                      : log.extra_names[static_cast<std::size_t>(map.field_extra[field])];
+      dataError(path, line_no, start + 1, "column '" + name + "': " + why);
+    }
+    if (k == 0) t_column = start + 1;
+    if (k >= 0) {
+      const double limit = limits[static_cast<std::size_t>(k)];
+      if (!(std::abs(v) <= limit)) {
+        char buf[200];
+        std::snprintf(buf, sizeof buf, "column '%s': value %.6g is outside the plausible range +-%.6g %s",
+                      known[static_cast<std::size_t>(k)].name, v, limit, limitReason(k));
+        dataError(path, line_no, start + 1, buf);
+      }
+      *slotOf(sample, k) = v;
+    } else {
+      log.extra_columns[static_cast<std::size_t>(map.field_extra[field])].push_back(v);
+    }
+    ++field;
+    if (comma == std::string_view::npos) break;
+    start = comma + 1;
+  }
+  if (field != n_fields) {
+    dataError(path, line_no, line.size() + 1,
+              "too few fields: expected " + std::to_string(n_fields) + " (as in the header on line " +
+                  std::to_string(map.header_line) + "), found " + std::to_string(field));
+  }
+  return t_column;
+}
+
+/// Parses every data row after the header into log.samples and log.extra_columns; t must
+/// increase strictly from row to row.
+void parseRows(LineCursor& cur, const ColumnMap& map, const std::string& path, const LogReadOptions& options,
+               LogData& log) {
+  log.extra_columns.assign(log.extra_names.size(), {});
   const std::array<double, kNumKnown> limits = plausibleLimits(options);
-  const std::size_t n_fields = field_known.size();
-  const std::size_t rows_estimate = text.size() / (n_fields * 8 + 1) + 1;
+  const std::size_t n_fields = map.field_known.size();
+  const std::size_t rows_estimate = cur.text.size() / (n_fields * 8 + 1) + 1;
   log.samples.reserve(rows_estimate);
   for (auto& c : log.extra_columns) c.reserve(rows_estimate);
   double previous_t = 0.0;
   std::size_t previous_t_line = 0;
-  std::string why;
+  std::string_view line;
   while (cur.next(line)) {
     if (isBlankOrComment(line)) continue;
     LogSample sample;
-    std::size_t t_column = 1;
-    std::size_t start = 0;
-    std::size_t field = 0;
-    while (true) {
-      const std::size_t comma = line.find(',', start);
-      const std::string_view f = line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
-      if (field >= n_fields) {
-        dataError(path, cur.line_no, start + 1,
-                  "too many fields: expected " + std::to_string(n_fields) + " (as in the header on line " +
-                      std::to_string(header_line) + ")");
-      }
-      double v = 0.0;
-      if (!parseNumber(f, v, why)) {
-        const int k = field_known[field];
-        const std::string name = k >= 0 ? known[static_cast<std::size_t>(k)].name
-                                        : log.extra_names[static_cast<std::size_t>(field_extra[field])];
-        dataError(path, cur.line_no, start + 1, "column '" + name + "': " + why);
-      }
-      const int k = field_known[field];
-      if (k == 0) t_column = start + 1;
-      if (k >= 0) {
-        const double limit = limits[static_cast<std::size_t>(k)];
-        if (!(std::abs(v) <= limit)) {
-          char buf[200];
-          std::snprintf(buf, sizeof buf, "column '%s': value %.6g is outside the plausible range +-%.6g %s",
-                        known[static_cast<std::size_t>(k)].name, v, limit, limitReason(k));
-          dataError(path, cur.line_no, start + 1, buf);
-        }
-        *slotOf(sample, k) = v;
-      } else {
-        log.extra_columns[static_cast<std::size_t>(field_extra[field])].push_back(v);
-      }
-      ++field;
-      if (comma == std::string_view::npos) break;
-      start = comma + 1;
-    }
-    if (field != n_fields) {
-      dataError(path, cur.line_no, line.size() + 1,
-                "too few fields: expected " + std::to_string(n_fields) + " (as in the header on line " +
-                    std::to_string(header_line) + "), found " + std::to_string(field));
-    }
+    const std::size_t t_column = parseRow(line, cur.line_no, map, limits, path, sample, log);
     if (!log.samples.empty() && !(sample.t > previous_t)) {
       char buf[160];
       std::snprintf(buf, sizeof buf, "column 't': time %.17g is not greater than %.17g on line %zu (t must be strictly increasing)",
@@ -380,7 +413,19 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
     previous_t_line = cur.line_no;
     log.samples.push_back(sample);
   }
-  if (log.samples.empty()) dataError(path, header_line, 1, "log has a header but no data rows");
+}
+
+}  // namespace
+
+LogData parseLogText(std::string_view text, const std::string& path, LogKind kind, const LogReadOptions& options) {
+  LogData log;
+  log.source = path;
+  LineCursor cur{text};
+  const std::string_view header = readHeaderRow(cur, path);
+  const ColumnMap map = mapColumns(header, cur.line_no, path, log);
+  checkColumnGroups(map, path, kind, log);
+  parseRows(cur, map, path, options, log);
+  if (log.samples.empty()) dataError(path, map.header_line, 1, "log has a header but no data rows");
   return log;
 }
 

@@ -223,6 +223,21 @@ struct AnalyzeFilesRequest {
 };
 AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request);
 
+/// `ftid analyze`'s reading of its logs: as analyzeLogFiles, but each log is read through
+/// samples::loadLogContexts (an ftid log or a UR recording, with request.context.input's
+/// `--wrench-log`; docs/log-format.md). A log too short is refused first (checkEnoughSamples);
+/// then identify's set-up diagnosis (wrench frame, mount, angle units; setup_check.hpp) sends its
+/// findings to options.progress. The validation log is read without the wrench log, its model
+/// time counting from the fitted log's origin. result.robot_urdf names the robot used.
+AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request);
+
+/// Throws DataError naming request.log_path when `fit` has fewer samples than the analysis
+/// needs (20 with a validation log, else 20 per held-out block), saying what would do: repeated
+/// readings at each pose for a static set (all |w_S| < 1e-3 rad/s; poses counted by the 'pose'
+/// column's changes), else a longer recording; fewer blocks, a validation log, or the
+/// identification alone. (lab::analyze's own check says only how many it needs.)
+void checkEnoughSamples(const samples::ContextSet& fit, const AnalyzeFilesRequest& request);
+
 /// Writes text atomically (temporary file + rename); throws Error naming the file on failure.
 void writeTextFileAtomically(const std::string& path, const std::string& text);
 

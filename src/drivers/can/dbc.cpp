@@ -273,19 +273,115 @@ void validateMessage(const DbcMessage& m, const std::string& source) {
   }
 }
 
+/// The lines of `text` (a trailing '\r' removed from each).
+std::vector<std::string> splitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);) {
+    if (!l.empty() && l.back() == '\r') l.pop_back();
+    lines.push_back(l);
+  }
+  return lines;
+}
+
+/// A BO_ line (line `line_no`): appends the message to db.messages and returns it, or nullptr
+/// for Vector's container of unused signals (id 0xC0000000 or VECTOR__INDEPENDENT_SIG_MSG, not a
+/// real message: its SG_ lines are skipped). Refuses an id beyond 11 bits (29 with bit 31 set),
+/// more than 8 bytes, and an id or name already used.
+DbcMessage* parseMessage(const std::string& line, const std::string& source_name, int line_no, DbcDatabase& db) {
+  Cursor c(line, source_name, line_no);
+  c.identifier("BO_");
+  const std::uint64_t raw_id = c.unsignedInt("message id");
+  DbcMessage m;
+  m.name = c.identifier("a message name");
+  c.expect(':', "after the message name");
+  const std::uint64_t dlc = c.unsignedInt("message length (dlc)");
+  m.transmitter = c.atEnd() ? std::string() : c.identifier("a transmitter node");
+  m.line = line_no;
+  if (raw_id == 0xC0000000ull || m.name == "VECTOR__INDEPENDENT_SIG_MSG") return nullptr;
+  if (raw_id > 0xFFFFFFFFull) c.fail("message id is out of range");
+  m.extended = (raw_id & 0x80000000ull) != 0;
+  m.id = static_cast<std::uint32_t>(raw_id & 0x7FFFFFFFull);
+  if (m.extended ? m.id > 0x1FFFFFFFu : m.id > 0x7FFu)
+    c.fail("message id " + std::to_string(raw_id) + " does not fit a " +
+           (m.extended ? "29" : "11") + "-bit identifier (set bit 31 for extended ids)");
+  if (dlc > 8)
+    c.fail("message '" + m.name + "' has " + std::to_string(dlc) +
+           " bytes: only classic CAN (0..8 bytes) is supported");
+  m.dlc = static_cast<int>(dlc);
+  for (const auto& other : db.messages) {
+    if (other.id == m.id && other.extended == m.extended)
+      c.fail("message id " + std::to_string(raw_id) + " is already used by '" + other.name +
+             "' (line " + std::to_string(other.line) + ")");
+    if (other.name == m.name)
+      c.fail("message name '" + m.name + "' is already used (line " +
+             std::to_string(other.line) + ")");
+  }
+  db.messages.push_back(std::move(m));
+  return &db.messages.back();
+}
+
+/// A CM_ statement starting on lines[i] (may span lines; `i` advances to its last line): a
+/// message's or signal's comment is kept in `comments` (attached once every message is read);
+/// other comments are skipped.
+void parseComment(const std::vector<std::string>& lines, std::size_t& i, const std::string& source_name,
+                  std::vector<PendingComment>& comments) {
+  const std::size_t first = i;
+  const std::string stmt = gatherStatement(lines, i);
+  Cursor c(stmt, source_name, static_cast<int>(first + 1));
+  c.identifier("CM_");
+  if (c.peek() == '"') return;  // database comment
+  const std::string kind = c.identifier("comment target");
+  if (kind == "BO_" || kind == "SG_") {
+    PendingComment pc;
+    pc.is_signal = kind == "SG_";
+    pc.raw_id = c.unsignedInt("message id");
+    if (pc.is_signal) pc.signal = c.identifier("a signal name");
+    pc.text = c.quoted("comment");
+    comments.push_back(std::move(pc));
+  }
+}
+
+/// A SIG_VALTYPE_ statement starting on lines[i] (`i` advances to its last line): refuses
+/// IEEE float signals (value type other than 0).
+void checkValueType(const std::vector<std::string>& lines, std::size_t& i, const std::string& source_name) {
+  const std::size_t first = i;
+  const std::string stmt = gatherStatement(lines, i);
+  Cursor c(stmt, source_name, static_cast<int>(first + 1));
+  c.identifier("SIG_VALTYPE_");
+  c.unsignedInt("message id");
+  const std::string name = c.identifier("a signal name");
+  c.accept(':');
+  const std::uint64_t type = c.unsignedInt("value type");
+  if (type != 0)
+    c.fail("signal '" + name + "' is an IEEE float signal (SIG_VALTYPE_ " +
+           std::to_string(type) + "): float signals are not supported");
+}
+
+/// Attaches each kept comment to its message or signal (by id; unknown targets are ignored).
+void attachComments(const std::vector<PendingComment>& comments, DbcDatabase& db) {
+  for (const auto& pc : comments) {
+    const bool ext = (pc.raw_id & 0x80000000ull) != 0;
+    const auto id = static_cast<std::uint32_t>(pc.raw_id & 0x7FFFFFFFull);
+    for (auto& m : db.messages) {
+      if (m.id != id || m.extended != ext) continue;
+      if (!pc.is_signal) {
+        m.comment = pc.text;
+      } else {
+        for (auto& s : m.signals) {
+          if (s.name == pc.signal) s.comment = pc.text;
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 DbcDatabase parseDbc(const std::string& text, const std::string& source_name) {
   DbcDatabase db;
   db.source = source_name;
-  std::vector<std::string> lines;
-  {
-    std::istringstream in(text);
-    for (std::string l; std::getline(in, l);) {
-      if (!l.empty() && l.back() == '\r') l.pop_back();
-      lines.push_back(l);
-    }
-  }
+  const std::vector<std::string> lines = splitLines(text);
   const auto fail = [&](std::size_t index, const std::string& what) {
     failAt(source_name, index, what);
   };
@@ -327,41 +423,8 @@ DbcDatabase parseDbc(const std::string& text, const std::string& source_name) {
       std::istringstream rs(c.rest());
       for (std::string n; rs >> n;) db.nodes.push_back(n);
     } else if (word == "BO_") {
-      Cursor c(line, source_name, line_no);
-      c.identifier("BO_");
-      const std::uint64_t raw_id = c.unsignedInt("message id");
-      DbcMessage m;
-      m.name = c.identifier("a message name");
-      c.expect(':', "after the message name");
-      const std::uint64_t dlc = c.unsignedInt("message length (dlc)");
-      m.transmitter = c.atEnd() ? std::string() : c.identifier("a transmitter node");
-      m.line = line_no;
-      if (raw_id == 0xC0000000ull || m.name == "VECTOR__INDEPENDENT_SIG_MSG") {
-        current_ignored = true;  // Vector's container for unused signals: not a real message
-        current = nullptr;
-        continue;
-      }
-      current_ignored = false;
-      if (raw_id > 0xFFFFFFFFull) c.fail("message id is out of range");
-      m.extended = (raw_id & 0x80000000ull) != 0;
-      m.id = static_cast<std::uint32_t>(raw_id & 0x7FFFFFFFull);
-      if (m.extended ? m.id > 0x1FFFFFFFu : m.id > 0x7FFu)
-        c.fail("message id " + std::to_string(raw_id) + " does not fit a " +
-               (m.extended ? "29" : "11") + "-bit identifier (set bit 31 for extended ids)");
-      if (dlc > 8)
-        c.fail("message '" + m.name + "' has " + std::to_string(dlc) +
-               " bytes: only classic CAN (0..8 bytes) is supported");
-      m.dlc = static_cast<int>(dlc);
-      for (const auto& other : db.messages) {
-        if (other.id == m.id && other.extended == m.extended)
-          c.fail("message id " + std::to_string(raw_id) + " is already used by '" + other.name +
-                 "' (line " + std::to_string(other.line) + ")");
-        if (other.name == m.name)
-          c.fail("message name '" + m.name + "' is already used (line " +
-                 std::to_string(other.line) + ")");
-      }
-      db.messages.push_back(std::move(m));
-      current = &db.messages.back();
+      current = parseMessage(line, source_name, line_no, db);
+      current_ignored = current == nullptr;
     } else if (word == "SG_") {
       if (current_ignored) continue;
       if (current == nullptr) failAt(source_name, i, "SG_ outside a message (no BO_ before it)");
@@ -372,32 +435,9 @@ DbcDatabase parseDbc(const std::string& text, const std::string& source_name) {
       parseSignal(c, s);
       current->signals.push_back(std::move(s));
     } else if (word == "CM_") {
-      const std::size_t first = i;
-      const std::string stmt = gatherStatement(lines, i);
-      Cursor c(stmt, source_name, static_cast<int>(first + 1));
-      c.identifier("CM_");
-      if (c.peek() == '"') continue;  // database comment
-      const std::string kind = c.identifier("comment target");
-      if (kind == "BO_" || kind == "SG_") {
-        PendingComment pc;
-        pc.is_signal = kind == "SG_";
-        pc.raw_id = c.unsignedInt("message id");
-        if (pc.is_signal) pc.signal = c.identifier("a signal name");
-        pc.text = c.quoted("comment");
-        comments.push_back(std::move(pc));
-      }
+      parseComment(lines, i, source_name, comments);
     } else if (word == "SIG_VALTYPE_") {
-      const std::size_t first = i;
-      const std::string stmt = gatherStatement(lines, i);
-      Cursor c(stmt, source_name, static_cast<int>(first + 1));
-      c.identifier("SIG_VALTYPE_");
-      c.unsignedInt("message id");
-      const std::string name = c.identifier("a signal name");
-      c.accept(':');
-      const std::uint64_t type = c.unsignedInt("value type");
-      if (type != 0)
-        c.fail("signal '" + name + "' is an IEEE float signal (SIG_VALTYPE_ " +
-               std::to_string(type) + "): float signals are not supported");
+      checkValueType(lines, i, source_name);
     } else if (word == "SG_MUL_VAL_") {
       fail(i, "extended multiplexing (SG_MUL_VAL_) is not supported");
     } else if (skippedKeywords().count(word) > 0) {
@@ -409,20 +449,7 @@ DbcDatabase parseDbc(const std::string& text, const std::string& source_name) {
   }
 
   for (const auto& m : db.messages) validateMessage(m, source_name);
-  for (const auto& pc : comments) {
-    const bool ext = (pc.raw_id & 0x80000000ull) != 0;
-    const auto id = static_cast<std::uint32_t>(pc.raw_id & 0x7FFFFFFFull);
-    for (auto& m : db.messages) {
-      if (m.id != id || m.extended != ext) continue;
-      if (!pc.is_signal) {
-        m.comment = pc.text;
-      } else {
-        for (auto& s : m.signals) {
-          if (s.name == pc.signal) s.comment = pc.text;
-        }
-      }
-    }
-  }
+  attachComments(comments, db);
   return db;
 }
 
