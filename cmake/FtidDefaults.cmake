@@ -61,6 +61,7 @@ set(FTID_GCC_VPTR_PMF_SOURCES
   ftid_daemon_client:src/daemon/client.cpp
   ftid_cell:src/cell/cycle_recorder.cpp
   ftid_cell:src/cell/demo.cpp
+  ftid_cell:src/cell/demo_payload.cpp
   daemon_test:test/unit/daemon/client_test.cpp)
 function(ftid_apply_sanitizer_exceptions)
   if(NOT FTID_SANITIZE OR NOT CMAKE_CXX_COMPILER_ID STREQUAL "GNU")

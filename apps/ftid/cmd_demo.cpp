@@ -12,6 +12,7 @@ namespace {
 
 const char* const kUsage =
     "usage: ftid demo [--workdir DIR] [--hidden-effect NAME] [--no-netns] [--seed N]\n"
+    "       ftid demo --scenario payload-change [--workdir DIR] [--no-netns] [--seed N]\n"
     "       ftid demo --offline [--seed N] [--robot URDF] [--full-physics]\n"
     "\n"
     "The demo cell, on loopback inside a private network namespace: starts the UR10 controller\n"
@@ -30,6 +31,12 @@ const char* const kUsage =
     "                       cable, time_drift, sensor_delay)\n"
     "  --no-netns           use the host network instead of a private namespace\n"
     "  --seed N             the sensor simulator's noise seed (default 1)\n"
+    "  --scenario S         'lab' (default: the story above) or 'payload-change': the same cell\n"
+    "                       with no hidden effect; after the identification the arm moves, 3 s in\n"
+    "                       the simulated gripper takes a 0.6 kg object, ftidd's payload monitor\n"
+    "                       flags it on the wrench, `ftid reidentify --apply` restores the\n"
+    "                       compensation while the arm moves, and a second motion shows it\n"
+    "                       (docs/daemon.md \"Payload monitor\")\n"
     "\n"
     "--offline: simulates a 10 s paper-style excitation run of a UR10 carrying the paper's payload\n"
     "(Table 2: mass, centre of mass, sensor offsets, base tilt) with 0.05 N / 0.01 Nm sensor noise,\n"
@@ -49,17 +56,19 @@ int runDemo(const std::vector<std::string>& argv) {
   ftid::cell::DemoOptions cell;
   ftid::cell::OfflineDemoOptions opt;
   bool offline = false, no_netns = false;
+  std::string scenario = "lab";
   CLI::App app{"ftid demo"};
   app.add_flag("--offline", offline);
   CLI::Option* workdir = app.add_option("--workdir", cell.workdir);
   CLI::Option* hidden = app.add_option("--hidden-effect", cell.hidden_effect);
   CLI::Option* netns = app.add_flag("--no-netns", no_netns);
+  CLI::Option* scen = app.add_option("--scenario", scenario)->check(CLI::IsMember({"lab", "payload-change"}));
   app.add_option("--seed", opt.seed)->transform(cli::count());
   CLI::Option* robot = app.add_option("--robot", opt.robot_urdf);
   CLI::Option* physics = app.add_flag("--full-physics", opt.full_physics);
   cli::parse(app, argv);
   // Each mode takes only its own options.
-  for (const CLI::Option* o : offline ? std::vector<const CLI::Option*>{workdir, hidden, netns}
+  for (const CLI::Option* o : offline ? std::vector<const CLI::Option*>{workdir, hidden, netns, scen}
                                       : std::vector<const CLI::Option*>{robot, physics}) {
     if (o->count() > 0) {
       throw cli::UsageError(o->get_name() + (offline ? " is not an option of the offline demo"
@@ -72,6 +81,10 @@ int runDemo(const std::vector<std::string>& argv) {
       throw cli::UsageError("--seed: '" + std::to_string(opt.seed) + "' is not a whole number in 0..2147483647");
     }
     cell.seed = static_cast<int>(opt.seed);
+    if (scenario == "payload-change") {
+      if (hidden->count() > 0) throw cli::UsageError("--hidden-effect is not an option of --scenario payload-change");
+      return ftid::cell::runPayloadChangeDemo(cell);
+    }
     return ftid::cell::runDemo(cell);
   }
   return ftid::cell::runOfflineDemo(opt);

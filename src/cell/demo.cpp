@@ -6,6 +6,7 @@
 // where everything is. The processes are children of this one, stopped when the demo ends.
 #include "ftid/common/default_files.hpp"
 #include "ftid/cell/demo.hpp"
+#include "demo_cell.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -51,64 +52,10 @@ namespace fs = std::filesystem;
 
 namespace ftid::cell {
 
-namespace {
+namespace demo {
 
 void say(const std::string& s) { std::cout << s << "\n" << std::flush; }
 
-/// A child process with its output in a log file; terminated (SIGTERM, then SIGKILL) on scope exit.
-class Child {
- public:
-  Child(const std::string& name, const std::vector<std::string>& argv, const fs::path& log)
-      : name_(name), log_(log) {
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-    posix_spawn_file_actions_addopen(&fa, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    std::vector<char*> args;
-    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-    args.push_back(nullptr);
-    const int rc = posix_spawn(&pid_, args[0], &fa, nullptr, args.data(), environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) throw Error("cannot start " + name + " (" + argv[0] + "): " + std::strerror(rc));
-  }
-  ~Child() { stop(); }
-  Child(const Child&) = delete;
-  Child& operator=(const Child&) = delete;
-  bool alive() {
-    if (pid_ <= 0) return false;
-    int status = 0;
-    if (waitpid(pid_, &status, WNOHANG) == pid_) {
-      pid_ = -1;
-      return false;
-    }
-    return true;
-  }
-  void signal(int sig) const {
-    if (pid_ > 0) ::kill(pid_, sig);
-  }
-  void stop() {
-    if (pid_ <= 0) return;
-    ::kill(pid_, SIGTERM);
-    for (int i = 0; i < 50; ++i) {
-      if (waitpid(pid_, nullptr, WNOHANG) == pid_) {
-        pid_ = -1;
-        return;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-    ::kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-    pid_ = -1;
-  }
-  const fs::path& log() const { return log_; }
-  const std::string& name() const { return name_; }
-
- private:
-  std::string name_;
-  fs::path log_;
-  pid_t pid_ = -1;
-};
 
 bool tcpPortOpen(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
@@ -186,14 +133,6 @@ std::string f3(double v) {
   return b;
 }
 
-struct LiveStats {
-  int samples = 0;
-  int valid = 0;
-  double rms_quiet_force = 0.0;   ///< contact force RMS outside the push
-  double rms_quiet_torque = 0.0;
-  double peak_push_force = 0.0;   ///< |contact force| peak during the push
-  double raw_quiet_force = 0.0;   ///< mean |raw force| outside the push (tool weight and offsets)
-};
 
 /// The hidden effects the demo offers: physics the default model (paper+rigid_body) lacks.
 const char* const kDemoHiddenEffects[] = {"temperature_drift", "cable", "time_drift", "sensor_delay"};
@@ -292,22 +231,6 @@ void checkHiddenEffect(const DemoOptions& opt) {
   }
 }
 
-/// The live receiver's store of ftidd's compensated wrench (FTID_WRENCH): only cycles that
-/// started at or after since_utime, at most the reserved 10000.
-struct Collector {
-  std::int64_t since_utime = 0;
-  std::vector<CycleRecord> recs;
-  // Received bytes are untrusted: the one safe decode, and a bounded store (5 s at 125 Hz
-  // is 625 records; a flood beyond 10000 is dropped, never grown without bound).
-  void handle(const lcm::ReceiveBuffer* rb, const std::string&) noexcept {
-    ftid_lcm::compensated_wrench_t m;
-    if (!transport::decodeFrom(rb->data, rb->data_size, &m)) return;
-    CycleRecord r;
-    transport::fromLcm(m, &r);
-    if (r.utime < since_utime || recs.size() >= recs.capacity()) return;
-    recs.push_back(r);  // within the reserved capacity: no allocation, no throw
-  }
-};
 
 /// The absolute work directory, with its logs/ directory created.
 fs::path makeWorkDir(const std::string& workdir) {
@@ -316,26 +239,6 @@ fs::path makeWorkDir(const std::string& workdir) {
   return work;
 }
 
-/// The demo's state: its paths, the sensor simulator's truth, the three processes (stopped in
-/// reverse order of their start when the demo ends) and the live receiver's store.
-struct DemoCell {
-  explicit DemoCell(const DemoOptions& options);
-
-  const DemoOptions& opt;
-  const fs::path work;
-  const fs::path cfgdir;
-  const fs::path ftid;
-  const fs::path ftidd;
-  const fs::path sock;
-  const fs::path params;
-  const fs::path key;
-  std::vector<std::string> effects;  ///< the sensor's physics switches
-  simsensor::SimSensorConfig truth;
-  std::unique_ptr<Child> robot;
-  std::unique_ptr<Child> sensor;
-  std::unique_ptr<Child> daemon;
-  Collector collector;
-};
 
 DemoCell::DemoCell(const DemoOptions& options)
     : opt(options),
@@ -423,8 +326,6 @@ void writeCellFiles(DemoCell& c) {
     sensor_yaml = ss.str();
   }
   writeFile(c.work / "sim_sensor.yaml", sensor_yaml);
-  // The sensor's physics: full rigid body, typical noise, and the one hidden effect.
-  c.effects = {"rigid_body", "noise", c.opt.hidden_effect};
   c.truth = simsensor::defaultSimSensorConfig();
   simsensor::loadSimSensorYaml((c.work / "sim_sensor.yaml").string(), c.truth);
   for (const auto& e : c.effects) simsensor::enableEffect(e, c.truth);
@@ -438,7 +339,7 @@ bool startProcesses(DemoCell& c) {
   const fs::path& cfgdir = c.cfgdir;
   const fs::path& ftid = c.ftid;
   const fs::path& sock = c.sock;
-  say("[1/7] UR10 controller simulator (CB3, 125 Hz): RTDE 127.0.0.1:30004, dashboard 29999, script 30003");
+  say(c.step(1) + " UR10 controller simulator (CB3, 125 Hz): RTDE 127.0.0.1:30004, dashboard 29999, script 30003");
   c.robot = std::make_unique<Child>("sim-robot", std::vector<std::string>{ftid.string(), "sim-robot", "--model", "ur10"},
                                     work / "logs" / "sim-robot.log");
   const Child& robot = *c.robot;
@@ -446,8 +347,8 @@ bool startProcesses(DemoCell& c) {
     say("demo: the robot simulator did not start:\n" + tail(robot.log(), 10));
     return false;
   }
-  say("[2/7] F/T+IMU sensor simulator (CAN frames on a SocketCAN stand-in); what it simulates:");
-  say(truthText(c.truth, opt.hidden_effect) + " (the default model lacks it)");
+  say(c.step(2) + " F/T+IMU sensor simulator (CAN frames on a SocketCAN stand-in); what it simulates:");
+  say(truthText(c.truth, c.hidden_text));
   std::vector<std::string> sensor_args{ftid.string(), "sim-sensor", "--config", (work / "sim_sensor.yaml").string(),
                                        "--urdf", (cfgdir / "ur10.urdf").string(), "--dbc",
                                        (cfgdir / "ftsensor.dbc").string(), "--socket", sock.string(), "--seed",
@@ -459,7 +360,7 @@ bool startProcesses(DemoCell& c) {
     say("demo: the sensor simulator did not start:\n" + tail(sensor.log(), 10));
     return false;
   }
-  say("[3/7] ftidd, the real-time compensation daemon (robot-clocked loop, LCM publishing)");
+  say(c.step(3) + " ftidd, the real-time compensation daemon (robot-clocked loop, LCM publishing)");
   c.daemon = std::make_unique<Child>("ftidd", std::vector<std::string>{c.ftidd.string(), "--config", (work / "ftidd.yaml").string()},
                                      work / "logs" / "ftidd.log");
   return true;
@@ -602,12 +503,16 @@ void sayWhereThingsAre(const DemoCell& c, const CellIdentifyResult& first, const
   say("   try:            ftid analyze " + first.data_csv + " --model " + kDefaultModel + " --explain");
 }
 
-}  // namespace
+}  // namespace demo
+
+using namespace demo;  // NOLINT(google-build-using-namespace): the demo's own steps
 
 int runDemo(const DemoOptions& opt) {
   const auto t_start = std::chrono::steady_clock::now();
   checkHiddenEffect(opt);
   DemoCell c(opt);
+  c.effects = {"rigid_body", "noise", opt.hidden_effect};
+  c.hidden_text = opt.hidden_effect + " (the default model lacks it)";
   writeCellFiles(c);
   if (!startProcesses(c)) return 1;
 

@@ -22,6 +22,13 @@ struct DemoOptions {
 /// Runs the demo; prints progress to stdout. Returns the process exit code.
 int runDemo(const DemoOptions& options);
 
+/// `ftid demo --scenario payload-change`: the same cell without a hidden effect; after the
+/// identification the arm moves, the sensor simulator's gripper takes a 0.6 kg object 3 s in,
+/// ftidd's payload monitor flags it, REIDENTIFY (apply) restores the compensation while the arm
+/// still moves, and a second motion shows the contact wrench back at the noise. Exit code 0 when
+/// the change was flagged within 1 s, re-identified, and the compensation restored.
+int runPayloadChangeDemo(const DemoOptions& options);
+
 /// `ftid demo --offline`: the paper only, no processes. Simulates a 10 s paper-style excitation of
 /// a UR10 carrying the paper's payload (0.05 N / 0.01 Nm noise, `seed`), identifies the 12
 /// parameters with the paper's dynamic method, prints them beside the truth (error in standard
