@@ -16,7 +16,7 @@ namespace ftid::identify::internal {
 /// second core's wake-up cost more than they save (measured at 1,251 samples; docs/performance.md).
 constexpr int kParallelRows = 4096;
 
-/// Tests: true makes runConcurrently decline (the callers then run both halves in turn), to show
+/// Tests: true makes tryRunConcurrently decline (runHalves then runs both halves in turn), to show
 /// that the result does not depend on it.
 inline std::atomic<bool>& serialOnly() {
   static std::atomic<bool> flag{false};
@@ -32,10 +32,10 @@ inline int usableCpus() {
 }
 
 /// Runs other() on a new thread and here() on this one and waits for both; false (neither ran)
-/// when this thread may use one CPU only, no thread can be started, or serialOnly() is set, so
-/// the caller runs them in turn. An exception from either is rethrown here after both finished.
+/// when this thread may use one CPU only, no thread can be started, or serialOnly() is set. An
+/// exception from either is rethrown here after both finished. Callers use runHalves().
 template <class Other, class Here>
-bool runConcurrently(const Other& other, const Here& here) {
+bool tryRunConcurrently(const Other& other, const Here& here) {
   if (serialOnly().load() || usableCpus() < 2) return false;
   std::exception_ptr other_error;
   std::thread worker;
@@ -60,6 +60,18 @@ bool runConcurrently(const Other& other, const Here& here) {
   if (here_error) std::rethrow_exception(here_error);
   if (other_error) std::rethrow_exception(other_error);
   return true;
+}
+
+/// Runs both halves of a pass, first() and second(): second() on a thread of its own when one
+/// can be started and this thread may use two CPUs (tryRunConcurrently), else first() then
+/// second() on this thread. The halves write separate results, so the outcome is the same either
+/// way; an exception from either is rethrown here after both finished.
+template <class First, class Second>
+void runHalves(const First& first, const Second& second) {
+  if (!tryRunConcurrently(second, first)) {
+    first();
+    second();
+  }
 }
 
 }  // namespace ftid::identify::internal

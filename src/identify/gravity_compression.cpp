@@ -13,13 +13,8 @@
 
 namespace ftid::identify::internal {
 
-namespace {
-
-/// From this many samples the compressed tilt search's passes over the data run in two halves,
-/// the second on a thread of its own (internal::runConcurrently).
-constexpr int kParallelSamples = internal::kParallelRows;
-
-}  // namespace
+// From internal::kParallelRows samples the compressed tilt search's passes over the data run in
+// two halves, the second on a thread of its own when it can (internal::runHalves).
 
 bool GravityCompression::build(const Problem& pb, const Vec3& g_check_B) {
   const int n = pb.n;
@@ -287,19 +282,15 @@ GravityCompression::Part GravityCompression::runPass(const Problem& pb, int pass
                                                      bool force_stage, Work& main_work) {
   const int n = pb.n;
   const int entries = 6 * 4 * p_;
-  // Two ranges from kParallelSamples on (a split that depends on n alone, so the sums and the
+  // Two ranges from internal::kParallelRows on (a split that depends on n alone, so the sums and the
   // result do not depend on the machine), the second on a thread of its own where there is a
   // second core; their Gram matrices added in range order.
   std::array<Part, 2> parts;
-  const int mid = n >= kParallelSamples ? n / 2 : n;
+  const int mid = n >= internal::kParallelRows ? n / 2 : n;
   if (mid < n) {
     Work second_work(p_);
-    if (!internal::runConcurrently(
-            [&] { runRange(pb, pass, mid, n, lo, force_stage, second_work, &parts[1]); },
-            [&] { runRange(pb, pass, 0, mid, lo, force_stage, main_work, &parts[0]); })) {
-      runRange(pb, pass, 0, mid, lo, force_stage, main_work, &parts[0]);
-      runRange(pb, pass, mid, n, lo, force_stage, second_work, &parts[1]);
-    }
+    internal::runHalves([&] { runRange(pb, pass, 0, mid, lo, force_stage, main_work, &parts[0]); },
+                        [&] { runRange(pb, pass, mid, n, lo, force_stage, second_work, &parts[1]); });
   } else {
     runRange(pb, pass, 0, n, lo, force_stage, main_work, &parts[0]);
   }
@@ -502,7 +493,7 @@ Eigen::Map<const Eigen::MatrixXd> GravityCompression::scores(const Vec3& g_B, co
     }
   }
   // Blocks of rows (scores row-major: a sample's k entries together, copied into S's columns);
-  // from kParallelSamples on the second half of the blocks on a thread of its own (rows of S
+  // from internal::kParallelRows on the second half of the blocks on a thread of its own (rows of S
   // and of the residual are the samples': the halves write apart).
   constexpr Eigen::Index kBlock = 256;
   auto runBlocks = [&](Eigen::Index begin, Eigen::Index end) {
@@ -543,8 +534,12 @@ Eigen::Map<const Eigen::MatrixXd> GravityCompression::scores(const Vec3& g_B, co
       S.middleRows(i0, len) = T.topRows(len);
     }
   };
-  const Eigen::Index mid = n >= kParallelSamples ? ((n / 2 + kBlock - 1) / kBlock) * kBlock : n;
-  if (mid >= n || !internal::runConcurrently([&] { runBlocks(mid, n); }, [&] { runBlocks(0, mid); })) runBlocks(0, n);
+  const Eigen::Index mid = n >= internal::kParallelRows ? ((n / 2 + kBlock - 1) / kBlock) * kBlock : n;
+  if (mid < n) {
+    internal::runHalves([&] { runBlocks(0, mid); }, [&] { runBlocks(mid, n); });
+  } else {
+    runBlocks(0, n);
+  }
   return {S.data(), n, k};
 }
 

@@ -137,7 +137,7 @@ class GravityCompression {
   /// non-zero, the finite check (pass 0) and the force stage's data.
   void runRange(const Problem& pb, int pass, int begin, int end, const LeftOut& lo, bool force_stage, Work& wk,
                 Part* part);
-  /// One pass over every sample (two ranges from kParallelSamples on): G_ gets the sum of the
+  /// One pass over every sample (two ranges from internal::kParallelRows on): G_ gets the sum of the
   /// ranges' Gram matrices, the result their found entries, finite check and force stage (no G).
   Part runPass(const Problem& pb, int pass, const LeftOut& lo, bool force_stage, Work& main_work);
 

@@ -81,10 +81,7 @@ Eigen::MatrixXd neweyWest(Eigen::Index n, Eigen::Index k, int lag, const AddRows
   const Eigen::Index mid = total >= internal::kParallelRows ? ((total / 2 + kBlock - 1) / kBlock) * kBlock : total;
   std::array<Eigen::MatrixXd, 2> part;
   if (mid < total) {
-    if (!internal::runConcurrently([&] { sumBlocks(mid, total, part[1]); }, [&] { sumBlocks(0, mid, part[0]); })) {
-      sumBlocks(0, mid, part[0]);
-      sumBlocks(mid, total, part[1]);
-    }
+    internal::runHalves([&] { sumBlocks(0, mid, part[0]); }, [&] { sumBlocks(mid, total, part[1]); });
     part[0] += part[1];
   } else {
     sumBlocks(0, total, part[0]);
