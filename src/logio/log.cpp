@@ -24,6 +24,7 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/logio/input.hpp"
+#include "line_cursor.hpp"
 
 namespace ftid::logio {
 
@@ -122,22 +123,6 @@ bool parseNumber(std::string_view field, double& out, std::string& why) {
 
 std::string readWholeFile(const std::string& path) { return readLogText(path); }
 
-struct LineCursor {
-  std::string_view text;
-  std::size_t pos = 0;
-  std::size_t line_no = 0;
-  /// Next line (without the newline); false at the end.
-  bool next(std::string_view& line) {
-    if (pos >= text.size()) return false;
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    line = text.substr(pos, end - pos);
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-    pos = end + 1;
-    ++line_no;
-    return true;
-  }
-};
 
 /// Largest plausible |value| of every known column (LogReadOptions, docs/log-format.md).
 std::array<double, kNumKnown> plausibleLimits(const LogReadOptions& o) {

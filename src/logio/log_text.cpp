@@ -9,6 +9,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/logio/log.hpp"
+#include "line_cursor.hpp"
 
 namespace ftid::logio {
 
@@ -27,17 +28,11 @@ struct HeaderRow {
 
 /// The first line that is neither blank nor a '#' comment (the header row); length 0 if none.
 HeaderRow headerRow(std::string_view text) {
-  std::size_t pos = 0;
-  std::size_t line_no = 0;
-  while (pos < text.size()) {
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    std::string_view line = text.substr(pos, end - pos);
-    ++line_no;
-    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+  LineCursor lines{text};
+  std::string_view line;
+  while (lines.next(line)) {
     const std::size_t first = line.find_first_not_of(" \t");
-    if (first != std::string_view::npos && line[first] != '#') return {line_no, line.size()};
-    pos = end + 1;
+    if (first != std::string_view::npos && line[first] != '#') return {lines.line_no, line.size()};
   }
   return {};
 }

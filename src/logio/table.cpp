@@ -11,6 +11,7 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/logio/log.hpp"
+#include "line_cursor.hpp"
 
 namespace ftid::logio {
 
@@ -105,21 +106,6 @@ bool blankOrComment(std::string_view line) {
   return v.empty() || v.front() == '#';
 }
 
-/// Line-by-line cursor over the text (1-based line numbers).
-struct Lines {
-  std::string_view text;
-  std::size_t pos = 0;
-  std::size_t line_no = 0;
-  bool next(std::string_view& line) {
-    if (pos >= text.size()) return false;
-    std::size_t end = text.find('\n', pos);
-    if (end == std::string_view::npos) end = text.size();
-    line = text.substr(pos, end - pos);
-    pos = end + 1;
-    ++line_no;
-    return true;
-  }
-};
 
 }  // namespace
 
@@ -127,7 +113,7 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
                  const ColumnFilter& use_column) {
   Table table;
   table.source = path;
-  Lines lines{text};
+  LineCursor lines{text};
   std::string_view line;
   bool have_header = false;
   while (lines.next(line)) {
@@ -198,7 +184,7 @@ Table readTable(const std::string& path, TableSeparator separator, const ColumnF
 }
 
 std::string_view headerRow(std::string_view text) {
-  Lines lines{text};
+  LineCursor lines{text};
   std::string_view line;
   while (lines.next(line)) {
     if (!blankOrComment(line)) return line.substr(0, kMaxHeaderBytes);
