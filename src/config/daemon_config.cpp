@@ -104,6 +104,9 @@ void validateMonitor(const MonitorConfig& m, const Fail& fail) {
     fail("monitor.onset_margin", "must be a number in [0, 1e6]");
   }
   if (!(m.publish_hz >= 2.0 && m.publish_hz <= 100.0)) fail("monitor.publish_hz", "must be in 2..100 Hz");
+  if (!(std::isfinite(m.min_change_s) && m.min_change_s >= 0.0 && m.min_change_s < m.restart_s)) {
+    fail("monitor.min_change_s", "must be >= 0 s and below monitor.restart_s");
+  }
   if (!(m.reidentify_window_s >= 0.5 && m.reidentify_window_s <= 30.0)) {
     fail("monitor.reidentify_window_s", "must be in 0.5..30 s");
   }
@@ -543,6 +546,7 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
         {"free_motion_acc_m_s2", number(c.monitor.free_motion_acc_m_s2)},
         {"max_gap_s", number(c.monitor.max_gap_s)},
         {"restart_s", number(c.monitor.restart_s)},
+        {"min_change_s", number(c.monitor.min_change_s)},
         {"reidentify_window_s", number(c.monitor.reidentify_window_s)},
       })},
       {"export", section({

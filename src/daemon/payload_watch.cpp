@@ -33,6 +33,7 @@ monitor::MonitorSettings monitorSettings(const config::MonitorConfig& c) {
   s.free_motion_acc_m_s2 = c.free_motion_acc_m_s2;
   s.max_gap_s = c.max_gap_s;
   s.restart_s = c.restart_s;
+  s.min_change_s = c.min_change_s;
   return s;
 }
 

@@ -64,6 +64,11 @@ void validate(const MonitorSettings& s, const char* p) {
   requirePositive(s.free_motion_acc_m_s2, p, "free_motion_acc_m_s2");
   requirePositive(s.max_gap_s, p, "max_gap_s");
   requirePositive(s.restart_s, p, "restart_s");
+  if (!(std::isfinite(s.min_change_s) && s.min_change_s >= 0.0 && s.min_change_s < s.restart_s)) {
+    throw ConfigError(std::string("key '") + p + "min_change_s': must be >= 0 and below restart_s (" +
+                      std::to_string(s.restart_s) + " s; an episode restarts before it could be decided), got " +
+                      std::to_string(s.min_change_s));
+  }
 }
 
 PayloadMonitor::PayloadMonitor(const MonitorSettings& settings)
@@ -281,7 +286,7 @@ std::optional<MonitorEvent> PayloadMonitor::update(const MonitorSample& s) noexc
   if (changed) return event;
   if (status_.state == MonitorState::kOk && g > settings_.onset_threshold) status_.state = MonitorState::kSuspect;
   if (status_.state != MonitorState::kSuspect) return event;
-  if (status_.log_bf_change > settings_.decision_threshold) {
+  if (status_.log_bf_change > settings_.decision_threshold && s.t - status_.onset_t >= settings_.min_change_s) {
     status_.state = MonitorState::kChanged;
     return makeEvent(EventKind::kPayloadChange, s.t, true, status_.log_bf_change);
   }

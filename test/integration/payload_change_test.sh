@@ -16,7 +16,11 @@
 #     polling), with delta_mass within 10 % of 0.6 kg;
 #   - about 4.5 s after the grasp, still moving, `ftid reidentify --apply` is answered (exit 0) and
 #     the parameter file ftidd rewrote holds the paper mass plus 0.6 kg within 10 % of the 0.6 kg;
-#   - the motion completes (exit 0) and ftidd is still running.
+#   - the motion completes (exit 0) and ftidd is still running;
+#   - ftidd's own recording of the run (`ftidd --record`, `ftid lcm-to-csv`) replayed offline by
+#     `ftid monitor` with the parameters the cell ran with decides the same: its first payload change
+#     has the live delta_mass within 0.001 kg and the same decision delay after the onset (the
+#     monitor code is one; this checks the cell feeds it what the recording holds).
 # Exit status: 0 pass, 1 fail, 77 skip.
 set -u
 FTID=${1:?usage: payload_change_test.sh FTID FTIDD SRC_DIR}
@@ -39,6 +43,7 @@ head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/command.key"
 chmod 0600 "$WORK/command.key"
 PARAMS=$WORK/params.yaml
 python3 "$SRC/test/integration/sim_true_params.py" "$PARAMS"
+cp "$PARAMS" "$WORK/params_v1.yaml"
 MASS0=$(python3 -c 'print(8.862 / 9.80665)')
 cat > "$WORK/ftidd.yaml" <<YAML
 robot:
@@ -60,7 +65,7 @@ PIDS="$PIDS $!"
 "$FTID" sim-sensor --socket "$WORK/ft.sock" --urdf "$SRC/config/ur10.urdf" --dbc "$SRC/config/ftsensor.dbc" \
   --effect noise --effect grasp:mass=0.6,com=0/0/0.12,side=0.06 > "$WORK/sensor.log" 2>&1 &
 SENSOR=$!; PIDS="$PIDS $SENSOR"
-"$FTIDD" --config "$WORK/ftidd.yaml" --connect-timeout 30 > "$WORK/ftidd.log" 2>&1 &
+"$FTIDD" --config "$WORK/ftidd.yaml" --connect-timeout 30 --record "$WORK/cell.lcm" > "$WORK/ftidd.log" 2>&1 &
 DAEMON=$!; PIDS="$PIDS $DAEMON"
 i=0
 until grep -q "running at" "$WORK/ftidd.log" 2>/dev/null; do
@@ -116,5 +121,30 @@ fi
 wait $MOTION; rc=$?
 [ $rc -eq 0 ] || { fail "run-trajectory exited $rc"; tail -5 "$WORK/run.out"; }
 kill -0 $DAEMON 2>/dev/null || fail "ftidd is no longer running"
+
+# The offline replay of ftidd's recording with the parameters the cell ran with (version 1).
+kill -TERM $DAEMON; wait $DAEMON
+"$FTID" lcm-to-csv "$WORK/cell.lcm" --out "$WORK/cell.csv" > "$WORK/lcm2csv.out" 2>&1 ||
+  { fail "ftid lcm-to-csv failed: $(tail -2 "$WORK/lcm2csv.out")"; }
+"$FTID" monitor --log "$WORK/cell.csv" --params "$WORK/params_v1.yaml" --config "$WORK/ftidd.yaml" \
+  > "$WORK/replay.txt" 2> "$WORK/replay.err" || fail "ftid monitor failed: $(tail -2 "$WORK/replay.err")"
+replay=$(grep -m1 "payload_change" "$WORK/replay.txt")
+echo "replay: $replay"
+if [ -n "$line" ] && [ -n "$replay" ]; then
+  python3 - "$line" "$replay" <<'PY' || fail "the offline replay does not decide as the cell did"
+import re, sys
+def parse(s):
+    t = float(re.search(r"t=([-0-9.]+)", s).group(1))
+    onset = float(re.search(r"onset ([-0-9.]+)", s).group(1))
+    dm = float(re.search(r"delta_mass ([-+0-9.]+)", s).group(1))
+    return t - onset, dm
+(live_delay, live_dm), (replay_delay, replay_dm) = parse(sys.argv[1]), parse(sys.argv[2])
+print("decision delay after onset: live %.3f s, replay %.3f s; delta_mass live %+.3f, replay %+.3f kg"
+      % (live_delay, replay_delay, live_dm, replay_dm))
+sys.exit(0 if abs(live_delay - replay_delay) <= 0.0105 and abs(live_dm - replay_dm) <= 0.001 else 1)
+PY
+else
+  fail "no payload change in the offline replay of the cell's recording"
+fi
 [ "$FAILED" -eq 0 ] && echo "PASS" || { echo "--- ftidd.log"; tail -20 "$WORK/ftidd.log"; }
 exit "$FAILED"

@@ -153,6 +153,7 @@ struct MonitorConfig {
   double free_motion_acc_m_s2 = 0.3;      ///< or the sensor accelerates at least this much
   double max_gap_s = 0.1;
   double restart_s = 1.0;
+  double min_change_s = 0.1;              ///< a change is decided only after lasting this long [s]
   /// REIDENTIFY fits the change on the last this many seconds of valid cycles [s] (0.5..30).
   double reidentify_window_s = 4.0;
 };

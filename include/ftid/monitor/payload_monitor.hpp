@@ -76,6 +76,10 @@ struct MonitorSettings {
   /// An episode undecided for this long (or decided as contact) starts its hypotheses again at
   /// the current sample: a payload change during or right after a push is judged on its own.
   double restart_s = 1.0;
+  /// A payload change persists: it is decided only once its episode has lasted this long [s]
+  /// (0 = at the first sample the Bayes factor allows). A spike of a few samples that the change
+  /// hypothesis happens to fit (a knock, a timing glitch) ends before it.
+  double min_change_s = 0.1;
 };
 
 /// Throws ConfigError naming the key (prefix + name) for a value out of range.

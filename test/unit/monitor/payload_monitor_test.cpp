@@ -159,6 +159,47 @@ TEST(PayloadMonitor, SkipsNonFiniteSamplesAndEndsEpisodesAtGaps) {
   EXPECT_EQ(mon.status().state, MonitorState::kOk);
 }
 
+// A change persists; a spike does not. Four samples (32 ms) in free motion whose residual is
+// exactly what a 0.3 kg object at (0, 0, 0.1) m would add (so the change hypothesis explains them
+// perfectly), then nothing: no payload change (the cell saw a spike at a motion's start on a
+// loaded host and called it a change of -0.04 +- 0.02 kg from 2 samples; without min_change_s this
+// spike is decided at its third sample). The same residual held on is decided
+// once min_change_s has passed, not before.
+TEST(PayloadMonitor, ASpikeIsNoPayloadChangeAndAHeldChangeIsDecidedAfterMinChangeS) {
+  const MonitorSettings settings;
+  const auto moving = [](double t, bool object) {
+    MonitorSample s;
+    s.t = t;
+    s.w_S = Vec3(0.5 * std::cos(t), 0.5 * std::sin(t), 0.2);
+    const Mat3 R = Eigen::AngleAxisd(0.5 * t, Vec3::UnitX()).toRotationMatrix();
+    s.g_S = R.transpose() * Vec3(0.0, 0.0, -kStandardGravity);
+    if (object) {
+      const Vec3 f = 0.3 * s.g_S;  // the object's static weight in S, at (0, 0, 0.1) m
+      s.residual_S.head<3>() = f;
+      s.residual_S.tail<3>() = Vec3(0.0, 0.0, 0.1).cross(f);
+    }
+    return s;
+  };
+  PayloadMonitor spike(settings);
+  int changes = 0;
+  for (int k = 0; k < 200; ++k) {
+    const auto e = spike.update(moving(0.008 * k, k >= 100 && k < 104));
+    changes += e && e->kind == EventKind::kPayloadChange ? 1 : 0;
+  }
+  EXPECT_EQ(changes, 0);
+  EXPECT_NE(spike.status().state, MonitorState::kChanged);
+  PayloadMonitor held(settings);
+  std::optional<MonitorEvent> decided;
+  for (int k = 0; k < 200 && !decided; ++k) {
+    const auto e = held.update(moving(0.008 * k, k >= 100));
+    if (e && e->kind == EventKind::kPayloadChange) decided = e;
+  }
+  ASSERT_TRUE(decided.has_value());
+  EXPECT_GE(decided->t_decided - decided->t_onset, settings.min_change_s - 1e-9);
+  EXPECT_LT(decided->t_decided - decided->t_onset, settings.min_change_s + 0.05);
+  EXPECT_NEAR(decided->change.delta_mass_kg, 0.3, 0.03);
+}
+
 TEST(PayloadMonitor, SettingsErrorsNameTheKey) {
   MonitorSettings s;
   s.noise_std(4) = 0.0;
