@@ -163,120 +163,119 @@ ftid::design::DesignResult searchLimits(ftid::design::DesignOptions o, const fti
   return chosen;
 }
 
-int runDesign(const std::vector<std::string>& argv) {
-  using namespace ftid;
-  design::DesignOptions o;
-  o.robot_path.clear();  // the shipped default, found below
+/// The command line's values that are not DesignOptions fields (those are bound directly).
+struct DesignArgs {
   std::string config, joints = "4,5,6", objective = "cond", noise, nominal, target, out = "traj.yaml";
   std::vector<double> q0;
   std::string limits, imu_noise;
   bool quiet = false;
+};
+
+/// Parses the command line into `o` and the returned values, and converts the joints, q0, the
+/// objective, the noise and the nominal payload into `o`.
+DesignArgs parseDesignArgs(const std::vector<std::string>& argv, ftid::design::DesignOptions& o) {
+  using namespace ftid;
+  DesignArgs a;
   CLI::App app{"ftid design"};
   app.add_option("--model", o.model);
   app.add_option("--robot", o.robot_path);
-  app.add_option("--config", config);
-  app.add_option("--joints", joints);
+  app.add_option("--config", a.config);
+  app.add_option("--joints", a.joints);
   app.add_option("--duration", o.duration_s)->transform(cli::real(cli::positive()));
   app.add_option("--periods", o.periods)->transform(cli::integer(1, 1000000));
   app.add_option("--harmonics", o.harmonics)->transform(cli::integer(2, 1000000));
   app.add_option("--rate", o.servo_rate_hz)->transform(cli::real(cli::positive()));
-  cli::addReals(app, "--q0", q0, 6);
-  app.add_option("--objective", objective)->transform(cli::oneOf({"cond", "dopt"}));
+  cli::addReals(app, "--q0", a.q0, 6);
+  app.add_option("--objective", a.objective)->transform(cli::oneOf({"cond", "dopt"}));
   app.add_option("--seed", o.seed)->transform(cli::count());
   app.add_option("--time-budget", o.time_budget_s)->transform(cli::real(cli::positive()));
   app.add_option("--global", o.global_algorithm);
   app.add_option("--local", o.local_algorithm);
   app.add_option("--global-evals", o.global_max_evals)->transform(cli::integer(0, 1000000000000));
   app.add_option("--local-evals", o.local_max_evals)->transform(cli::integer(0, 1000000000000));
-  app.add_option("--noise", noise);
-  app.add_option("--nominal", nominal);
-  app.add_option("--target-std", target);
-  app.add_option("--limits", limits);
-  app.add_option("--imu-noise", imu_noise);
+  app.add_option("--noise", a.noise);
+  app.add_option("--nominal", a.nominal);
+  app.add_option("--target-std", a.target);
+  app.add_option("--limits", a.limits);
+  app.add_option("--imu-noise", a.imu_noise);
   app.add_option("--max-cond", o.max_condition)->transform(cli::real(cli::positive()));
   app.add_option("--baseline-seeds", o.baseline_seeds)->transform(cli::integer(0, 1000000));
-  app.add_option("--out", out);
-  app.add_flag("--quiet", quiet);
+  app.add_option("--out", a.out);
+  app.add_flag("--quiet", a.quiet);
   cli::parse(app, argv);
 
-  if (joints == "all") {
+  if (a.joints == "all") {
     o.joints = {1, 2, 3, 4, 5, 6};
   } else {
     o.joints.clear();
-    std::stringstream ss(joints);
+    std::stringstream ss(a.joints);
     std::string item;
     while (std::getline(ss, item, ',')) o.joints.push_back(static_cast<int>(cli::parseInteger(item, "--joints", 1, 6)));
   }
-  if (!q0.empty()) {
-    for (int i = 0; i < 6; ++i) o.q0[i] = q0[static_cast<std::size_t>(i)];
+  if (!a.q0.empty()) {
+    for (int i = 0; i < 6; ++i) o.q0[i] = a.q0[static_cast<std::size_t>(i)];
   }
-  if (objective == "cond") {
+  if (a.objective == "cond") {
     o.objective = design::Objective::kCondition;
-  } else if (objective == "dopt") {
+  } else if (a.objective == "dopt") {
     o.objective = design::Objective::kDOptimality;
   } else {
     throw cli::UsageError("--objective must be cond or dopt");
   }
-  if (!noise.empty()) o.noise_sigma = design::parseNoise(noise);
-  if (!imu_noise.empty()) parseImuNoise(imu_noise, &o);
-  if (!nominal.empty()) o.nominal = parseNominal(nominal);
-  if (o.servo_rate_hz != 125.0 && o.servo_rate_hz != 500.0) {
-    std::cerr << "ftid design: note: --rate " << o.servo_rate_hz
-              << " Hz is neither 125 (CB3) nor 500 (e-Series)\n";
+  if (!a.noise.empty()) o.noise_sigma = design::parseNoise(a.noise);
+  if (!a.imu_noise.empty()) parseImuNoise(a.imu_noise, &o);
+  if (!a.nominal.empty()) o.nominal = parseNominal(a.nominal);
+  return a;
+}
+
+/// --target-std: the shortest duration (one base period each) whose predicted standard errors
+/// meet the targets; prints every trial.
+ftid::design::DesignResult searchTargets(const ftid::design::DesignOptions& o, const ftid::model::RobotKinematics& kin,
+                                         const std::map<std::string, double>& targets, const std::string& target) {
+  using namespace ftid;
+  std::cerr << "design: searching the shortest duration meeting the targets (budget "
+            << o.time_budget_s << " s in total)\n";
+  design::DurationSearchResult s = design::findShortestDuration(o, kin, targets);
+  std::printf("duration search (one base period each, %d harmonics):\n", o.harmonics);
+  for (const auto& t : s.trials) {
+    std::printf("  %6.2f s  cond %10.4g  %s\n", t.duration_s, t.condition_number,
+                t.met ? "meets" : "misses");
   }
-  (void)effects::Model::fromName(o.model);  // unknown model: clear error before any work
-  checkOutputPath(out);                        // and a bad --out too
-  checkOutputPath(trajectory::csvPathFor(out));
-
-  if (o.robot_path.empty()) o.robot_path = findDefaultFile("ur10.urdf");
-  const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
-  // Provenance names the shipped default by its name, not by this machine's path to it.
-  const bool shipped_config = config.empty();
-  if (config.empty()) config = findDefaultFile("design.yaml");
-  o.constraints = design::loadDesignConstraints(config, kin, o.q0);
-  if (!quiet) o.progress = &std::cerr;
-
-  design::DesignResult r;
-  std::map<std::string, double> targets;
-  if (!target.empty() && !limits.empty()) throw cli::UsageError("--target-std and --limits exclude each other");
-  if (!limits.empty()) {
-    try {
-      targets = design::parseLimits(limits, o.nominal);
-    } catch (const ConfigError& e) {
-      throw cli::UsageError(e.what());
-    }
-    r = searchLimits(o, kin, targets, limits);
-  } else if (!target.empty()) {
-    targets = design::parseTargets(target, o.nominal);
-    std::cerr << "design: searching the shortest duration meeting the targets (budget "
-              << o.time_budget_s << " s in total)\n";
-    design::DurationSearchResult s = design::findShortestDuration(o, kin, targets);
-    std::printf("duration search (one base period each, %d harmonics):\n", o.harmonics);
-    for (const auto& t : s.trials) {
-      std::printf("  %6.2f s  cond %10.4g  %s\n", t.duration_s, t.condition_number,
-                  t.met ? "meets" : "misses");
-    }
-    if (!s.found) {
-      throw design::DesignError(
-          "no duration up to 60 s meets the targets " + target +
-          " within the limits; relax the targets or the limits, or lower the noise");
-    }
-    r = std::move(s.best);
-    std::printf("shortest duration meeting the targets: %.2f s\n", r.file.duration_s);
-  } else {
-    r = design::designExcitation(o, kin);
+  if (!s.found) {
+    throw design::DesignError(
+        "no duration up to 60 s meets the targets " + target +
+        " within the limits; relax the targets or the limits, or lower the noise");
   }
-  r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : config;
-  r.file.design["reproduce"] = reproduceCommand(o, r);
-  if (!target.empty()) r.file.design["target_std"] = target;
-  if (!limits.empty()) r.file.design["limits"] = limits + " (3 predicted standard errors)";
-  if (!imu_noise.empty()) r.file.design["imu_noise"] = imu_noise;
+  std::printf("shortest duration meeting the targets: %.2f s\n", s.best.file.duration_s);
+  return std::move(s.best);
+}
 
-  for (const auto& w : r.warnings) std::cerr << "ftid design: warning: " << w << "\n";
-  trajectory::writeTrajectoryFile(out, r.file);
-  const std::string csv = trajectory::csvPathFor(out);
-  trajectory::writeTrajectoryCsv(csv, r.file.toTrajectory(), r.file.servo_rate_hz);
+/// --limits: the predicted worst case over noise (3 standard errors) of each limited parameter,
+/// with the wrench alone and with the IMU, against its limit.
+void printWorstCase(const ftid::design::DesignResult& r, const std::map<std::string, double>& targets) {
+  using namespace ftid;
+  std::printf("predicted worst case over noise (3 standard errors) against the limits:\n");
+  for (const auto& target_item : targets) {
+    const std::string k = target_item.first;
+    const double limit = target_item.second * design::kLimitStandardErrors;
+    auto show = [&](const char* label, const std::map<std::string, double>& m) {
+      const auto it = m.find(k);
+      if (it == m.end()) return;
+      const double worst = design::kLimitStandardErrors * it->second;
+      std::printf("  %-8s %-12s %12.4g  limit %.4g  %s\n", k.c_str(), label, worst, limit,
+                  worst <= limit ? "met" : "MISSED");
+    };
+    show("wrench", r.predicted_std);
+    show("with IMU", r.predicted_std_imu);
+  }
+}
 
+/// The designed trajectory's figures: the optimiser's runs, the condition number and D-optimality
+/// against the baselines, the predicted standard errors (against the targets or the limits), the
+/// dense re-check of the constraints, and the files written. (Reads the design block and the
+/// metrics with operator[], as it always has: a missing key reads as empty or 0 and is added.)
+void printDesign(ftid::design::DesignResult& r, const DesignArgs& a,
+                 const std::map<std::string, double>& targets, const std::string& csv) {
   std::printf("designed %.3g s trajectory, %d harmonics, joints %s, model %s\n", r.file.duration_s,
               r.file.harmonics, r.file.design["joints"].c_str(), r.file.design["model"].c_str());
   std::printf("  NLopt global: %s\n  NLopt local:  %s\n  evaluations %ld + %ld in %.1f s\n",
@@ -305,31 +304,66 @@ int runDesign(const std::vector<std::string>& argv) {
     std::printf("static six-pose method: no six feasible poses found from q0 (baseline skipped)\n");
   }
   std::printf("predicted standard errors (noise %s):\n", r.file.design["noise"].c_str());
-  printStd(r.predicted_std, limits.empty() ? targets : std::map<std::string, double>{});
+  printStd(r.predicted_std, a.limits.empty() ? targets : std::map<std::string, double>{});
   if (!r.predicted_std_imu.empty()) {
-    std::printf("predicted standard errors with the IMU's tilt fused (IMU noise %s):\n", imu_noise.c_str());
-    printStd(r.predicted_std_imu, limits.empty() ? targets : std::map<std::string, double>{});
+    std::printf("predicted standard errors with the IMU's tilt fused (IMU noise %s):\n", a.imu_noise.c_str());
+    printStd(r.predicted_std_imu, a.limits.empty() ? targets : std::map<std::string, double>{});
   }
-  if (!limits.empty()) {
-    std::printf("predicted worst case over noise (3 standard errors) against the limits:\n");
-    for (const auto& target_item : targets) {
-      const std::string k = target_item.first;
-      const double limit = target_item.second * design::kLimitStandardErrors;
-      auto show = [&](const char* label, const std::map<std::string, double>& m) {
-        const auto it = m.find(k);
-        if (it == m.end()) return;
-        const double worst = design::kLimitStandardErrors * it->second;
-        std::printf("  %-8s %-12s %12.4g  limit %.4g  %s\n", k.c_str(), label, worst, limit,
-                    worst <= limit ? "met" : "MISSED");
-      };
-      show("wrench", r.predicted_std);
-      show("with IMU", r.predicted_std_imu);
-    }
-  }
+  if (!a.limits.empty()) printWorstCase(r, targets);
   std::printf("dense re-check (%d samples): %s\n", r.check.samples,
               r.check.ok() ? "all constraints hold" : "VIOLATED");
   std::printf("%s", r.check.table().c_str());
-  std::printf("wrote %s and %s\n", out.c_str(), csv.c_str());
+  std::printf("wrote %s and %s\n", a.out.c_str(), csv.c_str());
+}
+
+int runDesign(const std::vector<std::string>& argv) {
+  using namespace ftid;
+  design::DesignOptions o;
+  o.robot_path.clear();  // the shipped default, found below
+  DesignArgs a = parseDesignArgs(argv, o);
+  if (o.servo_rate_hz != 125.0 && o.servo_rate_hz != 500.0) {
+    std::cerr << "ftid design: note: --rate " << o.servo_rate_hz
+              << " Hz is neither 125 (CB3) nor 500 (e-Series)\n";
+  }
+  (void)effects::Model::fromName(o.model);  // unknown model: clear error before any work
+  checkOutputPath(a.out);                      // and a bad --out too
+  checkOutputPath(trajectory::csvPathFor(a.out));
+
+  if (o.robot_path.empty()) o.robot_path = findDefaultFile("ur10.urdf");
+  const auto kin = model::RobotKinematics::fromUrdfFile(o.robot_path);
+  // Provenance names the shipped default by its name, not by this machine's path to it.
+  const bool shipped_config = a.config.empty();
+  if (a.config.empty()) a.config = findDefaultFile("design.yaml");
+  o.constraints = design::loadDesignConstraints(a.config, kin, o.q0);
+  if (!a.quiet) o.progress = &std::cerr;
+
+  design::DesignResult r;
+  std::map<std::string, double> targets;
+  if (!a.target.empty() && !a.limits.empty()) throw cli::UsageError("--target-std and --limits exclude each other");
+  if (!a.limits.empty()) {
+    try {
+      targets = design::parseLimits(a.limits, o.nominal);
+    } catch (const ConfigError& e) {
+      throw cli::UsageError(e.what());
+    }
+    r = searchLimits(o, kin, targets, a.limits);
+  } else if (!a.target.empty()) {
+    targets = design::parseTargets(a.target, o.nominal);
+    r = searchTargets(o, kin, targets, a.target);
+  } else {
+    r = design::designExcitation(o, kin);
+  }
+  r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : a.config;
+  r.file.design["reproduce"] = reproduceCommand(o, r);
+  if (!a.target.empty()) r.file.design["target_std"] = a.target;
+  if (!a.limits.empty()) r.file.design["limits"] = a.limits + " (3 predicted standard errors)";
+  if (!a.imu_noise.empty()) r.file.design["imu_noise"] = a.imu_noise;
+
+  for (const auto& w : r.warnings) std::cerr << "ftid design: warning: " << w << "\n";
+  trajectory::writeTrajectoryFile(a.out, r.file);
+  const std::string csv = trajectory::csvPathFor(a.out);
+  trajectory::writeTrajectoryCsv(csv, r.file.toTrajectory(), r.file.servo_rate_hz);
+  printDesign(r, a, targets, csv);
   return r.check.ok() ? 0 : 1;
 }
 

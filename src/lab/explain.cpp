@@ -108,151 +108,194 @@ double lookaheadScore(const Fitted& cur, const Lookahead& la) {
   return best;
 }
 
+/// Where the path stands between steps: the current model, the ranking against it, the effect just
+/// added (judged against exactly the model without it), the models already visited, and the rule's
+/// verdict on each removal by the (canonical) model the effect was removed from.
+struct PathState {
+  Fitted cur;
+  std::vector<CandidateResult> ranking;
+  std::string just_added;
+  std::set<std::string> visited;
+  std::map<std::string, CandidateResult> removed_from;
+};
+
+/// Records one step of the path: the model now current, the effect added or removed, its p-values.
+void recordStep(const PathState& ps, const CandidateResult& judged, bool added, AnalysisResult& result) {
+  ExplainStep st = stepOf(ps.cur, result.noise_floor);
+  (added ? st.added : st.removed) = judged.effect;
+  st.p_value = judged.p_value;
+  st.family_p = judged.family_p;
+  result.steps.push_back(st);
+}
+
+/// Backward: the effect of the model the rule supports least, if it does not support it. A
+/// removal never raises the held-out error, except of an effect refused on a constraint
+/// (identifiability or physics): a model the rule cannot stand behind is left even at a cost.
+std::optional<Removal> backwardElimination(const RankContext& rc, const PathState& ps) {
+  const Fitted& cur = ps.cur;
+  std::optional<Removal> drop;
+  for (const auto& name : effectNames(cur.model)) {
+    // The effect just added was judged against exactly the model without it: skip the repeat.
+    if (isPaperEffect(name) || name == ps.just_added) continue;
+    std::vector<std::string> rest = effectNames(cur.model);
+    rest.erase(std::remove(rest.begin(), rest.end(), name), rest.end());
+    Model smaller = canonicalModel(rest);
+    if (smaller.numParams() == cur.model.numParams() || ps.visited.count(smaller.name()) != 0) continue;
+    say(rc.options, "explain: would " + name + " be taken again against " + smaller.name() + "?");
+    Fitted small = fitFrom(rc.eng, smaller, cur);
+    CandidateResult c = judgeNested(rc, small, cur, name);
+    if (c.verdict == Verdict::kRecommended) continue;
+    if (c.verdict != Verdict::kRefused && small.sol.sse_heldout > cur.sol.sse_heldout) continue;
+    const double rows = 6.0 * std::max(1, cur.sol.n_heldout);
+    const double bic = rows * std::log(std::max(1e-300, small.sol.sse_heldout / cur.sol.sse_heldout)) -
+                       std::max(0, c.added_params) * std::log(rows);
+    Removal cand{std::move(small), std::move(c), bic};
+    if (!drop || removeBefore(cand, *drop)) drop = std::move(cand);
+  }
+  return drop;
+}
+
+/// Takes the removal the backward pass chose: the smaller model becomes current, ranked afresh.
+void takeRemoval(const RankContext& rc, int step, Removal& drop, PathState& ps, AnalysisResult& result) {
+  say(rc.options, "explain step " + std::to_string(step + 1) + ": removing " + drop.judged.effect + " (" +
+                      drop.judged.reason + ")");
+  ps.removed_from[canonicalModel(effectNames(ps.cur.model)).name()] = drop.judged;
+  ps.cur = std::move(drop.small);
+  ps.just_added.clear();
+  recordStep(ps, drop.judged, /*added=*/false, result);
+  ps.visited.insert(ps.cur.model.name());
+  ps.ranking = rankCandidates(rc, ps.cur);
+}
+
+/// Log held-out ratio (screened) of a candidate: negative when it lowers the held-out error.
+double screenedLogRatio(const CandidateResult& cand) {
+  return std::log(std::max(1e-300, 1.0 - cand.relative_reduction));
+}
+
+/// The verdict on a candidate recommended when screened whose model `next` the path removed it
+/// from earlier: its full fit is not supported there. Not silently: the verdict says so.
+CandidateResult removedEarlier(const CandidateResult& cand, const std::string& next,
+                               const std::map<std::string, CandidateResult>& removed_from) {
+  CandidateResult earlier;
+  earlier.effect = cand.effect;
+  earlier.verdict = Verdict::kNoHeldOutGain;
+  const auto it = removed_from.find(next);
+  if (it != removed_from.end()) earlier = it->second;
+  earlier.reason = "removed earlier: its full fit is not supported" +
+                   (it != removed_from.end() && !it->second.reason.empty() ? " (" + it->second.reason + ")"
+                                                                             : std::string());
+  if (earlier.verdict == Verdict::kRecommended) earlier.verdict = Verdict::kNoHeldOutGain;
+  return earlier;
+}
+
+/// Forward: among the best recommended candidates whose full fit the rule still recommends,
+/// the one whose best continuation (itself, or itself plus the best recommended effect after
+/// it) has the lowest held-out BIC: one step of look-ahead keeps a flexible effect (crosstalk,
+/// a harmonic) from taking the place of the physical one it imitates. The candidates recommended
+/// when screened but not on their full fit are appended to `rejected`.
+std::optional<Lookahead> forwardWithLookahead(const RankContext& rc, const PathState& ps,
+                                              std::vector<CandidateResult>& rejected) {
+  const Fitted& cur = ps.cur;
+  std::optional<Lookahead> best;
+  int tried = 0;
+  // Only candidates that come close to the best one's screened gain can win by looking ahead:
+  // their log held-out ratio at least kLookaheadReach of the best one's.
+  double best_log_ratio = 0.0;
+  int first_params = 0;
+  for (const auto& cand : ps.ranking) {
+    if (cand.significant) best_log_ratio = std::min(best_log_ratio, screenedLogRatio(cand));
+  }
+  for (const auto& cand : ps.ranking) {
+    if (!cand.significant) break;  // recommended ones come first
+    if (tried >= kLookaheadWidth) break;
+    // ... and that are leaner than the first one taken into account (look-ahead exists to let a
+    // lean physical effect beat a flexible one that imitates it).
+    if (tried > 0 && (screenedLogRatio(cand) > kLookaheadReach * best_log_ratio || cand.added_params >= first_params)) {
+      continue;
+    }
+    std::vector<std::string> names = effectNames(cur.model);
+    names.push_back(effects::createEffect(cand.effect)->name());
+    Model next = canonicalModel(names);
+    if (ps.visited.count(next.name()) != 0) {
+      rejected.push_back(removedEarlier(cand, next.name(), ps.removed_from));
+      continue;
+    }
+    Fitted rich = fitFrom(rc.eng, next, cur);
+    CandidateResult full = judgeNested(rc, cur, rich, cand.effect);
+    if (full.verdict != Verdict::kRecommended || !(rich.sol.sse_heldout < cur.sol.sse_heldout)) {
+      say(rc.options, "explain: " + cand.effect + " not taken after its full fit: " + full.reason);
+      rejected.push_back(std::move(full));
+      continue;
+    }
+    if (tried == 0) first_params = cand.added_params;
+    ++tried;  // the look-ahead width counts the candidates that pass their full fit
+    Lookahead la{std::move(rich), std::move(full), {}, 0.0};
+    la.after = rankCandidates(rc, la.fit);
+    la.score = lookaheadScore(cur, la);
+    if (!best || la.score < best->score) best = std::move(la);
+  }
+  return best;
+}
+
+/// When nothing is taken, the ranking says what the full fit found (the verdict the path acted on).
+void markRejected(const std::vector<CandidateResult>& rejected, std::vector<CandidateResult>& ranking) {
+  for (const auto& r : rejected) {
+    for (auto& c : ranking) {
+      if (c.effect != r.effect) continue;
+      c.verdict = r.verdict == Verdict::kRecommended ? Verdict::kNoHeldOutGain : r.verdict;
+      c.family_p = r.family_p;
+      c.reason = r.reason.empty() ? std::string("the held-out error does not fall (on its full fit)")
+                 : r.reason.rfind("removed earlier", 0) == 0 ? r.reason
+                                                              : r.reason + " (on its full fit)";
+      c.significant = false;
+      c.confounded = c.verdict == Verdict::kRefused;
+      c.confound = c.confounded ? c.reason : "";
+      c.separating_motion = c.confounded ? r.separating_motion : "";
+    }
+  }
+}
+
+/// Takes the candidate the forward step chose: its model becomes current, with the ranking
+/// already computed against it by the look-ahead.
+void takeAddition(const RankContext& rc, int step, Lookahead& best, PathState& ps, AnalysisResult& result) {
+  say(rc.options, "explain step " + std::to_string(step + 1) + ": adding " + best.judged.effect +
+                      " (held-out residual -" + fmt(100.0 * best.judged.relative_reduction, 3) + "%)");
+  ps.cur = std::move(best.fit);
+  ps.just_added = effects::createEffect(best.judged.effect)->name();
+  recordStep(ps, best.judged, /*added=*/true, result);
+  ps.visited.insert(ps.cur.model.name());
+  ps.ranking = std::move(best.after);
+}
+
 }  // namespace
 
 Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& result) {
-  const Engine& eng = rc.eng;
-  const AnalyzeOptions& options = rc.options;
   result.steps.push_back(stepOf(start, result.noise_floor));
-  std::set<std::string> visited{start.model.name(), canonicalModel(effectNames(start.model)).name()};
-  Fitted cur = start;
-  std::vector<CandidateResult> ranking = result.candidates;
-  std::string just_added;
-  // The rule's verdict on each removal, by the (canonical) model the effect was removed from.
-  std::map<std::string, CandidateResult> removed_from;
-  for (int step = 0; step < options.max_explain_steps; ++step) {
-    // Backward: the effect of the model the rule supports least, if it does not support it. A
-    // removal never raises the held-out error, except of an effect refused on a constraint
-    // (identifiability or physics): a model the rule cannot stand behind is left even at a cost.
-    std::optional<Removal> drop;
-    for (const auto& name : effectNames(cur.model)) {
-      // The effect just added was judged against exactly the model without it: skip the repeat.
-      if (isPaperEffect(name) || name == just_added) continue;
-      std::vector<std::string> rest = effectNames(cur.model);
-      rest.erase(std::remove(rest.begin(), rest.end(), name), rest.end());
-      Model smaller = canonicalModel(rest);
-      if (smaller.numParams() == cur.model.numParams() || visited.count(smaller.name()) != 0) continue;
-      say(options, "explain: would " + name + " be taken again against " + smaller.name() + "?");
-      Fitted small = fitFrom(eng, smaller, cur);
-      CandidateResult c = judgeNested(rc, small, cur, name);
-      if (c.verdict == Verdict::kRecommended) continue;
-      if (c.verdict != Verdict::kRefused && small.sol.sse_heldout > cur.sol.sse_heldout) continue;
-      const double rows = 6.0 * std::max(1, cur.sol.n_heldout);
-      const double bic = rows * std::log(std::max(1e-300, small.sol.sse_heldout / cur.sol.sse_heldout)) -
-                         std::max(0, c.added_params) * std::log(rows);
-      Removal cand{std::move(small), std::move(c), bic};
-      if (!drop || removeBefore(cand, *drop)) drop = std::move(cand);
-    }
-    if (drop) {
-      say(options, "explain step " + std::to_string(step + 1) + ": removing " + drop->judged.effect + " (" +
-                       drop->judged.reason + ")");
-      removed_from[canonicalModel(effectNames(cur.model)).name()] = drop->judged;
-      cur = std::move(drop->small);
-      just_added.clear();
-      ExplainStep st = stepOf(cur, result.noise_floor);
-      st.removed = drop->judged.effect;
-      st.p_value = drop->judged.p_value;
-      st.family_p = drop->judged.family_p;
-      result.steps.push_back(st);
-      visited.insert(cur.model.name());
-      ranking = rankCandidates(rc, cur);
+  PathState ps{start, result.candidates, {}, {start.model.name(), canonicalModel(effectNames(start.model)).name()}, {}};
+  for (int step = 0; step < rc.options.max_explain_steps; ++step) {
+    if (std::optional<Removal> drop = backwardElimination(rc, ps)) {
+      takeRemoval(rc, step, *drop, ps, result);
       continue;
     }
-    // Forward: among the best recommended candidates whose full fit the rule still recommends,
-    // the one whose best continuation (itself, or itself plus the best recommended effect after
-    // it) has the lowest held-out BIC: one step of look-ahead keeps a flexible effect (crosstalk,
-    // a harmonic) from taking the place of the physical one it imitates.
-    std::optional<Lookahead> best;
     std::vector<CandidateResult> rejected;  // recommended when screened, not on the full fit
-    int tried = 0;
-    // Only candidates that come close to the best one's screened gain can win by looking ahead:
-    // their log held-out ratio at least kLookaheadReach of the best one's.
-    double best_log_ratio = 0.0;
-    int first_params = 0;
-    for (const auto& cand : ranking) {
-      if (cand.significant) best_log_ratio = std::min(best_log_ratio, std::log(std::max(1e-300, 1.0 - cand.relative_reduction)));
-    }
-    for (const auto& cand : ranking) {
-      if (!cand.significant) break;  // recommended ones come first
-      if (tried >= kLookaheadWidth) break;
-      // ... and that are leaner than the first one taken into account (look-ahead exists to let a
-      // lean physical effect beat a flexible one that imitates it).
-      if (tried > 0 && (std::log(std::max(1e-300, 1.0 - cand.relative_reduction)) > kLookaheadReach * best_log_ratio ||
-                        cand.added_params >= first_params)) {
-        continue;
-      }
-      std::vector<std::string> names = effectNames(cur.model);
-      names.push_back(effects::createEffect(cand.effect)->name());
-      Model next = canonicalModel(names);
-      if (visited.count(next.name()) != 0) {
-        // Recommended against this model when screened, but the path removed it from exactly
-        // next earlier: its full fit is not supported there. Not silently: the verdict says so.
-        CandidateResult earlier;
-        earlier.effect = cand.effect;
-        earlier.verdict = Verdict::kNoHeldOutGain;
-        const auto it = removed_from.find(next.name());
-        if (it != removed_from.end()) earlier = it->second;
-        earlier.reason = "removed earlier: its full fit is not supported" +
-                         (it != removed_from.end() && !it->second.reason.empty() ? " (" + it->second.reason + ")"
-                                                                                   : std::string());
-        if (earlier.verdict == Verdict::kRecommended) earlier.verdict = Verdict::kNoHeldOutGain;
-        rejected.push_back(std::move(earlier));
-        continue;
-      }
-      Fitted rich = fitFrom(eng, next, cur);
-      CandidateResult full = judgeNested(rc, cur, rich, cand.effect);
-      if (full.verdict != Verdict::kRecommended || !(rich.sol.sse_heldout < cur.sol.sse_heldout)) {
-        say(options, "explain: " + cand.effect + " not taken after its full fit: " + full.reason);
-        rejected.push_back(std::move(full));
-        continue;
-      }
-      if (tried == 0) first_params = cand.added_params;
-      ++tried;  // the look-ahead width counts the candidates that pass their full fit
-      Lookahead la{std::move(rich), std::move(full), {}, 0.0};
-      la.after = rankCandidates(rc, la.fit);
-      la.score = lookaheadScore(cur, la);
-      if (!best || la.score < best->score) best = std::move(la);
-    }
+    std::optional<Lookahead> best = forwardWithLookahead(rc, ps, rejected);
     if (!best) {
-      // The ranking then says what the full fit found (the verdict the path acted on).
-      for (auto& r : rejected) {
-        for (auto& c : ranking) {
-          if (c.effect != r.effect) continue;
-          c.verdict = r.verdict == Verdict::kRecommended ? Verdict::kNoHeldOutGain : r.verdict;
-          c.family_p = r.family_p;
-          c.reason = r.reason.empty() ? std::string("the held-out error does not fall (on its full fit)")
-                     : r.reason.rfind("removed earlier", 0) == 0 ? r.reason
-                                                                  : r.reason + " (on its full fit)";
-          c.significant = false;
-          c.confounded = c.verdict == Verdict::kRefused;
-          c.confound = c.confounded ? c.reason : "";
-          c.separating_motion = c.confounded ? r.separating_motion : "";
-        }
-      }
+      markRejected(rejected, ps.ranking);
       break;
     }
-    say(options, "explain step " + std::to_string(step + 1) + ": adding " + best->judged.effect +
-                     " (held-out residual -" + fmt(100.0 * best->judged.relative_reduction, 3) + "%)");
-    cur = std::move(best->fit);
-    just_added = effects::createEffect(best->judged.effect)->name();
-    ExplainStep st = stepOf(cur, result.noise_floor);
-    st.added = best->judged.effect;
-    st.p_value = best->judged.p_value;
-    st.family_p = best->judged.family_p;
-    result.steps.push_back(st);
-    visited.insert(cur.model.name());
-    ranking = std::move(best->after);
+    takeAddition(rc, step, *best, ps, result);
   }
+  Fitted cur = std::move(ps.cur);
   // The same set of effects always ends under the same name (and column order).
   Model canon = canonicalModel(effectNames(cur.model));
   if (canon.name() != cur.model.name()) {
-    auto [lin, sol] = eng.fitFully(canon, cur.lin);
+    auto [lin, sol] = rc.eng.fitFully(canon, cur.lin);
     cur = Fitted{std::move(canon), lin, sol};
     result.steps.back().model = cur.model.name();
   }
-  result.final_report = makeReport(eng, cur.model, cur.lin, cur.sol);
+  result.final_report = makeReport(rc.eng, cur.model, cur.lin, cur.sol);
   result.final_residual = cur.sol.heldout_residual;
-  result.final_candidates = ranking;
+  result.final_candidates = std::move(ps.ranking);
   return cur;
 }
 
