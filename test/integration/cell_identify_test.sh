@@ -43,19 +43,10 @@ case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|belo
   *) echo "unknown case '$CASE'"; exit 2 ;; esac
 
 # ---- re-enter in the private namespaces
-if [ -z "${FTID_CELL_TEST_IN_NS:-}" ]; then
-  # As root keep the real capabilities (SCHED_FIFO for the motion loop and ftidd: on a loaded
-  # host the motion runner rightly aborts on lost packages without it); otherwise a user namespace.
-  if [ "$(id -u)" -eq 0 ]; then flags=-n; else flags=-rn; fi
-  [ "$CASE" = disk_full ] && flags=${flags}m
-  if ! unshare $flags true 2>/dev/null; then
-    echo "SKIP: cannot create private namespaces (unshare $flags) here"; exit $SKIP
-  fi
-  FTID_CELL_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
-fi
+. "$SRC/test/integration/cell_lib.sh"
+cell_reexec_in_netns "$([ "$CASE" = disk_full ] && echo m)" "$@"
 
 fail() { echo "FAIL [$CASE]: $*"; FAILED=1; }
-. "$SRC/test/integration/cell_lib.sh"
 cell_extra_cleanup() { [ "$CASE" = disk_full ] && umount "$WORK/pdir" 2>/dev/null; }
 cell_begin cell-test
 

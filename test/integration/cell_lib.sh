@@ -1,11 +1,28 @@
 # Shared set-up of the integration tests that run the cell's processes inside a private network
-# namespace (cell_identify, ftidd_commands, link_loss, robot_late). Sourced by bash after the
-# script has re-executed itself in the namespace and defined SKIP and fail().
+# namespace (cell_identify, ftidd_commands, link_loss, robot_late, payload_change). Sourced by bash
+# first (cell_reexec_in_netns), then used inside the namespace after defining SKIP and fail().
 #
 # cell_begin NAME: WORK (a fresh /tmp/ftid-NAME.XXXXXX), FAILED=0, PIDS (background processes the
 # script starts; append with PIDS="$PIDS $!"), loopback up with the multicast route LCM needs.
 # On exit every process in PIDS gets SIGTERM and is waited for, then the optional function
 # cell_extra_cleanup runs, and WORK is removed if nothing failed (kept and named otherwise).
+
+# cell_reexec_in_netns EXTRA ARGS...: unless already inside, re-executes the calling script ($0
+# ARGS...) in a new network namespace, plus the EXTRA unshare flags (e.g. m for a mount namespace).
+# As root the real capabilities are kept (SCHED_FIFO for the motion loop and ftidd: on a loaded
+# host the motion runner rightly aborts on lost packages without it); otherwise a user namespace.
+# Exits 77 (SKIP) where such namespaces cannot be created.
+cell_reexec_in_netns() {
+  local extra=$1 flags
+  shift
+  [ -n "${FTID_CELL_TEST_IN_NS:-}" ] && return 0
+  if [ "$(id -u)" -eq 0 ]; then flags=-n; else flags=-rn; fi
+  flags=$flags$extra
+  if ! unshare $flags true 2>/dev/null; then
+    echo "SKIP: cannot create private namespaces (unshare $flags) here"; exit 77
+  fi
+  FTID_CELL_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
+}
 
 cell_cleanup() {
   for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done

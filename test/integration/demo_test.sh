@@ -24,9 +24,17 @@ if ! timeout 600 "$ftid" demo --workdir "$work/demo" > "$out" 2>&1; then
   exit 1
 fi
 fail() { cat "$out"; echo "FAIL: $*"; exit 1; }
-# The lines of the story, in order (grep -n gives each one's line number).
-last=0
-for want in \
+# story LINE...: each line is in $out, in this order (grep -n gives each one's line number).
+story() {
+  local last=0 n want
+  for want in "$@"; do
+    n=$(grep -nF -- "$want" "$out" | head -1 | cut -d: -f1 || true)
+    [ -n "$n" ] || fail "the demo's output lacks '$want'"
+    [ "$n" -gt "$last" ] || fail "'$want' (line $n) comes before the previous step (line $last)"
+    last=$n
+  done
+}
+story \
     "hidden effect: temperature_drift" \
     "ftid --identify --yes    (the default: model paper+rigid_body, the shipped 3 s trajectory)" \
     "expected accuracy (1 sigma, predicted by the design for model paper+rigid_body)" \
@@ -35,12 +43,7 @@ for want in \
     "names an effect paper+rigid_body lacks: temperature_drift (hidden: temperature_drift)" \
     "ftid --identify --model paper+rigid_body+temperature_drift --yes" \
     "The error falls" \
-    "demo finished"; do
-  n=$(grep -nF -- "$want" "$out" | head -1 | cut -d: -f1 || true)
-  [ -n "$n" ] || fail "the demo's output lacks '$want'"
-  [ "$n" -gt "$last" ] || fail "'$want' (line $n) comes before the previous step (line $last)"
-  last=$n
-done
+    "demo finished"
 # The identified weight is the simulator's within 3 standard errors plus 0.02 N.
 grep -E "^ +weight +[0-9.]+ \+- [0-9.]+ +N +\(simulator: 8.8620\)" "$out" |
   awk '{ d = $2 - 8.862; if (d < 0) d = -d; exit !(d <= 3 * $4 + 0.02) }' ||
@@ -60,19 +63,13 @@ if ! timeout 300 "$ftid" demo --scenario payload-change --workdir "$work/demo2" 
   exit 1
 fi
 out="$out2"
-last=0
-for want in \
+story \
     "identified (paper+rigid_body) beside the simulator's truth" \
     "the gripper takes a 0.6 kg object" \
     "ftidd flagged the change on the wrench (fault_bits 131072)" \
     "payload monitor: payload_change" \
     "reidentified and written to" \
-    "moving, re-identified:"; do
-  n=$(grep -nF -- "$want" "$out" | head -1 | cut -d: -f1 || true)
-  [ -n "$n" ] || fail "the payload-change demo's output lacks '$want'"
-  [ "$n" -gt "$last" ] || fail "'$want' (line $n) comes before the previous step (line $last)"
-  last=$n
-done
+    "moving, re-identified:"
 grep -q "a false alarm" "$out" && fail "the monitor flagged the wrench before the grasp"
 # The monitor's and the re-identification's added mass are the grasped 0.6 kg within 10 %.
 grep -oE "delta_mass [-+][0-9.]+" "$out" | head -1 | awk '{ d = $2 - 0.6; if (d < 0) d = -d; exit !(d <= 0.06) }' ||

@@ -33,17 +33,13 @@ FTIDD=${2:?}
 SRC=${3:?}
 SKIP=77
 
-if [ -z "${FTID_LINK_TEST_IN_NS:-}" ]; then
-  if [ "$(id -u)" -eq 0 ]; then flags=-n; else flags=-rn; fi
-  unshare $flags true 2>/dev/null || { echo "SKIP: cannot create a network namespace"; exit $SKIP; }
-  FTID_LINK_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
-fi
+. "$SRC/test/integration/cell_lib.sh"
+cell_reexec_in_netns "" "$@"
 for tool in python3 nsenter lcm-gen; do
   command -v $tool >/dev/null || { echo "SKIP: $tool not found"; exit $SKIP; }
 done
 
 fail() { echo "FAIL: $*"; FAILED=1; }
-. "$SRC/test/integration/cell_lib.sh"
 cell_begin link-test
 
 # Namespace B: the robot controller.

@@ -28,15 +28,11 @@ FTIDD=${2:?}
 SRC=${3:?}
 SKIP=77
 
-if [ -z "${FTID_PC_TEST_IN_NS:-}" ]; then
-  if [ "$(id -u)" -eq 0 ]; then flags=-n; else flags=-rn; fi
-  unshare $flags true 2>/dev/null || { echo "SKIP: cannot create a network namespace"; exit $SKIP; }
-  FTID_PC_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
-fi
+. "$SRC/test/integration/cell_lib.sh"
+cell_reexec_in_netns "" "$@"
 command -v python3 >/dev/null || { echo "SKIP: python3 not found"; exit $SKIP; }
 
 fail() { echo "FAIL: $*"; FAILED=1; }
-. "$SRC/test/integration/cell_lib.sh"
 cell_begin payload-change
 
 head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' > "$WORK/command.key"
