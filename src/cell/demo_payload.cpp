@@ -76,7 +76,8 @@ struct GraspFigures {
   double rms_before = -1.0;  ///< |contact force| RMS while moving, before the grasp [N]
   double rms_with = -1.0;    ///< the same with the object, before re-identification
   double flagged_after_s = -1.0;  ///< first kFlagPayloadChanged after the grasp [s]
-  bool flagged_before = false;    ///< a monitor flag before the grasp (a false alarm)
+  bool flagged_before = false;    ///< a payload change declared before the grasp (a false alarm;
+                                  ///< `suspect` alone is not a claim of a change)
   daemon::CommandAck ack;
 };
 
@@ -97,7 +98,7 @@ GraspFigures graspWhileMoving(DemoCell& c, lcm::LCM& lc) {
   collectFor(lc, 15.0, [&] { return !first->alive(); });
   g.rms_before = contactRms(col.recs, 0, grasp_at);
   for (std::size_t i = 0; i < grasp_at; ++i) {
-    if ((col.recs[i].fault_bits & (kFlagPayloadChanged | kFlagPayloadSuspect)) != 0) g.flagged_before = true;
+    if ((col.recs[i].fault_bits & kFlagPayloadChanged) != 0) g.flagged_before = true;
   }
   for (std::size_t i = grasp_at; i < col.recs.size(); ++i) {
     if ((col.recs[i].fault_bits & kFlagPayloadChanged) != 0) {
@@ -153,7 +154,7 @@ int runPayloadChangeDemo(const DemoOptions& opt) {
   const GraspFigures g = graspWhileMoving(c, lc);
   say("   moving, tool as identified: |contact force| RMS " + f3(g.rms_before) + " N (" +
       noiseOnlyText(c.truth.cell) + ")");
-  if (g.flagged_before) say("   the monitor flagged the wrench before the grasp (a false alarm)");
+  if (g.flagged_before) say("   the monitor declared a payload change before the grasp (a false alarm)");
   say("   moving, with the object:    |contact force| RMS " + f3(g.rms_with) +
       " N: every subscriber would take the object's weight for contact");
   const std::string event = firstLineWith(c.daemon->log(), "payload monitor: payload_change");

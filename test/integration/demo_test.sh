@@ -70,7 +70,7 @@ story \
     "payload monitor: payload_change" \
     "reidentified and written to" \
     "moving, re-identified:"
-grep -q "a false alarm" "$out" && fail "the monitor flagged the wrench before the grasp"
+grep -q "a false alarm" "$out" && fail "the monitor declared a payload change before the grasp"
 # The monitor's and the re-identification's added mass are the grasped 0.6 kg within 10 %.
 grep -oE "delta_mass [-+][0-9.]+" "$out" | head -1 | awk '{ d = $2 - 0.6; if (d < 0) d = -d; exit !(d <= 0.06) }' ||
   fail "the monitor's delta_mass is not 0.6 kg within 10 %"
