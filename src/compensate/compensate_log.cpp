@@ -26,6 +26,9 @@ CompensateSummary compensateLogFile(const CompensateRequest& request, const para
   samples::ContextOptions context = request.context;
   context.time_origin_unix_s = set.time_origin_unix_s;
   const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, context);
+  if (const std::string miss = model.cannotFit(contexts.samples); !miss.empty()) {
+    throw DataError(request.log_path + ": cannot be compensated with " + request.params_path + ": " + miss);
+  }
   Compensator comp(model, theta, params::nonlinearFor(model, set, request.params_path));
 
   CompensateSummary summary;

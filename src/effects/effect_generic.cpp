@@ -45,6 +45,7 @@ class HarmonicEffect final : public Effect {
     return p;
   }
   std::uint32_t signals() const override { return source_.signals(); }
+  std::vector<std::string> signalNames() const override { return {source_.name()}; }
   void bind(const ParamIndex& index) override {
     cols_.clear();
     for (const auto& info : params()) cols_.push_back(requireColumn(index, info.name, name()));
@@ -95,6 +96,7 @@ class PolyEffect final : public Effect {
     return p;
   }
   std::uint32_t signals() const override { return source_.signals(); }
+  std::vector<std::string> signalNames() const override { return {source_.name()}; }
   void bind(const ParamIndex& index) override {
     cols_.clear();
     for (const auto& info : params()) cols_.push_back(requireColumn(index, info.name, name()));

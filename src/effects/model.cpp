@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "ftid/common/error.hpp"
+#include "ftid/effects/signal_source.hpp"
 
 namespace ftid::effects {
 
@@ -133,6 +134,48 @@ std::uint32_t Model::signals() const {
   std::uint32_t s = kSignalNone;
   for (const auto& e : effects_) s |= e->signals();
   return s;
+}
+
+std::string Model::missingSignal(const SampleContext& ctx) const {
+  for (const auto& e : effects_) {
+    if ((e->signals() & kSignalTemperature) != 0 && !ctx.has_temp) {
+      return "effect " + e->name() + " needs the temp column, which the log does not have";
+    }
+    for (const auto& name : e->signalNames()) {
+      const SignalSource src = SignalSource::parse(name);
+      if (src.available(ctx)) continue;
+      if (!ctx.has_joints && (src.isAngle() || name.rfind("qd", 0) == 0)) {
+        return "effect " + e->name() + " needs the joint signal '" + name +
+               "': a pose log gives the sensor pose and has no joint angles";
+      }
+      return "effect " + e->name() + " needs the signal '" + name + "', which the log does not have";
+    }
+  }
+  return "";
+}
+
+std::string Model::cannotFit(const std::vector<SampleContext>& ctx) const {
+  if (ctx.empty()) return "";
+  std::string miss = missingSignal(ctx.front());
+  if (!miss.empty()) return miss;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Y(6, numParams());
+  for (std::size_t i = 0; i < ctx.size(); ++i) {
+    computeRegressor(ctx[i], Y);
+    if (Y.allFinite()) continue;
+    Eigen::Index row = 0;
+    Eigen::Index col = 0;
+    (!Y.array().isFinite()).cast<int>().maxCoeff(&row, &col);
+    const std::string param = index_.names()[static_cast<std::size_t>(col)];
+    std::string owner = "the model";
+    for (const auto& e : effects_) {
+      for (const auto& p : e->params()) {
+        if (p.name == param) owner = "effect " + e->name();
+      }
+    }
+    return owner + " is not defined at t = " + std::to_string(ctx[i].t) + " s (sample " + std::to_string(i + 1) +
+           ", parameter " + param + " on " + kWrenchAxisNames[row] + ")";
+  }
+  return "";
 }
 
 bool Model::contains(const std::string& effect_name) const {

@@ -12,6 +12,7 @@
 
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
+#include "ftid/common/shell_quote.hpp"
 #include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/json_text.hpp"
@@ -94,24 +95,9 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
   ParameterSet set;
   if (!request.model.empty()) {
     const Model model = Model::fromName(request.model);
-    // Pose logs have no joint angles: a model that reads them cannot be fitted (say which effect).
-    for (const auto& e : model.effectList()) {
-      const std::string n = e->name();
-      const auto open = n.find('(');
-      if (open == std::string::npos || samples.empty()) continue;
-      const auto end = n.find_first_of(",)", open);
-      try {
-        const auto src = effects::SignalSource::parse(n.substr(open + 1, end - open - 1));
-        if (!src.available(samples.front())) {
-          throw IdentificationError("effect " + n + " needs the signal '" + src.name() +
-                                    "', which the log does not have" +
-                                    (samples.front().has_joints ? std::string()
-                                                                         : " (a pose log has no joint angles)"));
-        }
-      } catch (const ConfigError&) {
-        // not a signal argument (e.g. temperature_drift(20))
-      }
-    }
+    // A model that reads a signal the log lacks (a pose log has no joint angles) cannot be fitted.
+    const std::string miss = model.cannotFit(samples);
+    if (!miss.empty()) throw IdentificationError(miss);
     FitOptions fo;
     fo.max_delay_s = request.max_delay_s;
     if (imu && model.estimatesTilt()) {
@@ -219,7 +205,7 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
     const std::string model = request.model.empty() ? out.set.model : request.model;
     out.check = checkFit(
         robust.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request, nullptr); },
-        "ftid analyze " + request.log_path + " --model " + model + " --explain", request.noise_std);
+        "ftid analyze " + shellQuote(request.log_path) + " --model " + shellQuote(model) + " --explain", request.noise_std);
   }
   if (out.glitches > 0) {
     out.check.glitches += out.glitches;

@@ -118,28 +118,7 @@ std::vector<Refusal> refusalsOf(const FitView& f) {
 
 /// Checks the signals a model needs against the data; "" if fine, else the reason.
 std::string missingSignal(const Model& model, const std::vector<SampleContext>& ctx) {
-  const std::uint32_t s = model.signals();
-  if ((s & effects::kSignalTemperature) && !ctx.front().has_temp) return "the log has no temp column";
-  for (const auto& e : model.effectList()) {
-    const std::string n = e->name();
-    const auto open = n.find('(');
-    if (open == std::string::npos) continue;
-    const auto comma = n.find(',', open);
-    const std::string sig = n.substr(open + 1, (comma == std::string::npos ? n.size() - 1 : comma) - open - 1);
-    if (sig.empty()) continue;
-    try {
-      const auto src = effects::SignalSource::parse(sig);
-      if (!src.available(ctx.front())) {
-        if (!ctx.front().has_joints && (sig.rfind("q", 0) == 0)) {
-          return "needs the joint angle signal '" + sig + "'; the log gives the sensor pose, not joint angles";
-        }
-        return "the log has no signal '" + sig + "'";
-      }
-    } catch (const ConfigError&) {
-      // Effect arguments that are not signals (temperature_drift(20)) are the effect's business.
-    }
-  }
-  return "";
+  return model.cannotFit(ctx);
 }
 
 namespace {
@@ -303,7 +282,7 @@ std::vector<std::string> candidateMenu(const AnalyzeOptions& options) {
   if (!options.candidates.empty()) return options.candidates;
   std::vector<std::string> menu;
   for (const auto& e : effects::registeredEffects()) {
-    if ((e.base_name == "harmonic" || e.base_name == "poly")) continue;
+    if (e.base_name == "harmonic" || e.base_name == "poly" || e.base_name == "expr") continue;  // need arguments
     menu.push_back(e.base_name);
   }
   for (const auto& g : defaultGenericMenu()) menu.push_back(g);

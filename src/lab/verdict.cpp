@@ -251,15 +251,4 @@ double wrapAngle(double rad) {
   return w;
 }
 
-std::string shellQuote(const std::string& word) {
-  const bool safe = !word.empty() && std::all_of(word.begin(), word.end(), [](char ch) {
-    const auto c = static_cast<unsigned char>(ch);
-    return std::isalnum(c) != 0 || std::string("+-_.,/=:@%").find(ch) != std::string::npos;
-  });
-  if (safe) return word;
-  std::string out = "'";
-  for (char ch : word) out += ch == '\'' ? std::string("'\\''") : std::string(1, ch);
-  return out + "'";
-}
-
 }  // namespace ftid::lab

@@ -100,6 +100,9 @@ class Effect {
   virtual std::vector<std::string> requires() const { return {}; }
   /// Bitmask of Signal values this effect reads.
   virtual std::uint32_t signals() const { return kSignalNone; }
+  /// Names of the scalar signals this effect reads (ftid/effects/signal_source.hpp), e.g. {"q4"}
+  /// for harmonic(q4,2); Model::missingSignal checks that a log carries each.
+  virtual std::vector<std::string> signalNames() const { return {}; }
   /// True for the tilt effect: the fitter estimates U, V when the model contains it.
   virtual bool estimatesTilt() const { return false; }
   /// True for `mounting`: the fitter estimates the sensor's mounting rotation (effects/nonlinear.hpp).

@@ -37,6 +37,12 @@ class Model {
   bool estimatesMounting() const;
   bool estimatesDelay() const;
   std::uint32_t signals() const;  ///< union of the effects' signals
+  /// Why a sample like `ctx` cannot feed this model: "" if it carries every signal the effects read
+  /// (Effect::signalNames, the temperature), else one line naming the effect and the signal.
+  std::string missingSignal(const SampleContext& ctx) const;
+  /// Why `ctx` cannot feed this model: missingSignal of the first sample, or the first sample at
+  /// which an effect's regressor is not finite (an expr dividing by zero there); "" if none.
+  std::string cannotFit(const std::vector<SampleContext>& ctx) const;
   bool contains(const std::string& effect_name) const;
 
   /// Y (6 x numParams) for one sample; Y is overwritten. Real-time safe if Y is preallocated.

@@ -23,6 +23,7 @@
 
 #include <Eigen/Dense>
 
+#include "ftid/common/shell_quote.hpp"
 #include "ftid/effects/model.hpp"
 
 namespace ftid::lab {
@@ -86,8 +87,6 @@ std::vector<Refusal> physicsRefusals(const FitView& f);
 /// Angle wrapped to (-pi, pi].
 double wrapAngle(double rad);
 
-/// One word for the shell: returned unchanged when it holds only characters no POSIX shell treats
-/// specially (letters, digits, + - _ . , / = : @ %), else in single quotes (a ' inside as '\'').
-std::string shellQuote(const std::string& word);
+using ftid::shellQuote;  ///< ftid/common/shell_quote.hpp
 
 }  // namespace ftid::lab

@@ -6,6 +6,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
+#include "ftid/effects/expression.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/effects/rigid_body.hpp"
@@ -397,9 +398,125 @@ TEST(GenericEffects, BadArgumentsGiveClearErrors) {
   }
 }
 
+TEST(UserExpression, MatchesTheSameArithmeticWrittenInCpp) {
+  Rng rng;
+  const std::vector<std::string> extra_names = {"grip", "vacuum"};
+  const auto e1 = effects::Expression::parse("grip*qd6 + 2*sin(q4)^2 - wz/3");
+  const auto e2 = effects::Expression::parse(" -gz^2 + 2^3^2 - exp(-t/100)*abs(alx) + sqrt(temp) * tanh(vacuum) ");
+  const auto e3 = effects::Expression::parse("(ax - ay) * (az + 1.5e-1) / 4 + pi*sign(q1) - cos(q2)*tan(0.3)");
+  EXPECT_EQ(e1.text(), "grip*qd6+2*sin(q4)^2-wz/3");
+  ASSERT_EQ(e1.signals().size(), 4u);
+  EXPECT_EQ(e1.signals()[0].name(), "grip");
+  for (int trial = 0; trial < 50; ++trial) {
+    SampleContext c = randomContext(rng);
+    const double extra[2] = {rng.uni(0.0, 1.0), rng.uni(-2.0, 2.0)};
+    c.extra = extra;
+    c.extra_names = &extra_names;
+    const double s4 = std::sin(c.q(3));
+    EXPECT_NEAR(e1.evaluate(c), extra[0] * c.qd(5) + 2.0 * s4 * s4 - c.w_S.z() / 3.0, 1e-12);
+    EXPECT_NEAR(e2.evaluate(c),
+                -(c.g_S.z() * c.g_S.z()) + 512.0 - std::exp(-c.t_model / 100.0) * std::abs(c.alpha_S.x()) +
+                    std::sqrt(c.temp_degC) * std::tanh(extra[1]),
+                1e-9);
+    const double sgn = c.q(0) > 0.0 ? 1.0 : -1.0;
+    EXPECT_NEAR(e3.evaluate(c),
+                (c.a_S.x() - c.a_S.y()) * (c.a_S.z() + 0.15) / 4.0 + M_PI * sgn - std::cos(c.q(1)) * std::tan(0.3),
+                1e-12);
+  }
+}
+
+TEST(UserExpression, UndefinedArithmeticIsNaNNotANumberThatLooksValid) {
+  SampleContext c;
+  const std::vector<std::string> names = {"grip"};
+  const double zero[1] = {0.0};
+  c.extra = zero;
+  c.extra_names = &names;
+  EXPECT_TRUE(std::isnan(effects::Expression::parse("1/grip").evaluate(c)));
+  EXPECT_TRUE(std::isnan(effects::Expression::parse("log(grip)").evaluate(c)));
+  EXPECT_TRUE(std::isnan(effects::Expression::parse("sqrt(grip-1)").evaluate(c)));
+  EXPECT_TRUE(std::isnan(effects::Expression::parse("exp(1000)").evaluate(c)));
+  EXPECT_TRUE(std::isnan(effects::Expression::parse("humidity*2").evaluate(c)));  // no such column
+  EXPECT_EQ(effects::Expression::parse("grip^0").evaluate(c), 1.0);
+}
+
+TEST(UserExpression, ErrorsNameTheExpressionAndThePosition) {
+  const auto message = [](const std::string& text) {
+    try {
+      effects::Expression::parse(text);
+    } catch (const ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_NE(message("grip*").find("at character 6"), std::string::npos) << message("grip*");
+  EXPECT_NE(message("sinh(q4)").find("unknown function 'sinh'"), std::string::npos);
+  EXPECT_NE(message("(q4+1").find("misses a ')'"), std::string::npos);
+  EXPECT_NE(message("q4 q5").find("unexpected 'q'"), std::string::npos);
+  EXPECT_NE(message("").find("is empty"), std::string::npos);
+  EXPECT_NE(message("q4 # 2").find("unexpected '#'"), std::string::npos);
+  EXPECT_NE(message(std::string(200, '(') + "1" + std::string(200, ')')).find("nests too deeply"), std::string::npos);
+  std::string long_sum = "1";
+  for (int k = 0; k < 100; ++k) long_sum += "+1";
+  EXPECT_NE(message(long_sum).find("too long"), std::string::npos);
+  std::string deep = "1";
+  for (int k = 0; k < 40; ++k) deep = "1+(" + deep + ")";
+  EXPECT_NE(message(deep).find("intermediate values"), std::string::npos);
+}
+
+TEST(UserEffect, OneCoefficientPerNamedAxisTimesTheExpression) {
+  Rng rng;
+  const Model model = Model::fromName("paper+expr(fz/tx: grip*qd6)+expr(fz: grip+qd6)");
+  EXPECT_EQ(model.name(), "paper+expr(fz/tx: grip*qd6)+expr(fz: grip+qd6)");
+  EXPECT_EQ(Model::fromName(model.name()).name(), model.name());  // the canonical name reads back
+  const int c_fz = model.paramIndex().column("expr_fz_grip_times_qd6");
+  const int c_tx = model.paramIndex().column("expr_tx_grip_times_qd6");
+  const int c_sum = model.paramIndex().column("expr_fz_grip_plus_qd6");
+  ASSERT_GE(c_fz, 0);
+  ASSERT_GE(c_tx, 0);
+  ASSERT_GE(c_sum, 0);
+  const Model paper = Model::fromName("paper");
+  const std::vector<std::string> names = {"grip"};
+  for (int trial = 0; trial < 20; ++trial) {
+    SampleContext c = randomContext(rng);
+    const double extra[1] = {rng.uni(0.0, 1.0)};
+    c.extra = extra;
+    c.extra_names = &names;
+    Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.numParams());
+    theta(c_fz) = 1.5;
+    theta(c_tx) = -0.2;
+    theta(c_sum) = 0.7;
+    Vec6 expected = Vec6::Zero();
+    expected(2) = 1.5 * extra[0] * c.qd(5) + 0.7 * (extra[0] + c.qd(5));
+    expected(3) = -0.2 * extra[0] * c.qd(5);
+    EXPECT_LT((evaluate(model, c, theta) - expected).cwiseAbs().maxCoeff(), 1e-12);
+  }
+  EXPECT_THROW(Model::fromName("paper+expr(fz grip)"), ConfigError);
+  EXPECT_THROW(Model::fromName("paper+expr(fw: grip)"), ConfigError);
+  EXPECT_THROW(Model::fromName("paper+expr(fz/fz: grip)"), ConfigError);
+}
+
+TEST(UserEffect, ALogWithoutTheSignalOrWhereItIsUndefinedIsRefusedByName) {
+  const Model model = Model::fromName("paper+expr(fz: log(grip))");
+  std::vector<SampleContext> ctx(3);
+  EXPECT_NE(model.cannotFit(ctx).find("needs the signal 'grip'"), std::string::npos) << model.cannotFit(ctx);
+  const std::vector<std::string> names = {"grip"};
+  const double rows[3] = {0.5, 0.2, 0.0};
+  for (int i = 0; i < 3; ++i) {
+    ctx[static_cast<std::size_t>(i)].t = 0.1 * i;
+    ctx[static_cast<std::size_t>(i)].extra = &rows[i];
+    ctx[static_cast<std::size_t>(i)].extra_names = &names;
+  }
+  const std::string why = model.cannotFit(ctx);
+  EXPECT_NE(why.find("expr(fz: log(grip)) is not defined at t = 0.2"), std::string::npos) << why;
+  EXPECT_NE(why.find("sample 3"), std::string::npos) << why;
+  ctx.pop_back();
+  EXPECT_EQ(model.cannotFit(ctx), "");
+}
+
 TEST(LabEffects, AllComposeAndRegressorsDoNotAllocate) {
   const Model model = Model::fromName(
-      "paper+rigid_body+cable+temperature_drift+time_drift+sensor_delay+crosstalk+harmonic(q6,2)+poly(t,3)");
+      "paper+rigid_body+cable+temperature_drift+time_drift+sensor_delay+crosstalk+harmonic(q6,2)+poly(t,3)+"
+      "expr(fz/tx: sin(q6)*wz^2 - 3*gz/(1+qd2^2))");
   for (const char* e : {"rigid_body", "cable", "temperature_drift", "time_drift", "sensor_delay", "crosstalk"}) {
     EXPECT_TRUE(model.contains(e)) << e;
   }
