@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "ftid/common/error.hpp"
 #include "ftid/identify/robust_data.hpp"
@@ -95,6 +96,38 @@ TEST(Saturation, RepeatedReadingsAreNoFlatTop) {
   const Saturation s = findSaturation(satsim::readings(log));
   ASSERT_EQ(s.axes.size(), 1U);
   EXPECT_EQ(s.axes[0].count, clip.count);
+}
+
+TEST(Saturation, AHoldAtTheExtremeIsNoFlatTopButAClipIs) {
+  // fz = 10 sin(t) + noise, all axes noisy, except a hold of 0.5 s at fz's peak: noise-free (the
+  // six readings repeat: a held reading, counted once) or with the other axes still changing (fz
+  // alone flat at its extreme: a clip).
+  for (const bool others_change : {false, true}) {
+    std::vector<SampleContext> ctx(2000);
+    std::mt19937_64 rng(7);
+    std::normal_distribution<double> noise(0.0, 0.05);
+    for (std::size_t i = 0; i < ctx.size(); ++i) {
+      ctx[i].t = 0.01 * static_cast<double>(i);
+      for (int a = 0; a < 6; ++a) ctx[i].wrench_S(a) = noise(rng);
+      ctx[i].wrench_S(2) += 10.0 * std::sin(ctx[i].t);
+    }
+    const std::size_t peak = 157;  // t = pi / 2
+    for (std::size_t i = peak; i < peak + 50; ++i) {
+      if (others_change) {
+        ctx[i].wrench_S(2) = 10.2;
+      } else {
+        ctx[i].wrench_S = Wrench::Constant(0.01);
+        ctx[i].wrench_S(2) = 10.2;
+      }
+    }
+    const Saturation s = findSaturation(ctx);
+    if (others_change) {
+      ASSERT_EQ(s.axes.size(), 1U);
+      EXPECT_EQ(s.axes[0].count, 50);
+    } else {
+      EXPECT_TRUE(s.axes.empty());
+    }
+  }
 }
 
 TEST(Saturation, LeaveOutBadSamplesMapsTheGlitchesBack) {
