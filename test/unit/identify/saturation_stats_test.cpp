@@ -68,6 +68,10 @@ TEST(SaturationFalseAlarms, QuantisedSensor) {
                 },
                 [](logio::LogData& log) { satsim::quantise(log, 1.0 / 32, 1e-3); }),
             0);
+  // Coarser: 1/8 N and 1/200 Nm, the noise 0.4 and 2 counts (the documented limit of the rule:
+  // docs/analyze.md, "Saturation").
+  EXPECT_EQ(falseAlarms([](sim::CellSimConfig&) {}, [](logio::LogData& log) { satsim::quantise(log, 1.0 / 8, 5e-3); }),
+            0);
 }
 
 }  // namespace
