@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "../identify/saturation_sim.hpp"
 #include "ftid/identify/offline.hpp"
 #include "lab_sim.hpp"
@@ -131,6 +133,33 @@ TEST(LabSaturation, AnalyzeCountsTheClippedSamplesAndFitsWithoutThem) {
     EXPECT_GT(worstZ(inReport(without.report), inReport(clean.report), kParams), 5.0) << "seed " << seed;
     EXPECT_GT(without.report.residual_rms(2) / without.noise_floor(2), 1.5) << "seed " << seed;
   }
+}
+
+TEST(LabSaturation, TheReportsNameTheAxis) {
+  const ClippedRun run = clippedRun(11);
+  const lab::AnalysisResult r = analyzeRun(run.contexts, true);
+  ASSERT_EQ(r.saturation.size(), 1U);
+  const std::string line = identify::saturationLine(r.saturation[0]);
+  EXPECT_EQ(line.rfind("fz saturates at ", 0), 0U) << line;
+  EXPECT_NE(lab::formatText(r).find("saturation: " + line), std::string::npos);
+  EXPECT_NE(lab::renderHtml(r).find("<h2>Saturation</h2>"), std::string::npos);
+  const nlohmann::json j = nlohmann::json::parse(lab::formatJson(r));
+  ASSERT_EQ(j.at("saturation").size(), 1U);
+  EXPECT_EQ(j["saturation"][0]["axis"], "fz");
+  EXPECT_EQ(j["saturation"][0]["side"], "max");
+  EXPECT_EQ(j["saturation"][0]["count"], run.clip.count);
+  EXPECT_EQ(j["saturation"][0]["value"].get<double>(), run.clip.limit);
+  EXPECT_EQ(j["saturation"][0]["times"].size(), static_cast<std::size_t>(identify::kMaxSaturationTimes));
+  identify::IdentifyRequest req;
+  req.model = "paper";
+  const identify::CheckedIdentification id = identify::identifyContextsChecked(run.contexts, req, false);
+  const nlohmann::json ij = nlohmann::json::parse(identify::identificationJson(id.set, id.check));
+  EXPECT_EQ(ij.at("saturation").at(0).at("count"), run.clip.count);
+  EXPECT_NE(id.check.warnings.back().find("fz saturates at"), std::string::npos);
+  // No saturation: an empty list, no line.
+  const lab::AnalysisResult clean = analyzeRun(run.clean, true);
+  EXPECT_TRUE(nlohmann::json::parse(lab::formatJson(clean)).at("saturation").empty());
+  EXPECT_EQ(lab::formatText(clean).find("saturation:"), std::string::npos);
 }
 
 TEST(LabSaturation, AClippedQuantisedSensorIsCountedToo) {
