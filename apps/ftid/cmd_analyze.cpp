@@ -17,7 +17,7 @@ const char* const kUsage =
     "usage: ftid analyze LOG [--model M] [--validate LOG2] [--folds K] [--explain]\n"
     "                        [--candidates E1,E2,...] [--report report.html] [--json] [--robot URDF]\n"
     "                        [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
-    "                        [--wrench-log FILE] [--qdd-source diff|target]\n"
+    "                        [--wrench-log FILE] [--qdd-source diff|target] [--rated-range fz=L,..]\n"
     "\n"
     "Compares a model of the sensor reading with the measurements, shows where it fails and which\n"
     "physical effect is missing (docs/analyze.md; the effects: docs/effects.md).\n"
@@ -39,6 +39,11 @@ const char* const kUsage =
     "  --glitch-sigma K  leave out isolated samples beyond K robust standard deviations (default 6;\n"
     "                    0 = keep every sample)\n"
     "  --max-delay S     search range of sensor_delay's delay, +-S seconds (default 1)\n"
+    "  --rated-range fz=L,..\n"
+    "                    the sensor's rated range per axis [N, Nm] (fx fy fz tx ty tz; axes not named\n"
+    "                    have none): samples with |reading| >= L are saturated. Flat tops (an axis\n"
+    "                    piled up on its extreme value) are found without it. Saturated samples are\n"
+    "                    left out of every fit and reported (docs/analyze.md, \"Saturation\")\n"
     "  --alpha A         family-wise significance level of one ranking (default 0.001): an effect is\n"
     "                    recommended when min(1, m p) is below A, m = the menu's effects the data can\n"
     "                    show (one m per analysis, whatever --model), and the held-out error falls by\n"
@@ -112,6 +117,8 @@ int runAnalyze(const std::vector<std::string>& argv) {
   app.add_option("--glitch-sigma", req.options.glitch_threshold)->transform(cli::real({0.0, 1e6, false, true}));
   app.add_option("--max-delay", req.options.max_delay_s)->transform(cli::real({0.0, 10.0, true, false}));
   app.add_option("--report", report);
+  std::string rated_range;  // saturation (issue 22)
+  app.add_option("--rated-range", rated_range);
   app.add_flag("--json", json);
   app.add_option("--robot", req.robot_urdf);
   app.add_option("--wrench-frame", wrench_frame)->transform(cli::oneOf({"sensor", "base"}));
@@ -129,6 +136,13 @@ int runAnalyze(const std::vector<std::string>& argv) {
   if (!noise.empty()) {
     try {
       req.options.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
+    } catch (const ftid::ConfigError& e) {
+      throw ftid::cli::UsageError(e.what());
+    }
+  }
+  if (!rated_range.empty()) {  // saturation (issue 22)
+    try {
+      req.options.saturation.rated_range = ftid::identify::parseRatedRange(rated_range);
     } catch (const ftid::ConfigError& e) {
       throw ftid::cli::UsageError(e.what());
     }

@@ -20,7 +20,7 @@ const char* const kUsage =
     "usage: ftid identify --log FILE [--method static|dynamic] [--model M] [--robot URDF]\n"
     "                     [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--noise fx=S,..,tz=S]\n"
     "                     [--wrench-log FILE [--wrench-time-offset S]] [--qdd-source diff|target]\n"
-    "                     [--ur-payload M,CX,CY,CZ] [--imu on|off]\n"
+    "                     [--ur-payload M,CX,CY,CZ] [--imu on|off] [--rated-range fz=L,..]\n"
     "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
@@ -68,6 +68,11 @@ const char* const kUsage =
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
     "                    from the data: white, coloured or static pose set; docs/identification.md)\n"
+    "  --rated-range fz=L,..\n"
+    "                    the sensor's rated range per axis [N, Nm] (fx fy fz tx ty tz): samples with\n"
+    "                    |reading| >= L are saturated. Flat tops (an axis piled up on its extreme\n"
+    "                    value) are found without it. Saturated samples are left out of the fit and\n"
+    "                    named in a warning and in the JSON's \"saturation\" (docs/analyze.md)\n"
     "\n"
     "Prints each parameter with its standard error (autocorrelation-robust: it holds for white and\n"
     "for low-pass filtered noise, docs/identification.md \"Uncertainty\"), the residual RMS per axis\n"
@@ -116,6 +121,8 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_flag("--json", json);
   app.add_option("--imu", imu)->transform(ftid::cli::oneOf({"on", "off"}));
   app.add_option("--noise", noise);
+  std::string rated_range;  // saturation (issue 22)
+  app.add_option("--rated-range", rated_range);
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
   ftid::cli::InputFlags input;
   ftid::cli::addInputFlags(app, input);
@@ -133,6 +140,13 @@ int runIdentify(const std::vector<std::string>& argv) {
   if (!noise.empty()) {
     try {
       req.noise_std = ftid::identify::parseNoiseSpec(noise, "--noise");
+    } catch (const ftid::ConfigError& e) {
+      throw ftid::cli::UsageError(e.what());
+    }
+  }
+  if (!rated_range.empty()) {  // saturation (issue 22)
+    try {
+      req.saturation.rated_range = ftid::identify::parseRatedRange(rated_range);
     } catch (const ftid::ConfigError& e) {
       throw ftid::cli::UsageError(e.what());
     }

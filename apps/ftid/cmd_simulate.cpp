@@ -63,6 +63,8 @@ options:
       time_drift         df=X/Y/Z [N/s], dt=X/Y/Z [Nm/s]
       sensor_delay       tau=0.012 [s] (exact shift; negative: the wrench leads)
       glitches           p=0.004 (per sample), force=10 [N], torque=1 [Nm]: isolated spikes
+      saturation         fz=120 (any of fx..tz) [N, Nm]: the sensor's range; a reading beyond
+                         +-limit reads the limit (clipped after noise and glitches)
       mounting           roll=0, pitch=0, yaw=3 [deg]: the sensor is mounted rotated by
                          Rz(yaw) Ry(pitch) Rx(roll) against --mount-rpy and reports in its true frame
       crosstalk          scale=1 (multiplies the built-in 6x6 matrix E)

@@ -509,16 +509,17 @@ bool identifyAndAnalyse(IdentifyRun& r) {
   copts.p_FS_F = r.cfg.sensor.p_FS_F();
   try {
     const samples::ContextSet contexts = samples::buildContexts(r.log, r.kin, copts);
-    // The offline identification's treatment: several tilt starts, glitches left out (robust_data.hpp).
+    // The offline identification's treatment: several tilt starts, saturated samples and glitches left
+    // out (robust_data.hpp).
     std::vector<std::string> notes;
     auto fitOn = [&](const std::vector<identify::SampleContext>& s) {
       identify::MultiStartFit m = identify::fitModelMultiStart(model, s);
       notes = std::move(m.notes);
       return identify::toParameterSet(m.fit);
     };
-    const identify::RobustIdentification robust =
-        identify::leaveOutGlitches(contexts.samples, fitOn(contexts.samples), fitOn);
+    const identify::RobustIdentification robust = identify::leaveOutBadSamples(contexts.samples, {}, fitOn);
     set = robust.set;
+    for (const auto& s : robust.saturation.axes) print("  WARNING: " + identify::saturationLine(s));
     if (!robust.glitches.samples.empty()) {
       print("  " + std::to_string(robust.glitches.samples.size()) +
             " glitch(es) (isolated spikes) left out of the fit, as `ftid analyze` leaves them out");

@@ -139,6 +139,7 @@ void addFitCheck(Json& j, const FitCheck& c) {
   j["heldout_rms"] = axesJson(c.heldout_rms);
   j["residual_to_noise"] = axesJson(c.residual_to_noise);
   j["glitches"] = c.glitches;
+  j["saturation"] = Json::parse(saturationJson(c.saturation));  // saturation (issue 22)
   j["warnings"] = c.warnings;
 }
 

@@ -183,14 +183,14 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
   std::vector<std::string> notes;
   IdentifyRequest main_fit = request;
   main_fit.notes = &notes;
-  // The one robust data treatment (robust_data.hpp): glitches found in the first fit's residual are
-  // left out of the fit, as `ftid analyze` and the cell leave them out.
-  const ParameterSet first = identifyContexts(contexts.samples, main_fit, &out.imu);
+  // The one robust data treatment (robust_data.hpp): saturated samples, then the glitches found in
+  // the first fit's residual are left out of the fit, as `ftid analyze` and the cell leave them out.
   const RobustIdentification robust =
-      leaveOutGlitches(contexts.samples, first, [&](const std::vector<SampleContext>& kept) {
+      leaveOutBadSamples(contexts.samples, request.saturation, [&](const std::vector<SampleContext>& kept) {
         notes.clear();
         return identifyContexts(kept, main_fit, &out.imu);
       });
+  for (const auto& s : robust.saturation.axes) say(request.progress, saturationLine(s));
   out.glitches = static_cast<int>(robust.glitches.samples.size());
   if (out.glitches > 0) {
     say(request.progress, std::to_string(out.glitches) + " glitch" + (out.glitches == 1 ? "" : "es") +
@@ -214,6 +214,8 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
                     " robust standard deviations of the first fit's residual) left out of the fit and the held-out "
                     "residual, as `ftid analyze` leaves them out");
   }
+  out.check.saturation = robust.saturation.axes;  // saturation (issue 22)
+  for (const auto& s : robust.saturation.axes) notes.push_back(saturationLine(s));
   notes.insert(notes.begin(), out.setup.lines.begin(), out.setup.lines.end());
   out.check.warnings.insert(out.check.warnings.begin(), notes.begin(), notes.end());
   return out;

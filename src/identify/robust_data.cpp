@@ -38,4 +38,16 @@ std::vector<SampleContext> withoutSamples(const std::vector<SampleContext>& ctx,
   return out;
 }
 
+std::vector<int> originalIndices(const std::vector<int>& removed, const std::vector<int>& kept_indices) {
+  // kept index j is original j + (number of removed indices <= it), both lists ascending.
+  std::vector<int> out;
+  out.reserve(kept_indices.size());
+  std::size_t r = 0;
+  for (int j : kept_indices) {
+    while (r < removed.size() && removed[r] <= j + static_cast<int>(r)) ++r;
+    out.push_back(j + static_cast<int>(r));
+  }
+  return out;
+}
+
 }  // namespace ftid::identify

@@ -310,6 +310,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                               ", so residual/noise ratios near 1 say nothing about the model; give the "
                               "sensor's noise with --noise fx=..,..,tz=..");
   }
+  detail::excludeSaturation(d, options, result);  // saturation (issue 22)
   auto eng = std::make_unique<Engine>(d);
   result.n_eval = static_cast<int>(eng->testSamples().size());
   auto [lin, sol] = fitStart(*eng);
@@ -321,6 +322,9 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     const Mat6X pred = eng->predict(model, lin, sol.theta, false);
     Mat6X res(6, n_all);
     for (int i = 0; i < n_all; ++i) res.col(i) = eng->data().ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
+    for (int i = 0; i < n_all; ++i) {
+      if (eng->excluded(i)) res.col(i).setZero();  // saturated: not noise, not a glitch
+    }
     bool changed = false;
     d = eng->data();
     if (!options.noise_std) {
@@ -343,14 +347,15 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       (void)identify::poseGroups(fit, &is_static);
       const auto flagged = identify::detectOutliers(res, !is_static, options.glitch_threshold, d.segment_start);
       if (!flagged.samples.empty()) {
-        d.excluded.assign(static_cast<std::size_t>(n_all), 0);
+        if (d.excluded.empty()) d.excluded.assign(static_cast<std::size_t>(n_all), 0);
         for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
           const int i = flagged.samples[k];
+          if (d.excluded[static_cast<std::size_t>(i)] != 0) continue;  // saturated, already left out
           d.excluded[static_cast<std::size_t>(i)] = 1;
           result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
           result.outliers.axes.push_back(flagged.axes[k]);
         }
-        result.outliers.count = static_cast<int>(flagged.samples.size());
+        result.outliers.count = static_cast<int>(result.outliers.times.size());
         say(options, std::to_string(result.outliers.count) + " glitch" + (result.outliers.count == 1 ? "" : "es") +
                          " (isolated samples beyond " + fmt(options.glitch_threshold, 3) +
                          " robust standard deviations) left out");

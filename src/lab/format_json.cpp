@@ -64,6 +64,7 @@ std::string formatJson(const AnalysisResult& r) {
   Json times = Json::array();
   for (const double t : r.outliers.times) times.push_back(jsonNumber(t));
   o["outliers"] = Json{{"count", r.outliers.count}, {"times", std::move(times)}};
+  o["saturation"] = Json::parse(identify::saturationJson(r.saturation));  // saturation (issue 22)
   o["warnings"] = r.warnings;
   o["raw_rms"] = axes(r.report.raw_rms);
   o["fit"] = report(r.report);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "ftid/lab/analyze.hpp"
+#include "lab_internal.hpp"  // saturation (issue 22)
 
 namespace ftid::lab {
 
@@ -82,6 +83,7 @@ std::string formatText(const AnalysisResult& r) {
     if (r.outliers.times.size() > 12) times += ", ...";
     s += line("glitches: %d isolated samples left out of every fit, at t = %s s", r.outliers.count, times.c_str());
   }
+  s += detail::saturationText(r);  // saturation (issue 22)
   s += "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
   if (!r.windows.empty()) {

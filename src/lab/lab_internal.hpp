@@ -31,6 +31,12 @@ struct RankContext {
 };
 
 void say(const AnalyzeOptions& o, const std::string& line);
+/// Saturation (issue 22, saturation.cpp): marks the samples of d at a range limit as excluded (left
+/// out of every fit and held-out sum) and reports them in result (lines to options.progress).
+void excludeSaturation(Dataset& d, const AnalyzeOptions& options, AnalysisResult& result);
+/// The text summary's lines and the HTML report's block of result.saturation ("" when none).
+std::string saturationText(const AnalysisResult& r);
+std::string saturationHtml(const AnalysisResult& r);
 std::string fmt(double v, int precision = 4);
 
 ModelReport makeReport(const Engine& eng, const effects::Model& model, const Linearization& lin, const Solution& sol);

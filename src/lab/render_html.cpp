@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "ftid/lab/analyze.hpp"
+#include "lab_internal.hpp"  // saturation (issue 22)
 
 namespace ftid::lab {
 
@@ -261,6 +262,7 @@ void writeSummary(std::ostringstream& o, const AnalysisResult& r) {
     for (std::size_t k = 0; k < r.outliers.times.size() && k < 40; ++k) o << (k ? ", " : " ") << f(r.outliers.times[k], 4);
     o << (r.outliers.times.size() > 40 ? ", &hellip;" : "") << " s.</p>\n";
   }
+  o << detail::saturationHtml(r);  // saturation (issue 22)
   for (const auto& w : r.warnings) o << "<p class=\"warn\"><b>Warning:</b> " << esc(w) << "</p>\n";
   o << "<h2>Residual per axis</h2>" << axisTable(r);
 }

@@ -98,6 +98,8 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
   require(std::isfinite(c.glitches.probability) && c.glitches.probability >= 0.0 && c.glitches.probability <= 1.0,
           "glitches.probability", "must be in [0, 1]");
   require(std::isfinite(c.glitches.force_N) && std::isfinite(c.glitches.torque_Nm), "glitches", "magnitudes not finite");
+  require(c.saturation.limit.allFinite() && c.saturation.limit.minCoeff() >= 0.0, "saturation.limit",
+          "must be >= 0 (0 = no limit)");  // saturation (issue 22)
   require(c.mounting.rpy_rad.allFinite(), "mounting.rpy_rad", "not finite");
   require(c.imu.acc_bias_mps2.allFinite() && c.imu.gyro_bias_radps.allFinite(), "imu", "bias not finite");
   require(std::isfinite(c.imu.delay_s) && std::abs(c.imu.delay_s) < 1.0, "imu.delay_s", "must be finite with |delay| < 1 s");
@@ -433,6 +435,10 @@ logio::LogData CellSim::run() const {
     while (next_spike < spikes.size() && spikes[next_spike].sample == row) {
       s.wrench_S[spikes[next_spike].axis] += spikes[next_spike].value;
       ++next_spike;
+    }
+    for (int a = 0; a < 6; ++a) {  // saturation (issue 22): the sensor's range clips the reading
+      const double lim = config_.saturation.limit(a);
+      if (lim > 0.0) s.wrench_S(a) = std::clamp(s.wrench_S(a), -lim, lim);
     }
     if (contact) {
       for (int i = 0; i < 6; ++i) log.extra_columns[static_cast<std::size_t>(i)][row] = contact_sum[i] * inv;

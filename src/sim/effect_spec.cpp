@@ -117,6 +117,19 @@ void parseGlitches(const EffectArgs& a, CellSimConfig& c) {
   }
 }
 
+/// Saturation (issue 22): `saturation:fz=118.3,tx=10`, the sensor's range per axis [N, Nm].
+void parseSaturation(const EffectArgs& a, CellSimConfig& c) {
+  if (a.kv.empty()) throw ConfigError(a.where() + ": name at least one axis, e.g. saturation:fz=120");
+  for (const auto& [k, v] : a.kv) {
+    int axis = -1;
+    for (int i = 0; i < 6; ++i) axis = k == kWrenchAxisNames[i] ? i : axis;
+    if (axis < 0) throw a.unknownKey(k);
+    const double limit = number(v, a.what(k));
+    if (!(limit > 0.0)) throw ConfigError(a.what(k) + ": the range must be positive");
+    c.saturation.limit(axis) = limit;
+  }
+}
+
 void parseMounting(const EffectArgs& a, CellSimConfig& c) {
   c.mounting.enabled = true;
   constexpr double kDeg = 3.141592653589793 / 180.0;
@@ -190,7 +203,7 @@ struct EffectFamily {
   const char* name;
   void (*parse)(const EffectArgs&, CellSimConfig&);
 };
-constexpr std::array<EffectFamily, 12> kFamilies{{
+constexpr std::array<EffectFamily, 13> kFamilies{{
     {"cable", parseCable},
     {"temperature_drift", parseTemperatureDrift},
     {"time_drift", parseTimeDrift},
@@ -203,6 +216,7 @@ constexpr std::array<EffectFamily, 12> kFamilies{{
     {"rigid_body", parseRigidBody},
     {"grasp", parseGrasp},
     {"pushes", parsePushes},
+    {"saturation", parseSaturation},  // saturation (issue 22)
 }};
 
 /// `NAME[:key=value,...]` split into the name and its key=value pairs.

@@ -12,6 +12,7 @@
 
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/fit_parameters.hpp"
+#include "ftid/identify/saturation.hpp"
 
 namespace ftid::identify {
 
@@ -22,6 +23,9 @@ struct FitCheck {
   Vec6 residual_to_noise = Vec6::Zero();
   int folds = 0;
   int glitches = 0;                      ///< isolated spikes left out of the held-out sums
+  /// Saturation (issue 22): axes at a range limit, their samples left out of the fit and the
+  /// held-out sums (saturation.hpp); filled by identifyContextsChecked.
+  std::vector<SaturatedAxis> saturation;
   std::vector<std::string> warnings;     ///< one line each
 };
 
@@ -38,7 +42,7 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
 std::string formatFitCheck(const FitCheck& check);
 
 /// JSON object (ftid/fileio/json_text.hpp policy): "noise_floor", "noise_method", "heldout_rms",
-/// "residual_to_noise", "glitches", "warnings".
+/// "residual_to_noise", "glitches", "saturation" ([{axis, side, value, count, fraction, times, source}]), "warnings".
 std::string fitCheckJson(const FitCheck& check);
 
 /// The `ftid identify --json` object: toJson(set)'s keys followed by fitCheckJson(check)'s

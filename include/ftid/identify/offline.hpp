@@ -13,6 +13,7 @@
 #include "ftid/identify/imu.hpp"
 #include "ftid/identify/imu_fusion.hpp"
 #include "ftid/identify/physical_check.hpp"
+#include "ftid/identify/saturation.hpp"
 #include "ftid/identify/setup_check.hpp"
 
 namespace ftid::identify {
@@ -45,6 +46,8 @@ struct IdentifyRequest {
   enum class ImuUse { kOff, kAuto, kOn };
   ImuUse imu = ImuUse::kOff;
   ImuOptions imu_options;
+  /// Saturation (issue 22): the rated range (`--rated-range`); flat tops are always looked for.
+  SaturationOptions saturation;
 };
 
 /// What the IMU said (filled when it was used or failed).

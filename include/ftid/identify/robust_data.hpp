@@ -8,6 +8,7 @@
 
 #include "ftid/identify/fit_parameters.hpp"
 #include "ftid/identify/noise.hpp"
+#include "ftid/identify/saturation.hpp"
 
 namespace ftid::identify {
 
@@ -27,12 +28,16 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> residualOf(const ParameterSet& set, con
 /// The contexts without the samples listed (ascending indices); the rest keep their order.
 std::vector<SampleContext> withoutSamples(const std::vector<SampleContext>& ctx, const std::vector<int>& samples);
 
+/// Indices into the contexts left after withoutSamples(ctx, removed) mapped back to ctx's.
+std::vector<int> originalIndices(const std::vector<int>& removed, const std::vector<int>& kept_indices);
+
 /// A fit on data with its glitches left out: `first` is the fit on all of `ctx`; the glitches of its
 /// residual are removed and `identify` runs again on the rest (only if there were any).
 struct RobustIdentification {
   ParameterSet set;                   ///< the fit without the glitches (or `first` if none)
   std::vector<SampleContext> samples; ///< the contexts it was fitted on
   Outliers glitches;                  ///< indices into the original contexts
+  Saturation saturation;              ///< saturated samples left out first (leaveOutBadSamples)
 };
 template <typename IdentifyFn>
 RobustIdentification leaveOutGlitches(const std::vector<SampleContext>& ctx, const ParameterSet& first,
@@ -46,6 +51,25 @@ RobustIdentification leaveOutGlitches(const std::vector<SampleContext>& ctx, con
   }
   out.samples = withoutSamples(ctx, out.glitches.samples);
   out.set = identify(out.samples);
+  return out;
+}
+
+/// The one robust data treatment, whole: the saturated samples (saturation.hpp, found on the
+/// readings) are left out before the first fit, then the glitches of that fit's residual
+/// (leaveOutGlitches). All indices refer to `ctx`.
+template <typename IdentifyFn>
+RobustIdentification leaveOutBadSamples(const std::vector<SampleContext>& ctx, const SaturationOptions& saturation,
+                                        const IdentifyFn& identify, double threshold = kGlitchThreshold) {
+  Saturation sat = findSaturation(ctx, saturation);
+  if (sat.samples.empty()) {
+    RobustIdentification out = leaveOutGlitches(ctx, identify(ctx), identify, threshold);
+    out.saturation = std::move(sat);
+    return out;
+  }
+  const std::vector<SampleContext> kept = withoutSamples(ctx, sat.samples);
+  RobustIdentification out = leaveOutGlitches(kept, identify(kept), identify, threshold);
+  out.glitches.samples = originalIndices(sat.samples, out.glitches.samples);
+  out.saturation = std::move(sat);
   return out;
 }
 

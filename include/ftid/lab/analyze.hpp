@@ -16,6 +16,7 @@
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/identify/saturation.hpp"
 #include "ftid/lab/verdict.hpp"
 
 namespace ftid::lab {
@@ -44,6 +45,9 @@ struct AnalyzeOptions {
   /// Glitches: samples whose residual (minus its running median over 7 samples) exceeds this
   /// many robust standard deviations on any axis are left out of every fit (0 = off).
   double glitch_threshold = 6.0;
+  /// Saturation (issue 22, docs/analyze.md "Saturation"): samples at a range limit (flat tops, or
+  /// the rated range `--rated-range`) are left out of every fit and sum, as glitches are.
+  identify::SaturationOptions saturation;
   /// Progress lines (stderr in the CLI); may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -158,6 +162,10 @@ struct AnalysisResult {
   Vec6 noise_ar1 = Vec6::Zero();         ///< lag-1 noise correlation per axis (prewhitening)
   Vec6 noise_ar1_std = Vec6::Zero();     ///< its standard error (0: not fitted to a spectrum)
   OutlierReport outliers;
+  /// Saturation (issue 22): axes at a range limit (identify::findSaturation on the fitting and
+  /// validation readings); their samples are left out of every fit and held-out sum.
+  std::vector<identify::SaturatedAxis> saturation;
+  int saturated_samples = 0;             ///< samples left out as saturated (all axes)
   std::vector<std::string> warnings;     ///< one line each
   ModelReport report;                    ///< the starting model
   std::vector<FailWindow> windows;       ///< largest held-out residual first

@@ -97,6 +97,11 @@ struct GlitchSwitch {
   double force_N = 10.0;                         ///< spike on a force axis
   double torque_Nm = 1.0;                        ///< spike on a torque axis
 };
+/// Saturation (issue 22): the sensor's range per axis; a reading beyond +-limit reads the limit
+/// (clipped after noise, glitches and averaging, as the sensor's electronics do). 0 = no limit.
+struct SaturationSwitch {
+  Vec6 limit = Vec6::Zero();                     ///< [N, Nm] per axis fx..tz
+};
 /// The sensor is mounted rotated against the configured X_FS: its true frame S' has
 /// R_SS' = Rz(yaw) Ry(pitch) Rx(roll) in the configured S (same origin). The sensor reports the
 /// wrench (and, with rotate_imu, the IMU it carries) in S': w' = [R_SS'^T f; R_SS'^T t]; its offsets
@@ -183,6 +188,7 @@ struct CellSimConfig {
   std::vector<ContactSwitch> pushes;
   PayloadChangeSwitch payload_change;
   GlitchSwitch glitches;
+  SaturationSwitch saturation;  ///< saturation (issue 22)
   MountingSwitch mounting;
   StaticPoseSetSwitch static_poses;
   ImuErrorSwitch imu;
