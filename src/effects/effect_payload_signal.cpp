@@ -44,9 +44,10 @@ class PayloadSignalEffect final : public Effect {
   }
   std::vector<ParamInfo> params() const override {
     std::vector<ParamInfo> p;
-    const std::string per = "/" + source_.unit();
+    const std::string unit_s = source_.unit();  // "1" for an extra column: kg per unit of it
+    const std::string per = unit_s == "1" ? "" : "/" + unit_s;
     for (int k = 1; k <= order_; ++k) {
-      const std::string power = k == 1 ? "" : "^" + std::to_string(k);
+      const std::string power = k == 1 || per.empty() ? "" : "^" + std::to_string(k);
       const std::string of = " per (" + source_.name() + " - " + detail::numberText(reference_) + ")" + power;
       p.push_back({massName(k), "kg" + per + power, "change of the payload mass" + of});
       for (const char* axis : {"x", "y", "z"}) {

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "lab_internal.hpp"
+#include "extra_signals.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
@@ -135,6 +136,7 @@ std::vector<SignalSeries> diagnosticSignals(const Engine& eng, const Linearizati
   std::vector<std::string> names = {"t", "q1", "q2", "q3", "q4", "q5", "q6", "qd1", "qd2", "qd3", "qd4", "qd5", "qd6",
                                     "wx", "wy", "wz", "alx", "aly", "alz", "ax", "ay", "az"};
   if (ctx.front().has_temp) names.push_back("temp");
+  for (const auto& n : detail::extraSignals(ctx).names) names.push_back(n);  // extra columns (extra_signals.hpp)
   std::vector<SignalSeries> out;
   for (const auto& n : names) {
     const auto src = effects::SignalSource::parse(n);
@@ -427,7 +429,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   }
 
   // Which effect is missing.
-  const auto menu = detail::candidateMenu(options);
+  const auto menu = detail::withExtraSignals(detail::candidateMenu(options), options, engine.data().ctx, &result.warnings);
   result.family_size = detail::familySize(engine, menu);
   const detail::RankContext rc{engine, menu, options, log_cmd,
                                detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};
