@@ -1,6 +1,7 @@
 // Compensation of a whole log file (include/ftid/compensate/compensate_log.hpp).
 #include "ftid/compensate/compensate_log.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -9,6 +10,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/params/parameter_set.hpp"
 
@@ -27,6 +29,13 @@ CompensateSummary compensateLogFile(const CompensateRequest& request, const para
   context.time_origin_unix_s = set.time_origin_unix_s;
   const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, context);
   Compensator comp(model, theta, params::nonlinearFor(model, set, request.params_path));
+  // Effects of an extra column (payload(grip), poly(grip,1)) read it from the log, sample by sample.
+  for (const auto& column : effects::extraColumnsRead(model)) {
+    if (std::find(contexts.extra_names.begin(), contexts.extra_names.end(), column) == contexts.extra_names.end()) {
+      throw DataError(request.log_path + ": the model '" + set.model + "' of " + request.params_path +
+                      " reads the log column '" + column + "', which this log does not have");
+    }
+  }
 
   CompensateSummary summary;
   if ((model.signals() & effects::kSignalTime) != 0) {

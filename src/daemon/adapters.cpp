@@ -10,6 +10,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/signal_source.hpp"
 #include "ftid/params/parameter_set.hpp"
 
 namespace ftid::daemon {
@@ -195,6 +196,13 @@ ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet&
                                                      const std::string& path) {
   const effects::Model model = effects::Model::fromName(set.model);
   const Eigen::VectorXd theta = params::thetaFor(model, set, path);
+  if (const auto columns = effects::extraColumnsRead(model); !columns.empty()) {
+    std::string list;
+    for (const auto& c : columns) list += (list.empty() ? "'" : ", '") + c + "'";
+    throw ConfigError(path + ": model '" + set.model + "' reads the log column(s) " + list +
+                      ", which ftidd does not receive at run time; compensate such a model offline with "
+                      "`ftid compensate`, or identify one without it for ftidd (docs/effects.md)");
+  }
   if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_v_rad)) {
     throw ConfigError(path + ": key 'tilt': tilt angles must be finite");
   }

@@ -1,6 +1,7 @@
 // SignalSource: named scalar signals of a SampleContext (include/ftid/effects/signal_source.hpp).
 #include "ftid/effects/signal_source.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "ftid/common/error.hpp"
@@ -95,6 +96,20 @@ std::uint32_t SignalSource::signals() const {
     case Kind::kExtra: return kSignalExtraColumn;
     default: return kSignalNone;
   }
+}
+
+std::vector<std::string> extraColumnsRead(const Model& model) {
+  std::vector<std::string> out;
+  for (const auto& e : model.effectList()) {
+    if ((e->signals() & kSignalExtraColumn) == 0) continue;
+    const std::string n = e->name();  // name(<signal>[,...]): the generic effects' first argument
+    const auto open = n.find('(');
+    if (open == std::string::npos) continue;
+    const auto end = n.find_first_of(",)", open);
+    const std::string column = n.substr(open + 1, end - open - 1);
+    if (std::find(out.begin(), out.end(), column) == out.end()) out.push_back(column);
+  }
+  return out;
 }
 
 }  // namespace ftid::effects

@@ -1,9 +1,8 @@
 // Extra log columns as candidate signals (docs/analyze.md, "Extra columns as candidate signals"),
 // on simulator runs with full rigid-body physics: a 0.3 kg gripper jaw moving along the tool's x
-// axis with the logged column `grip`, its wrench computed here with its own physics (a point mass
-// at its momentary position, from the simulator's kinematics of each sample, including the jaw's
-// motion relative to the tool), the laboratory not told; and clean runs with an unrelated column
-// (no false alarm).
+// axis with the logged column `grip`, its wrench computed with its own physics (jaw_sim.hpp: a
+// point mass at its momentary position, including its motion relative to the tool), the
+// laboratory not told; and clean runs with an unrelated column (no false alarm).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,36 +12,15 @@
 #include <string>
 #include <vector>
 
+#include "jaw_sim.hpp"
 #include "lab_sim.hpp"
 
 namespace ftid {
 namespace {
 
-constexpr double kPi = 3.141592653589793;
-constexpr double kJawMass = 0.3;               // [kg]
-const Vec3 kJawStart(0.0, 0.03, 0.10);          // p0 [m], in S
-const Vec3 kJawTravel(0.04, 0.0, 0.0);          // d [m]: jaw at p0 + grip d
-constexpr double kGripPeriod = 5.0;             // [s]: grip = (1 - cos(2 pi t / T)) / 2
-
-/// The jaw's force and moment on the sensor at time t: Newton's law for a point mass at
-/// c = p0 + grip(t) d, with the acceleration of that point (the tool's motion and the jaw's own
-/// along d), and its moment about S. Kinematics from the simulator: R_BS, w, alpha, a_S of the
-/// sensor at the trajectory's state, gravity from its noise-free IMU (a_S - specific force).
-Vec6 jawWrench(const sim::CellSim& s, double t) {
-  const auto state = s.stateAt(t);
-  const model::SensorMotion m = s.config().robot->computeSensorMotion(state.q, state.qd, state.qdd);
-  const Vec3 g_S = m.a_S - s.sampleAt(t).acc_S;
-  const double w0 = 2.0 * kPi / kGripPeriod;
-  const double grip = 0.5 * (1.0 - std::cos(w0 * t));
-  const Vec3 c = kJawStart + grip * kJawTravel;
-  const Vec3 c_dot = 0.5 * w0 * std::sin(w0 * t) * kJawTravel;
-  const Vec3 c_ddot = 0.5 * w0 * w0 * std::cos(w0 * t) * kJawTravel;
-  const Vec3 a_jaw = m.a_S + m.alpha_S.cross(c) + m.w_S.cross(m.w_S.cross(c)) + 2.0 * m.w_S.cross(c_dot) + c_ddot;
-  const Vec3 f = kJawMass * (g_S - a_jaw);
-  Vec6 w;
-  w << f, c.cross(f);
-  return w;
-}
+using jawtest::kJawMass;
+using jawtest::kJawTravel;
+using jawtest::kPi;
 
 /// A run of the lab's cell (full rigid body) with one extra column: `grip` (and the jaw's wrench in
 /// the reading) when `with_jaw`; else `valve`, unrelated to the physics: a slow random walk for
@@ -58,17 +36,16 @@ samples::ContextSet run(std::uint64_t seed, bool with_jaw, double duration_s = 1
   std::normal_distribution<double> step(0.0, 0.02);
   const double phase = std::uniform_real_distribution<double>(0.0, 2.0 * kPi)(rng);
   double walk = 0.0;
-  for (auto& sample : log.samples) {
-    if (with_jaw) {
-      sample.wrench_S += jawWrench(s, sample.t);
-      column.push_back(0.5 * (1.0 - std::cos(2.0 * kPi * sample.t / kGripPeriod)));
-    } else {
+  if (with_jaw) {
+    jawtest::addJaw(s, log);
+  } else {
+    for (const auto& sample : log.samples) {
       walk += step(rng);
       column.push_back(seed % 2 == 0 ? walk : std::sin(2.0 * kPi * 0.13 * sample.t + phase));
     }
+    log.extra_names.emplace_back("valve");
+    log.extra_columns.push_back(column);
   }
-  log.extra_names.emplace_back(with_jaw ? "grip" : "valve");
-  log.extra_columns.push_back(column);
   return samples::buildContexts(log, *c.robot, {c.R_FS, c.p_FS_F, 0.0, 0.0});
 }
 
