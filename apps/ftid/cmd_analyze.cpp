@@ -32,6 +32,7 @@ const char* const kUsage =
     "                    from any starting model), printing the held-out residual at each step\n"
     "  --candidates L    comma-separated effects to try (default: every named effect not in the\n"
     "                    model plus harmonic(q4..q6,1), poly(t,2), poly(temp,2))\n"
+    "                    plus payload(C) and poly(C,1) for each extra log column C, e.g. grip\n"
     "  --noise fx=S,fy=S,fz=S,tx=S,ty=S,tz=S\n"
     "                    the sensor's noise std per axis from its data sheet [N, Nm] instead of the\n"
     "                    estimate from the data (needed for static pose sets with one reading a pose)\n"
