@@ -411,6 +411,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // ... and with what: correlations of the held-out residual with measured signals.
   const auto signals = diagnosticSignals(engine, lin);
+  result.extra_signals = detail::extraSignals(engine.data().ctx).names;  // extra columns (extra_signals.hpp)
   std::vector<SignalCorrelation> corr;
   const double thresh = 5.0 / std::sqrt(std::max(1.0, static_cast<double>(n_eval)));
   for (const auto& s : signals) {

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "jaw_sim.hpp"
 #include "lab_sim.hpp"
 
@@ -93,6 +95,11 @@ TEST(ExtraSignalSim, AJawMovingWithGripIsNamedThroughItsSignal) {
   for (const auto& c : r.correlations) grip_correlated = grip_correlated || c.signal == "grip";
   EXPECT_TRUE(grip_correlated) << text;
   EXPECT_NE(text.find("payload(grip)"), std::string::npos);
+  EXPECT_EQ(r.extra_signals, std::vector<std::string>{"grip"});
+  EXPECT_NE(text.find("extra log columns taken as signals (correlations; candidates payload(C), poly(C,1)): grip"),
+            std::string::npos);
+  const auto json = nlohmann::json::parse(lab::formatJson(r));
+  EXPECT_EQ(json.at("extra_signals"), nlohmann::json::array({"grip"}));
 }
 
 // A user names the signal's effect with --candidates: judged by the same rule, recommended.
