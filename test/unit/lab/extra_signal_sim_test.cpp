@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ftid/identify/fit.hpp"
 #include "jaw_sim.hpp"
 #include "lab_sim.hpp"
 
@@ -100,6 +101,29 @@ TEST(ExtraSignalSim, AJawMovingWithGripIsNamedThroughItsSignal) {
             std::string::npos);
   const auto json = nlohmann::json::parse(lab::formatJson(r));
   EXPECT_EQ(json.at("extra_signals"), nlohmann::json::array({"grip"}));
+}
+
+// The fitted jaw against the truth over 20 noise seeds (paper+rigid_body+payload(grip), the fit the
+// laboratory ends in): the first moment per unit of grip within three standard errors of 0.3 kg x d
+// on every seed, and on average within 2 % of it. (Measured: z from -2.3 to +1.5, mean -0.9: a bias
+// of about one standard error, 1 %, from what the effect leaves out, the jaw's moving inertia and
+// its motion relative to the tool; docs/effects.md.)
+TEST(ExtraSignalSim, TheJawsFirstMomentMatchesTheTruthWithinItsStandardErrorOverSeeds) {
+  const effects::Model model = effects::Model::fromName("paper+rigid_body+payload(grip)");
+  const int col = model.paramIndex().column("dmass_com_grip_x");
+  ASSERT_GE(col, 0);
+  const double truth = kJawMass * kJawTravel.x();
+  constexpr int kSeeds = 20;
+  double mean_relative = 0.0;
+  for (std::uint64_t seed = 5200; seed < 5200 + kSeeds; ++seed) {
+    const auto set = run(seed, true, 6.0);
+    const identify::FitResult fit = identify::fitModel(model, set.samples);
+    const double z = (fit.theta(col) - truth) / fit.theta_std(col);
+    EXPECT_LT(std::abs(z), 3.0) << "seed " << seed << ": " << fit.theta(col) << " +- " << fit.theta_std(col);
+    mean_relative += (fit.theta(col) - truth) / truth / kSeeds;
+    if (std::getenv("FTID_TEST_PRINT") != nullptr) std::cout << "seed " << seed << " z " << z << "\n";
+  }
+  EXPECT_LT(std::abs(mean_relative), 0.02);
 }
 
 // A user names the signal's effect with --candidates: judged by the same rule, recommended.
