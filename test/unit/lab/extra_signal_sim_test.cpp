@@ -76,7 +76,12 @@ TEST(ExtraSignalSim, AJawMovingWithGripIsNamedThroughItsSignal) {
   for (const auto& st : r.steps) taken = taken || st.added == "payload(grip)";
   EXPECT_TRUE(taken) << text;
   ASSERT_TRUE(r.final_report.has_value());
-  EXPECT_NE(r.final_report->model.find("payload(grip)"), std::string::npos) << text;
+  EXPECT_EQ(r.final_report->model, "paper+rigid_body+payload(grip)") << text;
+  // The same end from the paper's model (rigid_body first, then the jaw).
+  o.model = "paper";
+  const lab::AnalysisResult from_paper = lab::analyze(set.samples, nullptr, o, "jaw.csv");
+  ASSERT_TRUE(from_paper.final_report.has_value());
+  EXPECT_EQ(from_paper.final_report->model, "paper+rigid_body+payload(grip)") << lab::formatText(from_paper);
   // The residual to within 1.3x the noise on every axis.
   for (int a = 0; a < 6; ++a) {
     EXPECT_LT(r.final_report->residual_rms(a) / r.noise_floor(a), 1.3) << kWrenchAxisNames[a] << "\n" << text;
