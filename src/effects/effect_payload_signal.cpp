@@ -51,7 +51,8 @@ class PayloadSignalEffect final : public Effect {
       const std::string of = " per (" + source_.name() + " - " + detail::numberText(reference_) + ")" + power;
       p.push_back({massName(k), "kg" + per + power, "change of the payload mass" + of});
       for (const char* axis : {"x", "y", "z"}) {
-        p.push_back({comName(k, axis), "kg*m" + per + power, std::string("change of the first moment m c_") + axis + of});
+        p.push_back({comName(k, axis), "kg*m" + per + power,
+                     std::string("change of the first moment m c_") + axis + of});
       }
     }
     return p;

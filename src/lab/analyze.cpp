@@ -430,7 +430,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   }
 
   // Which effect is missing.
-  const auto menu = detail::withExtraSignals(detail::candidateMenu(options), options, engine.data().ctx, &result.warnings);
+  const auto menu =  // the named effects, the generic menu and the extra columns' candidates
+      detail::withExtraSignals(detail::candidateMenu(options), options, engine.data().ctx, &result.warnings);
   result.family_size = detail::familySize(engine, menu);
   const detail::RankContext rc{engine, menu, options, log_cmd,
                                detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};

@@ -44,7 +44,8 @@ struct JawRun {
 /// Identifies `model` on the run and writes its parameter file; returns the path.
 std::string identifyTo(const JawRun& run, const std::string& model, const std::string& path) {
   const samples::ContextSet ctx = samples::buildContexts(run.log, *run.cfg.robot);
-  params::writeParameterFile(path, identify::toParameterSet(identify::fitModel(effects::Model::fromName(model), ctx.samples)));
+  const identify::FitResult fit = identify::fitModel(effects::Model::fromName(model), ctx.samples);
+  params::writeParameterFile(path, identify::toParameterSet(fit));
   return path;
 }
 
