@@ -22,6 +22,8 @@ const char* const kUsage =
     "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
     "columns t, fx..tz (contact wrench, in S) and model_fx..model_tz (modelled wrench).\n"
+    "Effects of an extra log column (payload(grip), poly(grip,1)) read it from --log, which must\n"
+    "have it; ftidd has no extra columns and refuses such a parameter file (docs/effects.md).\n"
     "\n"
     "  --log FILE        the log or UR RTDE recording or ROS 2 bag (docs/log-format.md)\n"
     "  --params FILE     parameters written by `ftid identify --out`\n"

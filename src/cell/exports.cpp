@@ -8,6 +8,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "ftid/effects/model.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/yaml_emit.hpp"
 #include "ftid/model/frames.hpp"
@@ -35,6 +36,24 @@ Mat3 fromUrOrder(const Vec6& v) {
   I << v(0), v(3), v(4), v(3), v(1), v(5), v(4), v(5), v(2);
   return I;
 }
+/// "" unless the model's payload moves with a signal (payload(s), docs/effects.md): then a comment
+/// line saying that the export holds the payload at the signal's reference value only.
+std::string movingPayloadNote(const std::string& model) {
+  std::string moving;
+  try {
+    const effects::Model m = effects::Model::fromName(model);
+    for (const auto& e : m.effectList()) {
+      if (e->name().rfind("payload(", 0) == 0) moving += (moving.empty() ? "" : ", ") + e->name();
+    }
+  } catch (const ConfigError&) {
+    return "";  // not a model this build knows: nothing to say about it
+  }
+  if (moving.empty()) return "";
+  return "# NOTE: the model's payload moves with a signal (" + moving +
+         "): this export is the payload at the signal's reference value (0 unless given) only;\n"
+         "#       a fixed payload cannot follow it (compensate with `ftid compensate`).\n";
+}
+
 /// Inertia of a point mass m at offset d about the reference point: m (|d|^2 1 - d d^T).
 Mat3 parallelAxis(double m, const Vec3& d) { return m * (d.squaredNorm() * Mat3::Identity() - d * d.transpose()); }
 }  // namespace
@@ -114,7 +133,7 @@ std::string urScriptFile(const PayloadExport& e, const std::vector<RigidPart>& p
     << "# Set the TCP payload to this (teach pendant Installation > Payload, or run the line).\n"
     << "#   identified payload (model " << e.model << "): " << num(e.mass) << " kg at " << vec(e.cog_F) << " m"
     << (e.inertia_C_F ? ", inertia " + urOrder(*e.inertia_C_F) : std::string(", inertia not identified"))
-    << "\n";
+    << "\n" << movingPayloadNote(e.model);
   for (const auto& p : parts) {
     if (p.mass > 0.0) {
       o << "#   " << p.name << " (ftidd.yaml export." << p.name << "): " << num(p.mass) << " kg at " << vec(p.com_F)
@@ -142,7 +161,8 @@ std::string ros2BroadcasterYaml(const PayloadExport& e, const Ros2Names& n) {
          << "#    tool.gravity_field = gravity in world_frame [m/s^2], here the robot base B with the\n"
          << "#    identified base tilt (g_B = R_WB^T g_W). world_frame must be the TF frame of B (UR: 'base'),\n"
          << "#    sensor_frame the TF frame of S (the sensor mount in your URDF must match ftidd.yaml's).\n"
-         << "#  The filter compensates gravity only; ftidd also removes the inertial wrench in motion.\n";
+         << "#  The filter compensates gravity only; ftidd also removes the inertial wrench in motion.\n"
+         << movingPayloadNote(e.model);
   auto xyz = [](YAML::Emitter& o, const Vec3& v) {
     o << YAML::BeginMap;
     for (int i = 0; i < 3; ++i) o << YAML::Key << std::string(1, "xyz"[i]) << YAML::Value << YamlNumber{v(i)};

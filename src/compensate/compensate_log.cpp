@@ -1,6 +1,7 @@
 // Compensation of a whole log file (include/ftid/compensate/compensate_log.hpp).
 #include "ftid/compensate/compensate_log.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -9,6 +10,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/compensate/compensator.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/params/parameter_set.hpp"
 

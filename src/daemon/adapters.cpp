@@ -10,6 +10,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/model.hpp"
+#include "ftid/effects/signal_source.hpp"
 #include "ftid/params/parameter_set.hpp"
 
 namespace ftid::daemon {
@@ -195,13 +196,12 @@ ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet&
                                                      const std::string& path) {
   const effects::Model model = effects::Model::fromName(set.model);
   const Eigen::VectorXd theta = params::thetaFor(model, set, path);
-  // ftidd's samples carry the kinematics, the time, the IMU and the sensor's temperature, never a
-  // log's extra columns: a model reading one would compensate nothing (docs/effects.md).
-  effects::SampleContext online;
-  online.has_temp = true;
-  if (const std::string miss = model.missingSignal(online); !miss.empty()) {
-    throw ConfigError(path + ": model '" + set.model + "' cannot be compensated online: " + miss +
-                      " (ftidd has no log columns; `ftid compensate` can, on a log that has it)");
+  if (const auto columns = effects::extraColumnsRead(model); !columns.empty()) {
+    std::string list;
+    for (const auto& c : columns) list += (list.empty() ? "'" : ", '") + c + "'";
+    throw ConfigError(path + ": model '" + set.model + "' reads the log column(s) " + list +
+                      ", which ftidd does not receive at run time; compensate such a model offline with "
+                      "`ftid compensate`, or identify one without it for ftidd (docs/effects.md)");
   }
   if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_v_rad)) {
     throw ConfigError(path + ": key 'tilt': tilt angles must be finite");

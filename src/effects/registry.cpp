@@ -27,7 +27,8 @@
   X("mounting", makeMountingEffect, "sensor mounted rotated against X_FS (roll, pitch, yaw)")       \
   X("crosstalk", makeCrosstalkEffect, "gain and cross-axis errors: reading = (I + E) wrench")       \
   X("harmonic", makeHarmonicEffect, "harmonic(s,n): Fourier series in signal s on every axis")       \
-  X("poly", makePolyEffect, "poly(s,n[,ref]): polynomial in signal s on every axis")               \
+  X("poly", makePolyEffect, "poly(s,n[,ref]): polynomial in signal s on every axis")                \
+  X("payload", makePayloadSignalEffect, "payload(s[,n[,ref]]): payload mass and centre of mass moving with signal s") \
   X("expr", makeExprEffect, "expr(axes: expression): your own regressor, e.g. expr(fz: grip*qd6)")
 
 namespace ftid::effects {

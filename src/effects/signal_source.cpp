@@ -1,6 +1,7 @@
 // SignalSource: named scalar signals of a SampleContext (include/ftid/effects/signal_source.hpp).
 #include "ftid/effects/signal_source.hpp"
 
+#include <algorithm>
 #include <limits>
 
 #include "ftid/common/error.hpp"
@@ -95,6 +96,17 @@ std::uint32_t SignalSource::signals() const {
     case Kind::kExtra: return kSignalExtraColumn;
     default: return kSignalNone;
   }
+}
+
+std::vector<std::string> extraColumnsRead(const Model& model) {
+  std::vector<std::string> out;
+  for (const auto& e : model.effectList()) {
+    for (const auto& name : e->signalNames()) {
+      if ((SignalSource::parse(name).signals() & kSignalExtraColumn) == 0) continue;
+      if (std::find(out.begin(), out.end(), name) == out.end()) out.push_back(name);
+    }
+  }
+  return out;
 }
 
 }  // namespace ftid::effects

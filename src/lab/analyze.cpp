@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "lab_internal.hpp"
+#include "extra_signals.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
@@ -135,6 +136,7 @@ std::vector<SignalSeries> diagnosticSignals(const Engine& eng, const Linearizati
   std::vector<std::string> names = {"t", "q1", "q2", "q3", "q4", "q5", "q6", "qd1", "qd2", "qd3", "qd4", "qd5", "qd6",
                                     "wx", "wy", "wz", "alx", "aly", "alz", "ax", "ay", "az"};
   if (ctx.front().has_temp) names.push_back("temp");
+  for (const auto& n : detail::extraSignals(ctx).names) names.push_back(n);  // extra columns (extra_signals.hpp)
   std::vector<SignalSeries> out;
   for (const auto& n : names) {
     const auto src = effects::SignalSource::parse(n);
@@ -414,6 +416,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // ... and with what: correlations of the held-out residual with measured signals.
   const auto signals = diagnosticSignals(engine, lin);
+  result.extra_signals = detail::extraSignals(engine.data().ctx).names;  // extra columns (extra_signals.hpp)
   std::vector<SignalCorrelation> corr;
   const double thresh = 5.0 / std::sqrt(std::max(1.0, static_cast<double>(n_eval)));
   for (const auto& s : signals) {
@@ -432,7 +435,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   }
 
   // Which effect is missing.
-  const auto menu = detail::candidateMenu(options);
+  const auto menu =  // the named effects, the generic menu and the extra columns' candidates
+      detail::withExtraSignals(detail::candidateMenu(options), options, engine.data().ctx, &result.warnings);
   result.family_size = detail::familySize(engine, menu);
   const detail::RankContext rc{engine, menu, options, log_cmd,
                                detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};

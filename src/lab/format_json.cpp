@@ -84,6 +84,7 @@ std::string formatJson(const AnalysisResult& r) {
                                 {"significant", c.significant}});
   }
   o["correlations"] = std::move(correlations);
+  o["extra_signals"] = r.extra_signals;  // extra log columns taken as signals (docs/analyze.md)
   Json candidates = Json::array();
   for (const auto& c : r.candidates) {
     Json e = Json::object();

@@ -100,6 +100,11 @@ std::string formatText(const AnalysisResult& r) {
                 c.significant ? "" : "   (not above chance)");
     }
   }
+  if (!r.extra_signals.empty()) {  // extra log columns as candidate signals (docs/analyze.md)
+    std::string cols;
+    for (const auto& c : r.extra_signals) cols += (cols.empty() ? "" : ", ") + c;
+    s += line("extra log columns taken as signals (correlations; candidates payload(C), poly(C,1)): %s", cols.c_str());
+  }
   const int family = r.family_size;
   std::ostringstream margin;
   margin << 100.0 * r.heldout_margin;

@@ -57,7 +57,7 @@ class RtCompensatorRichest : public ::testing::TestWithParam<RateCase> {};
 TEST_P(RtCompensatorRichest, ComputeDoesNotAllocateWithEveryEffect) {
   const RateCase rc = GetParam();
   const auto model = effects::Model::fromName(
-      "paper+rigid_body+cable+temperature_drift+time_drift+crosstalk+mounting+sensor_delay+harmonic(q6,1)");
+      "paper+rigid_body+cable+temperature_drift+time_drift+crosstalk+mounting+sensor_delay+harmonic(q6,1)+payload(q6)");
   Eigen::VectorXd theta = Eigen::VectorXd::LinSpaced(model.numParams(), -0.01, 0.01);
   theta(model.paramIndex().column("mass")) = 2.0;
   NonlinearParams nl;

@@ -11,8 +11,10 @@
 //   <other>              an extra log column of that name (SampleContext::extra_names)
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "ftid/effects/effect.hpp"
+#include "ftid/effects/model.hpp"
 
 namespace ftid::effects {
 
@@ -40,5 +42,10 @@ class SignalSource {
   int index_ = 0;
   std::string name_;
 };
+
+/// The extra log columns a model reads (the signals of its effects that read kSignalExtraColumn,
+/// e.g. "grip" for payload(grip) or poly(grip,1)), each once, in effect order. Compensation needs
+/// them at run time: `ftid compensate` from the log's columns; ftidd has none (docs/effects.md).
+std::vector<std::string> extraColumnsRead(const Model& model);
 
 }  // namespace ftid::effects

@@ -195,6 +195,9 @@ struct AnalysisResult {
   /// empty otherwise. The report overlays it on the starting model's (before / after).
   Eigen::Matrix<double, 6, Eigen::Dynamic> final_residual;
   std::vector<double> top_signal;                       ///< values of correlations[0].signal
+  // Extra log columns as candidate signals (docs/analyze.md): the columns taken as signals of the
+  // correlations and (unless --candidates) of payload(<column>) and poly(<column>,1), in log order.
+  std::vector<std::string> extra_signals;
   double seconds = 0.0;                                 ///< wall time of the analysis
   std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance
 };

@@ -41,7 +41,7 @@ TEST(OnlineSignals, AModelReadingALogColumnIsRefusedAtLoad) {
   } catch (const ConfigError& e) {
     const std::string what = e.what();
     EXPECT_NE(what.find("/etc/ftid/params.yaml"), std::string::npos) << what;
-    EXPECT_NE(what.find("cannot be compensated online"), std::string::npos) << what;
+    EXPECT_NE(what.find("ftidd does not receive"), std::string::npos) << what;
     EXPECT_NE(what.find("'grip'"), std::string::npos) << what;
   }
 }
