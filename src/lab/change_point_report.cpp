@@ -111,10 +111,11 @@ void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResul
   for (const auto& c : result.candidates) {
     if (c.significant) best = std::max(best, c.relative_reduction);
   }
-  std::string note;
+  ScanNote note;
   const auto cp = findChangePoint(rc, base, best, &note);
+  result.change_point_scan_p = note.p_scan;
   if (!cp) {
-    if (!note.empty()) say(rc.options, "no change point: " + note);
+    if (!note.why.empty()) say(rc.options, "no change point: " + note.why);
     return;
   }
   result.change_points.push_back(*cp);
@@ -173,6 +174,7 @@ void addChangePointsJson(const AnalysisResult& r, nlohmann::ordered_json& o) {
                         {"split_commands", std::move(split)}});
   }
   o["change_points"] = std::move(list);
+  o["change_point_scan_p_value"] = jsonNumber(r.change_point_scan_p);
 }
 
 }  // namespace detail

@@ -4,9 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <random>
+#include <tuple>
 
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/identify/normal_equations.hpp"
 
 namespace ftid::lab::detail {
@@ -50,7 +53,7 @@ struct SplitForm {
 struct Best {
   int k = -1;
   int kind = 0;
-  double z = -1e300;   // Wilson-Hilferty normal score of the split's chi-square (ranking key)
+  double z = -1e300;   // -log p of the split's chi-square (ranking key, logSurvival)
   double p = 1.0;      // its p-value (colour scale uncertainty included)
 };
 
@@ -144,11 +147,14 @@ Eigen::VectorXd sub(const Eigen::VectorXd& v, const Kind& kind) {
   return out;
 }
 
-/// Wilson-Hilferty: the normal score of a chi-square statistic (no underflow, for ranking).
-double normalScore(double chi2, int dof) {
-  const double k = std::max(1, dof);
-  const double c = 2.0 / (9.0 * k);
-  return (std::cbrt(std::max(0.0, chi2) / k) - (1.0 - c)) / std::sqrt(c);
+/// log of the chi-square survival function (for ranking splits and kinds of different degrees of
+/// freedom): exact while it is representable, else its large-statistic asymptote
+/// log Q(k/2, x/2) ~ -x/2 + (k/2 - 1) log(x/2) - lgamma(k/2).
+double logSurvival(double chi2, int dof) {
+  const double p = chiSquareSurvival(chi2, dof);
+  if (p > 1e-280) return std::log(p);
+  const double h = 0.5 * std::max(1, dof);
+  return -0.5 * chi2 + (h - 1.0) * std::log(0.5 * chi2) - std::lgamma(h);
 }
 
 std::vector<int> gridOf(int n, int step_cap) {
@@ -170,7 +176,7 @@ Best observedScan(const ScanData& s, const std::vector<int>& ks, std::vector<std
       if (at.back().rank == 0) continue;
       const Eigen::VectorXd vk = sub(v, s.kinds[kk]);
       const double chi2 = vk.dot(at.back().inv * vk) / s.sigma2;
-      const double z = normalScore(chi2, at.back().rank);
+      const double z = -logSurvival(chi2, at.back().rank);
       if (z > best.z) best = {ks[g], static_cast<int>(kk), z,
                               chiSquareSurvivalUncertainScale(chi2, at.back().rank, s.scale_sd)};
     }
@@ -224,17 +230,18 @@ Best refine(const ScanData& s, const Best& coarse, int step) {
     const SplitForm f = splitForm(s, kind, c);
     if (f.rank == 0) return;
     const Eigen::VectorXd vk = sub(v, kind);
-    const double z = normalScore(vk.dot(f.inv * vk) / s.sigma2, f.rank);
+    const double z = -logSurvival(vk.dot(f.inv * vk) / s.sigma2, f.rank);
     if (z > best.z) best = {ks[g], coarse.kind, z, coarse.p};
   });
   return best;
 }
 
-/// The base model refitted with the step columns of `kind` from sample k on (raw design, masked,
-/// then whitened as every design is): the exact fit behind the reported step and its held-out error.
-Solution fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, int k) {
+/// The whitened design of the base model at `lin` with the step columns of `kind` from sample k on
+/// (the raw design's columns masked, then whitened as every design is).
+Design stepDesign(const ScanData& s, const effects::Model& model, const Linearization& lin, const Kind& kind, int k,
+                  bool whitened = true) {
   const Engine& eng = *s.eng;
-  const Design raw = eng.rawDesign(base.model, base.lin);
+  const Design raw = eng.rawDesign(model, lin);
   const auto q = static_cast<Eigen::Index>(kind.u.size());
   Design xe = Design::Zero(raw.rows(), s.p + q + 1);
   xe.leftCols(s.p) = raw.leftCols(s.p);
@@ -245,8 +252,41 @@ Solution fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, in
       for (Eigen::Index j = 0; j < q; ++j) xe(row, s.p + j) = raw(row, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)])]);
     }
   }
-  eng.core().whiten(xe, 0, static_cast<int>(xe.cols()));
-  return eng.solve(xe, true);
+  if (whitened) eng.core().whiten(xe, 0, static_cast<int>(xe.cols()));
+  return xe;
+}
+
+/// Moves the tilt by the solution's correction and recomputes its Jacobian columns with the
+/// parameters before the change for the samples before k and with the step added after it.
+bool stepTilt(const ScanData& s, const effects::Model& model, const Kind& kind, int k, const Solution& sol,
+              Linearization& lin) {
+  const int pm = model.numParams();
+  const double du = sol.theta(pm), dv = sol.theta(pm + 1);
+  lin.u += du;
+  lin.v += dv;
+  Eigen::VectorXd after = sol.theta.head(s.p);
+  for (std::size_t j = 0; j < kind.u.size(); ++j) {
+    after(s.cols[static_cast<std::size_t>(kind.u[j])]) += sol.theta(s.p + static_cast<Eigen::Index>(j));
+  }
+  Linearization lb = lin;
+  s.eng->tiltColumns(model, lin, sol.theta.head(s.p));
+  s.eng->tiltColumns(model, lb, after);
+  const Eigen::Index tail = lin.j_u.cols() - k;
+  lin.j_u.rightCols(tail) = lb.j_u.rightCols(tail);
+  lin.j_v.rightCols(tail) = lb.j_v.rightCols(tail);
+  return std::abs(du) + std::abs(dv) > 1e-9;
+}
+
+/// The base model refitted with the step of `kind` from sample k on, the tilt shared and
+/// re-linearised (Gauss-Newton, a few passes: the start's tilt was fitted without the step): the
+/// exact fit behind the reported step and its held-out error.
+std::pair<Linearization, Solution> fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, int k) {
+  Linearization lin = base.lin;
+  Solution sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
+  for (int pass = 0; pass < 5 && lin.tilt_columns && stepTilt(s, base.model, kind, k, sol, lin); ++pass) {
+    sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
+  }
+  return {lin, sol};
 }
 
 /// The change point's time uncertainty from the step's per-sample signal delta^2 near the split
@@ -290,47 +330,146 @@ ChangePoint describe(const ScanData& s, const Kind& kind, const Solution& sol, i
   return cp;
 }
 
-}  // namespace
+/// One scan against `base` on rc's engine: the best split, its exact fit and the scan's p-value.
+struct Scan {
+  ScanData data;
+  Kind kind;
+  int k = -1;
+  double p_scan = 1.0;
+  Linearization lin;
+  Solution sol;
+};
 
-std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
-                                           std::string* note) {
-  if (rc.eng.data().static_data) return std::nullopt;  // held poses: no time order to split (docs)
-  const ScanData s = scanData(rc, base);
+std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base) {
+  Scan sc;
+  sc.data = scanData(rc, base);
+  const ScanData& s = sc.data;
   const std::vector<int> ks = gridOf(s.n, kMaxGrid);
   if (ks.size() < 2 || s.kinds.empty()) return std::nullopt;
   std::vector<std::vector<SplitForm>> forms;
   const Best coarse = observedScan(s, ks, &forms);
   if (coarse.k < 0) return std::nullopt;
   const double m_eff = effectiveSplits(s, ks, forms);
-  const double p_scan = -std::expm1(m_eff * std::log1p(-std::min(coarse.p, 1.0 - 1e-16)));
-  const Best best = refine(s, coarse, ks.size() > 1 ? ks[1] - ks[0] : 1);
-  const Kind& kind = s.kinds[static_cast<std::size_t>(best.kind)];
-  const Solution sol = fitWithStep(s, base, kind, best.k);
+  sc.p_scan = -std::expm1(m_eff * std::log1p(-std::min(coarse.p, 1.0 - 1e-16)));
+  const Best best = refine(s, coarse, ks[1] - ks[0]);
+  sc.kind = s.kinds[static_cast<std::size_t>(best.kind)];
+  sc.k = best.k;
+  std::tie(sc.lin, sc.sol) = fitWithStep(s, base, sc.kind, best.k);
+  return sc;
+}
+
+/// The fitting samples' readings alone: the noise floor before any model (robust to a step: the
+/// 4th-order differences see it in 5 samples at most, which their median ignores).
+std::vector<SampleContext> fittingSamples(const Engine& eng) {
+  const auto& ctx = eng.data().ctx;
+  return {ctx.begin(), ctx.begin() + eng.data().n_fit};
+}
+
+/// A dataset with the noise model nf (weights 1 / innovation std, the AR(1) filter).
+Dataset withNoise(const Engine& eng, const identify::NoiseFloor& nf) {
+  Dataset d = eng.data();
+  d.ar1 = nf.ar1;
+  const Vec6 inn = nf.innovationStd();
+  for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(inn(a), 1e-9);
+  return d;
+}
+
+bool dense(const identify::NoiseFloor& nf) {
+  return nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured;
+}
+
+/// The noise model re-estimated from the residual of the model with the step (the start's
+/// residual holds the step itself, which reads as strongly coloured noise).
+identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
+  const Engine& eng = *sc.data.eng;
+  const std::vector<SampleContext> fit = fittingSamples(eng);
+  identify::NoiseFloor nf = identify::estimateNoiseFloor(fit);
+  if (!dense(nf)) return nf;
+  const Design raw = stepDesign(sc.data, base.model, sc.lin, sc.kind, sc.k, false);
+  const auto cols = raw.cols() - 1;
+  const auto n = static_cast<int>(fit.size());
+  Mat6X res(6, n);
+  for (int i = 0; i < n; ++i) {
+    for (int a = 0; a < 6; ++a) {
+      const int row = eng.core().rowOf(i, a);
+      res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sc.sol.theta)) / eng.data().weights(a);
+    }
+  }
+  identify::refineNoiseFloor(nf, res, fit);
+  return nf;
+}
+
+/// A scan on its own engine (another noise model): the engine, the start refitted on it, the context.
+struct Pass {
+  std::unique_ptr<Engine> eng;
+  std::optional<Fitted> base;
+  std::optional<RankContext> rc;
+  std::optional<Scan> scan;
+};
+
+Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::NoiseFloor& nf) {
+  Pass p;
+  p.eng = std::make_unique<Engine>(withNoise(rc.eng, nf));
+  auto fitted = p.eng->fitFully(base.model, base.lin);
+  p.base = Fitted{base.model, fitted.first, fitted.second};
+  p.rc.emplace(RankContext{*p.eng, rc.menu, rc.options, rc.log_cmd, colourScaleSd(nf.ar1, nf.ar1_std), rc.family_size});
+  p.scan = scanOnce(*p.rc, *p.base);
+  return p;
+}
+
+/// The rule on the scan's best split (the change point one more candidate of the family), then
+/// the comparison with the best recommended smooth candidate.
+std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& sc, double best_smooth_reduction,
+                                 ScanNote* note) {
   RuleInputs in;
-  in.p_value = p_scan;
-  in.family_size = rc.family_size + 1;  // the change point: one more candidate of the family
+  in.p_value = sc.p_scan;
+  in.family_size = rc.family_size + 1;
   in.family_alpha = rc.options.family_alpha;
-  in.heldout_reduction = 1.0 - sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
+  in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
   in.min_heldout_reduction = rc.options.min_relative_reduction;
-  in.added_params = sol.rank - base.sol.rank;
+  in.added_params = sc.sol.rank - base.sol.rank;
   const Decision d = decide(in);
-  ChangePoint cp = describe(s, kind, sol, best.k);
-  cp.p_value = p_scan;
+  if (note != nullptr) note->p_scan = sc.p_scan;
+  ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
+  cp.p_value = sc.p_scan;
   cp.family_p = d.family_p;
   cp.heldout_reduction = in.heldout_reduction;
-  const std::string where = "a " + kind.name + " change at t = " + fmt(cp.t, 6) + " s";
+  const std::string where = "a " + sc.kind.name + " change at t = " + fmt(cp.t, 6) + " s";
   if (d.verdict != Verdict::kRecommended) {
-    if (note != nullptr) *note = where + " is " + verdictWord(d.verdict) + ": " + d.reason;
+    if (note != nullptr) note->why = where + " is " + verdictWord(d.verdict) + ": " + d.reason;
     return std::nullopt;
   }
   if (!(in.heldout_reduction > best_smooth_reduction)) {
     if (note != nullptr) {
-      *note = where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
+      note->why = where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
               " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
     }
     return std::nullopt;
   }
   return cp;
+}
+
+}  // namespace
+
+std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
+                                           ScanNote* note) {
+  const std::optional<Scan> first = scanOnce(rc, base);
+  if (!first) return std::nullopt;
+  if (first->p_scan >= rc.options.family_alpha || rc.options.noise_std) {
+    return judge(rc, base, *first, best_smooth_reduction, note);
+  }
+  // A nominal change: the analysis' noise model came from the start's residual, which holds the
+  // step. Locate it under the readings' own floor, re-estimate the noise from the residual with
+  // that step, and scan again under it: the second scan is the one judged.
+  const identify::NoiseFloor readings = identify::estimateNoiseFloor(fittingSamples(rc.eng));
+  if (!dense(readings)) return judge(rc, base, *first, best_smooth_reduction, note);
+  const Pass locate = scanWithNoise(rc, base, readings);
+  if (!locate.scan) return judge(rc, base, *first, best_smooth_reduction, note);
+  const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
+  if (!dense(with_step)) return judge(*locate.rc, *locate.base, *locate.scan, best_smooth_reduction, note);
+  const Pass final_pass = scanWithNoise(rc, base, with_step);
+  if (!final_pass.scan) return std::nullopt;
+  return judge(*final_pass.rc, *final_pass.base, *final_pass.scan, best_smooth_reduction, note);
 }
 
 }  // namespace ftid::lab::detail

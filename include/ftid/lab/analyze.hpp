@@ -195,6 +195,7 @@ struct AnalysisResult {
   // log against the starting model; when there is one, --explain does not walk (smooth effects
   // would imitate the step) and no parameters are advised to be written.
   std::vector<ChangePoint> change_points;
+  double change_point_scan_p = 1.0;  ///< the scan's p-value, splits accounted for (1: not scanned)
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if
