@@ -1,6 +1,7 @@
 // Change points in the reports of `ftid analyze` (include/ftid/lab/change_point.hpp): the line that
 // leads the text summary, the JSON array and the HTML block near the top of the page.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -112,7 +113,10 @@ void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResul
     if (c.significant) best = std::max(best, c.relative_reduction);
   }
   ScanNote note;
+  const auto t0 = std::chrono::steady_clock::now();
   const auto cp = findChangePoint(rc, base, best, &note);
+  say(rc.options, "change-point scan: " +
+                      fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 3) + " s");
   result.change_point_scan_p = note.p_scan;
   if (!cp) {
     if (!note.why.empty()) say(rc.options, "no change point: " + note.why);

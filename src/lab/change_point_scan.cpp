@@ -280,10 +280,11 @@ bool stepTilt(const ScanData& s, const effects::Model& model, const Kind& kind, 
 /// The base model refitted with the step of `kind` from sample k on, the tilt shared and
 /// re-linearised (Gauss-Newton, a few passes: the start's tilt was fitted without the step): the
 /// exact fit behind the reported step and its held-out error.
-std::pair<Linearization, Solution> fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, int k) {
+std::pair<Linearization, Solution> fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, int k,
+                                               int passes) {
   Linearization lin = base.lin;
   Solution sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
-  for (int pass = 0; pass < 5 && lin.tilt_columns && stepTilt(s, base.model, kind, k, sol, lin); ++pass) {
+  for (int pass = 0; pass < passes && lin.tilt_columns && stepTilt(s, base.model, kind, k, sol, lin); ++pass) {
     sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
   }
   return {lin, sol};
@@ -340,7 +341,9 @@ struct Scan {
   Solution sol;
 };
 
-std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base) {
+/// `with_null` = false only locates the split (no simulated null); the step's fit is linear at the
+/// start's tilt (relinearise() makes it exact).
+std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool with_null) {
   Scan sc;
   sc.data = scanData(rc, base);
   const ScanData& s = sc.data;
@@ -349,12 +352,18 @@ std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base) {
   std::vector<std::vector<SplitForm>> forms;
   const Best coarse = observedScan(s, ks, &forms);
   if (coarse.k < 0) return std::nullopt;
-  const double m_eff = effectiveSplits(s, ks, forms);
+  const double m_eff = with_null ? effectiveSplits(s, ks, forms) : 1.0;
   sc.p_scan = -std::expm1(m_eff * std::log1p(-std::min(coarse.p, 1.0 - 1e-16)));
   const Best best = refine(s, coarse, ks[1] - ks[0]);
   sc.kind = s.kinds[static_cast<std::size_t>(best.kind)];
   sc.k = best.k;
-  std::tie(sc.lin, sc.sol) = fitWithStep(s, base, sc.kind, best.k);
+  std::tie(sc.lin, sc.sol) = fitWithStep(s, base, sc.kind, best.k, 0);
+  return sc;
+}
+
+/// The step's fit with the tilt re-linearised (the one judged and reported).
+Scan relinearised(Scan sc, const Fitted& base) {
+  std::tie(sc.lin, sc.sol) = fitWithStep(sc.data, base, sc.kind, sc.k, 5);
   return sc;
 }
 
@@ -407,13 +416,14 @@ struct Pass {
   std::optional<Scan> scan;
 };
 
-Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::NoiseFloor& nf) {
+/// The start's linear parameters are refitted under the new weights at the start's linearisation
+/// (the step's fit re-linearises the tilt); `with_null` = false only locates the split.
+Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::NoiseFloor& nf, bool with_null) {
   Pass p;
   p.eng = std::make_unique<Engine>(withNoise(rc.eng, nf));
-  auto fitted = p.eng->fitFully(base.model, base.lin);
-  p.base = Fitted{base.model, fitted.first, fitted.second};
+  p.base = Fitted{base.model, base.lin, p.eng->solve(p.eng->design(base.model, base.lin), true)};
   p.rc.emplace(RankContext{*p.eng, rc.menu, rc.options, rc.log_cmd, colourScaleSd(nf.ar1, nf.ar1_std), rc.family_size});
-  p.scan = scanOnce(*p.rc, *p.base);
+  p.scan = scanOnce(*p.rc, *p.base, with_null);
   return p;
 }
 
@@ -453,23 +463,22 @@ std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, cons
 
 std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
                                            ScanNote* note) {
-  const std::optional<Scan> first = scanOnce(rc, base);
+  const std::optional<Scan> first = scanOnce(rc, base, true);
   if (!first) return std::nullopt;
-  if (first->p_scan >= rc.options.family_alpha || rc.options.noise_std) {
-    return judge(rc, base, *first, best_smooth_reduction, note);
-  }
+  if (first->p_scan >= rc.options.family_alpha) return judge(rc, base, *first, best_smooth_reduction, note);
+  if (rc.options.noise_std) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
   // A nominal change: the analysis' noise model came from the start's residual, which holds the
   // step. Locate it under the readings' own floor, re-estimate the noise from the residual with
   // that step, and scan again under it: the second scan is the one judged.
   const identify::NoiseFloor readings = identify::estimateNoiseFloor(fittingSamples(rc.eng));
-  if (!dense(readings)) return judge(rc, base, *first, best_smooth_reduction, note);
-  const Pass locate = scanWithNoise(rc, base, readings);
-  if (!locate.scan) return judge(rc, base, *first, best_smooth_reduction, note);
+  if (!dense(readings)) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  const Pass locate = scanWithNoise(rc, base, readings, false);
+  if (!locate.scan) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
   const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
-  if (!dense(with_step)) return judge(*locate.rc, *locate.base, *locate.scan, best_smooth_reduction, note);
-  const Pass final_pass = scanWithNoise(rc, base, with_step);
+  const Pass final_pass = scanWithNoise(rc, base, dense(with_step) ? with_step : readings, true);
   if (!final_pass.scan) return std::nullopt;
-  return judge(*final_pass.rc, *final_pass.base, *final_pass.scan, best_smooth_reduction, note);
+  return judge(*final_pass.rc, *final_pass.base, relinearised(*final_pass.scan, *final_pass.base), best_smooth_reduction,
+               note);
 }
 
 }  // namespace ftid::lab::detail
