@@ -459,7 +459,9 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     if (!above.empty()) {
       result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +
                                 "): the model misses something" +
-                                (options.explain ? " that no candidate explains" : "; try --explain"));
+                                (!result.change_points.empty() ? ": the change in time (analyze each segment)"
+                                 : options.explain              ? " that no candidate explains"
+                                                                : "; try --explain"));
     }
   }
   for (const auto& c : result.candidates) {
