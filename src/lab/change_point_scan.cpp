@@ -408,6 +408,17 @@ identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
   return nf;
 }
 
+/// Whether the analysis' noise (marginal std per axis) is more than twice the readings' own floor
+/// on some axis: its residual then holds more than noise.
+bool aboveReadings(const Engine& eng, const identify::NoiseFloor& readings) {
+  const Dataset& d = eng.data();
+  for (int a = 0; a < 6; ++a) {
+    const double marginal = 1.0 / (d.weights(a) * std::sqrt(std::max(1e-6, 1.0 - d.ar1(a) * d.ar1(a))));
+    if (marginal > 2.0 * readings.std(a)) return true;
+  }
+  return false;
+}
+
 /// A scan on its own engine (another noise model): the engine, the start refitted on it, the context.
 struct Pass {
   std::unique_ptr<Engine> eng;
@@ -465,13 +476,16 @@ std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& 
                                            ScanNote* note) {
   const std::optional<Scan> first = scanOnce(rc, base, true);
   if (!first) return std::nullopt;
-  if (first->p_scan >= rc.options.family_alpha) return judge(rc, base, *first, best_smooth_reduction, note);
   if (rc.options.noise_std) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
-  // A nominal change: the analysis' noise model came from the start's residual, which holds the
-  // step. Locate it under the readings' own floor, re-estimate the noise from the residual with
-  // that step, and scan again under it: the second scan is the one judged.
+  // The analysis' noise model came from the start's residual, which holds a step if there is one
+  // (it reads as strongly coloured noise and hides the step). When the first scan is nominally
+  // significant, or that noise is far above the readings' own floor, locate the split under the
+  // readings' floor, re-estimate the noise from the residual with that step, and scan again under
+  // it: that scan is the one judged.
   const identify::NoiseFloor readings = identify::estimateNoiseFloor(fittingSamples(rc.eng));
-  if (!dense(readings)) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  if (!dense(readings) || (first->p_scan >= rc.options.family_alpha && !aboveReadings(rc.eng, readings))) {
+    return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  }
   const Pass locate = scanWithNoise(rc, base, readings, false);
   if (!locate.scan) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
   const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
