@@ -18,6 +18,7 @@ const char* const kUsage =
     "                        [--candidates E1,E2,...] [--report report.html] [--json] [--robot URDF]\n"
     "                        [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
     "                        [--wrench-log FILE] [--qdd-source diff|target] [--rated-range fz=L,..]\n"
+    "                        [--t-from S] [--t-to S]\n"
     "\n"
     "Compares a model of the sensor reading with the measurements, shows where it fails and which\n"
     "physical effect is missing (docs/analyze.md; the effects: docs/effects.md).\n"
@@ -58,6 +59,11 @@ const char* const kUsage =
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "  --t-from S, --t-to S\n"
+    "                    analyse only LOG's samples with S_from <= t < S_to (seconds since its first\n"
+    "                    sample, as every time the report prints); a change in time (a payload grasped\n"
+    "                    or released, a sensor re-bias) is reported first with the two commands that\n"
+    "                    split the log there (docs/analyze.md, \"Change points\")\n"
     "%INPUT%"
     "  (--wrench-log applies to LOG; a --validate log is read on its own)\n"
     "\n"
@@ -122,6 +128,8 @@ int runAnalyze(const std::vector<std::string>& argv) {
   app.add_option("--rated-range", rated_range);
   app.add_flag("--json", json);
   app.add_option("--robot", req.robot_urdf);
+  app.add_option("--t-from", req.t_from)->transform(cli::real({-1e12, 1e12, true, true}));
+  app.add_option("--t-to", req.t_to)->transform(cli::real({-1e12, 1e12, true, true}));
   app.add_option("--wrench-frame", wrench_frame)->transform(cli::oneOf({"sensor", "base"}));
   std::string mount_rpy, config;
   app.add_option("--mount-rpy", mount_rpy);

@@ -481,6 +481,10 @@ void analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
       break;
     }
   }
+  for (const auto& cp : ar.change_points) {  // change in time (lab/change_point.hpp)
+    print("WARNING: " + lab::describeChangePoint(cp) + ": the run holds two set-ups; the parameters describe "
+          "neither. Repeat the run without the change.");
+  }
   if (top) {
     result.suggested_effect = top->effect;
     print("A physical effect is missing from the model: " + top->effect + " (" + top->description + ").");

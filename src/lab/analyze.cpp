@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "change_point_scan.hpp"
 #include "lab_internal.hpp"
 #include "extra_signals.hpp"
 #include "ftid/effects/nonlinear.hpp"
@@ -444,7 +445,10 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.family_alpha = options.family_alpha;
   result.heldout_margin = options.min_relative_reduction;
 
-  const Fitted last_fit = options.explain ? detail::explainPath(rc, base, result) : base;
+  // Change in time (change_point_scan.hpp): a step no smooth effect describes; --explain then stops.
+  detail::reportChangePoints(rc, base, result);
+  const Fitted last_fit =
+      options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.
   for (const auto& r : physicsRefusals(detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr))) {
     result.unphysical.push_back(r.reason);
@@ -464,7 +468,9 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     if (!above.empty()) {
       result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +
                                 "): the model misses something" +
-                                (options.explain ? " that no candidate explains" : "; try --explain"));
+                                (!result.change_points.empty() ? ": the change in time (analyze each segment)"
+                                 : options.explain              ? " that no candidate explains"
+                                                                : "; try --explain"));
     }
   }
   for (const auto& c : result.candidates) {

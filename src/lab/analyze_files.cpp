@@ -88,8 +88,8 @@ void checkEnoughSamples(const samples::ContextSet& fit, const AnalyzeFilesReques
 
 AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request) {
   const auto& say = request.options.progress;
-  const samples::ContextSet fit =
-      samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, say);
+  samples::ContextSet fit = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, say);
+  applyTimeWindow(fit, request.t_from, request.t_to, request.log_path);  // --t-from, --t-to (change points)
   checkEnoughSamples(fit, request);
   // The set-up diagnosis (identify's, setup_check.hpp) on the log as it was read.
   for (const auto& l : identify::diagnoseSetup(fit.samples, request.context).lines) {

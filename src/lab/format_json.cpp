@@ -4,6 +4,7 @@
 #include <string>
 
 #include "ftid/fileio/json_text.hpp"
+#include "change_point_scan.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace ftid::lab {
@@ -113,6 +114,7 @@ std::string formatJson(const AnalysisResult& r) {
   o["family_size"] = r.family_size;
   o["heldout_margin"] = jsonNumber(r.heldout_margin);
   o["unphysical"] = r.unphysical;
+  detail::addChangePointsJson(r, o);  // change_points (change_point_report.cpp)
   if (!r.steps.empty()) {
     Json why = Json::array();
     for (const auto& c : r.final_candidates) {

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <string>
 
+#include "change_point_scan.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_internal.hpp"  // saturation (issue 22)
 
@@ -72,6 +73,7 @@ std::string formatText(const AnalysisResult& r) {
   s += line("model %s: %d fitting samples, %s", r.report.model.c_str(), r.n_samples,
             r.validate_log.empty() ? (std::to_string(r.folds) + "-fold held-out validation (contiguous time blocks)").c_str()
                                    : ("validated on " + r.validate_log).c_str());
+  s = detail::changePointText(r) + s;  // a change in time leads the summary (change_point_report.cpp)
   s += line("noise floor (%s): %s", r.noise_method.c_str(), r.noise_detail.c_str());
   if (r.outliers.count > 0) {
     std::string times;
@@ -129,7 +131,9 @@ std::string formatText(const AnalysisResult& r) {
     s += "  " + c.effect + " is NOT recommended (refused): " + c.confound + ".\n";
     if (!c.separating_motion.empty()) s += "    what would resolve it: " + c.separating_motion + ".\n";
   }
-  if (shown > 0 && r.candidates.front().significant) {
+  if (!r.change_points.empty()) {
+    s += "\nmissing effect: a change in time (see the top); the candidates above would only imitate the step\n";
+  } else if (shown > 0 && r.candidates.front().significant) {
     const auto& best = r.candidates.front();
     s += "\nmissing effect: " + best.effect + " - " + best.description + "\n";
     s += "next: " + best.next_command + "\n";

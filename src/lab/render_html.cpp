@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "change_point_scan.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_internal.hpp"  // saturation (issue 22)
 
@@ -238,6 +239,7 @@ void writeSummary(std::ostringstream& o, const AnalysisResult& r) {
        ".plot{margin:4px;border:1px solid #ddd}.tk{font-size:10px;fill:#444}.ti{font-size:12px;font-weight:bold}"
        ".warn{background:#fff4d6;border:1px solid #e0c060;padding:4px 8px}code{background:#eee;padding:1px 4px}.grid{display:flex;flex-wrap:wrap}</style></head><body>\n";
   o << "<h1>ftid analyze &mdash; model <code>" << esc(r.report.model) << "</code></h1>\n";
+  o << detail::changePointHtml(r);  // a change in time leads the page (change_point_report.cpp)
   o << "<p>Log <code>" << esc(r.log) << "</code>, " << r.n_samples << " fitting samples, "
     << (r.validate_log.empty() ? std::to_string(r.folds) + "-fold held-out validation over contiguous time blocks"
                                : "validated on <code>" + esc(r.validate_log) + "</code>")

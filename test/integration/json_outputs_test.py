@@ -21,7 +21,8 @@ IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "
                  "heldout_rms", "residual_to_noise", "glitches", "warnings", "physical_validity", "imu"]
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "warnings",
-                "raw_rms", "fit", "windows", "correlations", "candidates", "family_alpha", "family_size", "heldout_margin", "unphysical", "seconds"]
+                "raw_rms", "fit", "windows", "correlations", "candidates", "family_alpha", "family_size", "heldout_margin", "unphysical",
+                "change_points", "change_point_scan_p_value", "seconds"]
 CANDIDATE_KEYS = ["effect", "relative_reduction", "significant", "p_value", "f_statistic", "added_params",
                   "delta_bic", "residual_rms", "description", "next_command", "skipped", "note",
                   "confounded", "confound", "separating_motion", "verdict", "family_p_value", "reason"]
@@ -107,6 +108,7 @@ def main():
     for key in ["residual_rms", "noise_floor", "noise_ar1", "raw_rms"]:
         axes_of(ana[key], key)
     check(list(ana["outliers"].keys()) == ["count", "times"], "outliers keys")
+    check(ana["change_points"] == [], f"no change point on a clean run, got {ana['change_points']}")
     check(len(ana["candidates"]) == 2, f"two candidates, got {len(ana['candidates'])}")
     for c in ana["candidates"]:
         check(list(c.keys()) == CANDIDATE_KEYS, f"candidate keys {list(c.keys())}")

@@ -8,6 +8,7 @@
 //
 // Everything here is offline (not real-time). Frames and units: docs/conventions.md.
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -17,6 +18,7 @@
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/identify/saturation.hpp"
+#include "ftid/lab/change_point.hpp"
 #include "ftid/lab/verdict.hpp"
 
 namespace ftid::lab {
@@ -200,6 +202,11 @@ struct AnalysisResult {
   std::vector<std::string> extra_signals;
   double seconds = 0.0;                                 ///< wall time of the analysis
   std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance
+  // Change in time (issue 22, lab/change_point.hpp): a payload or offsets step found in the fitting
+  // log against the starting model; when there is one, --explain does not walk (smooth effects
+  // would imitate the step) and no parameters are advised to be written.
+  std::vector<ChangePoint> change_points;
+  double change_point_scan_p = 1.0;  ///< the scan's p-value, splits accounted for (1: not scanned)
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if
@@ -231,6 +238,10 @@ struct AnalyzeFilesRequest {
   std::string robot_urdf;      ///< "" = default
   AnalyzeOptions options;
   samples::ContextOptions context;  ///< e.g. wrench_in_base for `--wrench-frame base`
+  // Time window (issue 22, change points; `--t-from`, `--t-to`): only samples of the fitting log with
+  // t_from <= t < t_to (its time column, s) are analysed.
+  double t_from = -std::numeric_limits<double>::infinity();
+  double t_to = std::numeric_limits<double>::infinity();
 };
 AnalysisResult analyzeLogFiles(const AnalyzeFilesRequest& request);
 

@@ -1,0 +1,498 @@
+// The change-point scan of the model laboratory (change_point_scan.hpp, include/ftid/lab/change_point.hpp,
+// docs/analyze.md "Change points").
+#include "change_point_scan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <tuple>
+
+#include "ftid/effects/rigid_body.hpp"
+#include "ftid/identify/noise.hpp"
+#include "ftid/identify/normal_equations.hpp"
+
+namespace ftid::lab::detail {
+
+namespace {
+
+using Design = Engine::Design;
+
+constexpr int kMaxGrid = 1000;            // splits scanned at most (a coarser grid on long logs)
+constexpr int kMinSegment = 20;           // samples on either side of a split, at least
+constexpr double kArgmaxVariance = 26.0;  // Var of argmax_s (W(s) - |s|/2) (Bai 1997)
+constexpr double kRankTolerance = 1e-9;   // of the step's information matrix (equilibrated)
+
+struct Kind {
+  std::string name;    // "payload" or "offsets"
+  std::vector<int> u;  // positions in ScanData::cols
+};
+
+/// The regressor and residual a scan reads (whitened rows of the fitting samples).
+struct ScanData {
+  const Engine* eng = nullptr;
+  Design X;                 // base design, measurement last
+  int p = 0;                // its parameter columns
+  int n = 0;                // fitting samples
+  Eigen::VectorXd r;        // residual of the base fit per row of the fitting samples
+  Eigen::MatrixXd a_inv;    // (X^T X)^+ on the fitting rows
+  std::vector<int> cols;    // the step columns of every kind (X columns)
+  std::vector<std::string> names, units;
+  std::vector<Kind> kinds;
+  double sigma2 = 1.0;      // residual variance of the base fit (whitened)
+  double scale_sd = 0.0;    // colourScaleSd
+};
+
+/// The pseudo-inverse of one split's step information Z^T M Z for one kind.
+struct SplitForm {
+  Eigen::MatrixXd inv;
+  int rank = 0;
+};
+
+/// The best split of a scan: grid position, kind and its score.
+struct Best {
+  int k = -1;
+  int kind = 0;
+  double z = -1e300;   // -log p of the split's chi-square (ranking key, logSurvival)
+  double p = 1.0;      // its p-value (colour scale uncertainty included)
+};
+
+void stepColumns(const effects::Model& model, ScanData& s) {
+  const auto params = model.params();
+  const auto& idx = model.paramIndex();
+  std::vector<std::string> payload = {"mass", "mass_com_x", "mass_com_y", "mass_com_z"};
+  if (model.contains("rigid_body")) {
+    for (const char* n : effects::kInertiaParamNames) payload.emplace_back(n);
+  }
+  const std::vector<std::string> offsets = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
+  const auto add = [&](const std::vector<std::string>& names, const char* kind) {
+    Kind k{kind, {}};
+    for (const auto& n : names) {
+      const int c = idx.column(n);
+      if (c < 0) continue;
+      k.u.push_back(static_cast<int>(s.cols.size()));
+      s.cols.push_back(c);
+      s.names.push_back(n);
+      s.units.push_back(params[static_cast<std::size_t>(c)].unit);
+    }
+    if (!k.u.empty()) s.kinds.push_back(k);
+  };
+  add(payload, "payload");
+  add(offsets, "offsets");
+}
+
+ScanData scanData(const RankContext& rc, const Fitted& base) {
+  ScanData s;
+  s.eng = &rc.eng;
+  s.X = rc.eng.design(base.model, base.lin);
+  s.p = static_cast<int>(s.X.cols()) - 1;
+  s.n = rc.eng.data().n_fit;
+  s.scale_sd = rc.scale_sd;
+  stepColumns(base.model, s);
+  const auto xf = s.X.topRows(6 * static_cast<Eigen::Index>(s.n));
+  const Eigen::MatrixXd gram = xf.leftCols(s.p).transpose() * xf.leftCols(s.p);
+  const auto sol = identify::solveGram(gram, xf.leftCols(s.p).transpose() * xf.col(s.p), true);
+  s.a_inv = sol.inverse;
+  s.r = xf.col(s.p) - xf.leftCols(s.p) * sol.x;
+  int active = 0;
+  for (Eigen::Index i = 0; i < xf.rows(); ++i) active += xf.row(i).squaredNorm() > 0.0 ? 1 : 0;
+  s.sigma2 = std::max(1e-300, s.r.squaredNorm() / std::max(1, active - sol.rank));
+  return s;
+}
+
+/// Adds sample i's rows to the sums C = sum x_S x^T (optional) and v = sum x_S r.
+void addSample(const ScanData& s, int i, Eigen::MatrixXd* c, Eigen::VectorXd& v, const Eigen::VectorXd& r) {
+  for (int a = 0; a < 6; ++a) {
+    const int row = s.eng->core().rowOf(i, a);
+    for (std::size_t j = 0; j < s.cols.size(); ++j) {
+      const double xs = s.X(row, s.cols[j]);
+      if (xs == 0.0) continue;
+      if (c != nullptr) c->row(static_cast<Eigen::Index>(j)) += xs * s.X.row(row).head(s.p);
+      v(static_cast<Eigen::Index>(j)) += xs * r(row);
+    }
+  }
+}
+
+/// Calls f(position, C, v) at every split ks[position] (increasing) with the sums over the
+/// samples from the split to the end of the fitting log (the step columns' side).
+template <class F>
+void sweep(const ScanData& s, const std::vector<int>& ks, bool with_c, const Eigen::VectorXd& r, F f) {
+  const auto q = static_cast<Eigen::Index>(s.cols.size());
+  Eigen::MatrixXd c_total = Eigen::MatrixXd::Zero(with_c ? q : 0, s.p), c = c_total;
+  Eigen::VectorXd v_total = Eigen::VectorXd::Zero(q), v = v_total;
+  for (int i = ks.empty() ? s.n : ks.front(); i < s.n; ++i) addSample(s, i, with_c ? &c_total : nullptr, v_total, r);
+  int i = ks.empty() ? 0 : ks.front();
+  for (std::size_t g = 0; g < ks.size(); ++g) {
+    while (i < ks[g]) addSample(s, i++, with_c ? &c : nullptr, v, r);
+    f(g, c_total - c, v_total - v);
+  }
+}
+
+SplitForm splitForm(const ScanData& s, const Kind& kind, const Eigen::MatrixXd& c_suffix) {
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  Eigen::MatrixXd cz(q, s.p);
+  Eigen::MatrixXd zz(q, q);
+  for (Eigen::Index j = 0; j < q; ++j) {
+    cz.row(j) = c_suffix.row(kind.u[static_cast<std::size_t>(j)]);
+    for (Eigen::Index l = 0; l < q; ++l) zz(j, l) = cz(j, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(l)])]);
+  }
+  const Eigen::MatrixXd info = zz - cz * s.a_inv * cz.transpose();
+  const auto g = identify::solveGram(0.5 * (info + info.transpose()), Eigen::VectorXd::Zero(q), true, kRankTolerance);
+  return {g.inverse, g.rank};
+}
+
+Eigen::VectorXd sub(const Eigen::VectorXd& v, const Kind& kind) {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(kind.u.size()));
+  for (std::size_t j = 0; j < kind.u.size(); ++j) out(static_cast<Eigen::Index>(j)) = v(kind.u[j]);
+  return out;
+}
+
+/// log of the chi-square survival function (for ranking splits and kinds of different degrees of
+/// freedom): exact while it is representable, else its large-statistic asymptote
+/// log Q(k/2, x/2) ~ -x/2 + (k/2 - 1) log(x/2) - lgamma(k/2).
+double logSurvival(double chi2, int dof) {
+  const double p = chiSquareSurvival(chi2, dof);
+  if (p > 1e-280) return std::log(p);
+  const double h = 0.5 * std::max(1, dof);
+  return -0.5 * chi2 + (h - 1.0) * std::log(0.5 * chi2) - std::lgamma(h);
+}
+
+std::vector<int> gridOf(int n, int step_cap) {
+  const int margin = std::max(kMinSegment, n / 50);
+  std::vector<int> ks;
+  if (n - margin <= margin) return ks;
+  const int step = std::max(1, (n - 2 * margin + step_cap - 1) / step_cap);
+  for (int k = margin; k <= n - margin; k += step) ks.push_back(k);
+  return ks;
+}
+
+/// The observed scan: forms of every split and kind (for the null) and the best split.
+Best observedScan(const ScanData& s, const std::vector<int>& ks, std::vector<std::vector<SplitForm>>* forms) {
+  Best best;
+  sweep(s, ks, true, s.r, [&](std::size_t g, const Eigen::MatrixXd& c, const Eigen::VectorXd& v) {
+    std::vector<SplitForm> at;
+    for (std::size_t kk = 0; kk < s.kinds.size(); ++kk) {
+      at.push_back(splitForm(s, s.kinds[kk], c));
+      if (at.back().rank == 0) continue;
+      const Eigen::VectorXd vk = sub(v, s.kinds[kk]);
+      const double chi2 = vk.dot(at.back().inv * vk) / s.sigma2;
+      const double z = -logSurvival(chi2, at.back().rank);
+      if (z > best.z) best = {ks[g], static_cast<int>(kk), z,
+                              chiSquareSurvivalUncertainScale(chi2, at.back().rank, s.scale_sd)};
+    }
+    if (forms != nullptr) forms->push_back(std::move(at));
+  });
+  return best;
+}
+
+/// One simulated scan under no change: the smallest p-value over splits and kinds.
+double nullMinP(const ScanData& s, const std::vector<int>& ks, const std::vector<std::vector<SplitForm>>& forms,
+                std::mt19937_64& rng) {
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  const auto xf = s.X.topRows(6 * static_cast<Eigen::Index>(s.n)).leftCols(s.p);
+  Eigen::VectorXd e(xf.rows());
+  for (Eigen::Index i = 0; i < e.size(); ++i) e(i) = s.r(i) != 0.0 || xf.row(i).squaredNorm() > 0.0 ? gauss(rng) : 0.0;
+  const Eigen::VectorXd beta = s.a_inv * (xf.transpose() * e);
+  const Eigen::VectorXd r = e - xf * beta;
+  double min_p = 1.0;
+  sweep(s, ks, false, r, [&](std::size_t g, const Eigen::MatrixXd& /*c*/, const Eigen::VectorXd& v) {
+    for (std::size_t kk = 0; kk < s.kinds.size(); ++kk) {
+      const SplitForm& f = forms[g][kk];
+      if (f.rank == 0) continue;
+      const Eigen::VectorXd vk = sub(v, s.kinds[kk]);
+      min_p = std::min(min_p, chiSquareSurvival(vk.dot(f.inv * vk), f.rank));
+    }
+  });
+  return min_p;
+}
+
+/// The scan's effective number of independent splits m: the null's smallest p-value u follows
+/// 1 - (1 - u)^m; m is its maximum-likelihood estimate from simulated scans, raised by two of its
+/// relative standard errors (1 / sqrt(R)) so that a short simulation errs on the safe side.
+double effectiveSplits(const ScanData& s, const std::vector<int>& ks, const std::vector<std::vector<SplitForm>>& forms) {
+  const double cost = 6.0 * s.n * static_cast<double>(s.p + s.cols.size());
+  const int replicates = std::clamp(static_cast<int>(4e8 / std::max(1.0, cost)), 40, 200);
+  std::mt19937_64 rng(0x6368616e6765ULL + static_cast<std::uint64_t>(s.n));
+  double sum = 0.0;
+  for (int k = 0; k < replicates; ++k) sum += -std::log1p(-std::min(nullMinP(s, ks, forms, rng), 1.0 - 1e-16));
+  const double m = replicates / std::max(sum, 1e-300);
+  return std::max(1.0, m * (1.0 + 2.0 / std::sqrt(static_cast<double>(replicates))));
+}
+
+/// Refines a coarse best split to the sample (same kind) within one grid step either side.
+Best refine(const ScanData& s, const Best& coarse, int step) {
+  if (step <= 1) return coarse;
+  std::vector<int> ks;
+  for (int k = std::max(1, coarse.k - step + 1); k <= std::min(s.n - 1, coarse.k + step - 1); ++k) ks.push_back(k);
+  Best best = coarse;
+  const Kind& kind = s.kinds[static_cast<std::size_t>(coarse.kind)];
+  sweep(s, ks, true, s.r, [&](std::size_t g, const Eigen::MatrixXd& c, const Eigen::VectorXd& v) {
+    const SplitForm f = splitForm(s, kind, c);
+    if (f.rank == 0) return;
+    const Eigen::VectorXd vk = sub(v, kind);
+    const double z = -logSurvival(vk.dot(f.inv * vk) / s.sigma2, f.rank);
+    if (z > best.z) best = {ks[g], coarse.kind, z, coarse.p};
+  });
+  return best;
+}
+
+/// The whitened design of the base model at `lin` with the step columns of `kind` from sample k on
+/// (the raw design's columns masked, then whitened as every design is).
+Design stepDesign(const ScanData& s, const effects::Model& model, const Linearization& lin, const Kind& kind, int k,
+                  bool whitened = true) {
+  const Engine& eng = *s.eng;
+  const Design raw = eng.rawDesign(model, lin);
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  Design xe = Design::Zero(raw.rows(), s.p + q + 1);
+  xe.leftCols(s.p) = raw.leftCols(s.p);
+  xe.col(s.p + q) = raw.col(s.p);
+  for (int i = k; i < eng.data().size(); ++i) {
+    for (int a = 0; a < 6; ++a) {
+      const int row = eng.core().rowOf(i, a);
+      for (Eigen::Index j = 0; j < q; ++j) xe(row, s.p + j) = raw(row, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)])]);
+    }
+  }
+  if (whitened) eng.core().whiten(xe, 0, static_cast<int>(xe.cols()));
+  return xe;
+}
+
+/// Moves the tilt by the solution's correction and recomputes its Jacobian columns with the
+/// parameters before the change for the samples before k and with the step added after it.
+bool stepTilt(const ScanData& s, const effects::Model& model, const Kind& kind, int k, const Solution& sol,
+              Linearization& lin) {
+  const int pm = model.numParams();
+  const double du = sol.theta(pm), dv = sol.theta(pm + 1);
+  lin.u += du;
+  lin.v += dv;
+  Eigen::VectorXd after = sol.theta.head(s.p);
+  for (std::size_t j = 0; j < kind.u.size(); ++j) {
+    after(s.cols[static_cast<std::size_t>(kind.u[j])]) += sol.theta(s.p + static_cast<Eigen::Index>(j));
+  }
+  Linearization lb = lin;
+  s.eng->tiltColumns(model, lin, sol.theta.head(s.p));
+  s.eng->tiltColumns(model, lb, after);
+  const Eigen::Index tail = lin.j_u.cols() - k;
+  lin.j_u.rightCols(tail) = lb.j_u.rightCols(tail);
+  lin.j_v.rightCols(tail) = lb.j_v.rightCols(tail);
+  return std::abs(du) + std::abs(dv) > 1e-9;
+}
+
+/// The base model refitted with the step of `kind` from sample k on, the tilt shared and
+/// re-linearised (Gauss-Newton, a few passes: the start's tilt was fitted without the step): the
+/// exact fit behind the reported step and its held-out error.
+std::pair<Linearization, Solution> fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, int k,
+                                               int passes) {
+  Linearization lin = base.lin;
+  Solution sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
+  for (int pass = 0; pass < passes && lin.tilt_columns && stepTilt(s, base.model, kind, k, sol, lin); ++pass) {
+    sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
+  }
+  return {lin, sol};
+}
+
+/// The change point's time uncertainty from the step's per-sample signal delta^2 near the split
+/// (the expected rise of the whitened sum of squares per sample the split is misplaced, in units of
+/// the noise): the split's error in samples has standard deviation sqrt(26) / delta^2 (the argmax
+/// of a two-sided Brownian motion with drift, Bai 1997), plus the sampling's own dt / sqrt(12).
+double timeStd(const ScanData& s, const Kind& kind, const Eigen::VectorXd& step, int k, double dt) {
+  const int half = 25;
+  double signal = 0.0;
+  int count = 0;
+  for (int i = std::max(0, k - half); i < std::min(s.n, k + half); ++i, ++count) {
+    for (int a = 0; a < 6; ++a) {
+      const int row = s.eng->core().rowOf(i, a);
+      double d = 0.0;
+      for (std::size_t j = 0; j < kind.u.size(); ++j) d += s.X(row, s.cols[static_cast<std::size_t>(kind.u[j])]) * step(static_cast<Eigen::Index>(j));
+      signal += d * d;
+    }
+  }
+  const double delta2 = signal / std::max(1, count) / s.sigma2;
+  const double samples_sd = delta2 > 0.0 ? std::sqrt(kArgmaxVariance) / delta2 : 1e9;
+  return dt * std::sqrt(samples_sd * samples_sd + 1.0 / 12.0);
+}
+
+ChangePoint describe(const ScanData& s, const Kind& kind, const Solution& sol, int k) {
+  const auto& ctx = s.eng->data().ctx;
+  ChangePoint cp;
+  cp.kind = kind.name;
+  cp.sample = k;
+  const double t0 = ctx[static_cast<std::size_t>(k - 1)].t, t1 = ctx[static_cast<std::size_t>(k)].t;
+  cp.t = 0.5 * (t0 + t1);
+  cp.t_first = ctx.front().t;
+  cp.t_last = ctx[static_cast<std::size_t>(s.n - 1)].t;
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  const Eigen::VectorXd step = sol.theta.segment(s.p, q);
+  for (Eigen::Index j = 0; j < q; ++j) {
+    const auto u = static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)]);
+    cp.delta.push_back({s.names[u], s.units[u], step(j), std::sqrt(std::max(0.0, sol.covariance(s.p + j, s.p + j)))});
+  }
+  const double dt = (cp.t_last - cp.t_first) / std::max(1, s.n - 1);
+  cp.t_std = timeStd(s, kind, step, k, dt);
+  return cp;
+}
+
+/// One scan against `base` on rc's engine: the best split, its exact fit and the scan's p-value.
+struct Scan {
+  ScanData data;
+  Kind kind;
+  int k = -1;
+  double p_scan = 1.0;
+  Linearization lin;
+  Solution sol;
+};
+
+/// `with_null` = false only locates the split (no simulated null); the step's fit is linear at the
+/// start's tilt (relinearise() makes it exact).
+std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool with_null) {
+  Scan sc;
+  sc.data = scanData(rc, base);
+  const ScanData& s = sc.data;
+  const std::vector<int> ks = gridOf(s.n, kMaxGrid);
+  if (ks.size() < 2 || s.kinds.empty()) return std::nullopt;
+  std::vector<std::vector<SplitForm>> forms;
+  const Best coarse = observedScan(s, ks, &forms);
+  if (coarse.k < 0) return std::nullopt;
+  const double m_eff = with_null ? effectiveSplits(s, ks, forms) : 1.0;
+  sc.p_scan = -std::expm1(m_eff * std::log1p(-std::min(coarse.p, 1.0 - 1e-16)));
+  const Best best = refine(s, coarse, ks[1] - ks[0]);
+  sc.kind = s.kinds[static_cast<std::size_t>(best.kind)];
+  sc.k = best.k;
+  std::tie(sc.lin, sc.sol) = fitWithStep(s, base, sc.kind, best.k, 0);
+  return sc;
+}
+
+/// The step's fit with the tilt re-linearised (the one judged and reported).
+Scan relinearised(Scan sc, const Fitted& base) {
+  std::tie(sc.lin, sc.sol) = fitWithStep(sc.data, base, sc.kind, sc.k, 5);
+  return sc;
+}
+
+/// The fitting samples' readings alone: the noise floor before any model (robust to a step: the
+/// 4th-order differences see it in 5 samples at most, which their median ignores).
+std::vector<SampleContext> fittingSamples(const Engine& eng) {
+  const auto& ctx = eng.data().ctx;
+  return {ctx.begin(), ctx.begin() + eng.data().n_fit};
+}
+
+/// A dataset with the noise model nf (weights 1 / innovation std, the AR(1) filter).
+Dataset withNoise(const Engine& eng, const identify::NoiseFloor& nf) {
+  Dataset d = eng.data();
+  d.ar1 = nf.ar1;
+  const Vec6 inn = nf.innovationStd();
+  for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(inn(a), 1e-9);
+  return d;
+}
+
+bool dense(const identify::NoiseFloor& nf) {
+  return nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured;
+}
+
+/// The noise model re-estimated from the residual of the model with the step (the start's
+/// residual holds the step itself, which reads as strongly coloured noise).
+identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
+  const Engine& eng = *sc.data.eng;
+  const std::vector<SampleContext> fit = fittingSamples(eng);
+  identify::NoiseFloor nf = identify::estimateNoiseFloor(fit);
+  if (!dense(nf)) return nf;
+  const Design raw = stepDesign(sc.data, base.model, sc.lin, sc.kind, sc.k, false);
+  const auto cols = raw.cols() - 1;
+  const auto n = static_cast<int>(fit.size());
+  Mat6X res(6, n);
+  for (int i = 0; i < n; ++i) {
+    for (int a = 0; a < 6; ++a) {
+      const int row = eng.core().rowOf(i, a);
+      res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sc.sol.theta)) / eng.data().weights(a);
+    }
+  }
+  identify::refineNoiseFloor(nf, res, fit);
+  return nf;
+}
+
+/// Whether the analysis' noise (marginal std per axis) is more than twice the readings' own floor
+/// on some axis: its residual then holds more than noise.
+bool aboveReadings(const Engine& eng, const identify::NoiseFloor& readings) {
+  const Dataset& d = eng.data();
+  for (int a = 0; a < 6; ++a) {
+    const double marginal = 1.0 / (d.weights(a) * std::sqrt(std::max(1e-6, 1.0 - d.ar1(a) * d.ar1(a))));
+    if (marginal > 2.0 * readings.std(a)) return true;
+  }
+  return false;
+}
+
+/// A scan on its own engine (another noise model): the engine, the start refitted on it, the context.
+struct Pass {
+  std::unique_ptr<Engine> eng;
+  std::optional<Fitted> base;
+  std::optional<RankContext> rc;
+  std::optional<Scan> scan;
+};
+
+/// The start's linear parameters are refitted under the new weights at the start's linearisation
+/// (the step's fit re-linearises the tilt); `with_null` = false only locates the split.
+Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::NoiseFloor& nf, bool with_null) {
+  Pass p;
+  p.eng = std::make_unique<Engine>(withNoise(rc.eng, nf));
+  p.base = Fitted{base.model, base.lin, p.eng->solve(p.eng->design(base.model, base.lin), true)};
+  p.rc.emplace(RankContext{*p.eng, rc.menu, rc.options, rc.log_cmd, colourScaleSd(nf.ar1, nf.ar1_std), rc.family_size});
+  p.scan = scanOnce(*p.rc, *p.base, with_null);
+  return p;
+}
+
+/// The rule on the scan's best split (the change point one more candidate of the family), then
+/// the comparison with the best recommended smooth candidate.
+std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& sc, double best_smooth_reduction,
+                                 ScanNote* note) {
+  RuleInputs in;
+  in.p_value = sc.p_scan;
+  in.family_size = rc.family_size + 1;
+  in.family_alpha = rc.options.family_alpha;
+  in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
+  in.min_heldout_reduction = rc.options.min_relative_reduction;
+  in.added_params = sc.sol.rank - base.sol.rank;
+  const Decision d = decide(in);
+  if (note != nullptr) note->p_scan = sc.p_scan;
+  ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
+  cp.p_value = sc.p_scan;
+  cp.family_p = d.family_p;
+  cp.heldout_reduction = in.heldout_reduction;
+  const std::string where = "a " + sc.kind.name + " change at t = " + fmt(cp.t, 6) + " s";
+  if (d.verdict != Verdict::kRecommended) {
+    if (note != nullptr) note->why = where + " is " + verdictWord(d.verdict) + ": " + d.reason;
+    return std::nullopt;
+  }
+  if (!(in.heldout_reduction > best_smooth_reduction)) {
+    if (note != nullptr) {
+      note->why = where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
+              " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
+    }
+    return std::nullopt;
+  }
+  return cp;
+}
+
+}  // namespace
+
+std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
+                                           ScanNote* note) {
+  const std::optional<Scan> first = scanOnce(rc, base, true);
+  if (!first) return std::nullopt;
+  if (rc.options.noise_std) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  // The analysis' noise model came from the start's residual, which holds a step if there is one
+  // (it reads as strongly coloured noise and hides the step). When the first scan is nominally
+  // significant, or that noise is far above the readings' own floor, locate the split under the
+  // readings' floor, re-estimate the noise from the residual with that step, and scan again under
+  // it: that scan is the one judged.
+  const identify::NoiseFloor readings = identify::estimateNoiseFloor(fittingSamples(rc.eng));
+  if (!dense(readings) || (first->p_scan >= rc.options.family_alpha && !aboveReadings(rc.eng, readings))) {
+    return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  }
+  const Pass locate = scanWithNoise(rc, base, readings, false);
+  if (!locate.scan) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
+  const Pass final_pass = scanWithNoise(rc, base, dense(with_step) ? with_step : readings, true);
+  if (!final_pass.scan) return std::nullopt;
+  return judge(*final_pass.rc, *final_pass.base, relinearised(*final_pass.scan, *final_pass.base), best_smooth_reduction,
+               note);
+}
+
+}  // namespace ftid::lab::detail

@@ -1,0 +1,37 @@
+#pragma once
+// The change-point scan of the model laboratory (include/ftid/lab/change_point.hpp,
+// docs/analyze.md "Change points"). Private to ftid_lab.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ftid/fileio/json_text.hpp"
+#include "ftid/lab/change_point.hpp"
+#include "lab_internal.hpp"
+
+namespace ftid::lab::detail {
+
+/// Why no change point is reported (one line; "" when none was scanned) and the scan's p-value.
+struct ScanNote {
+  std::string why;
+  double p_scan = 1.0;
+};
+
+/// The best change point of the fitting log against `base` (one payload or offsets step), judged
+/// by the rule (lab/verdict.hpp) with the change point one more candidate of the family, and kept
+/// only when its held-out reduction beats `best_smooth_reduction` (the best recommended smooth
+/// candidate's: a step must explain the data better than the effects that would imitate it).
+/// `note` (may be null): the scan's p-value and, when none is reported, why.
+std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
+                                           ScanNote* note);
+
+/// analyze()'s call: scans against `base` with the ranking's best recommended reduction, fills
+/// result.change_points and a warning, and says why none was reported in a progress line.
+void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result);
+
+/// The report blocks (change_point_report.cpp); "" / nothing when there is no change point.
+std::string changePointText(const AnalysisResult& r);
+std::string changePointHtml(const AnalysisResult& r);
+void addChangePointsJson(const AnalysisResult& r, nlohmann::ordered_json& o);
+
+}  // namespace ftid::lab::detail

@@ -1,0 +1,132 @@
+// Change points in time (include/ftid/lab/change_point.hpp, docs/analyze.md "Change points") on
+// simulator runs the laboratory is not told about: an object grasped mid-run (the simulator's second
+// rigid body, its own Newton-Euler), a sensor re-bias (the log's wrench columns shifted after t),
+// and the report and the time window (clean runs: change_point_null_test.cpp).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "ftid/common/error.hpp"
+#include "ftid/lab/analyze.hpp"
+#include "ftid/sim/scenarios.hpp"
+#include "lab_sim.hpp"
+
+namespace ftid {
+namespace {
+
+using labtest::baseConfig;
+
+/// The laboratory on a run, with one cheap candidate (the scan runs against the fitted start model
+/// whatever the menu; a smaller menu makes the family smaller, i.e. false alarms likelier).
+lab::AnalysisResult analyzeLog(const logio::LogData& log, const sim::CellSimConfig& c, const std::string& model) {
+  const samples::ContextSet set = samples::buildContexts(log, *c.robot, {c.R_FS, c.p_FS_F, 0.0, 0.0});
+  lab::AnalyzeOptions o;
+  o.model = model;
+  o.candidates = {"time_drift"};
+  return lab::analyze(set.samples, nullptr, o, "sim.csv");
+}
+
+lab::AnalysisResult analyzeRun(const sim::CellSimConfig& c, const std::string& model = "paper") {
+  return analyzeLog(sim::CellSim(c).run(), c, model);
+}
+
+const lab::ChangeDelta* deltaOf(const lab::ChangePoint& cp, const std::string& name) {
+  for (const auto& d : cp.delta) {
+    if (d.name == name) return &d;
+  }
+  return nullptr;
+}
+
+sim::CellSimConfig graspRun(std::uint64_t seed, double t_s, double mass) {
+  sim::CellSimConfig c = baseConfig(seed);
+  c.payload_change.enabled = true;
+  c.payload_change.t_s = t_s;
+  c.payload_change.added = sim::compactObject(mass, Vec3(0.01, -0.02, 0.10));
+  return c;
+}
+
+TEST(ChangePoint, GraspFoundWithTimeAndMass) {
+  struct Case {
+    std::uint64_t seed;
+    double t_s, mass;
+  };
+  for (const Case& k : {Case{1, 5.0, 0.6}, Case{2, 3.3, 0.6}, Case{3, 7.1, 0.4}}) {
+    const auto r = analyzeRun(graspRun(k.seed, k.t_s, k.mass));
+    ASSERT_EQ(r.change_points.size(), 1u) << "seed " << k.seed;
+    const auto& cp = r.change_points.front();
+    EXPECT_EQ(cp.kind, "payload");
+    EXPECT_NEAR(cp.t, k.t_s, 0.2) << "seed " << k.seed;
+    const auto* dm = deltaOf(cp, "mass");
+    ASSERT_NE(dm, nullptr);
+    EXPECT_NEAR(dm->value, k.mass, 0.1 * k.mass) << "seed " << k.seed;
+    // The printed uncertainties are claims: the truth within 4 of them (t: plus the sampling).
+    EXPECT_LT(std::abs(cp.t - k.t_s), 4.0 * cp.t_std + 0.008) << "seed " << k.seed;
+    EXPECT_LT(std::abs(dm->value - k.mass), 4.0 * dm->std) << "seed " << k.seed;
+  }
+}
+
+/// The log's wrench shifted by `bias` from t_s on: a sensor re-bias (the sensor's own physics).
+logio::LogData rebiased(const sim::CellSimConfig& c, double t_s, const Wrench& bias) {
+  logio::LogData log = sim::CellSim(c).run();
+  for (auto& s : log.samples) {
+    if (s.t >= t_s) s.wrench_S += bias;
+  }
+  return log;
+}
+
+TEST(ChangePoint, RebiasIsAnOffsetsStep) {
+  Wrench bias;
+  bias << 0.4, -0.3, 0.5, 0.03, -0.02, 0.04;
+  for (std::uint64_t seed : {11u, 12u}) {
+    const sim::CellSimConfig c = baseConfig(seed);
+    const double t_s = seed == 11u ? 6.0 : 2.5;
+    const auto r = analyzeLog(rebiased(c, t_s, bias), c, "paper");
+    ASSERT_EQ(r.change_points.size(), 1u) << "seed " << seed;
+    const auto& cp = r.change_points.front();
+    EXPECT_EQ(cp.kind, "offsets");
+    EXPECT_NEAR(cp.t, t_s, 0.2);
+    const char* names[6] = {"f0_x", "f0_y", "f0_z", "t0_x", "t0_y", "t0_z"};
+    for (int a = 0; a < 6; ++a) {
+      const auto* d = deltaOf(cp, names[a]);
+      ASSERT_NE(d, nullptr) << names[a];
+      EXPECT_NEAR(d->value, bias(a), 0.1 * std::abs(bias(a))) << names[a];
+    }
+  }
+}
+
+TEST(ChangePoint, SplitCommandsAreShellQuotedAndExplainStops) {
+  const sim::CellSimConfig c = graspRun(4, 5.0, 0.6);
+  const samples::ContextSet set = samples::buildContexts(sim::CellSim(c).run(), *c.robot, {c.R_FS, c.p_FS_F, 0.0, 0.0});
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.candidates = {"time_drift", "harmonic(q4,1)"};
+  o.explain = true;
+  const auto r = lab::analyze(set.samples, nullptr, o, "my run.csv");
+  ASSERT_EQ(r.change_points.size(), 1u);
+  EXPECT_TRUE(r.steps.empty()) << "--explain walked past a change point";
+  const std::string text = lab::formatText(r);
+  EXPECT_EQ(text.rfind("the payload changed at t = ", 0), 0u) << text.substr(0, 200);
+  EXPECT_NE(text.find("ftid analyze 'my run.csv' --t-to 4.996 --model paper"), std::string::npos) << text;
+  EXPECT_NE(text.find("ftid analyze 'my run.csv' --t-from 4.996 --model paper"), std::string::npos);
+  EXPECT_EQ(text.find("--out"), std::string::npos) << "parameters advised across a change";
+  EXPECT_NE(lab::formatJson(r).find("\"change_points\""), std::string::npos);
+  const std::string html = lab::renderHtml(r);
+  EXPECT_LT(html.find("Change in time"), html.find("Residual per axis"));
+}
+
+TEST(ChangePoint, TimeWindowKeepsTheSamplesBetween) {
+  sim::CellSimConfig c = baseConfig(5);
+  c.duration_s = 2.0;
+  samples::ContextSet set = labtest::contexts(c);
+  lab::applyTimeWindow(set, 0.5, 1.0, "run.csv");
+  ASSERT_FALSE(set.samples.empty());
+  EXPECT_GE(set.samples.front().t, 0.5);
+  EXPECT_LT(set.samples.back().t, 1.0);
+  EXPECT_EQ(set.samples.size(), 62u);  // t = 0.504 .. 0.992 at 125 Hz, 0.5 itself included: 0.500 .. 0.992
+  EXPECT_THROW(lab::applyTimeWindow(set, 3.0, 4.0, "run.csv"), DataError);
+  EXPECT_THROW(lab::applyTimeWindow(set, 1.0, 0.5, "run.csv"), DataError);
+}
+
+}  // namespace
+}  // namespace ftid
