@@ -178,25 +178,21 @@ double ar1NoisePsd(double std, double phi, double f_hz, double dt_s) {
 }
 
 SpectralPeak findPeak(const std::vector<double>& psd, const std::vector<double>& noise_psd,
-                      const std::vector<double>& f_hz, double dof, double alpha, double log_scale_sd) {
+                      const std::vector<double>& f_hz, double dof, double alpha, double log_scale_sd,
+                      double f_min_hz) {
   SpectralPeak pk;
   const std::size_t n = psd.size();
   if (n < 3) return pk;
-  std::size_t best = 1;
+  std::size_t best = 0;
   auto ratio = [&](std::size_t k) { return noise_psd[k] > 0.0 ? psd[k] / noise_psd[k] : 0.0; };
-  for (std::size_t k = 2; k + 1 < n; ++k) {
-    if (ratio(k) > ratio(best)) best = k;
+  for (std::size_t k = 1; k + 1 < n; ++k) {
+    if (f_hz[k] > f_min_hz && (best == 0 || ratio(k) > ratio(best))) best = k;
   }
+  if (best == 0) return pk;
   pk.ratio = ratio(best);
   pk.f_hz = f_hz[best];
-  // Parabolic interpolation of log(ratio) over the neighbours (the Hann main lobe spans 2 bins).
-  const double a = std::log(std::max(ratio(best - 1), 1e-300)), b = std::log(std::max(pk.ratio, 1e-300)),
-               c = std::log(std::max(ratio(best + 1), 1e-300));
-  const double den = a - 2.0 * b + c;
-  if (den < 0.0 && best + 1 < n) {
-    const double delta = std::clamp(0.5 * (a - c) / den, -0.5, 0.5);
-    pk.f_hz += delta * (f_hz[1] - f_hz[0]);
-  }
+  // The bin's own frequency (within half the resolution of the true one): an interpolation
+  // between neighbours is biased where the peak sits on the slope of a larger one.
   const double p = chiSquareSurvivalUncertainScale(dof * pk.ratio, dof, log_scale_sd);
   pk.p_family = std::min(1.0, static_cast<double>(n - 2) * p);
   pk.significant = pk.p_family < alpha;
@@ -268,6 +264,8 @@ ResidualSpectrum residualSpectrum(const SpectrumInput& in, const SpectrumOptions
     ax.peak = findPeak(ax.psd, ax.noise_psd, s.f_hz, s.dof, options.alpha, s.log_scale_sd);
     ax.peak.significant = ax.peak.significant && in.noise_known;
     ax.peak.in_motion_band = ax.peak.f_hz <= s.motion_band_hz;
+    ax.beyond = findPeak(ax.psd, ax.noise_psd, s.f_hz, s.dof, options.alpha, s.log_scale_sd, s.motion_band_hz);
+    ax.beyond.significant = ax.beyond.significant && in.noise_known;
   }
   s.valid = true;
   return s;
@@ -297,6 +295,11 @@ std::string spectrumLine(const ResidualSpectrum& s, int axis) {
     out += b;
     out += ax.peak.in_motion_band ? std::string(" (inside the ") + band + ": the model misses part of the motion)"
                                   : std::string(" (beyond the ") + band + ": a resonance or a filter)";
+    if (ax.peak.in_motion_band && ax.beyond.significant) {
+      std::snprintf(b, sizeof b, "; beyond the band: peak %.3g Hz at %s (a resonance or a filter)", ax.beyond.f_hz,
+                    ratioText(ax.beyond.ratio).c_str());
+      out += b;
+    }
   } else {
     std::snprintf(b, sizeof b, "no peak beyond chance (largest %s at %.3g Hz); %s", ratioText(ax.peak.ratio).c_str(),
                   ax.peak.f_hz, band);

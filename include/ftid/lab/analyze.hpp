@@ -16,6 +16,7 @@
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/lab/spectrum.hpp"
 #include "ftid/lab/verdict.hpp"
 
 namespace ftid::lab {
@@ -189,6 +190,9 @@ struct AnalysisResult {
   std::vector<double> top_signal;                       ///< values of correlations[0].signal
   double seconds = 0.0;                                 ///< wall time of the analysis
   std::string robot_urdf;  ///< robot description used (analyzeLogFiles; "" otherwise), for provenance
+  // Sensor and mount dynamics (issue 22): the spectrum and autocorrelation of the last model's
+  // held-out residual against the noise model, with the motion band (ftid/lab/spectrum.hpp).
+  ResidualSpectrum spectrum;
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if

@@ -30,7 +30,7 @@ struct SpectrumOptions {
 };
 
 struct SpectralPeak {
-  double f_hz = 0.0;        ///< frequency of the largest PSD ratio (parabolic interpolation on log PSD)
+  double f_hz = 0.0;        ///< frequency of the bin with the largest PSD ratio (+- half the resolution)
   double ratio = 0.0;       ///< residual PSD / noise PSD there (1 = the noise level)
   double p_family = 1.0;    ///< min(1, bins tested x its chi-square tail probability)
   bool significant = false; ///< p_family < alpha: a peak beyond chance
@@ -40,7 +40,10 @@ struct SpectralPeak {
 struct AxisSpectrum {
   std::vector<double> psd;        ///< Welch PSD of the residual at ResidualSpectrum::f_hz [unit^2/Hz]
   std::vector<double> noise_psd;  ///< the noise model's PSD at the same frequencies
-  SpectralPeak peak;
+  SpectralPeak peak;              ///< the largest ratio over all tested frequencies
+  /// The largest ratio above the motion band (a resonance or a filter shows there even when the
+  /// misfit of the motion itself is larger), judged with the same family (all tested bins).
+  SpectralPeak beyond;
   std::vector<double> acf;        ///< residual autocorrelation at lags 0, 1, .. (acf[0] = 1)
   std::vector<double> noise_acf;  ///< the noise model's (ar1^k)
 };
@@ -80,12 +83,14 @@ std::vector<double> welchPsd(const std::vector<std::vector<double>>& runs, doubl
 /// 2 dt std^2 (1 - phi^2) / (1 - 2 phi cos(2 pi f dt) + phi^2); it integrates to std^2 over 0 .. fs/2.
 double ar1NoisePsd(double std, double phi, double f_hz, double dt_s);
 
-/// The peak rule on one axis: the bin k in 1 .. n-2 with the largest psd/noise_psd; under the
-/// noise model each PSD value is noise_psd chi2(dof)/dof, so p = P(chi2(dof) >= dof ratio) (with the
-/// noise level's own uncertainty log_scale_sd, chiSquareSurvivalUncertainScale) and
-/// p_family = min(1, (n - 2) p); significant when p_family < alpha.
+/// The peak rule on one axis: the bin k in 1 .. n-2 (only those above f_min_hz) with the largest
+/// psd/noise_psd; under the noise model each PSD value is noise_psd chi2(dof)/dof, so
+/// p = P(chi2(dof) >= dof ratio) (with the noise level's own uncertainty log_scale_sd,
+/// chiSquareSurvivalUncertainScale) and p_family = min(1, (n - 2) p) (all tested bins, whatever
+/// f_min_hz); significant when p_family < alpha. No bin above f_min_hz: ratio 0, not significant.
 SpectralPeak findPeak(const std::vector<double>& psd, const std::vector<double>& noise_psd,
-                      const std::vector<double>& f_hz, double dof, double alpha, double log_scale_sd);
+                      const std::vector<double>& f_hz, double dof, double alpha, double log_scale_sd,
+                      double f_min_hz = 0.0);
 
 /// Autocorrelation at lags 0..max_lag over pairs within each run (each run's mean removed):
 /// r_k = sum x_i x_{i+k} / sum x_i^2 (the biased estimator; r_0 = 1, or 0 for an all-zero input).
