@@ -10,6 +10,7 @@
 #include "change_point_scan.hpp"
 #include "lab_internal.hpp"
 #include "extra_signals.hpp"
+#include "spectrum_report.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/effects/cable.hpp"
@@ -454,6 +455,12 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     result.unphysical.push_back(r.reason);
     result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
                               "; do not write or export its parameters");
+  }
+  // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics).
+  {
+    std::vector<char> excluded(tests.size(), 0);
+    for (std::size_t k = 0; k < tests.size(); ++k) excluded[k] = engine.excluded(tests[k]) ? 1 : 0;
+    result.spectrum = detail::spectrumOfAnalysis(result, excluded, rc.scale_sd);
   }
   // What is left: the last model's held-out residual against the noise floor.
   if (nf.observable()) {

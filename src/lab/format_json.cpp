@@ -6,6 +6,7 @@
 #include "ftid/fileio/json_text.hpp"
 #include "change_point_scan.hpp"
 #include "ftid/lab/analyze.hpp"
+#include "spectrum_report.hpp"
 
 namespace ftid::lab {
 
@@ -139,6 +140,9 @@ std::string formatJson(const AnalysisResult& r) {
     o["steps"] = std::move(steps);
   }
   if (r.final_report) o["final"] = report(*r.final_report);
+  // Issue 22 (sensor and mount dynamics): the residual's spectrum and autocorrelation.
+  o["spectrum"] = detail::spectrumJson(r.spectrum);
+  o["autocorrelation"] = detail::autocorrelationJson(r.spectrum);
   o["seconds"] = jsonNumber(r.seconds);
   return jsonText(o, 1) + "\n";
 }

@@ -9,6 +9,7 @@
 #include "change_point_scan.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_internal.hpp"  // saturation (issue 22)
+#include "spectrum_report.hpp"
 
 namespace ftid::lab {
 
@@ -88,6 +89,7 @@ std::string formatText(const AnalysisResult& r) {
   s += detail::saturationText(r);  // saturation (issue 22)
   s += "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
+  s += detail::spectrumText(r.spectrum);  // issue 22: sensor and mount dynamics
   if (!r.windows.empty()) {
     s += "\nwhere it fails (time windows with the largest held-out residual, x noise floor):\n";
     for (const auto& w : r.windows) {

@@ -427,6 +427,49 @@ void writeBeforeAfter(std::ostringstream& o, const AnalysisResult& r) {
   }
 }
 
+/// Issue 22 (sensor and mount dynamics): the residual's spectrum per axis against the noise model
+/// (log10 PSD; the motion band shaded, a significant peak dotted), the rule and one line per axis,
+/// and the autocorrelation against the noise model's.
+void writeSpectrum(std::ostringstream& o, const AnalysisResult& r) {
+  const ResidualSpectrum& s = r.spectrum;
+  o << "<h2>Spectrum of the held-out residual</h2><p>" << esc(spectrumRule(s)) << ".</p>";
+  if (!s.valid) return;
+  o << "<ul class=\"spectrum\">";
+  for (int a = 0; a < 6; ++a) o << "<li>" << esc(spectrumLine(s, a)) << "</li>";
+  o << "</ul><div class=\"grid\">";
+  auto lg = [](double v) { return std::log10(std::max(v, 1e-300)); };
+  for (int a = 0; a < 6; ++a) {
+    const AxisSpectrum& ax = s.axes[static_cast<std::size_t>(a)];
+    Series sr{{}, {}, "#1f77b4", "residual", false}, sn{{}, {}, "#000000", "noise model", false};
+    for (std::size_t k = 1; k < s.f_hz.size(); ++k) {
+      sr.x.push_back(s.f_hz[k]);
+      sr.y.push_back(lg(ax.psd[k]));
+      sn.x.push_back(s.f_hz[k]);
+      sn.y.push_back(lg(ax.noise_psd[k]));
+    }
+    std::vector<double> peak;  // significant peaks dotted
+    if (ax.peak.significant) peak.push_back(ax.peak.f_hz);
+    if (ax.beyond.significant && ax.beyond.f_hz != ax.peak.f_hz) peak.push_back(ax.beyond.f_hz);
+    o << plot(std::string(kWrenchAxisNames[a]) + " residual PSD (motion band shaded)", "f [Hz]",
+              std::string("log10 PSD [") + (a < 3 ? "N" : "Nm") + "^2/Hz]", {sr, sn}, {{0.0, s.motion_band_hz}}, 540,
+              200, {}, peak);
+  }
+  o << "</div><h2>Autocorrelation of the held-out residual</h2><div class=\"grid\">";
+  for (int a = 0; a < 6; ++a) {
+    const AxisSpectrum& ax = s.axes[static_cast<std::size_t>(a)];
+    Series sr{{}, {}, "#1f77b4", "residual", false}, sn{{}, {}, "#000000", "noise model", false};
+    for (std::size_t k = 0; k < ax.acf.size(); ++k) {
+      sr.x.push_back(static_cast<double>(k) * s.dt_s);
+      sr.y.push_back(ax.acf[k]);
+      sn.x.push_back(static_cast<double>(k) * s.dt_s);
+      sn.y.push_back(ax.noise_acf[k]);
+    }
+    o << plot(std::string(kWrenchAxisNames[a]) + " residual autocorrelation", "lag [s]", "r", {sr, sn}, {}, 360, 180,
+              {0.0});
+  }
+  o << "</div>\n";
+}
+
 /// The parameters of the final (or the only) model, and the footer.
 void writeParameters(std::ostringstream& o, const AnalysisResult& r) {
   const ModelReport& fr = r.final_report ? *r.final_report : r.report;
@@ -446,6 +489,7 @@ void writeParameters(std::ostringstream& o, const AnalysisResult& r) {
 std::string renderHtml(const AnalysisResult& r) {
   std::ostringstream o;
   writeSummary(o, r);
+  writeSpectrum(o, r);  // issue 22: sensor and mount dynamics
   writeTimePlots(o, r);
   writeCorrelations(o, r);
   writeCandidates(o, r);

@@ -19,6 +19,7 @@
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/identify/saturation.hpp"
 #include "ftid/lab/change_point.hpp"
+#include "ftid/lab/spectrum.hpp"
 #include "ftid/lab/verdict.hpp"
 
 namespace ftid::lab {
@@ -207,6 +208,9 @@ struct AnalysisResult {
   // would imitate the step) and no parameters are advised to be written.
   std::vector<ChangePoint> change_points;
   double change_point_scan_p = 1.0;  ///< the scan's p-value, splits accounted for (1: not scanned)
+  // Sensor and mount dynamics (issue 22): the spectrum and autocorrelation of the last model's
+  // held-out residual against the noise model, with the motion band (ftid/lab/spectrum.hpp).
+  ResidualSpectrum spectrum;
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if

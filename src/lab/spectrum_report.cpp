@@ -1,0 +1,98 @@
+// The residual's spectrum in the laboratory's reports (spectrum_report.hpp).
+#include "spectrum_report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+namespace ftid::lab::detail {
+
+namespace {
+
+/// 4 significant digits: the plots and the peak need no more, and the JSON stays small.
+Json short4(double v) {
+  if (!std::isfinite(v)) return Json(nullptr);
+  char b[32];
+  std::snprintf(b, sizeof b, "%.4g", v);
+  return Json(std::strtod(b, nullptr));
+}
+
+Json array4(const std::vector<double>& v) {
+  Json a = Json::array();
+  for (const double x : v) a.push_back(short4(x));
+  return a;
+}
+
+Json peakJson(const SpectralPeak& p) {
+  return Json{{"f_hz", short4(p.f_hz)},
+              {"ratio", short4(p.ratio)},
+              {"family_p_value", jsonNumber(p.p_family)},
+              {"significant", p.significant},
+              {"in_motion_band", p.in_motion_band}};
+}
+
+}  // namespace
+
+ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<char>& excluded,
+                                    double colour_scale_sd) {
+  const auto n = static_cast<Eigen::Index>(r.t.size());
+  const bool final = r.final_report.has_value() && r.final_residual.cols() == n;
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> residual = final ? r.final_residual : r.measured - r.predicted;
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> modelled = r.measured - residual;
+  SpectrumInput in;
+  in.t = &r.t;
+  in.residual = &residual;
+  in.modelled = &modelled;
+  in.excluded = excluded;
+  in.noise_std = r.noise_floor;
+  in.noise_ar1 = r.noise_ar1;
+  in.noise_known = r.noise_method != "not_observable";
+  in.log_scale_sd = noiseLevelScaleSd(r.n_samples, colour_scale_sd, r.noise_method == "data_sheet");
+  return residualSpectrum(in);
+}
+
+std::string spectrumText(const ResidualSpectrum& s) {
+  std::string out = "\n" + spectrumRule(s) + (s.valid ? ":\n" : "\n");
+  if (!s.valid) return out;
+  for (int a = 0; a < 6; ++a) out += "  " + spectrumLine(s, a) + "\n";
+  if (!s.noise_known) out += "  (the noise floor is not observable here: no peak is called)\n";
+  return out;
+}
+
+Json spectrumJson(const ResidualSpectrum& s) {
+  Json o = Json::object();
+  o["valid"] = s.valid;
+  o["note"] = s.note;
+  if (!s.valid) return o;
+  o["rule"] = spectrumRule(s);
+  o["segment"] = s.segment;
+  o["segments"] = s.segments;
+  o["dof"] = jsonNumber(s.dof);
+  o["bins_tested"] = s.bins_tested;
+  o["alpha"] = jsonNumber(s.alpha);
+  o["noise_level_log_sd"] = jsonNumber(s.log_scale_sd);
+  o["resolution_hz"] = jsonNumber(s.f_hz.size() > 1 ? s.f_hz[1] : 0.0);
+  o["motion_band_hz"] = Json::array({0.0, jsonNumber(s.motion_band_hz)});
+  for (int a = 0; a < 6; ++a) {
+    const AxisSpectrum& ax = s.axes[static_cast<std::size_t>(a)];
+    o[kWrenchAxisNames[a]] = Json{{"f_hz", array4(s.f_hz)},
+                                  {"psd", array4(ax.psd)},
+                                  {"noise_psd", array4(ax.noise_psd)},
+                                  {"peak", peakJson(ax.peak)},
+                                  {"beyond_band_peak", peakJson(ax.beyond)}};
+  }
+  return o;
+}
+
+Json autocorrelationJson(const ResidualSpectrum& s) {
+  Json o = Json::object();
+  if (!s.valid) return o;
+  o["lag_s"] = jsonNumber(s.dt_s);
+  for (int a = 0; a < 6; ++a) {
+    const AxisSpectrum& ax = s.axes[static_cast<std::size_t>(a)];
+    o[kWrenchAxisNames[a]] = Json{{"r", array4(ax.acf)}, {"noise", array4(ax.noise_acf)}};
+  }
+  return o;
+}
+
+}  // namespace ftid::lab::detail
