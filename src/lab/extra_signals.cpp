@@ -3,8 +3,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <limits>
+
+#include "ftid/effects/signal_source.hpp"
 
 namespace ftid::lab::detail {
 
@@ -29,6 +32,15 @@ bool isBookkeepingColumn(const std::string& name) {
   return false;
 }
 
+bool isSignalName(const std::string& name) {
+  if (name.empty() || !(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_')) return false;
+  for (const char c : name) {
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.')) return false;
+  }
+  // A built-in signal's name (t, temp, q1, wx, ...) reads the kinematics, not the column.
+  return effects::SignalSource::parse(name).signals() == effects::kSignalExtraColumn;
+}
+
 ExtraSignals extraSignals(const std::vector<SampleContext>& ctx) {
   ExtraSignals out;
   if (ctx.empty() || ctx.front().extra_names == nullptr) return out;
@@ -48,7 +60,9 @@ ExtraSignals extraSignals(const std::vector<SampleContext>& ctx) {
       hi = std::max(hi, c.extra[k]);
     }
     if (!usable || !(hi > lo)) continue;  // a constant column is the offsets' business
-    if (static_cast<int>(out.names.size()) < kMaxExtraSignals) {
+    if (!isSignalName(names[k])) {
+      out.unnamable.push_back(names[k]);
+    } else if (static_cast<int>(out.names.size()) < kMaxExtraSignals) {
       out.names.push_back(names[k]);
     } else {
       out.left_out.push_back(names[k]);
@@ -72,12 +86,20 @@ std::vector<std::string> withExtraSignals(std::vector<std::string> menu, const A
   menu.erase(std::remove(menu.begin(), menu.end(), std::string("payload")), menu.end());
   const ExtraSignals extra = extraSignals(ctx);
   for (auto& c : extraSignalCandidates(extra.names)) menu.push_back(std::move(c));
-  if (!extra.left_out.empty() && warnings != nullptr) {
+  const auto joined = [](const std::vector<std::string>& v) {
     std::string list;
-    for (const auto& n : extra.left_out) list += (list.empty() ? "" : ", ") + n;
+    for (const auto& n : v) list += (list.empty() ? "'" : ", '") + n + "'";
+    return list;
+  };
+  if (!extra.left_out.empty() && warnings != nullptr) {
     warnings->push_back("only the first " + std::to_string(kMaxExtraSignals) +
-                        " extra columns are tried as candidate signals; not tried: " + list +
+                        " extra columns are tried as candidate signals; not tried: " + joined(extra.left_out) +
                         " (name one with --candidates 'payload(<column>)')");
+  }
+  if (!extra.unnamable.empty() && warnings != nullptr) {
+    warnings->push_back("extra columns not tried as candidate signals (an effect's signal is a name of letters, "
+                        "digits, '_' and '.', not a built-in signal's): " + joined(extra.unnamable) +
+                        "; rename the column to try it");
   }
   return menu;
 }

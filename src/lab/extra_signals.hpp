@@ -17,7 +17,14 @@ constexpr int kMaxExtraSignals = 8;
 struct ExtraSignals {
   std::vector<std::string> names;     ///< columns taken as signals, in log order
   std::vector<std::string> left_out;  ///< signal columns beyond kMaxExtraSignals
+  /// Varying columns whose names cannot be an effect's argument (not letters, digits, '_', '.'; or
+  /// the name of a built-in signal such as t or q1, which the signal would mean instead).
+  std::vector<std::string> unnamable;
 };
+
+/// True if `name` can be written as a signal in an effect: letters, digits, '_' and '.', starting
+/// with a letter or '_', and not a built-in signal's name.
+bool isSignalName(const std::string& name);
 
 /// True for columns that describe the recording, not the cell: host_time, pose, timestamps,
 /// counters, robot states, stored kinematics (kin_*), pose columns (px..rz, qx..qw), commanded and
@@ -33,7 +40,7 @@ std::vector<std::string> extraSignalCandidates(const std::vector<std::string>& s
 
 /// The menu with the candidates of the extra signals appended, when the user named no candidates
 /// (options.candidates empty); the registry's bare "payload" (it needs a signal) is dropped. A
-/// warning names the columns left out beyond kMaxExtraSignals.
+/// warning names the columns left out (beyond kMaxExtraSignals, or unnamable).
 std::vector<std::string> withExtraSignals(std::vector<std::string> menu, const AnalyzeOptions& options,
                                           const std::vector<SampleContext>& ctx, std::vector<std::string>* warnings);
 

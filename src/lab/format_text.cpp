@@ -107,7 +107,7 @@ std::string formatText(const AnalysisResult& r) {
   if (!r.extra_signals.empty()) {  // extra log columns as candidate signals (docs/analyze.md)
     std::string cols;
     for (const auto& c : r.extra_signals) cols += (cols.empty() ? "" : ", ") + c;
-    s += line("extra log columns taken as signals (correlations; candidates payload(C), poly(C,1)): %s", cols.c_str());
+    s += "extra log columns taken as signals (correlations; candidates payload(C), poly(C,1)): " + cols + "\n";
   }
   const int family = r.family_size;
   std::ostringstream margin;

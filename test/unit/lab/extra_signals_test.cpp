@@ -41,7 +41,23 @@ TEST(ExtraSignals, TakesVaryingFiniteColumnsAndLeavesBookkeepingOut) {
   EXPECT_EQ(extraSignalCandidates(s.names),
             (std::vector<std::string>{"payload(grip)", "poly(grip,1)", "payload(valve)", "poly(valve,1)"}));
   EXPECT_TRUE(isBookkeepingColumn("robot_timestamp"));
+  EXPECT_TRUE(isSignalName("grip"));
+  EXPECT_TRUE(isSignalName("_valve.2"));
+  for (const char* bad : {"", "force (N)", "a+b", "2x", "t", "temp", "q4", "wz"}) EXPECT_FALSE(isSignalName(bad)) << bad;
   EXPECT_FALSE(isBookkeepingColumn("grip"));
+}
+
+TEST(ExtraSignals, AColumnWhoseNameCannotBeASignalIsNamedInAWarning) {
+  Columns c;
+  c.names = {"grip", "force (N)"};
+  c.build(20, [](int i) { return std::vector<double>{0.1 * i, 0.2 * i}; });
+  const ExtraSignals s = extraSignals(c.ctx);
+  EXPECT_EQ(s.names, std::vector<std::string>{"grip"});
+  EXPECT_EQ(s.unnamable, std::vector<std::string>{"force (N)"});
+  std::vector<std::string> warnings;
+  (void)withExtraSignals({}, AnalyzeOptions{}, c.ctx, &warnings);
+  ASSERT_EQ(warnings.size(), 1u);
+  EXPECT_NE(warnings[0].find("'force (N)'"), std::string::npos) << warnings[0];
 }
 
 TEST(ExtraSignals, NoExtraColumnsNoSignals) {
@@ -62,7 +78,7 @@ TEST(ExtraSignals, TheMenuGrowsOnlyWhenTheUserNamedNoCandidatesAndSaysWhatItLeft
   EXPECT_NE(std::find(menu.begin(), menu.end(), "payload(s0)"), menu.end());
   EXPECT_EQ(std::find(menu.begin(), menu.end(), "payload(s9)"), menu.end());
   ASSERT_EQ(warnings.size(), 1u);
-  EXPECT_NE(warnings[0].find("s8, s9"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("'s8', 's9'"), std::string::npos) << warnings[0];
   o.candidates = {"payload(s9)"};
   warnings.clear();
   EXPECT_EQ(withExtraSignals(o.candidates, o, c.ctx, &warnings), o.candidates);
