@@ -432,7 +432,9 @@ void writeSpectrum(std::ostringstream& o, const AnalysisResult& r) {
   if (!s.valid) return;
   o << "<ul class=\"spectrum\">";
   for (int a = 0; a < 6; ++a) o << "<li>" << esc(spectrumLine(s, a)) << "</li>";
-  o << "</ul><div class=\"grid\">";
+  o << "</ul>";
+  if (r.dynamics.tested || !r.dynamics.note.empty()) o << "<p><b>" << esc(dynamicsLine(r.dynamics, r.noise_floor)) << "</b></p>";
+  o << "<div class=\"grid\">";
   auto lg = [](double v) { return std::log10(std::max(v, 1e-300)); };
   for (int a = 0; a < 6; ++a) {
     const AxisSpectrum& ax = s.axes[static_cast<std::size_t>(a)];

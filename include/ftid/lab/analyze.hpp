@@ -16,6 +16,7 @@
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/lab/dynamics.hpp"
 #include "ftid/lab/spectrum.hpp"
 #include "ftid/lab/verdict.hpp"
 
@@ -45,6 +46,11 @@ struct AnalyzeOptions {
   /// Glitches: samples whose residual (minus its running median over 7 samples) exceeds this
   /// many robust standard deviations on any axis are left out of every fit (0 = off).
   double glitch_threshold = 6.0;
+  /// Sensor and mount dynamics (issue 22, ftid/lab/dynamics.hpp): search a filter of the reading
+  /// even when the last model's held-out residual is within 1.2x the noise floor on every axis
+  /// with no spectral peak (by default it is searched only when something is left; tests of its
+  /// false-alarm rate set this).
+  bool always_search_dynamics = false;
   /// Progress lines (stderr in the CLI); may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -193,6 +199,7 @@ struct AnalysisResult {
   // Sensor and mount dynamics (issue 22): the spectrum and autocorrelation of the last model's
   // held-out residual against the noise model, with the motion band (ftid/lab/spectrum.hpp).
   ResidualSpectrum spectrum;
+  DynamicsCheck dynamics;  ///< a filter of the reading on the last model (ftid/lab/dynamics.hpp)
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if
