@@ -10,6 +10,7 @@
 #include "change_point_scan.hpp"
 #include "lab_internal.hpp"
 #include "extra_signals.hpp"
+#include "dynamics_check.hpp"
 #include "spectrum_report.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/common/error.hpp"
@@ -461,6 +462,13 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     std::vector<char> excluded(tests.size(), 0);
     for (std::size_t k = 0; k < tests.size(); ++k) excluded[k] = engine.excluded(tests[k]) ? 1 : 0;
     result.spectrum = detail::spectrumOfAnalysis(result, excluded, rc.scale_sd);
+    const std::string dynamics = detail::spectrumWarning(result.spectrum);
+    if (!dynamics.empty()) result.warnings.push_back(dynamics);
+    bool peak = false;
+    for (const auto& ax : result.spectrum.axes) peak = peak || ax.peak.significant;
+    result.dynamics = detail::checkDynamics(rc, last_fit, result.spectrum.motion_band_hz, peak);
+    const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
+    if (!filtered.empty()) result.warnings.push_back(filtered);
   }
   // What is left: the last model's held-out residual against the noise floor.
   if (nf.observable()) {

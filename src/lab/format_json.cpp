@@ -143,6 +143,7 @@ std::string formatJson(const AnalysisResult& r) {
   // Issue 22 (sensor and mount dynamics): the residual's spectrum and autocorrelation.
   o["spectrum"] = detail::spectrumJson(r.spectrum);
   o["autocorrelation"] = detail::autocorrelationJson(r.spectrum);
+  o["dynamics"] = detail::dynamicsJson(r.dynamics);
   o["seconds"] = jsonNumber(r.seconds);
   return jsonText(o, 1) + "\n";
 }

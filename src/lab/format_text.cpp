@@ -90,6 +90,7 @@ std::string formatText(const AnalysisResult& r) {
   s += "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
   s += detail::spectrumText(r.spectrum);  // issue 22: sensor and mount dynamics
+  if (r.dynamics.tested || !r.dynamics.note.empty()) s += dynamicsLine(r.dynamics, r.noise_floor) + "\n";
   if (!r.windows.empty()) {
     s += "\nwhere it fails (time windows with the largest held-out residual, x noise floor):\n";
     for (const auto& w : r.windows) {

@@ -436,22 +436,25 @@ void writeSpectrum(std::ostringstream& o, const AnalysisResult& r) {
   if (!s.valid) return;
   o << "<ul class=\"spectrum\">";
   for (int a = 0; a < 6; ++a) o << "<li>" << esc(spectrumLine(s, a)) << "</li>";
-  o << "</ul><div class=\"grid\">";
+  o << "</ul>";
+  if (r.dynamics.tested || !r.dynamics.note.empty()) o << "<p><b>" << esc(dynamicsLine(r.dynamics, r.noise_floor)) << "</b></p>";
+  o << "<div class=\"grid\">";
   auto lg = [](double v) { return std::log10(std::max(v, 1e-300)); };
   for (int a = 0; a < 6; ++a) {
     const AxisSpectrum& ax = s.axes[static_cast<std::size_t>(a)];
     Series sr{{}, {}, "#1f77b4", "residual", false}, sn{{}, {}, "#000000", "noise model", false};
     for (std::size_t k = 1; k < s.f_hz.size(); ++k) {
-      sr.x.push_back(s.f_hz[k]);
+      sr.x.push_back(lg(s.f_hz[k]));
       sr.y.push_back(lg(ax.psd[k]));
-      sn.x.push_back(s.f_hz[k]);
+      sn.x.push_back(lg(s.f_hz[k]));
       sn.y.push_back(lg(ax.noise_psd[k]));
     }
     std::vector<double> peak;  // significant peaks dotted
-    if (ax.peak.significant) peak.push_back(ax.peak.f_hz);
-    if (ax.beyond.significant && ax.beyond.f_hz != ax.peak.f_hz) peak.push_back(ax.beyond.f_hz);
-    o << plot(std::string(kWrenchAxisNames[a]) + " residual PSD (motion band shaded)", "f [Hz]",
-              std::string("log10 PSD [") + (a < 3 ? "N" : "Nm") + "^2/Hz]", {sr, sn}, {{0.0, s.motion_band_hz}}, 540,
+    if (ax.peak.significant) peak.push_back(lg(ax.peak.f_hz));
+    if (ax.beyond.significant && ax.beyond.f_hz != ax.peak.f_hz) peak.push_back(lg(ax.beyond.f_hz));
+    o << plot(std::string(kWrenchAxisNames[a]) + " residual PSD (motion band shaded)", "log10 f [Hz]",
+              std::string("log10 PSD [") + (a < 3 ? "N" : "Nm") + "^2/Hz]", {sr, sn},
+              {{lg(s.f_hz[1]), lg(std::max(s.motion_band_hz, s.f_hz[1]))}}, 540,
               200, {}, peak);
   }
   o << "</div><h2>Autocorrelation of the held-out residual</h2><div class=\"grid\">";

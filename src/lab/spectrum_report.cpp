@@ -51,6 +51,25 @@ ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<c
   return residualSpectrum(in);
 }
 
+std::string spectrumWarning(const ResidualSpectrum& s) {
+  if (!s.valid) return "";
+  std::string axes;
+  for (int a = 0; a < 6; ++a) {
+    const SpectralPeak& p = s.axes[static_cast<std::size_t>(a)].beyond;
+    if (!p.significant) continue;
+    char b[96];
+    std::snprintf(b, sizeof b, "%s%s %.3g Hz (%.3gx)", axes.empty() ? "" : ", ", kWrenchAxisNames[a], p.f_hz, p.ratio);
+    axes += b;
+  }
+  if (axes.empty()) return "";
+  char band[48];
+  std::snprintf(band, sizeof band, "0-%.3g Hz", s.motion_band_hz);
+  return "the held-out residual has a peak beyond the motion band (" + std::string(band) + ") on " + axes +
+         ": the reading has dynamics of its own, a resonance (a compliant mount or tool) or the sensor's filter, "
+         "which no effect of the model's menu describes (a sensor_delay taken for it stands in for part of it); "
+         "see the dynamics of the reading and docs/analyze.md, \"The residual's spectrum\"";
+}
+
 std::string spectrumText(const ResidualSpectrum& s) {
   std::string out = "\n" + spectrumRule(s) + (s.valid ? ":\n" : "\n");
   if (!s.valid) return out;
@@ -82,6 +101,32 @@ Json spectrumJson(const ResidualSpectrum& s) {
                                   {"beyond_band_peak", peakJson(ax.beyond)}};
   }
   return o;
+}
+
+Json dynamicsJson(const DynamicsCheck& d) {
+  Json o = Json::object();
+  o["tested"] = d.tested;
+  o["note"] = d.note;
+  if (!d.tested) return o;
+  o["effect"] = d.effect;
+  o["f_hz"] = jsonNumber(d.f_hz);
+  o["zeta"] = jsonNumber(d.zeta);
+  o["relative_reduction"] = jsonNumber(d.relative_reduction);
+  Json rms = Json::object();
+  for (int a = 0; a < 6; ++a) rms[kWrenchAxisNames[a]] = jsonNumber(d.residual_rms(a));
+  o["residual_rms"] = std::move(rms);
+  o["p_value"] = jsonNumber(d.p_value);
+  o["family_p_value"] = jsonNumber(d.family_p);
+  o["grid_points"] = d.grid_points;
+  o["significant"] = d.significant;
+  return o;
+}
+
+std::string dynamicsWarning(const DynamicsCheck& d, const Vec6& noise_floor) {
+  if (!d.significant) return "";
+  return dynamicsLine(d, noise_floor) +
+         "; a diagnosis only: identify, ftidd and compensate do not model or invert it (docs/effects.md, "
+         "\"Dynamics of the reading\"): stiffen the mount, or change the sensor's filter";
 }
 
 Json autocorrelationJson(const ResidualSpectrum& s) {

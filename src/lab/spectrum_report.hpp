@@ -17,6 +17,10 @@ namespace ftid::lab::detail {
 ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<char>& excluded,
                                     double colour_scale_sd);
 
+/// The warning when some axis has a significant peak beyond the motion band (a resonance or a
+/// filter: dynamics no effect models yet), naming the axes, frequencies and ratios; "" otherwise.
+std::string spectrumWarning(const ResidualSpectrum& s);
+
 /// The text block: the rule, then one line per axis ("" when there is no spectrum).
 std::string spectrumText(const ResidualSpectrum& s);
 
@@ -24,5 +28,9 @@ std::string spectrumText(const ResidualSpectrum& s);
 /// "autocorrelation" (lag step, per axis r and the noise model's), numbers at 4 significant digits.
 Json spectrumJson(const ResidualSpectrum& s);
 Json autocorrelationJson(const ResidualSpectrum& s);
+/// JSON "dynamics": the search for a filter of the reading (ftid/lab/dynamics.hpp).
+Json dynamicsJson(const DynamicsCheck& d);
+/// The warning when the search found one ("" otherwise).
+std::string dynamicsWarning(const DynamicsCheck& d, const Vec6& noise_floor);
 
 }  // namespace ftid::lab::detail

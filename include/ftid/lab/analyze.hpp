@@ -19,6 +19,7 @@
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/identify/saturation.hpp"
 #include "ftid/lab/change_point.hpp"
+#include "ftid/lab/dynamics.hpp"
 #include "ftid/lab/spectrum.hpp"
 #include "ftid/lab/verdict.hpp"
 
@@ -51,6 +52,11 @@ struct AnalyzeOptions {
   /// Saturation (issue 22, docs/analyze.md "Saturation"): samples at a range limit (flat tops, or
   /// the rated range `--rated-range`) are left out of every fit and sum, as glitches are.
   identify::SaturationOptions saturation;
+  /// Sensor and mount dynamics (issue 22, ftid/lab/dynamics.hpp): search a filter of the reading
+  /// even when the last model's held-out residual is within 1.2x the noise floor on every axis
+  /// with no spectral peak (by default it is searched only when something is left; tests of its
+  /// false-alarm rate set this).
+  bool always_search_dynamics = false;
   /// Progress lines (stderr in the CLI); may be empty.
   std::function<void(const std::string&)> progress;
 };
@@ -211,6 +217,7 @@ struct AnalysisResult {
   // Sensor and mount dynamics (issue 22): the spectrum and autocorrelation of the last model's
   // held-out residual against the noise model, with the motion band (ftid/lab/spectrum.hpp).
   ResidualSpectrum spectrum;
+  DynamicsCheck dynamics;  ///< a filter of the reading on the last model (ftid/lab/dynamics.hpp)
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if

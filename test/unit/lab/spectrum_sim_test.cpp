@@ -3,9 +3,12 @@
 //  - a compliant mount: the simulator's noise-free wrench at 1 kHz passed through a 2nd-order
 //    response (3 Hz, damping 0.1: y'' + 2 zeta w y' + w^2 y = w^2 u) integrated here by RK4,
 //    sampled at 125 Hz, white noise added: the spectrum of the residual shows a significant peak
-//    at 3 Hz (within 10 %), beyond the motion band, and the text, JSON and HTML show it;
+//    at 3 Hz (within half its resolution), beyond the motion band, and the text, JSON and HTML
+//    show it; the dynamics search (ftid/lab/dynamics.hpp) names mount_dynamics with f_n within
+//    10 % and the held-out residual within 1.3x the noise floor, from `paper` and from
+//    `paper+sensor_delay`; a 1st-order filter at 4 Hz is named sensor_filter likewise;
 //  - clean runs (white noise, the simulator's own low-pass filtered noise, a static pose set),
-//    50 seeds each: no axis shows a significant peak.
+//    50 seeds each: no axis shows a significant peak and no dynamics are found.
 // Each seed is one analysis (a single cheap candidate, the spectrum does not depend on the
 // ranking): seconds at -O2, labelled slow (the -O0 sanitizer build skips it).
 #include <gtest/gtest.h>
@@ -50,13 +53,37 @@ void mountResponse(logio::LogData& fine, double f_hz, double zeta) {
   }
 }
 
-/// A 10 s run seen through a compliant mount (f_hz, zeta), 125 Hz, white noise of baseConfig.
+/// y' = w_c (u - y) on each wrench channel, RK4 with u interpolated linearly, from y = u(0).
+void filterResponse(logio::LogData& fine, double fc_hz) {
+  const double w = 2.0 * kPi * fc_hz;
+  const double h = fine.samples[1].t - fine.samples[0].t;
+  for (int a = 0; a < 6; ++a) {
+    std::vector<double> u;
+    for (const auto& s : fine.samples) u.push_back(s.wrench_S(a));
+    double y = u[0];
+    for (std::size_t i = 0; i + 1 < u.size(); ++i) {
+      fine.samples[i].wrench_S(a) = y;
+      const double um = 0.5 * (u[i] + u[i + 1]);
+      const double k1 = w * (u[i] - y), k2 = w * (um - (y + 0.5 * h * k1)), k3 = w * (um - (y + 0.5 * h * k2)),
+                   k4 = w * (u[i + 1] - (y + h * k3));
+      y += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+    }
+    fine.samples.back().wrench_S(a) = y;
+  }
+}
+
+/// A 10 s run seen through a compliant mount (f_hz, zeta > 0) or a sensor filter (cut-off f_hz,
+/// zeta = 0), computed at 1 kHz and sampled at 125 Hz, white noise of baseConfig.
 std::vector<SampleContext> mountRun(double f_hz, double zeta, std::uint64_t seed) {
   sim::CellSimConfig c = labtest::baseConfig(seed);
   c.noise = sim::NoiseConfig{};
   c.rate_hz = 1000.0;
   logio::LogData fine = sim::CellSim(c).run();
-  mountResponse(fine, f_hz, zeta);
+  if (zeta > 0.0) {
+    mountResponse(fine, f_hz, zeta);
+  } else {
+    filterResponse(fine, f_hz);
+  }
   logio::LogData log = fine;
   log.samples.clear();
   for (std::size_t i = 0; i < fine.samples.size(); i += 8) log.samples.push_back(fine.samples[i]);
@@ -98,6 +125,17 @@ void expectResonanceShown(const std::string& model) {
   // Shown where people look: the text line, the JSON object, the HTML plot.
   EXPECT_NE(formatText(r).find("beyond the band: peak 2.93 Hz"), std::string::npos) << formatText(r);
   const auto j = nlohmann::json::parse(formatJson(r));
+  // The dynamics search names the mount: f_n within 10 %, the residual within 1.3x the noise.
+  std::printf("  %s\n", dynamicsLine(r.dynamics, r.noise_floor).c_str());
+  EXPECT_TRUE(r.dynamics.significant);
+  EXPECT_EQ(r.dynamics.effect, "mount_dynamics");
+  EXPECT_NEAR(r.dynamics.f_hz, 3.0, 0.3);
+  EXPECT_NEAR(r.dynamics.zeta, 0.1, 0.03);
+  for (int a = 0; a < 6; ++a) EXPECT_LT(r.dynamics.residual_rms(a), 1.3 * r.noise_floor(a)) << kWrenchAxisNames[a];
+  EXPECT_TRUE(j.at("dynamics").at("significant").get<bool>());
+  bool warned = false;
+  for (const auto& w : r.warnings) warned = warned || w.find("a compliant mount") != std::string::npos;
+  EXPECT_TRUE(warned);
   bool json_peak = false;
   for (const char* axis : kWrenchAxisNames) {
     const auto& e = j.at("spectrum").at(axis);
@@ -110,13 +148,24 @@ void expectResonanceShown(const std::string& model) {
   EXPECT_NE(renderHtml(r).find("Spectrum of the held-out residual"), std::string::npos);
 }
 
+TEST(SpectrumSim, SensorFilterIsNamedWithItsCutOff) {
+  // A 1st-order filter at 4 Hz: no peak (nothing rings), but the search names it.
+  const AnalysisResult r = analyze(mountRun(4.0, 0.0, 32), nullptr, cheapOptions(), "filter.csv");
+  std::printf("  %s\n", dynamicsLine(r.dynamics, r.noise_floor).c_str());
+  EXPECT_TRUE(r.dynamics.significant);
+  EXPECT_EQ(r.dynamics.effect, "sensor_filter");
+  EXPECT_NEAR(r.dynamics.f_hz, 4.0, 0.4);
+  for (int a = 0; a < 6; ++a) EXPECT_LT(r.dynamics.residual_rms(a), 1.3 * r.noise_floor(a)) << kWrenchAxisNames[a];
+}
+
 TEST(SpectrumSim, CompliantMountShowsTheResonance) {
   expectResonanceShown("paper");
   expectResonanceShown("paper+sensor_delay");  // where the issue's --explain ended
 }
 
-/// Significant peaks over `seeds` noise draws of a clean run (the paper model is exact).
-int falsePeaks(const sim::CellSimConfig& noisy, std::uint64_t first_seed, int seeds) {
+/// Significant peaks (any axis) and dynamics found over `seeds` noise draws of a clean run (the
+/// paper model is exact).
+int falseAlarms(const sim::CellSimConfig& noisy, std::uint64_t first_seed, int seeds) {
   sim::CellSimConfig clean = noisy;
   clean.noise = sim::NoiseConfig{};
   const std::vector<SampleContext> ctx0 = labtest::contexts(clean).samples;
@@ -126,8 +175,15 @@ int falsePeaks(const sim::CellSimConfig& noisy, std::uint64_t first_seed, int se
     std::vector<SampleContext> ctx = ctx0;
     std::mt19937_64 rng(first_seed + static_cast<std::uint64_t>(k));
     noise(ctx, rng);
-    const AnalysisResult r = analyze(ctx, nullptr, cheapOptions(), "sim.csv");
+    AnalyzeOptions o = cheapOptions();
+    o.always_search_dynamics = true;  // the search's own false-alarm rate (by default it would not run here)
+    const AnalysisResult r = analyze(ctx, nullptr, o, "sim.csv");
     EXPECT_TRUE(r.spectrum.valid) << r.spectrum.note;
+    for (const auto& w : r.warnings) EXPECT_EQ(w.find("beyond the motion band"), std::string::npos) << w;
+    if (r.dynamics.significant) {
+      ++alarms;
+      std::printf("  seed %d: %s\n", k, dynamicsLine(r.dynamics, r.noise_floor).c_str());
+    }
     for (int a = 0; a < 6; ++a) {
       if (r.spectrum.axes[static_cast<std::size_t>(a)].peak.significant) {
         ++alarms;
@@ -138,20 +194,26 @@ int falsePeaks(const sim::CellSimConfig& noisy, std::uint64_t first_seed, int se
   return alarms;
 }
 
-TEST(SpectrumSim, NoPeakOnCleanWhiteRuns) { EXPECT_EQ(falsePeaks(labtest::baseConfig(1), 41000, 50), 0); }
-
-TEST(SpectrumSim, NoPeakOnCleanFilteredRuns) {
-  sim::CellSimConfig cfg = labtest::baseConfig(1);
-  cfg.noise.wrench_lowpass_hz = 10.0;
-  EXPECT_EQ(falsePeaks(cfg, 42000, 50), 0);
+TEST(SpectrumSim, DynamicsAreSearchedOnlyWhenSomethingIsLeft) {
+  const AnalysisResult r = analyze(labtest::contexts(labtest::baseConfig(7)).samples, nullptr, cheapOptions(), "sim.csv");
+  EXPECT_FALSE(r.dynamics.tested);
+  EXPECT_NE(r.dynamics.note.find("within 1.2x the noise floor"), std::string::npos) << r.dynamics.note;
 }
 
-TEST(SpectrumSim, NoPeakOnCleanStaticPoseSets) {
+TEST(SpectrumSim, NoPeakNoDynamicsOnCleanWhiteRuns) { EXPECT_EQ(falseAlarms(labtest::baseConfig(1), 41000, 50), 0); }
+
+TEST(SpectrumSim, NoPeakNoDynamicsOnCleanFilteredRuns) {
+  sim::CellSimConfig cfg = labtest::baseConfig(1);
+  cfg.noise.wrench_lowpass_hz = 10.0;
+  EXPECT_EQ(falseAlarms(cfg, 42000, 50), 0);
+}
+
+TEST(SpectrumSim, NoPeakNoDynamicsOnCleanStaticPoseSets) {
   sim::CellSimConfig cfg = labtest::baseConfig(1);
   cfg.static_poses.enabled = true;
   cfg.static_poses.poses = 40;
   cfg.static_poses.hold_s = 0.25;
-  EXPECT_EQ(falsePeaks(cfg, 43000, 50), 0);
+  EXPECT_EQ(falseAlarms(cfg, 43000, 50), 0);
 }
 
 }  // namespace

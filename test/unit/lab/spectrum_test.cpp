@@ -242,3 +242,34 @@ TEST(Spectrum, ResidualSpectrumMarksTheMotionBandAndAPeakBeyondIt) {
 
 }  // namespace
 }  // namespace ftid
+
+namespace ftid {
+namespace {
+
+TEST(Spectrum, ALongLogKeepsTheOutputBounded) {
+  // 100,000 samples: segments of at most 1,024 samples, so at most 513 frequencies per axis and
+  // 101 autocorrelation lags, whatever the log's length.
+  const int n = 100000;
+  std::vector<double> t;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> res(6, n);
+  std::mt19937_64 rng(16);
+  std::normal_distribution<double> g(0.0, 0.05);
+  for (int i = 0; i < n; ++i) {
+    t.push_back(i * 0.001);
+    for (int a = 0; a < 6; ++a) res(a, i) = g(rng);
+  }
+  lab::SpectrumInput in;
+  in.t = &t;
+  in.residual = &res;
+  in.noise_std = Vec6::Constant(0.05);
+  const auto s = lab::residualSpectrum(in);
+  ASSERT_TRUE(s.valid);
+  EXPECT_EQ(s.segment, 1024);
+  EXPECT_EQ(s.segments, n / 1024);
+  EXPECT_EQ(s.f_hz.size(), 513U);
+  EXPECT_EQ(s.axes[0].acf.size(), 101U);
+  for (const auto& ax : s.axes) EXPECT_FALSE(ax.peak.significant);
+}
+
+}  // namespace
+}  // namespace ftid
