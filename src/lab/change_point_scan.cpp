@@ -211,7 +211,7 @@ double nullMinP(const ScanData& s, const std::vector<int>& ks, const std::vector
 /// relative standard errors (1 / sqrt(R)) so that a short simulation errs on the safe side.
 double effectiveSplits(const ScanData& s, const std::vector<int>& ks, const std::vector<std::vector<SplitForm>>& forms) {
   const double cost = 6.0 * s.n * static_cast<double>(s.p + s.cols.size());
-  const int replicates = std::clamp(static_cast<int>(4e8 / std::max(1.0, cost)), 40, 200);
+  const int replicates = std::clamp(static_cast<int>(2e8 / std::max(1.0, cost)), 40, 100);
   std::mt19937_64 rng(0x6368616e6765ULL + static_cast<std::uint64_t>(s.n));
   double sum = 0.0;
   for (int k = 0; k < replicates; ++k) sum += -std::log1p(-std::min(nullMinP(s, ks, forms, rng), 1.0 - 1e-16));
@@ -341,8 +341,8 @@ struct Scan {
   Solution sol;
 };
 
-/// `with_null` = false only locates the split (no simulated null); the step's fit is linear at the
-/// start's tilt (relinearise() makes it exact).
+/// `with_null` = false only locates the split (no simulated null). The step is not fitted yet
+/// (relinearised() fits it).
 std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool with_null) {
   Scan sc;
   sc.data = scanData(rc, base);
@@ -357,7 +357,6 @@ std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool wit
   const Best best = refine(s, coarse, ks[1] - ks[0]);
   sc.kind = s.kinds[static_cast<std::size_t>(best.kind)];
   sc.k = best.k;
-  std::tie(sc.lin, sc.sol) = fitWithStep(s, base, sc.kind, best.k, 0);
   return sc;
 }
 
@@ -390,18 +389,19 @@ bool dense(const identify::NoiseFloor& nf) {
 /// The noise model re-estimated from the residual of the model with the step (the start's
 /// residual holds the step itself, which reads as strongly coloured noise).
 identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
+  const auto [lin, sol] = fitWithStep(sc.data, base, sc.kind, sc.k, 0);
   const Engine& eng = *sc.data.eng;
   const std::vector<SampleContext> fit = fittingSamples(eng);
   identify::NoiseFloor nf = identify::estimateNoiseFloor(fit);
   if (!dense(nf)) return nf;
-  const Design raw = stepDesign(sc.data, base.model, sc.lin, sc.kind, sc.k, false);
+  const Design raw = stepDesign(sc.data, base.model, lin, sc.kind, sc.k, false);
   const auto cols = raw.cols() - 1;
   const auto n = static_cast<int>(fit.size());
   Mat6X res(6, n);
   for (int i = 0; i < n; ++i) {
     for (int a = 0; a < 6; ++a) {
       const int row = eng.core().rowOf(i, a);
-      res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sc.sol.theta)) / eng.data().weights(a);
+      res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sol.theta)) / eng.data().weights(a);
     }
   }
   identify::refineNoiseFloor(nf, res, fit);
@@ -440,34 +440,40 @@ Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::No
 
 /// The rule on the scan's best split (the change point one more candidate of the family), then
 /// the comparison with the best recommended smooth candidate.
-std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& sc, double best_smooth_reduction,
-                                 ScanNote* note) {
+std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& scanned,
+                                 double best_smooth_reduction, ScanNote* note) {
   RuleInputs in;
-  in.p_value = sc.p_scan;
+  in.p_value = scanned.p_scan;
   in.family_size = rc.family_size + 1;
   in.family_alpha = rc.options.family_alpha;
-  in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
   in.min_heldout_reduction = rc.options.min_relative_reduction;
-  in.added_params = sc.sol.rank - base.sol.rank;
-  const Decision d = decide(in);
-  if (note != nullptr) note->p_scan = sc.p_scan;
-  ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
-  cp.p_value = sc.p_scan;
-  cp.family_p = d.family_p;
-  cp.heldout_reduction = in.heldout_reduction;
-  const std::string where = "a " + sc.kind.name + " change at t = " + fmt(cp.t, 6) + " s";
-  if (d.verdict != Verdict::kRecommended) {
-    if (note != nullptr) note->why = where + " is " + verdictWord(d.verdict) + ": " + d.reason;
-    return std::nullopt;
-  }
-  if (!(in.heldout_reduction > best_smooth_reduction)) {
-    if (note != nullptr) {
-      note->why = where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
-              " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
+  in.added_params = static_cast<int>(scanned.kind.u.size());
+  in.heldout_reduction = 1.0;  // significance first: the step is fitted only when it is significant
+  if (note != nullptr) note->p_scan = scanned.p_scan;
+  const auto& ctx = rc.eng.data().ctx;
+  const double t_split = 0.5 * (ctx[static_cast<std::size_t>(scanned.k - 1)].t + ctx[static_cast<std::size_t>(scanned.k)].t);
+  const std::string where = "a " + scanned.kind.name + " change at t = " + fmt(t_split, 6) + " s";
+  Decision d = decide(in);
+  if (d.verdict == Verdict::kRecommended) {
+    const Scan sc = relinearised(scanned, base);
+    in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
+    in.added_params = sc.sol.rank - base.sol.rank;
+    d = decide(in);
+    if (d.verdict == Verdict::kRecommended && in.heldout_reduction > best_smooth_reduction) {
+      ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
+      cp.p_value = sc.p_scan;
+      cp.family_p = d.family_p;
+      cp.heldout_reduction = in.heldout_reduction;
+      return cp;
     }
-    return std::nullopt;
   }
-  return cp;
+  if (note != nullptr) {
+    note->why = d.verdict != Verdict::kRecommended
+                    ? where + " is " + verdictWord(d.verdict) + ": " + d.reason
+                    : where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
+                          " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -476,7 +482,7 @@ std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& 
                                            ScanNote* note) {
   const std::optional<Scan> first = scanOnce(rc, base, true);
   if (!first) return std::nullopt;
-  if (rc.options.noise_std) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  if (rc.options.noise_std) return judge(rc, base, *first, best_smooth_reduction, note);
   // The analysis' noise model came from the start's residual, which holds a step if there is one
   // (it reads as strongly coloured noise and hides the step). When the first scan is nominally
   // significant, or that noise is far above the readings' own floor, locate the split under the
@@ -484,15 +490,14 @@ std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& 
   // it: that scan is the one judged.
   const identify::NoiseFloor readings = identify::estimateNoiseFloor(fittingSamples(rc.eng));
   if (!dense(readings) || (first->p_scan >= rc.options.family_alpha && !aboveReadings(rc.eng, readings))) {
-    return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+    return judge(rc, base, *first, best_smooth_reduction, note);
   }
   const Pass locate = scanWithNoise(rc, base, readings, false);
-  if (!locate.scan) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  if (!locate.scan) return judge(rc, base, *first, best_smooth_reduction, note);
   const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
   const Pass final_pass = scanWithNoise(rc, base, dense(with_step) ? with_step : readings, true);
   if (!final_pass.scan) return std::nullopt;
-  return judge(*final_pass.rc, *final_pass.base, relinearised(*final_pass.scan, *final_pass.base), best_smooth_reduction,
-               note);
+  return judge(*final_pass.rc, *final_pass.base, *final_pass.scan, best_smooth_reduction, note);
 }
 
 }  // namespace ftid::lab::detail
