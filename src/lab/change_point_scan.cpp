@@ -452,7 +452,7 @@ std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, cons
   if (note != nullptr) note->p_scan = scanned.p_scan;
   const auto& ctx = rc.eng.data().ctx;
   const double t_split = 0.5 * (ctx[static_cast<std::size_t>(scanned.k - 1)].t + ctx[static_cast<std::size_t>(scanned.k)].t);
-  const std::string where = "a " + scanned.kind.name + " change at t = " + fmt(t_split, 6) + " s";
+  const std::string where = "the best split (" + scanned.kind.name + " step at t = " + fmt(t_split, 6) + " s)";
   Decision d = decide(in);
   if (d.verdict == Verdict::kRecommended) {
     const Scan sc = relinearised(scanned, base);
