@@ -40,6 +40,8 @@ struct ScanData {
   std::vector<std::string> names, units;
   std::vector<Kind> kinds;
   double sigma2 = 1.0;      // residual variance of the base fit (whitened)
+  Design xs;                // the step columns of X, contiguous (rows of the fitting samples)
+  std::vector<int> rows;    // rows[6 i + a]: the row of sample i, axis a
   double scale_sd = 0.0;    // colourScaleSd
 };
 
@@ -89,6 +91,15 @@ ScanData scanData(const RankContext& rc, const Fitted& base) {
   s.n = rc.eng.data().n_fit;
   s.scale_sd = rc.scale_sd;
   stepColumns(base.model, s);
+  s.rows.resize(6 * static_cast<std::size_t>(s.n));
+  s.xs.resize(6 * static_cast<Eigen::Index>(s.n), static_cast<Eigen::Index>(s.cols.size()));
+  for (int i = 0; i < s.n; ++i) {
+    for (int a = 0; a < 6; ++a) {
+      const int row = rc.eng.core().rowOf(i, a);
+      s.rows[static_cast<std::size_t>(6 * i + a)] = row;
+      for (std::size_t j = 0; j < s.cols.size(); ++j) s.xs(row, static_cast<Eigen::Index>(j)) = s.X(row, s.cols[j]);
+    }
+  }
   const auto xf = s.X.topRows(6 * static_cast<Eigen::Index>(s.n));
   const Eigen::MatrixXd gram = xf.leftCols(s.p).transpose() * xf.leftCols(s.p);
   const auto sol = identify::solveGram(gram, xf.leftCols(s.p).transpose() * xf.col(s.p), true);
@@ -103,13 +114,10 @@ ScanData scanData(const RankContext& rc, const Fitted& base) {
 /// Adds sample i's rows to the sums C = sum x_S x^T (optional) and v = sum x_S r.
 void addSample(const ScanData& s, int i, Eigen::MatrixXd* c, Eigen::VectorXd& v, const Eigen::VectorXd& r) {
   for (int a = 0; a < 6; ++a) {
-    const int row = s.eng->core().rowOf(i, a);
-    for (std::size_t j = 0; j < s.cols.size(); ++j) {
-      const double xs = s.X(row, s.cols[j]);
-      if (xs == 0.0) continue;
-      if (c != nullptr) c->row(static_cast<Eigen::Index>(j)) += xs * s.X.row(row).head(s.p);
-      v(static_cast<Eigen::Index>(j)) += xs * r(row);
-    }
+    const int row = s.rows[static_cast<std::size_t>(6 * i + a)];
+    const auto x = s.xs.row(row);
+    v.noalias() += r(row) * x.transpose();
+    if (c != nullptr) c->noalias() += x.transpose() * s.X.row(row).head(s.p);
   }
 }
 
@@ -194,15 +202,22 @@ double nullMinP(const ScanData& s, const std::vector<int>& ks, const std::vector
   for (Eigen::Index i = 0; i < e.size(); ++i) e(i) = s.r(i) != 0.0 || xf.row(i).squaredNorm() > 0.0 ? gauss(rng) : 0.0;
   const Eigen::VectorXd beta = s.a_inv * (xf.transpose() * e);
   const Eigen::VectorXd r = e - xf * beta;
-  double min_p = 1.0;
+  // The largest statistic per degrees of freedom (the p-value falls with it): one survival
+  // function per rank instead of one per split.
+  std::vector<double> max_chi2(s.cols.size() + 1, -1.0);
   sweep(s, ks, false, r, [&](std::size_t g, const Eigen::MatrixXd& /*c*/, const Eigen::VectorXd& v) {
     for (std::size_t kk = 0; kk < s.kinds.size(); ++kk) {
       const SplitForm& f = forms[g][kk];
       if (f.rank == 0) continue;
       const Eigen::VectorXd vk = sub(v, s.kinds[kk]);
-      min_p = std::min(min_p, chiSquareSurvival(vk.dot(f.inv * vk), f.rank));
+      auto& m = max_chi2[static_cast<std::size_t>(f.rank)];
+      m = std::max(m, vk.dot(f.inv * vk));
     }
   });
+  double min_p = 1.0;
+  for (std::size_t rank = 1; rank < max_chi2.size(); ++rank) {
+    if (max_chi2[rank] >= 0.0) min_p = std::min(min_p, chiSquareSurvival(max_chi2[rank], static_cast<double>(rank)));
+  }
   return min_p;
 }
 
@@ -211,7 +226,7 @@ double nullMinP(const ScanData& s, const std::vector<int>& ks, const std::vector
 /// relative standard errors (1 / sqrt(R)) so that a short simulation errs on the safe side.
 double effectiveSplits(const ScanData& s, const std::vector<int>& ks, const std::vector<std::vector<SplitForm>>& forms) {
   const double cost = 6.0 * s.n * static_cast<double>(s.p + s.cols.size());
-  const int replicates = std::clamp(static_cast<int>(4e8 / std::max(1.0, cost)), 40, 200);
+  const int replicates = std::clamp(static_cast<int>(1e8 / std::max(1.0, cost)), 40, 60);
   std::mt19937_64 rng(0x6368616e6765ULL + static_cast<std::uint64_t>(s.n));
   double sum = 0.0;
   for (int k = 0; k < replicates; ++k) sum += -std::log1p(-std::min(nullMinP(s, ks, forms, rng), 1.0 - 1e-16));
@@ -341,8 +356,8 @@ struct Scan {
   Solution sol;
 };
 
-/// `with_null` = false only locates the split (no simulated null); the step's fit is linear at the
-/// start's tilt (relinearise() makes it exact).
+/// `with_null` = false only locates the split (no simulated null). The step is not fitted yet
+/// (relinearised() fits it).
 std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool with_null) {
   Scan sc;
   sc.data = scanData(rc, base);
@@ -352,12 +367,16 @@ std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool wit
   std::vector<std::vector<SplitForm>> forms;
   const Best coarse = observedScan(s, ks, &forms);
   if (coarse.k < 0) return std::nullopt;
-  const double m_eff = with_null ? effectiveSplits(s, ks, forms) : 1.0;
+  // The scan's p lies between its best split's p (m = 1) and the Bonferroni bound over every split
+  // and kind (m = splits x kinds). When even the best split's p fails the rule, the bound is
+  // reported and the null is not simulated: it could not change the verdict.
+  const double splits = static_cast<double>(ks.size() * s.kinds.size());
+  const bool matters = (rc.family_size + 1) * coarse.p < rc.options.family_alpha;
+  const double m_eff = !with_null ? 1.0 : matters ? effectiveSplits(s, ks, forms) : splits;
   sc.p_scan = -std::expm1(m_eff * std::log1p(-std::min(coarse.p, 1.0 - 1e-16)));
   const Best best = refine(s, coarse, ks[1] - ks[0]);
   sc.kind = s.kinds[static_cast<std::size_t>(best.kind)];
   sc.k = best.k;
-  std::tie(sc.lin, sc.sol) = fitWithStep(s, base, sc.kind, best.k, 0);
   return sc;
 }
 
@@ -390,18 +409,19 @@ bool dense(const identify::NoiseFloor& nf) {
 /// The noise model re-estimated from the residual of the model with the step (the start's
 /// residual holds the step itself, which reads as strongly coloured noise).
 identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
+  const auto [lin, sol] = fitWithStep(sc.data, base, sc.kind, sc.k, 0);
   const Engine& eng = *sc.data.eng;
   const std::vector<SampleContext> fit = fittingSamples(eng);
   identify::NoiseFloor nf = identify::estimateNoiseFloor(fit);
   if (!dense(nf)) return nf;
-  const Design raw = stepDesign(sc.data, base.model, sc.lin, sc.kind, sc.k, false);
+  const Design raw = stepDesign(sc.data, base.model, lin, sc.kind, sc.k, false);
   const auto cols = raw.cols() - 1;
   const auto n = static_cast<int>(fit.size());
   Mat6X res(6, n);
   for (int i = 0; i < n; ++i) {
     for (int a = 0; a < 6; ++a) {
       const int row = eng.core().rowOf(i, a);
-      res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sc.sol.theta)) / eng.data().weights(a);
+      res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sol.theta)) / eng.data().weights(a);
     }
   }
   identify::refineNoiseFloor(nf, res, fit);
@@ -440,34 +460,40 @@ Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::No
 
 /// The rule on the scan's best split (the change point one more candidate of the family), then
 /// the comparison with the best recommended smooth candidate.
-std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& sc, double best_smooth_reduction,
-                                 ScanNote* note) {
+std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& scanned,
+                                 double best_smooth_reduction, ScanNote* note) {
   RuleInputs in;
-  in.p_value = sc.p_scan;
+  in.p_value = scanned.p_scan;
   in.family_size = rc.family_size + 1;
   in.family_alpha = rc.options.family_alpha;
-  in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
   in.min_heldout_reduction = rc.options.min_relative_reduction;
-  in.added_params = sc.sol.rank - base.sol.rank;
-  const Decision d = decide(in);
-  if (note != nullptr) note->p_scan = sc.p_scan;
-  ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
-  cp.p_value = sc.p_scan;
-  cp.family_p = d.family_p;
-  cp.heldout_reduction = in.heldout_reduction;
-  const std::string where = "a " + sc.kind.name + " change at t = " + fmt(cp.t, 6) + " s";
-  if (d.verdict != Verdict::kRecommended) {
-    if (note != nullptr) note->why = where + " is " + verdictWord(d.verdict) + ": " + d.reason;
-    return std::nullopt;
-  }
-  if (!(in.heldout_reduction > best_smooth_reduction)) {
-    if (note != nullptr) {
-      note->why = where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
-              " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
+  in.added_params = static_cast<int>(scanned.kind.u.size());
+  in.heldout_reduction = 1.0;  // significance first: the step is fitted only when it is significant
+  if (note != nullptr) note->p_scan = scanned.p_scan;
+  const auto& ctx = rc.eng.data().ctx;
+  const double t_split = 0.5 * (ctx[static_cast<std::size_t>(scanned.k - 1)].t + ctx[static_cast<std::size_t>(scanned.k)].t);
+  const std::string where = "the best split (" + scanned.kind.name + " step at t = " + fmt(t_split, 6) + " s)";
+  Decision d = decide(in);
+  if (d.verdict == Verdict::kRecommended) {
+    const Scan sc = relinearised(scanned, base);
+    in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
+    in.added_params = sc.sol.rank - base.sol.rank;
+    d = decide(in);
+    if (d.verdict == Verdict::kRecommended && in.heldout_reduction > best_smooth_reduction) {
+      ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
+      cp.p_value = sc.p_scan;
+      cp.family_p = d.family_p;
+      cp.heldout_reduction = in.heldout_reduction;
+      return cp;
     }
-    return std::nullopt;
   }
-  return cp;
+  if (note != nullptr) {
+    note->why = d.verdict != Verdict::kRecommended
+                    ? where + " is " + verdictWord(d.verdict) + ": " + d.reason
+                    : where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
+                          " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -476,7 +502,7 @@ std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& 
                                            ScanNote* note) {
   const std::optional<Scan> first = scanOnce(rc, base, true);
   if (!first) return std::nullopt;
-  if (rc.options.noise_std) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  if (rc.options.noise_std) return judge(rc, base, *first, best_smooth_reduction, note);
   // The analysis' noise model came from the start's residual, which holds a step if there is one
   // (it reads as strongly coloured noise and hides the step). When the first scan is nominally
   // significant, or that noise is far above the readings' own floor, locate the split under the
@@ -484,15 +510,17 @@ std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& 
   // it: that scan is the one judged.
   const identify::NoiseFloor readings = identify::estimateNoiseFloor(fittingSamples(rc.eng));
   if (!dense(readings) || (first->p_scan >= rc.options.family_alpha && !aboveReadings(rc.eng, readings))) {
-    return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+    return judge(rc, base, *first, best_smooth_reduction, note);
   }
   const Pass locate = scanWithNoise(rc, base, readings, false);
-  if (!locate.scan) return judge(rc, base, relinearised(*first, base), best_smooth_reduction, note);
+  // Nothing under the readings' floor either (its best split's p fails the rule): the first scan stands.
+  if (!locate.scan || (rc.family_size + 1) * locate.scan->p_scan >= rc.options.family_alpha) {
+    return judge(rc, base, *first, best_smooth_reduction, note);
+  }
   const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
   const Pass final_pass = scanWithNoise(rc, base, dense(with_step) ? with_step : readings, true);
   if (!final_pass.scan) return std::nullopt;
-  return judge(*final_pass.rc, *final_pass.base, relinearised(*final_pass.scan, *final_pass.base), best_smooth_reduction,
-               note);
+  return judge(*final_pass.rc, *final_pass.base, *final_pass.scan, best_smooth_reduction, note);
 }
 
 }  // namespace ftid::lab::detail

@@ -66,6 +66,28 @@ TEST(ChangePoint, GraspFoundWithTimeAndMass) {
   }
 }
 
+/// Issue 22's case: a 0.6 kg object grasped at 5.0 s in a run with full rigid-body physics, analysed
+/// with --explain from paper+rigid_body and the whole default menu. Before the scan, --explain added
+/// time_drift and harmonic(q4,1) and ended with an inertia that is not positive definite.
+TEST(ChangePoint, IssueCaseExplainStopsAtTheGrasp) {
+  sim::CellSimConfig c = graspRun(21, 5.0, 0.6);
+  c.full_rigid_body = true;
+  const samples::ContextSet set = labtest::contexts(c);
+  lab::AnalyzeOptions o;
+  o.model = "paper+rigid_body";
+  o.explain = true;
+  const auto r = lab::analyze(set.samples, nullptr, o, "run.csv");
+  ASSERT_EQ(r.change_points.size(), 1u);
+  EXPECT_EQ(r.change_points.front().kind, "payload");
+  EXPECT_NEAR(r.change_points.front().t, 5.0, 0.2);
+  const auto* dm = deltaOf(r.change_points.front(), "mass");
+  ASSERT_NE(dm, nullptr);
+  EXPECT_NEAR(dm->value, 0.6, 0.06);
+  EXPECT_TRUE(r.steps.empty());
+  EXPECT_FALSE(r.final_report.has_value());
+  EXPECT_EQ(lab::formatText(r).find("--out"), std::string::npos);
+}
+
 /// The log's wrench shifted by `bias` from t_s on: a sensor re-bias (the sensor's own physics).
 logio::LogData rebiased(const sim::CellSimConfig& c, double t_s, const Wrench& bias) {
   logio::LogData log = sim::CellSim(c).run();
