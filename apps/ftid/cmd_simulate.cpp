@@ -65,6 +65,8 @@ options:
       glitches           p=0.004 (per sample), force=10 [N], torque=1 [Nm]: isolated spikes
       saturation         fz=120 (any of fx..tz) [N, Nm]: the sensor's range; a reading beyond
                          +-limit reads the limit (clipped after noise and glitches)
+      mount_dynamics     f=3 [Hz], zeta=0.1: a compliant mount; the sensor reads the rigid wrench
+                         through y'' + 2 zeta w y' + w^2 y = w^2 u (w = 2 pi f), before the noise
       mounting           roll=0, pitch=0, yaw=3 [deg]: the sensor is mounted rotated by
                          Rz(yaw) Ry(pitch) Rx(roll) against --mount-rpy and reports in its true frame
       crosstalk          scale=1 (multiplies the built-in 6x6 matrix E)

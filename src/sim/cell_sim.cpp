@@ -100,6 +100,13 @@ CellSim::CellSim(CellSimConfig config) : config_(std::move(config)) {
   require(std::isfinite(c.glitches.force_N) && std::isfinite(c.glitches.torque_Nm), "glitches", "magnitudes not finite");
   require(c.saturation.limit.allFinite() && c.saturation.limit.minCoeff() >= 0.0, "saturation.limit",
           "must be >= 0 (0 = no limit)");  // saturation (issue 22)
+  if (c.mount_dynamics.enabled) {
+    require(std::isfinite(c.mount_dynamics.f_n_hz) && c.mount_dynamics.f_n_hz > 0.0 &&
+                c.mount_dynamics.f_n_hz < 0.25 * c.rate_hz,
+            "mount_dynamics.f_n_hz", "must be > 0 and below a quarter of the sample rate");
+    require(std::isfinite(c.mount_dynamics.zeta) && c.mount_dynamics.zeta > 0.0, "mount_dynamics.zeta", "must be > 0");
+    require(!c.static_poses.enabled, "mount_dynamics", "needs a moving run, not a static pose set");
+  }
   require(c.mounting.rpy_rad.allFinite(), "mounting.rpy_rad", "not finite");
   require(c.imu.acc_bias_mps2.allFinite() && c.imu.gyro_bias_radps.allFinite(), "imu", "bias not finite");
   require(std::isfinite(c.imu.delay_s) && std::abs(c.imu.delay_s) < 1.0, "imu.delay_s", "must be finite with |delay| < 1 s");
@@ -368,6 +375,55 @@ class WrenchNoise {
 
 }  // namespace
 
+namespace {
+
+/// The compliant mount of MountDynamicsSwitch: state (y, y') per axis, advanced one sample at a time.
+class MountResponse {
+ public:
+  MountResponse(const MountDynamicsSwitch& m, double rate_hz)
+      : w_(2.0 * 3.141592653589793 * m.f_n_hz), zeta_(m.zeta), h_(1.0 / (rate_hz * kSubsteps)) {}
+
+  /// The reading for the rigid wrench `u` of the next sample.
+  Wrench next(const Wrench& u) {
+    if (!started_) {
+      y_ = u;
+      u_last_ = u;
+      started_ = true;
+      return y_;
+    }
+    for (int i = 0; i < kSubsteps; ++i) {
+      const Wrench u0 = u_last_ + (u - u_last_) * (static_cast<double>(i) / kSubsteps);
+      const Wrench u1 = u_last_ + (u - u_last_) * (static_cast<double>(i + 1) / kSubsteps);
+      rk4(u0, 0.5 * (u0 + u1), u1);
+    }
+    u_last_ = u;
+    return y_;
+  }
+
+ private:
+  static constexpr int kSubsteps = 16;
+  Wrench accel(const Wrench& y, const Wrench& v, const Wrench& u) const {
+    return w_ * w_ * (u - y) - 2.0 * zeta_ * w_ * v;
+  }
+  void rk4(const Wrench& u0, const Wrench& um, const Wrench& u1) {
+    const Wrench a1 = accel(y_, v_, u0);
+    const Wrench a2 = accel(y_ + 0.5 * h_ * v_, v_ + 0.5 * h_ * a1, um);
+    const Wrench v2 = v_ + 0.5 * h_ * a1;
+    const Wrench a3 = accel(y_ + 0.5 * h_ * v2, v_ + 0.5 * h_ * a2, um);
+    const Wrench v3 = v_ + 0.5 * h_ * a2;
+    const Wrench a4 = accel(y_ + h_ * v3, v_ + h_ * a3, u1);
+    const Wrench v4 = v_ + h_ * a3;
+    y_ += h_ / 6.0 * (v_ + 2.0 * v2 + 2.0 * v3 + v4);
+    v_ += h_ / 6.0 * (a1 + 2.0 * a2 + 2.0 * a3 + a4);
+  }
+
+  double w_, zeta_, h_;
+  bool started_ = false;
+  Wrench y_ = Wrench::Zero(), v_ = Wrench::Zero(), u_last_ = Wrench::Zero();
+};
+
+}  // namespace
+
 logio::LogData CellSim::run() const {
   logio::LogData log;
   log.source = "<simulated>";
@@ -393,6 +449,7 @@ logio::LogData CellSim::run() const {
   std::mt19937_64 rng(config_.seed);
   const std::vector<Glitch> spikes = glitches();
   std::size_t next_spike = 0;
+  MountResponse mount(config_.mount_dynamics, config_.rate_hz);
   for (std::size_t row = 0; row < n; ++row) {
     logio::LogSample& s = log.samples[row];
     s = logio::LogSample{};
@@ -412,6 +469,7 @@ logio::LogData CellSim::run() const {
         }
         r.wrench_S = sum / K;
       }
+      if (config_.mount_dynamics.enabled) r.wrench_S = mount.next(r.wrench_S);  // a compliant mount (issue 22)
       addNoise(r, rng);
       if (coloured) r.wrench_S += wrench_noise.next();
       t_sum += t;

@@ -130,6 +130,16 @@ void parseSaturation(const EffectArgs& a, CellSimConfig& c) {
   }
 }
 
+/// A compliant mount (issue 22): `mount_dynamics:f=3,zeta=0.1`.
+void parseMountDynamics(const EffectArgs& a, CellSimConfig& c) {
+  c.mount_dynamics.enabled = true;
+  for (const auto& [k, v] : a.kv) {
+    if (k == "f") c.mount_dynamics.f_n_hz = number(v, a.what(k));
+    else if (k == "zeta") c.mount_dynamics.zeta = number(v, a.what(k));
+    else throw a.unknownKey(k);
+  }
+}
+
 void parseMounting(const EffectArgs& a, CellSimConfig& c) {
   c.mounting.enabled = true;
   constexpr double kDeg = 3.141592653589793 / 180.0;
@@ -203,7 +213,7 @@ struct EffectFamily {
   const char* name;
   void (*parse)(const EffectArgs&, CellSimConfig&);
 };
-constexpr std::array<EffectFamily, 13> kFamilies{{
+constexpr std::array<EffectFamily, 14> kFamilies{{
     {"cable", parseCable},
     {"temperature_drift", parseTemperatureDrift},
     {"time_drift", parseTimeDrift},
@@ -217,6 +227,7 @@ constexpr std::array<EffectFamily, 13> kFamilies{{
     {"grasp", parseGrasp},
     {"pushes", parsePushes},
     {"saturation", parseSaturation},  // saturation (issue 22)
+    {"mount_dynamics", parseMountDynamics},  // a compliant mount (issue 22)
 }};
 
 /// `NAME[:key=value,...]` split into the name and its key=value pairs.

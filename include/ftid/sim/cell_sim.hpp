@@ -102,6 +102,15 @@ struct GlitchSwitch {
 struct SaturationSwitch {
   Vec6 limit = Vec6::Zero();                     ///< [N, Nm] per axis fx..tz
 };
+/// A compliant mount (issue 22): the tool rings on it, and the sensor reads the rigid wrench u
+/// through y'' + 2 zeta w_n y' + w_n^2 y = w_n^2 u on each axis (w_n = 2 pi f_n), integrated by RK4
+/// in 16 steps per sample with u linear in between, from rest (y = u(0), y' = 0); before the noise.
+/// Moving runs only (a static pose set has no time between its poses).
+struct MountDynamicsSwitch {
+  bool enabled = false;
+  double f_n_hz = 3.0;                           ///< natural frequency [Hz]
+  double zeta = 0.1;                             ///< damping ratio
+};
 /// The sensor is mounted rotated against the configured X_FS: its true frame S' has
 /// R_SS' = Rz(yaw) Ry(pitch) Rx(roll) in the configured S (same origin). The sensor reports the
 /// wrench (and, with rotate_imu, the IMU it carries) in S': w' = [R_SS'^T f; R_SS'^T t]; its offsets
@@ -189,6 +198,7 @@ struct CellSimConfig {
   PayloadChangeSwitch payload_change;
   GlitchSwitch glitches;
   SaturationSwitch saturation;  ///< saturation (issue 22)
+  MountDynamicsSwitch mount_dynamics;  ///< a compliant mount (issue 22)
   MountingSwitch mounting;
   StaticPoseSetSwitch static_poses;
   ImuErrorSwitch imu;
