@@ -18,9 +18,9 @@ import sys
 
 IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "condition_number",
                  "tilt_estimated", "units", "extras", "data_file", "time_origin_unix_s", "noise_floor", "noise_method",
-                 "heldout_rms", "residual_to_noise", "glitches", "warnings", "physical_validity", "imu"]
+                 "heldout_rms", "residual_to_noise", "glitches", "saturation", "warnings", "physical_validity", "imu"]
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
-                "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "warnings",
+                "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "saturation", "warnings",
                 "raw_rms", "fit", "windows", "correlations", "candidates", "family_alpha", "family_size", "heldout_margin", "unphysical", "seconds"]
 CANDIDATE_KEYS = ["effect", "relative_reduction", "significant", "p_value", "f_statistic", "added_params",
                   "delta_bic", "residual_rms", "description", "next_command", "skipped", "note",
@@ -107,6 +107,7 @@ def main():
     for key in ["residual_rms", "noise_floor", "noise_ar1", "raw_rms"]:
         axes_of(ana[key], key)
     check(list(ana["outliers"].keys()) == ["count", "times"], "outliers keys")
+    check(ana["saturation"] == [], f"no saturation on a clean run: {ana['saturation']}")
     check(len(ana["candidates"]) == 2, f"two candidates, got {len(ana['candidates'])}")
     for c in ana["candidates"]:
         check(list(c.keys()) == CANDIDATE_KEYS, f"candidate keys {list(c.keys())}")
