@@ -35,7 +35,8 @@ std::vector<double> sortedFresh(const std::vector<SampleContext>& ctx, const std
                                 int side) {
   std::vector<double> v;
   for (std::size_t i = 0; i < ctx.size(); ++i) {
-    if (fresh[i] != 0) v.push_back(side * ctx[i].wrench_S(axis));
+    const double x = side * ctx[i].wrench_S(axis);
+    if (fresh[i] != 0 && std::isfinite(x)) v.push_back(x);  // a non-finite reading is no level
   }
   std::sort(v.begin(), v.end(), [](double x, double y) { return x > y; });
   return v;

@@ -5,19 +5,26 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "lab_internal.hpp"
 
 namespace ftid::lab::detail {
 
 void excludeSaturation(Dataset& d, const AnalyzeOptions& options, AnalysisResult& result) {
-  const identify::Saturation sat = identify::findSaturation(d.ctx, options.saturation);
-  result.saturation = sat.axes;
-  result.saturated_samples = static_cast<int>(sat.samples.size());
-  if (sat.samples.empty()) return;
-  if (d.excluded.empty()) d.excluded.assign(d.ctx.size(), 0);
-  for (const int i : sat.samples) d.excluded[static_cast<std::size_t>(i)] = 1;
-  for (const auto& s : sat.axes) say(options, identify::saturationLine(s));
+  // Each log on its own (the fitting log, a validation log): a log's flat top is judged against
+  // that log's own levels.
+  for (std::size_t k = 0; k < d.segment_start.size(); ++k) {
+    const int begin = d.segment_start[k];
+    const int end = k + 1 < d.segment_start.size() ? d.segment_start[k + 1] : d.size();
+    const std::vector<SampleContext> log(d.ctx.begin() + begin, d.ctx.begin() + end);
+    const identify::Saturation sat = identify::findSaturation(log, options.saturation);
+    result.saturation.insert(result.saturation.end(), sat.axes.begin(), sat.axes.end());
+    result.saturated_samples += static_cast<int>(sat.samples.size());
+    if (!sat.samples.empty() && d.excluded.empty()) d.excluded.assign(d.ctx.size(), 0);
+    for (const int i : sat.samples) d.excluded[static_cast<std::size_t>(begin + i)] = 1;
+    for (const auto& s : sat.axes) say(options, identify::saturationLine(s));
+  }
 }
 
 std::string saturationText(const AnalysisResult& r) {

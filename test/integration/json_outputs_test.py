@@ -110,6 +110,7 @@ def main():
         axes_of(ana[key], key)
     check(list(ana["outliers"].keys()) == ["count", "times"], "outliers keys")
     check(ana["change_points"] == [], f"no change point on a clean run, got {ana['change_points']}")
+    check(ana["saturation"] == [], f"no saturation on a clean run: {ana['saturation']}")
     check(len(ana["candidates"]) == 2, f"two candidates, got {len(ana['candidates'])}")
     for c in ana["candidates"]:
         check(list(c.keys()) == CANDIDATE_KEYS, f"candidate keys {list(c.keys())}")

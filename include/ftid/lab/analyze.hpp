@@ -171,8 +171,9 @@ struct AnalysisResult {
   Vec6 noise_ar1 = Vec6::Zero();         ///< lag-1 noise correlation per axis (prewhitening)
   Vec6 noise_ar1_std = Vec6::Zero();     ///< its standard error (0: not fitted to a spectrum)
   OutlierReport outliers;
-  /// Saturation (issue 22): axes at a range limit (identify::findSaturation on the fitting and
-  /// validation readings); their samples are left out of every fit and held-out sum.
+  /// Saturation (issue 22): axes at a range limit (identify::findSaturation on the fitting log's
+  /// readings, then the validation log's; fraction: of that log); their samples are left out of
+  /// every fit and held-out sum.
   std::vector<identify::SaturatedAxis> saturation;
   int saturated_samples = 0;             ///< samples left out as saturated (all axes)
   std::vector<std::string> warnings;     ///< one line each

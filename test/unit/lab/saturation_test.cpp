@@ -162,6 +162,27 @@ TEST(LabSaturation, TheReportsNameTheAxis) {
   EXPECT_EQ(lab::formatText(clean).find("saturation:"), std::string::npos);
 }
 
+TEST(LabSaturation, AClippedValidationLogIsJudgedWithoutItsClippedSamples) {
+  // Fit on a clean run, validate on another seed's clipped run: the held-out sums leave the
+  // clipped samples out, so fz's held-out residual is at the floor; with the detector off it is not.
+  const ClippedRun fit = clippedRun(21);
+  const ClippedRun val = clippedRun(22);
+  for (const bool detect : {true, false}) {
+    lab::AnalyzeOptions o;
+    o.model = "paper";
+    o.saturation.flat_tops = detect;
+    const lab::AnalysisResult r = lab::analyze(fit.clean.samples, &val.contexts.samples, o, "fit.csv", "val.csv");
+    const double ratio = r.report.residual_rms(2) / r.noise_floor(2);
+    if (detect) {
+      ASSERT_EQ(r.saturation.size(), 1U);
+      EXPECT_EQ(r.saturation[0].count, val.clip.count);
+      EXPECT_LT(ratio, 1.2);
+    } else {
+      EXPECT_GT(ratio, 1.5);
+    }
+  }
+}
+
 TEST(LabSaturation, AClippedQuantisedSensorIsCountedToo) {
   // Readings in counts of 1/32 N (noise 0.05 N), clipped at a count: the readings that sit on the
   // clip's count honestly cannot be told from clipped ones and are counted with them.
