@@ -75,6 +75,7 @@ options:
       contact            start=4, end=6 [s], force=X/Y/Z in B [N], point=X/Y/Z in S [m]
       grasp              t=5 [s], mass=0.6 [kg], com=X/Y/Z in S [m] (0/0/0.12), side=0.06 [m]: an
                          object (a solid cube) is held from t on, on top of the payload
+      release            the keys of grasp: the object is held from the start and let go at t
       pushes             seed=1, force=12 [N], min=0.4, max=0.6 [s], gap_min=1, gap_max=6 [s],
                          until=600 [s]: random pushes (direction uniform in B, sin^2 profile)
       rigid_body         full Newton-Euler (already the default; listed for symmetry)

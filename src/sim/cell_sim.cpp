@@ -218,7 +218,7 @@ Wrench CellSim::contactWrenchAt(const Mat3& R_BS, double t_s) const {
 Wrench CellSim::loadWrenchFor(const model::SensorMotion& m, double t_s) const {
   const Vec3 g_S = m.R_BS.transpose() * g_B_;
   Wrench w = heldBodyWrench(config_.payload, m, g_S, config_.full_rigid_body);
-  if (config_.payload_change.enabled && t_s >= config_.payload_change.t_s) {
+  if (config_.payload_change.holds(t_s)) {
     w += heldBodyWrench(config_.payload_change.added, m, g_S, config_.full_rigid_body);
   }
   if (config_.cable.enabled) {

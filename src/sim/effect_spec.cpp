@@ -168,9 +168,11 @@ void parseRigidBody(const EffectArgs& a, CellSimConfig& c) {
   c.full_rigid_body = true;
 }
 
-/// An object grasped at t: a compact cube of `mass` and `side` at `com`.
-void parseGrasp(const EffectArgs& a, CellSimConfig& c) {
+/// An object grasped at t (`release`: held from the start, let go at t): a compact cube of `mass`
+/// and `side` at `com`.
+void parsePayloadChange(const EffectArgs& a, CellSimConfig& c, bool released) {
   c.payload_change.enabled = true;
+  c.payload_change.released = released;
   double mass = 0.6, side = 0.06;
   Vec3 com(0.0, 0.0, 0.12);
   for (const auto& [k, v] : a.kv) {
@@ -183,6 +185,9 @@ void parseGrasp(const EffectArgs& a, CellSimConfig& c) {
   if (!(mass >= 0.0) || !(side >= 0.0)) throw ConfigError(a.where() + ": mass and side must be >= 0");
   c.payload_change.added = compactObject(mass, com, side);
 }
+
+void parseGrasp(const EffectArgs& a, CellSimConfig& c) { parsePayloadChange(a, c, false); }
+void parseRelease(const EffectArgs& a, CellSimConfig& c) { parsePayloadChange(a, c, true); }
 
 /// Random pushes on the payload (scenarios.hpp), appended to any already scheduled.
 void parsePushes(const EffectArgs& a, CellSimConfig& c) {
@@ -213,7 +218,7 @@ struct EffectFamily {
   const char* name;
   void (*parse)(const EffectArgs&, CellSimConfig&);
 };
-constexpr std::array<EffectFamily, 14> kFamilies{{
+constexpr std::array<EffectFamily, 15> kFamilies{{
     {"cable", parseCable},
     {"temperature_drift", parseTemperatureDrift},
     {"time_drift", parseTimeDrift},
@@ -225,6 +230,7 @@ constexpr std::array<EffectFamily, 14> kFamilies{{
     {"imu", parseImu},
     {"rigid_body", parseRigidBody},
     {"grasp", parseGrasp},
+    {"release", parseRelease},
     {"pushes", parsePushes},
     {"saturation", parseSaturation},  // saturation (issue 22)
     {"mount_dynamics", parseMountDynamics},  // a compliant mount (issue 22)

@@ -161,11 +161,15 @@ struct ContactSwitch {
 
 /// The payload changes at t_s (an object is grasped): from then on the sensor also holds `added`, a
 /// second rigid body whose Newton-Euler wrench (same formulation as the payload's) is added to the
-/// payload's. The identified parameters then describe the payload before the grasp only.
+/// payload's. The identified parameters then describe the payload before the grasp only. With
+/// `released`, the sensor holds `added` from the start and lets it go at t_s (a release).
 struct PayloadChangeSwitch {
   bool enabled = false;
   double t_s = 5.0;
   PayloadTruth added;
+  bool released = false;
+  /// Whether `added` is on the sensor at t_s_now: (t >= t_s) for a grasp, (t < t_s) for a release.
+  bool holds(double t_s_now) const { return enabled && ((t_s_now >= t_s) != released); }
 };
 
 struct CellSimConfig {

@@ -66,6 +66,27 @@ TEST(ChangePoint, GraspFoundWithTimeAndMass) {
   }
 }
 
+/// A release: the sensor holds the object from the start and lets it go at t (the simulator's
+/// `release` switch): the same scan finds a payload step of minus the object's mass.
+TEST(ChangePoint, ReleaseFoundWithTimeAndMass) {
+  sim::CellSimConfig c = graspRun(5, 6.2, 0.5);
+  c.payload_change.released = true;
+  const auto r = analyzeRun(c);
+  ASSERT_EQ(r.change_points.size(), 1u);
+  const auto& cp = r.change_points.front();
+  EXPECT_EQ(cp.kind, "payload");
+  EXPECT_NEAR(cp.t, 6.2, 0.2);
+  EXPECT_LT(std::abs(cp.t - 6.2), 4.0 * cp.t_std + 0.008);
+  const auto* dm = deltaOf(cp, "mass");
+  ASSERT_NE(dm, nullptr);
+  EXPECT_NEAR(dm->value, -0.5, 0.05);
+  EXPECT_LT(std::abs(dm->value + 0.5), 4.0 * dm->std);
+  // The object's first moment leaves with it: mass * com = 0.5 * (0.01, -0.02, 0.10) kg m.
+  const auto* dz = deltaOf(cp, "mass_com_z");
+  ASSERT_NE(dz, nullptr);
+  EXPECT_NEAR(dz->value, -0.05, 0.005);
+}
+
 /// Issue 22's case: a 0.6 kg object grasped at 5.0 s in a run with full rigid-body physics, analysed
 /// with --explain from paper+rigid_body and the whole default menu. Before the scan, --explain added
 /// time_drift and harmonic(q4,1) and ended with an inertia that is not positive definite.

@@ -46,6 +46,15 @@ TEST(EffectSpec, KeysLandInTheConfiguration) {
   EXPECT_TRUE(c.full_rigid_body);
   applyEffectSpec("temperature_drift", c);  // defaults
   EXPECT_TRUE(c.temperature_drift.enabled);
+  applyEffectSpec("grasp:t=4,mass=0.5", c);
+  EXPECT_FALSE(c.payload_change.released);
+  EXPECT_TRUE(c.payload_change.holds(4.0));
+  EXPECT_FALSE(c.payload_change.holds(3.99));
+  applyEffectSpec("release:t=4,mass=0.5", c);
+  EXPECT_TRUE(c.payload_change.released);
+  EXPECT_EQ(c.payload_change.added.mass_kg, 0.5);
+  EXPECT_TRUE(c.payload_change.holds(3.99));
+  EXPECT_FALSE(c.payload_change.holds(4.0));
 }
 
 TEST(EffectSpec, MistakesNameTheEffectAndTheKey) {
@@ -56,6 +65,7 @@ TEST(EffectSpec, MistakesNameTheEffectAndTheKey) {
   EXPECT_NE(errorOf("cable:k").find("expected key=value"), std::string::npos);
   EXPECT_NE(errorOf("glitches:p=nan").find("--effect glitches p"), std::string::npos);
   EXPECT_NE(errorOf("rigid_body:x=1").find("unknown key 'x'"), std::string::npos);
+  EXPECT_NE(errorOf("release:mass=-1").find("--effect release"), std::string::npos);
   EXPECT_NE(errorOf("wind").find("unknown effect 'wind'"), std::string::npos);
 }
 
