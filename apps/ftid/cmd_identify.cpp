@@ -173,7 +173,7 @@ int runIdentify(const std::vector<std::string>& argv) {
   const ftid::params::ParameterSet& set = id.set;
   // Physical validity first: a set that fails it is printed (to see why) but never written or
   // exported (the parameter writer's own rule, params::findParameterProblem, and a determined mass).
-  const ftid::identify::PhysicalValidity validity = ftid::identify::checkPhysicalValidity(set);
+  const ftid::identify::PhysicalValidity validity = ftid::identify::checkPhysicalValidity(set, id.varying_mass);
   std::string exports;
   if (!out.empty() && validity.valid) {
     // Plausibility (issue 26): nothing is written for a set the cell cannot carry.

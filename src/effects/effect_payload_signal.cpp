@@ -84,6 +84,16 @@ class PayloadSignalEffect final : public Effect {
       }
     }
   }
+  bool changesPayloadMass() const override { return true; }
+  double payloadMassChange(const SampleContext& ctx, const Eigen::VectorXd& theta) const override {
+    const double d = source_.read(ctx) - reference_;
+    double pw = 1.0, change = 0.0;
+    for (int k = 1; k <= order_; ++k) {
+      pw *= d;
+      change += pw * theta(cols_[static_cast<std::size_t>(4 * (k - 1))]);  // dmass_k: the first of each order's four
+    }
+    return change;
+  }
   std::unique_ptr<Effect> clone() const override { return std::make_unique<PayloadSignalEffect>(*this); }
 
  private:

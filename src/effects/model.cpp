@@ -2,6 +2,7 @@
 #include "ftid/effects/model.hpp"
 
 #include <algorithm>
+#include <limits>
 
 #include "ftid/common/error.hpp"
 #include "ftid/effects/signal_source.hpp"
@@ -181,6 +182,20 @@ std::string Model::cannotFit(const std::vector<SampleContext>& ctx) const {
 bool Model::contains(const std::string& effect_name) const {
   return std::any_of(effects_.begin(), effects_.end(),
                      [&](const auto& e) { return e->name() == effect_name; });
+}
+
+std::optional<Model::MassMinimum> Model::smallestPayloadMass(const std::vector<SampleContext>& ctx,
+                                                             const Eigen::VectorXd& theta) const {
+  const int cm = index_.column("mass");
+  const bool varies = std::any_of(effects_.begin(), effects_.end(), [](const auto& e) { return e->changesPayloadMass(); });
+  if (cm < 0 || !varies || ctx.empty() || theta.size() < numParams()) return std::nullopt;
+  MassMinimum lowest{std::numeric_limits<double>::infinity(), 0};
+  for (std::size_t k = 0; k < ctx.size(); ++k) {
+    double m = theta(cm);
+    for (const auto& e : effects_) m += e->payloadMassChange(ctx[k], theta);
+    if (!(m >= lowest.mass_kg)) lowest = {m, k};  // a NaN mass is the lowest: never physical
+  }
+  return lowest;
 }
 
 void Model::computeRegressor(const SampleContext& ctx,

@@ -198,6 +198,7 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
                               " robust standard deviations) left out; re-fitted");
   }
   out.set = robust.set;
+  out.varying_mass = varyingMass(out.set, robust.samples);
   out.set.provenance.data_file = request.log_path;
   out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
   if (check) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "ftid/effects/model.hpp"
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/fileio/json_text.hpp"
 
@@ -49,6 +50,35 @@ std::string inertiaPart(const ParameterSet& set, const NamedValue& mass) {
 }
 
 }  // namespace
+
+std::optional<VaryingMass> varyingMass(const ParameterSet& set, const std::vector<effects::SampleContext>& samples) {
+  if (set.model.empty()) return std::nullopt;
+  const effects::Model model = effects::Model::fromName(set.model);
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(model.numParams());
+  for (const auto& p : set.params) {
+    const int c = model.paramIndex().column(p.name);
+    if (c >= 0) theta(c) = p.value;
+  }
+  const auto low = model.smallestPayloadMass(samples, theta);
+  if (!low) return std::nullopt;
+  VaryingMass v{low->mass_kg, samples[low->sample].t, ""};
+  for (const auto& e : model.effectList()) {
+    if (e->changesPayloadMass()) v.effects += (v.effects.empty() ? "" : ", ") + e->name();
+  }
+  return v;
+}
+
+PhysicalValidity checkPhysicalValidity(const ParameterSet& set, const std::optional<VaryingMass>& varying) {
+  PhysicalValidity out = checkPhysicalValidity(set);
+  if (!out.valid || !varying || varying->mass_kg > 0.0) return out;
+  out.valid = false;
+  out.problem = params::ParameterProblem{
+      "parameters.mass", "the mass moving with its signal (" + varying->effects + ") is " + number(varying->mass_kg) +
+                             " kg at t = " + number(varying->t_s) + " s (must be > 0 at every sample)"};
+  const auto arrow = out.line.find(" -> ");
+  out.line = out.line.substr(0, arrow) + " -> REFUSED: '" + out.problem->key + "': " + out.problem->message;
+  return out;
+}
 
 PhysicalValidity checkPhysicalValidity(const ParameterSet& set) {
   PhysicalValidity out;

@@ -452,7 +452,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   const Fitted last_fit =
       options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.
-  for (const auto& r : physicsRefusals(detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr))) {
+  for (const auto& r : physicsRefusals(detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr, engine.data().ctx))) {
     result.unphysical.push_back(r.reason);
     result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
                               "; do not write or export its parameters");

@@ -72,11 +72,11 @@ Fitted fitFrom(const Engine& eng, const Model& model, const Fitted& from) {
       if (sol3.sse_fit < a.sol.sse_fit) a = Fitted{model, lin3, sol3};
     }
   }
-  const bool physical = physicsRefusals(fitView(a.model, a.lin, a.sol, nullptr)).empty();
+  const bool physical = physicsRefusals(fitView(a.model, a.lin, a.sol, nullptr, eng.data().ctx)).empty();
   if (physical && a.sol.sse_heldout < from.sol.sse_heldout) return a;
   auto [lin2, sol2] = eng.fitFully(model, eng.initial(model));
   Fitted b{model, lin2, sol2};
-  const bool physical2 = physicsRefusals(fitView(b.model, b.lin, b.sol, nullptr)).empty();
+  const bool physical2 = physicsRefusals(fitView(b.model, b.lin, b.sol, nullptr, eng.data().ctx)).empty();
   if (physical2 != physical) return physical2 ? b : a;
   return b.sol.sse_fit < a.sol.sse_fit ? b : a;
 }

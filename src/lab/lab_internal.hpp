@@ -52,9 +52,10 @@ std::vector<std::string> candidateMenu(const AnalyzeOptions& options);
 /// angles and the delay as the linearisation has columns for them.
 std::vector<std::string> fittedNames(const effects::Model& model, const Linearization& lin);
 /// The rule's view of a fit (lab/verdict.hpp): values (nonlinear ones at lin + correction), its own
-/// covariance; `added` marks the names `simpler` lacks (nullptr: none added).
+/// covariance; `added` marks the names `simpler` lacks (nullptr: none added); `samples`: the fit's
+/// samples, for the physics that depends on them (FitView::samples).
 FitView fitView(const effects::Model& model, const Linearization& lin, const Solution& sol,
-                const std::vector<std::string>* simpler_names);
+                const std::vector<std::string>* simpler_names, const std::vector<SampleContext>& samples);
 
 /// Ranks the menu against `base`, each candidate judged by the rule (screened to first order in
 /// its nonlinear parameters). Recommended ones first, then by held-out BIC.

@@ -40,9 +40,10 @@ std::vector<std::string> fittedNames(const Model& model, const Linearization& li
 }
 
 FitView fitView(const Model& model, const Linearization& lin, const Solution& sol,
-                const std::vector<std::string>* simpler_names) {
+                const std::vector<std::string>* simpler_names, const std::vector<SampleContext>& samples) {
   FitView f;
   f.model = &model;
+  f.samples = &samples;
   f.names = fittedNames(model, lin);
   const int n = static_cast<int>(f.names.size());
   f.theta = sol.theta.head(std::min<Eigen::Index>(n, sol.theta.size()));
@@ -266,7 +267,7 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
       c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
       c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, rc.scale_sd);
       in.p_value = c.p_value;
-      in.refusals = refusalsOf(fitView(cand, lin, s, &base_names));
+      in.refusals = refusalsOf(fitView(cand, lin, s, &base_names, eng.data().ctx));
     }
     applyRule(in, c);
   }
@@ -310,12 +311,12 @@ CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const F
     c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, rc.scale_sd);
     in.p_value = c.p_value;
     const auto simple_names = fittedNames(simple.model, simple.lin);
-    const FitView rich_view = fitView(rich.model, rich.lin, rich.sol, &simple_names);
+    const FitView rich_view = fitView(rich.model, rich.lin, rich.sol, &simple_names, rc.eng.data().ctx);
     in.refusals = identifiabilityRefusals(rich_view);
     // A physics refusal is charged to the effect only when the model without it is physical:
     // otherwise the impossibility is not the effect's doing (backward elimination would blame
     // every effect for the whole model's physics).
-    if (physicsRefusals(fitView(simple.model, simple.lin, simple.sol, nullptr)).empty()) {
+    if (physicsRefusals(fitView(simple.model, simple.lin, simple.sol, nullptr, rc.eng.data().ctx)).empty()) {
       for (auto& r : physicsRefusals(rich_view)) in.refusals.push_back(std::move(r));
     }
   }

@@ -233,6 +233,18 @@ std::vector<Refusal> physicsRefusals(const FitView& f) {
       }
     }
   }
+  if (f.samples != nullptr && cm >= 0 && f.theta(cm) > 0.0 && f.theta.size() >= f.model->numParams()) {
+    const auto low = f.model->smallestPayloadMass(*f.samples, f.theta.head(f.model->numParams()));
+    if (low && !(low->mass_kg > 0.0)) {
+      std::string by;
+      for (const auto& e : f.model->effectList()) {
+        if (e->changesPayloadMass()) by += (by.empty() ? "" : ", ") + e->name();
+      }
+      out.push_back({"the payload mass, moving with its signal (" + by + "), is " + fmt(low->mass_kg, 4) + " kg at t = " +
+                         fmt((*f.samples)[low->sample].t, 4) + " s (must be > 0 at every sample)",
+                     "move the signal over its range while the robot moves"});
+    }
+  }
   const int ck = columnOf(f, effects::kCableStiffnessParam);
   if (ck >= 0) {
     const double k = f.theta(ck), sd = sdOf(f, ck);

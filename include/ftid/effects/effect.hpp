@@ -117,6 +117,19 @@ class Effect {
   /// Default false (the fitter evaluates the effect at g_S = 0 and at three gravity directions).
   virtual bool constantGravitySlope() const { return false; }
 
+  /// True if the effect makes the payload's mass vary from sample to sample (payload(s)); its
+  /// payloadMassChange is then not always 0.
+  virtual bool changesPayloadMass() const { return false; }
+  /// The change of the payload's mass this effect makes at `ctx`, with the model's parameters
+  /// `theta` (one value per ParamIndex column; after bind()). payload(s): sum_k dmass_k (s - ref)^k.
+  /// Identity (tested): at a sample with no motion and g_S = e_z, row 2 of this effect's regressor
+  /// times theta equals this change.
+  virtual double payloadMassChange(const SampleContext& ctx, const Eigen::VectorXd& theta) const {
+    (void)ctx;
+    (void)theta;
+    return 0.0;
+  }
+
   /// Resolve the columns this effect writes. Called once when the model is composed.
   /// Throws ConfigError if a parameter it needs is missing.
   virtual void bind(const ParamIndex& index) = 0;

@@ -8,6 +8,7 @@
 // paramIndex().names().
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,16 @@ class Model {
   /// which an effect's regressor is not finite (an expr dividing by zero there); "" if none.
   std::string cannotFit(const std::vector<SampleContext>& ctx) const;
   bool contains(const std::string& effect_name) const;
+
+  /// Where the payload's mass is smallest over `ctx`, for a model whose mass varies from sample to
+  /// sample (an effect with changesPayloadMass, e.g. payload(s)): `mass` + every effect's
+  /// payloadMassChange, with the parameters `theta` (ParamIndex columns). nullopt when the model
+  /// has no `mass` parameter, no such effect, or `ctx` is empty.
+  struct MassMinimum {
+    double mass_kg = 0.0;
+    std::size_t sample = 0;  ///< index into ctx
+  };
+  std::optional<MassMinimum> smallestPayloadMass(const std::vector<SampleContext>& ctx, const Eigen::VectorXd& theta) const;
 
   /// Y (6 x numParams) for one sample; Y is overwritten. Real-time safe if Y is preallocated.
   void computeRegressor(const SampleContext& ctx,

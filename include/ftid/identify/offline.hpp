@@ -79,6 +79,8 @@ struct CheckedIdentification {
   ImuReport imu;
   int glitches = 0;  ///< samples left out of the fit as glitches
   SetupDiagnosis setup;  ///< with `check`: the set-up diagnosis before the fit (setup_check.hpp)
+  /// A mass that moves with a signal: its smallest value over the fitted samples (physical_check.hpp).
+  std::optional<VaryingMass> varying_mass;
 };
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check = true);
 /// The same on contexts already built (request.log_path names them in messages).

@@ -77,6 +77,9 @@ struct FitView {
   Eigen::MatrixXd covariance;
   Eigen::MatrixXd null_space;
   std::vector<bool> added;
+  /// The fit's samples, for the physics that depends on them (a payload mass that changes with a
+  /// signal must stay positive at every sample); nullptr: not checked.
+  const std::vector<effects::SampleContext>* samples = nullptr;
 };
 
 /// Identifiability of the added parameters in the richer model itself (its own covariance).

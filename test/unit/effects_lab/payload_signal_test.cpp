@@ -121,6 +121,38 @@ TEST(PayloadSignalEffect, MassChangingWithTimeIsAPolynomialAboutTheReference) {
   }
 }
 
+// The smallest mass over the samples (Model::smallestPayloadMass, the physics check of a mass that
+// moves with a signal) against m(t) computed directly, for a tool that runs empty at t = 200 s.
+TEST(PayloadSignalEffect, SmallestMassOverTheSamplesIsTheDirectMinimum) {
+  const Model model = Model::fromName("gravity+linear_inertia+payload(t,2,50)");
+  const double m0 = 1.0, a = -0.006, b = 5e-6;  // m(t) = m0 + a t + b t^2: 0 near t = 200 s
+  const double ref = 50.0;
+  const Eigen::VectorXd theta = thetaOf(model, {{"mass", m0 + a * ref + b * ref * ref},
+                                                {"dmass_t", a + 2.0 * b * ref},
+                                                {"dmass_t_2", b}});
+  for (const double t_end : {150.0, 250.0}) {
+    std::vector<SampleContext> ctx(101);
+    double direct = 1e9;
+    std::size_t at = 0;
+    for (std::size_t k = 0; k < ctx.size(); ++k) {
+      ctx[k].t_model = t_end * static_cast<double>(k) / 100.0;
+      const double m = m0 + a * ctx[k].t_model + b * ctx[k].t_model * ctx[k].t_model;
+      if (m < direct) {
+        direct = m;
+        at = k;
+      }
+    }
+    const auto low = model.smallestPayloadMass(ctx, theta);
+    ASSERT_TRUE(low.has_value());
+    EXPECT_NEAR(low->mass_kg, direct, 1e-12) << t_end;
+    EXPECT_EQ(low->sample, at) << t_end;
+    EXPECT_EQ(low->mass_kg > 0.0, t_end < 200.0) << t_end;
+  }
+  // A constant mass is nobody's business here: no payload(s), no answer.
+  const Model still = Model::fromName("paper+rigid_body");
+  EXPECT_FALSE(still.smallestPayloadMass(std::vector<SampleContext>(3), Eigen::VectorXd::Ones(still.numParams())));
+}
+
 TEST(PayloadSignalEffect, NamesParametersAndErrors) {
   EXPECT_EQ(effects::createEffect("payload(grip)")->name(), "payload(grip)");
   EXPECT_EQ(effects::createEffect("payload( grip , 1 )")->name(), "payload(grip)");

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "ftid/effects/model.hpp"
 #include "ftid/lab/verdict.hpp"
@@ -119,6 +120,42 @@ TEST(Verdict, PhysicsRefusesNegativeMassNonPhysicalInertiaAndAPushingSpring) {
   EXPECT_NE(lab::physicsRefusals(g)[0].reason.find("spring constant is -0.79"), std::string::npos);
   g.covariance(col(g, "cable_k"), col(g, "cable_k")) = 0.5 * 0.5;  // -0.79 +- 0.5: not beyond 2 se
   EXPECT_TRUE(lab::physicsRefusals(g).empty());
+}
+
+// A mass that moves with a signal must be positive at every sample of the fit, not only at the
+// signal's reference: payload(grip) with mass 0.5 kg at grip = 0 and -0.8 kg per unit of grip is
+// impossible once grip passes 0.625.
+TEST(Verdict, PhysicsRefusesAMassThatTheSignalDrivesBelowZero) {
+  const auto m = effects::Model::fromName("paper+payload(grip)");
+  lab::FitView f;
+  f.model = &m;
+  for (const auto& p : m.params()) f.names.push_back(p.name);
+  f.theta = Eigen::VectorXd::Zero(m.numParams());
+  f.covariance = 1e-8 * Eigen::MatrixXd::Identity(m.numParams(), m.numParams());
+  f.theta(col(f, "mass")) = 0.5;
+  f.theta(col(f, "dmass_grip")) = -0.8;
+  const std::vector<std::string> names = {"grip"};
+  std::vector<double> grip(11);
+  std::vector<effects::SampleContext> samples(11);
+  for (std::size_t k = 0; k < samples.size(); ++k) {
+    samples[k].t = 0.1 * static_cast<double>(k);
+    samples[k].extra_names = &names;
+  }
+  auto run = [&](double grip_max) {
+    for (std::size_t k = 0; k < samples.size(); ++k) {
+      grip[k] = grip_max * static_cast<double>(k) / 10.0;
+      samples[k].extra = &grip[k];
+    }
+    f.samples = &samples;
+    return lab::physicsRefusals(f);
+  };
+  EXPECT_TRUE(run(0.6).empty());  // 0.02 kg left at grip = 0.6
+  const auto r = run(1.0);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_NE(r[0].reason.find("payload(grip)"), std::string::npos) << r[0].reason;
+  EXPECT_NE(r[0].reason.find("is -0.3 kg at t = 1 s"), std::string::npos) << r[0].reason;
+  f.samples = nullptr;  // not checked without the samples
+  EXPECT_TRUE(lab::physicsRefusals(f).empty());
 }
 
 TEST(Verdict, IdentifiabilityIsJudgedByTheRicherModelsOwnCovariance) {
