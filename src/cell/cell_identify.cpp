@@ -537,7 +537,9 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     set.provenance.n_samples = static_cast<int>(robust.samples.size());
     print("");
     print(identify::formatParameterTable(set));
-    const identify::PhysicalValidity validity = identify::checkPhysicalValidity(set);
+    // A mass that moves with a signal (payload(t)) must be positive at every sample too.
+    const identify::PhysicalValidity validity =
+        identify::checkPhysicalValidity(set, identify::varyingMass(set, robust.samples));
     print(validity.line);
     if (!validity.valid) {
       result.message = "identification refused: " + identify::physicalRefusal(validity) + "; parameters unchanged, " + data_note;
