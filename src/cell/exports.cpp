@@ -38,20 +38,33 @@ Mat3 fromUrOrder(const Vec6& v) {
 }
 /// "" unless the model's payload moves with a signal (payload(s), docs/effects.md): then a comment
 /// line saying that the export holds the payload at the signal's reference value only.
-std::string movingPayloadNote(const std::string& model) {
-  std::string moving;
+/// Notes on what a fixed-payload export cannot carry: a payload that moves with a signal, and a
+/// tilt that absorbs an effect's uniform pull (Effect::foldsIntoTilt, the cable). "" when none.
+std::string modelNotes(const std::string& model) {
+  std::string moving, absorbers;
   try {
     const effects::Model m = effects::Model::fromName(model);
     for (const auto& e : m.effectList()) {
       if (e->name().rfind("payload(", 0) == 0) moving += (moving.empty() ? "" : ", ") + e->name();
     }
+    absorbers = m.tiltAbsorbers();
   } catch (const ConfigError&) {
     return "";  // not a model this build knows: nothing to say about it
   }
-  if (moving.empty()) return "";
-  return "# NOTE: the model's payload moves with a signal (" + moving +
-         "): this export is the payload at the signal's reference value (0 unless given) only;\n"
-         "#       a fixed payload cannot follow it (compensate with `ftid compensate`).\n";
+  std::string out;
+  if (!moving.empty()) {
+    out += "# NOTE: the model's payload moves with a signal (" + moving +
+           "): this export is the payload at the signal's reference value (0 unless given) only;\n"
+           "#       a fixed payload cannot follow it (compensate with `ftid compensate`).\n";
+  }
+  if (!absorbers.empty()) {
+    out += "# NOTE: the model's tilt is an APPARENT tilt (" + absorbers +
+           "): the uniform horizontal pull is folded into it and part of\n"
+           "#       the vertical pull may be in the mass (docs/effects.md). The gravity direction and mass below\n"
+           "#       reproduce that pull only near the identification's poses, and the mass is not the tool's\n"
+           "#       weight alone; compensate with ftidd, which models the pull.\n";
+  }
+  return out;
 }
 
 /// Inertia of a point mass m at offset d about the reference point: m (|d|^2 1 - d d^T).
@@ -133,7 +146,7 @@ std::string urScriptFile(const PayloadExport& e, const std::vector<RigidPart>& p
     << "# Set the TCP payload to this (teach pendant Installation > Payload, or run the line).\n"
     << "#   identified payload (model " << e.model << "): " << num(e.mass) << " kg at " << vec(e.cog_F) << " m"
     << (e.inertia_C_F ? ", inertia " + urOrder(*e.inertia_C_F) : std::string(", inertia not identified"))
-    << "\n" << movingPayloadNote(e.model);
+    << "\n" << modelNotes(e.model);
   for (const auto& p : parts) {
     if (p.mass > 0.0) {
       o << "#   " << p.name << " (ftidd.yaml export." << p.name << "): " << num(p.mass) << " kg at " << vec(p.com_F)
@@ -162,7 +175,7 @@ std::string ros2BroadcasterYaml(const PayloadExport& e, const Ros2Names& n) {
          << "#    identified base tilt (g_B = R_WB^T g_W). world_frame must be the TF frame of B (UR: 'base'),\n"
          << "#    sensor_frame the TF frame of S (the sensor mount in your URDF must match ftidd.yaml's).\n"
          << "#  The filter compensates gravity only; ftidd also removes the inertial wrench in motion.\n"
-         << movingPayloadNote(e.model);
+         << modelNotes(e.model);
   auto xyz = [](YAML::Emitter& o, const Vec3& v) {
     o << YAML::BeginMap;
     for (int i = 0; i < 3; ++i) o << YAML::Key << std::string(1, "xyz"[i]) << YAML::Value << YamlNumber{v(i)};

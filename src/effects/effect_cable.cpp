@@ -40,6 +40,7 @@ class CableEffect final : public Effect {
     return p;
   }
   std::vector<std::string> requires() const override { return {"gravity", "tilt"}; }
+  bool foldsIntoTilt() const override { return true; }  // its horizontal pull (file comment)
   void bind(const ParamIndex& index) override {
     k_ = requireColumn(index, kCableStiffnessParam, name());
     for (int i = 0; i < 3; ++i) u_[i] = requireColumn(index, kCableAttachParams[i], name());

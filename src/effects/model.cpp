@@ -123,6 +123,14 @@ bool Model::estimatesTilt() const {
   return std::any_of(effects_.begin(), effects_.end(), [](const auto& e) { return e->estimatesTilt(); });
 }
 
+std::string Model::tiltAbsorbers() const {
+  std::string out;
+  for (const auto& e : effects_) {
+    if (e->foldsIntoTilt()) out += (out.empty() ? "" : ", ") + e->name();
+  }
+  return out;
+}
+
 bool Model::estimatesMounting() const {
   return std::any_of(effects_.begin(), effects_.end(), [](const auto& e) { return e->estimatesMounting(); });
 }

@@ -13,6 +13,7 @@
 #include "ftid/common/default_files.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/common/shell_quote.hpp"
+#include "ftid/effects/model.hpp"
 #include "ftid/effects/signal_source.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/json_text.hpp"
@@ -222,6 +223,25 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
   return out;
 }
 
+namespace {
+
+/// For a model whose tilt absorbs an effect's uniform pull (Effect::foldsIntoTilt): what the tilt
+/// means and where the base's own tilt comes from; "" otherwise.
+std::string apparentTiltNote(const std::string& model) {
+  std::string absorbers;
+  try {
+    absorbers = effects::Model::fromName(model).tiltAbsorbers();
+  } catch (const ConfigError&) {
+    return "";
+  }
+  if (absorbers.empty()) return "";
+  return "  (an APPARENT tilt: the horizontal pull of " + absorbers +
+         " is folded into it (docs/effects.md); the base's mounting tilt is the IMU's, or that of a model "
+         "without " + absorbers + " fitted on a motion where the pull is absent)\n";
+}
+
+}  // namespace
+
 std::string formatParameterTable(const ParameterSet& set) {
   std::ostringstream os;
   char line[160];
@@ -242,6 +262,7 @@ std::string formatParameterTable(const ParameterSet& set) {
     std::snprintf(line, sizeof(line), "  (tilt U = %.4f deg, V = %.4f deg)\n", set.tilt_u_rad * kDeg,
                   set.tilt_v_rad * kDeg);
     os << line;
+    os << apparentTiltNote(set.model);
   }
   os << "residual RMS:";
   for (int a = 0; a < 6; ++a) {

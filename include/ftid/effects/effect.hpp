@@ -109,6 +109,10 @@ class Effect {
   virtual bool estimatesMounting() const { return false; }
   /// True for `sensor_delay`: the fitter estimates the reading's delay (effects/nonlinear.hpp).
   virtual bool estimatesDelay() const { return false; }
+  /// True if part of this effect is a uniform force field in B that the fitted tilt absorbs (cable:
+  /// its horizontal pull, docs/effects.md): a model with it fits an apparent tilt, not the base's
+  /// mounting tilt, and a mass that may carry part of the pull.
+  virtual bool foldsIntoTilt() const { return false; }
 
   /// True if this effect's regressor is Y(ctx) = Y(ctx with g_S = 0) + sum_j g_S(j) D_j with slopes
   /// D_j that depend on no field of ctx (e.g. gravity: the force m g_S at the centre of mass). The

@@ -37,6 +37,9 @@ class Model {
   bool estimatesTilt() const;
   bool estimatesMounting() const;
   bool estimatesDelay() const;
+  /// The effects whose uniform pull the fitted tilt absorbs (Effect::foldsIntoTilt), joined by
+  /// ", "; "" when the model's tilt is the base's mounting tilt.
+  std::string tiltAbsorbers() const;
   std::uint32_t signals() const;  ///< union of the effects' signals
   /// Why a sample like `ctx` cannot feed this model: "" if it carries every signal the effects read
   /// (Effect::signalNames, the temperature), else one line naming the effect and the signal.

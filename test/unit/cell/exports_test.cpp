@@ -364,6 +364,21 @@ TEST(Ros2Export, NamesWithYamlSyntaxStayStrings) {
   EXPECT_EQ(params["sensor_filter_chain"]["filter1"]["params"]["world_frame"].as<std::string>(), "base: link # 1");
 }
 
+TEST(Ros2Export, AnApparentTiltIsFlaggedInBothExports) {
+  // A model with `cable` fits an apparent tilt (the cable's horizontal pull folded in, docs/effects.md):
+  // both exports say so; a model without such an effect gets no such note.
+  const auto plain = ftid::cell::makePayloadExport(makeSet(), ftid::Mat3::Identity(), ftid::Vec3::Zero());
+  EXPECT_EQ(ftid::cell::ros2BroadcasterYaml(plain).find("APPARENT tilt"), std::string::npos);
+  EXPECT_EQ(ftid::cell::urScriptFile(plain, {}).find("APPARENT tilt"), std::string::npos);
+  ftid::params::ParameterSet set = makeSet();
+  set.model = "paper+cable";
+  const auto e = ftid::cell::makePayloadExport(set, ftid::Mat3::Identity(), ftid::Vec3::Zero());
+  const std::string ros2 = ftid::cell::ros2BroadcasterYaml(e);
+  EXPECT_NE(ros2.find("# NOTE: the model's tilt is an APPARENT tilt (cable)"), std::string::npos) << ros2;
+  EXPECT_NO_THROW(YAML::Load(ros2));  // the note is a comment: the parameters are unchanged
+  EXPECT_NE(ftid::cell::urScriptFile(e, {}).find("APPARENT tilt (cable)"), std::string::npos);
+}
+
 TEST(Ros2Export, WriteExportsUsesTheConfigsMountNamesAndParts) {
   const std::string dir = ::testing::TempDir() + "ftid_exports_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
