@@ -113,10 +113,11 @@ std::string formatText(const AnalysisResult& r) {
   const int family = r.family_size;
   std::ostringstream margin;
   margin << 100.0 * r.heldout_margin;
-  const std::string falls = r.heldout_margin > 0.0 ? "the held-out error falls by more than " + margin.str() + " %"
-                                                   : std::string("the held-out error falls");
-  s += line("\ncandidate effects (one rule, docs/analyze.md: recommended when the family-wise p = min(1, %d p) is below "
-            "alpha = %.2g, %s, and the fit is identifiable and physical):",
+  const std::string falls = r.heldout_margin > 0.0 ? " (and the held-out error falls by more than " + margin.str() + " %)"
+                                                   : std::string();
+  s += line("\ncandidate effects (one rule, docs/analyze.md: recommended when the family-wise p = min(1, %d p) of its "
+            "held-out gain is below alpha = %.2g%s, and the fit is identifiable and physical; p = the chance of so "
+            "large a gain from noise alone):",
             family, r.family_alpha, falls.c_str());
   s += line("  %-20s %9s  %-14s %s", "effect", "held-out", "family-wise p", "verdict");
   int shown = 0;

@@ -57,6 +57,20 @@ std::vector<std::string> fittedNames(const effects::Model& model, const Lineariz
 FitView fitView(const effects::Model& model, const Linearization& lin, const Solution& sol,
                 const std::vector<std::string>* simpler_names, const std::vector<SampleContext>& samples);
 
+/// The law of the held-out gain under "the candidate adds nothing" (docs/analyze.md, "The verdict:
+/// one rule"). Z: the richer model's solved (prewhitened) design; simple_cols: the columns of Z
+/// that are the simpler model's. With e the whitened noise (white, variance sigma^2, under the
+/// estimated noise model) and every fold's fit linear in e, the gain
+/// Delta = SSE_heldout(simple) - SSE_heldout(rich) = sum over folds f (test block h) of
+///   -2 u_hS' b_f + b_f' G_hSS b_f + 2 u_h' c_f - c_f' G_h c_f
+/// (u_b = Z_b' e_b, G_b = Z_b' Z_b per block; c_f, b_f the rich and simple fold fits) is a quadratic
+/// form in the u_b ~ N(0, sigma^2 G_b), independent across blocks, so Delta / sigma^2 =
+/// sum_k lambda_k chi2_1: returns the lambda_k (weightedChiSquareSurvival gives its tail).
+std::vector<double> heldOutNullWeights(const Engine& eng, const Engine::Design& Z, const std::vector<int>& simple_cols);
+/// The candidate's p-value: P(Delta_null >= the observed held-out gain) (heldOutNullWeights).
+double heldOutPValue(const RankContext& rc, const Engine::Design& Z, const FitView& rich, double simple_sse_heldout,
+                     const Solution& rich_sol);
+
 /// Ranks the menu against `base`, each candidate judged by the rule (screened to first order in
 /// its nonlinear parameters). Recommended ones first, then by held-out BIC.
 std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted& base);

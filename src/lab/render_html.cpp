@@ -344,8 +344,8 @@ void writeCorrelations(std::ostringstream& o, const AnalysisResult& r) {
 /// Each candidate effect with its verdict under the one rule, and the missing effect if any.
 void writeCandidates(std::ostringstream& o, const AnalysisResult& r) {
   o << "<h2>Candidate effects</h2><p>One rule decides (docs/analyze.md): the family-wise p-value min(1, "
-    << r.family_size << " p) below alpha = " << f(r.family_alpha, 2) << ", a held-out error lower by more than "
-    << f(100.0 * r.heldout_margin, 3) << " %, identifiable and physical.</p>"
+    << r.family_size << " p) of the held-out gain below alpha = " << f(r.family_alpha, 2)
+    << " (p: the chance of so large a gain from noise alone), identifiable and physical.</p>"
        "<table><tr><th>effect</th><th>held-out reduction</th><th>family-wise p</th>"
        "<th>verdict</th><th>meaning</th><th>next command</th></tr>";
   for (const auto& c : r.candidates) {

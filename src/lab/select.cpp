@@ -230,9 +230,10 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
       lin.delay_column = true;
     }
     // The base model's columns must keep their meaning in the candidate (nested models).
-    Solution s = lin.extraColumns() == base.lin.extraColumns()
-                     ? eng.solve(eng.designExtended(base.model, base_design, cand, lin, prepared))
-                     : eng.solve(eng.design(cand, lin));
+    Engine::Design X = lin.extraColumns() == base.lin.extraColumns()
+                           ? eng.designExtended(base.model, base_design, cand, lin, prepared)
+                           : eng.design(cand, lin);
+    Solution s = eng.solve(X);
     if (cand.estimatesMounting() && !base.model.estimatesMounting()) {
       // A sensor mounted far off (90 degrees) is out of the first order's reach: always fit the
       // mounting fully from the best of the 24 axis-aligned rotations too, kept when it fits better.
@@ -242,6 +243,7 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
         if (full.second.sse_fit < s.sse_fit) {
           lin = std::move(full.first);
           s = std::move(full.second);
+          X = eng.design(cand, lin);
         }
       }
     }
@@ -265,9 +267,10 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
     } else {
       const double dof2 = std::max(1, s.rows_fit - s.rank);
       c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
-      c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, rc.scale_sd);
+      const FitView view = fitView(cand, lin, s, &base_names, eng.data().ctx);
+      c.p_value = heldOutPValue(rc, X, view, base.sol.sse_heldout, s);
       in.p_value = c.p_value;
-      in.refusals = refusalsOf(fitView(cand, lin, s, &base_names, eng.data().ctx));
+      in.refusals = refusalsOf(view);
     }
     applyRule(in, c);
   }
@@ -308,10 +311,10 @@ CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const F
   if (c.added_params > 0) {
     const double dof2 = std::max(1, rich.sol.rows_fit - rich.sol.rank);
     c.f_statistic = std::max(0.0, ((simple.sol.sse_fit - rich.sol.sse_fit) / c.added_params) / (rich.sol.sse_fit / dof2));
-    c.p_value = chiSquareSurvivalUncertainScale(c.f_statistic * c.added_params, c.added_params, rc.scale_sd);
-    in.p_value = c.p_value;
     const auto simple_names = fittedNames(simple.model, simple.lin);
     const FitView rich_view = fitView(rich.model, rich.lin, rich.sol, &simple_names, rc.eng.data().ctx);
+    c.p_value = heldOutPValue(rc, rc.eng.design(rich.model, rich.lin), rich_view, simple.sol.sse_heldout, rich.sol);
+    in.p_value = c.p_value;
     in.refusals = identifiabilityRefusals(rich_view);
     // A physics refusal is charged to the effect only when the model without it is physical:
     // otherwise the impossibility is not the effect's doing (backward elimination would blame

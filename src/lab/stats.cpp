@@ -69,22 +69,78 @@ double chiSquareSurvival(double statistic, double dof) {
   return std::clamp(gammaContinuedFraction(a, x), 0.0, 1.0);
 }
 
-double chiSquareSurvivalUncertainScale(double statistic, double dof, double log_scale_sd) {
-  if (!(log_scale_sd > 0.0)) return chiSquareSurvival(statistic, dof);
-  if (!(dof > 0.0) || !(statistic > 0.0)) return 1.0;
-  if (!std::isfinite(statistic)) return 0.0;
-  // E_z[Q(statistic exp(-s z))], z standard normal: the trapezoid rule over |z| <= 8 in steps of
-  // 0.05 (the integrand is smooth; the normal weights sum to 1 within 1e-12).
+namespace {
+
+/// E_z[survival(statistic exp(-s z))], z standard normal: the trapezoid rule over |z| <= 8 in
+/// steps of 0.05 (the integrand is smooth; the normal weights sum to 1 within 1e-12).
+template <class Survival>
+double averageOverScale(const Survival& survival, double statistic, double log_scale_sd) {
   constexpr double kStep = 0.05;
   constexpr int kHalf = 160;
   double p = 0.0, wsum = 0.0;
   for (int i = -kHalf; i <= kHalf; ++i) {
     const double z = i * kStep;
     const double w = std::exp(-0.5 * z * z);
-    p += w * chiSquareSurvival(statistic * std::exp(-log_scale_sd * z), dof);
+    p += w * survival(statistic * std::exp(-log_scale_sd * z));
     wsum += w;
   }
   return std::clamp(p / wsum, 0.0, 1.0);
+}
+
+double normalUpperTail(double z) { return 0.5 * std::erfc(z / std::sqrt(2.0)); }
+
+}  // namespace
+
+double chiSquareSurvivalUncertainScale(double statistic, double dof, double log_scale_sd) {
+  if (!(log_scale_sd > 0.0)) return chiSquareSurvival(statistic, dof);
+  if (!(dof > 0.0) || !(statistic > 0.0)) return 1.0;
+  if (!std::isfinite(statistic)) return 0.0;
+  return averageOverScale([dof](double x) { return chiSquareSurvival(x, dof); }, statistic, log_scale_sd);
+}
+
+double weightedChiSquareSurvival(const std::vector<double>& lambda, double x) {
+  if (std::isnan(x)) return 1.0;
+  double mean = 0.0, var = 0.0, lmax = 0.0, lmin = 0.0;
+  for (double l : lambda) {
+    mean += l;
+    var += 2.0 * l * l;
+    lmax = std::max(lmax, l);
+    lmin = std::min(lmin, l);
+  }
+  if (!(lmax > 0.0)) return 1.0;  // no chance of a positive value: nothing to measure against
+  if (x == std::numeric_limits<double>::infinity()) return 0.0;
+  const double sd = std::sqrt(var);
+  // Near and below the mean the decision is never at stake: the normal approximation.
+  if (x <= mean + 0.5 * sd) return std::clamp(normalUpperTail((x - mean) / sd), 0.0, 1.0);
+  // Saddlepoint (Lugannani-Rice) in the upper tail: K(t) = -1/2 sum ln(1 - 2 l t) on
+  // (1 / (2 lmin), 1 / (2 lmax)); K'(t) = x is solved for t in (0, 1 / (2 lmax)) by bisection.
+  const auto dK = [&lambda](double t) {
+    double d = 0.0;
+    for (double l : lambda) d += l / (1.0 - 2.0 * l * t);
+    return d;
+  };
+  double lo = 0.0, hi = 0.5 / lmax;
+  for (int it = 0; it < 200 && hi - lo > 1e-15 * hi; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (dK(mid) < x ? lo : hi) = mid;
+  }
+  const double t = 0.5 * (lo + hi);
+  double K = 0.0, d2K = 0.0;
+  for (double l : lambda) {
+    const double a = 1.0 - 2.0 * l * t;
+    K += -0.5 * std::log(a);
+    d2K += 2.0 * l * l / (a * a);
+  }
+  const double w = std::sqrt(std::max(0.0, 2.0 * (t * x - K)));
+  const double v = t * std::sqrt(d2K);
+  if (!(w > 1e-6) || !(v > 0.0)) return std::clamp(normalUpperTail((x - mean) / sd), 0.0, 1.0);
+  const double density = std::exp(-0.5 * w * w) / std::sqrt(2.0 * 3.141592653589793);
+  return std::clamp(normalUpperTail(w) + density * (1.0 / v - 1.0 / w), 0.0, 1.0);
+}
+
+double weightedChiSquareSurvivalUncertainScale(const std::vector<double>& lambda, double x, double log_scale_sd) {
+  if (!(log_scale_sd > 0.0) || !(x > 0.0) || !std::isfinite(x)) return weightedChiSquareSurvival(lambda, x);
+  return averageOverScale([&lambda](double y) { return weightedChiSquareSurvival(lambda, y); }, x, log_scale_sd);
 }
 
 }  // namespace ftid::lab

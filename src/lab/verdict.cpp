@@ -109,7 +109,7 @@ Decision decide(const RuleInputs& in) {
   }
   if (!(d.family_p < in.family_alpha)) {
     d.verdict = Verdict::kNotSignificant;
-    d.reason = "its gain is within chance: family-wise p = " + fmt(d.family_p, 2) + ", not below alpha = " +
+    d.reason = "its held-out gain is within chance: family-wise p = " + fmt(d.family_p, 2) + ", not below alpha = " +
                fmt(in.family_alpha, 2);
     return d;
   }

@@ -36,9 +36,9 @@ struct AnalyzeOptions {
   /// default generic menu (defaultGenericMenu()).
   std::vector<std::string> candidates;
   double family_alpha = 1e-3;       ///< family-wise significance level of a ranking (lab/verdict.hpp)
-  double min_relative_reduction = 0.01;  ///< held-out margin of the rule: a recommended effect must
-                                         ///< cut the held-out residual (sum of squares) by more than this
-                                         ///< fraction (why 1 % and not 0: docs/analyze.md, "The verdict")
+  double min_relative_reduction = 0.0;  ///< a recommended effect must cut the held-out residual (sum of
+                                         ///< squares) by more than this fraction; 0: it must fall (implied by
+                                         ///< the held-out test; docs/analyze.md, "The verdict"). Tests only.
   int top_windows = 3;              ///< failing time windows reported
   int window_count = 20;            ///< the log is cut into this many windows
   int top_correlations = 8;
@@ -80,6 +80,16 @@ double chiSquareSurvival(double statistic, double dof);
 /// "Significance without false alarms"). log_scale_sd = 0: chiSquareSurvival.
 double chiSquareSurvivalUncertainScale(double statistic, double dof, double log_scale_sd);
 
+/// Upper tail P(Q >= x) of Q = sum_k lambda_k chi2_1 (independent; weights of either sign), the
+/// law of a held-out gain under "the effect is not there" (docs/analyze.md, "The verdict: one
+/// rule"). The saddlepoint approximation of Lugannani and Rice above mean + sd/2 (relative error a
+/// few per cent with several weights, up to 15 % with one, down to the smallest doubles), the
+/// normal approximation below. No positive
+/// weight: 1.
+double weightedChiSquareSurvival(const std::vector<double>& lambda, double x);
+/// The same with an uncertain scale (as chiSquareSurvivalUncertainScale).
+double weightedChiSquareSurvivalUncertainScale(const std::vector<double>& lambda, double x, double log_scale_sd);
+
 struct ParamEstimate {
   std::string name;
   std::string unit;
@@ -110,8 +120,8 @@ struct CandidateResult {
   /// (a flexible candidate always gains in-sample); reported for comparison.
   double fit_relative_reduction = 0.0;
   Vec6 residual_rms = Vec6::Zero(); ///< held-out, per axis, with the effect added
-  double f_statistic = 0.0;         ///< nested-model F on the fitting data
-  double p_value = 1.0;             ///< the candidate's own p-value
+  double f_statistic = 0.0;         ///< nested-model F on the fitting data (in-sample; shown, does not decide)
+  double p_value = 1.0;             ///< the candidate's own p-value: of its held-out gain (the held-out test)
   /// The rule's verdict (lab/verdict.hpp): family_p = min(1, m p) is the one number that decides
   /// significance; `reason` says in words why a candidate was not taken ("" when recommended).
   Verdict verdict = Verdict::kNotSignificant;
@@ -187,8 +197,8 @@ struct AnalysisResult {
   /// m of min(1, m p): the menu's effects that can be tried on this data, one number for every
   /// ranking and step of the path (independent of the starting model).
   int family_size = 0;
-  /// The rule's held-out margin (AnalyzeOptions::min_relative_reduction): a recommended effect
-  /// lowers the held-out sum of squares by more than this fraction.
+  /// AnalyzeOptions::min_relative_reduction (0: a recommended effect lowers the held-out sum of
+  /// squares, as its significant held-out gain implies).
   double heldout_margin = 0.0;
   std::vector<ExplainStep> steps;               ///< with explain: the path, first = start
   std::optional<ModelReport> final_report;      ///< with explain: the last model of the path

@@ -3,10 +3,13 @@
 //
 // A candidate effect E, added to a fitted model M, is RECOMMENDED when
 //   1. significance (the one number that decides): the family-wise p-value
-//      p_fw = min(1, m * p) of the nested-model test M vs M+E (Bonferroni over the m effects of the
-//      menu the data can show, one m per analysis) is below alpha, and the held-out error of M+E
-//      is lower than M's by more than the held-out margin (a step that does not lower the
-//      held-out error is never taken; why a margin: docs/analyze.md, "The verdict");
+//      p_fw = min(1, m * p) is below alpha, where p is the chance, under the estimated noise model,
+//      that M+E predicts the held-out blocks at least as much better than M as it does if E were
+//      not there (the held-out test, lab_internal.hpp heldOutNullWeights), and m the Bonferroni
+//      family (the effects of the menu the data can show, one m per analysis). A significant
+//      held-out gain is a fall of the held-out error; the rule still checks that the error falls
+//      (min_heldout_reduction, 0 by default: strictly lower) for the tests that are in-sample
+//      (change points, the reading's dynamics), so that no step ever raises it;
 //   2. identifiability (a constraint that refuses, with the reason): judged by M+E's OWN
 //      covariance: the data determine every direction that mixes E's parameters with the payload's
 //      (no rank deficiency), and the payload's parameters stay determined in M+E (standard error
@@ -31,7 +34,7 @@ namespace ftid::lab {
 enum class Verdict {
   kRecommended,     ///< significant, held-out error falls, identifiable, physical
   kNotSignificant,  ///< family-wise p-value not below alpha: the gain is within chance
-  kNoHeldOutGain,   ///< significant in-sample, but the held-out error does not fall enough
+  kNoHeldOutGain,   ///< significant, but the held-out error does not fall (in-sample tests only)
   kRefused,         ///< significant, but not identifiable or not physical (reason given)
   kNothingToAdd,    ///< the data determine none of its parameters beyond the model's
   kSkipped,         ///< could not be tried (signal missing, ...)
@@ -47,11 +50,11 @@ struct Refusal {
 };
 
 struct RuleInputs {
-  double p_value = 1.0;               ///< the candidate's own p-value (nested-model test)
+  double p_value = 1.0;               ///< the candidate's own p-value (the held-out test, or the in-sample test of a change point or the dynamics)
   int family_size = 1;                ///< m of the Bonferroni correction (one per analysis)
   double family_alpha = 1e-3;         ///< family-wise significance level
   double heldout_reduction = 0.0;     ///< 1 - SSE_ho(M+E) / SSE_ho(M), unclamped
-  double min_heldout_reduction = 0.01;  ///< held-out margin: the reduction must exceed it (0: strictly lower)
+  double min_heldout_reduction = 0.0;  ///< the reduction must exceed it (0: strictly lower)
   int added_params = 0;               ///< rank gained
   std::vector<Refusal> refusals;      ///< identifiability and physics (identifiabilityRefusals, physicsRefusals)
 };

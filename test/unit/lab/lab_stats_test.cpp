@@ -111,20 +111,17 @@ TEST(LabGuards, BonferroniAloneKeepsTheFamilyFalseAlarmRate) {
   EXPECT_LE(alarms, 12) << "family-wise false-alarm rate above family_alpha = 0.05";
 }
 
-// The held-out condition on coloured noise, and why it has a margin. No effect is missing, but the
-// sensor noise is coloured (AR(1), correlation time 10 samples = 80 ms, as strong as the white
-// part, beyond the single AR(1) the prewhitening removes): the F test assumes independent rows, so
-// on the fitting data several candidates pass even the family-wise p, in every one of 20 seeds.
-// One analysis per seed with the held-out condition off gives, for every candidate that passes the
-// family-wise p and the constraints, its held-out reduction; the alarms are then counted on the
-// same draws with the condition off, as a bare sign constraint (the held-out error must fall) and
-// with the rule's margin (AnalyzeOptions::min_relative_reduction, 1 %).
-// Measured: 20 of 20 alarm with the condition off, 7 of 20 with the sign constraint alone, 2 of 20
-// with the 1 % margin. Claims: the data set needs a guard (>= 15 alarm without), the rule's margin
-// keeps it to at most 5 of 20, and the sign constraint alone does not (the reason the margin
-// exists, docs/analyze.md). Known limit: no held-out condition makes coloured noise harmless;
-// serial correlation is the business of a HAC covariance.
-TEST(LabGuards, HeldOutSignConstraintOnColouredNoise) {
+// The rule's held-out test on noise the noise model misdescribes. No effect is missing, but the
+// sensor noise is coloured beyond the single AR(1) the prewhitening removes (AR(1) with a
+// correlation time of 10 samples = 80 ms, as strong as the white part), so every test that takes
+// the whitened rows as independent is anti-conservative here. Counted over 20 seeds: rankings in
+// which some candidate that is identifiable and physical passes the family-wise p of the in-sample
+// nested-model test (q F against chi2(q), what the rule decided on before the held-out test), and
+// rankings the rule alarms on (the family-wise p of the held-out gain, docs/analyze.md).
+// Measured: 20 of 20 in-sample, 5 of 20 held-out. Claims: the data set is hard (>= 15 alarm
+// in-sample), and the held-out test alarms on at most half as many. Known limit (docs/analyze.md):
+// with a noise model this wrong, false alarms stay above family_alpha.
+TEST(LabGuards, HeldOutTestOnNoiseTheNoiseModelMisdescribes) {
   const sim::CellSimConfig noisy = labtest::baseConfig(1);
   sim::CellSimConfig clean = noisy;
   clean.noise = sim::NoiseConfig{};
@@ -133,36 +130,29 @@ TEST(LabGuards, HeldOutSignConstraintOnColouredNoise) {
                                       stats_test::ar1WrenchNoise(noisy.noise.wrench_std, 0.9));
   AnalyzeOptions o;
   o.model = "paper";
-  o.min_relative_reduction = -std::numeric_limits<double>::infinity();
   const int seeds = 20;
-  const double rule_margin = AnalyzeOptions{}.min_relative_reduction;
-  int off = 0, sign = 0, margin = 0;
+  int in_sample = 0, held_out = 0;
   for (int k = 0; k < seeds; ++k) {
     const std::uint64_t seed = 9201 + static_cast<std::uint64_t>(k);
     std::vector<SampleContext> ctx = ctx0;
     std::mt19937_64 rng(seed);
     noise(ctx, rng);
     const AnalysisResult r = analyze(ctx, nullptr, o, "sim.csv");
-    int past_bonferroni = 0;
-    double best = -1.0;
+    int past_in_sample = 0;
     for (const auto& c : r.candidates) {
-      if (!c.skipped && c.family_p < o.family_alpha) ++past_bonferroni;
-      // relative_reduction is clamped to 0..1: > 0 exactly when the held-out error falls.
-      if (c.verdict == Verdict::kRecommended) best = std::max(best, c.relative_reduction);
+      if (c.skipped || c.added_params <= 0 || c.verdict == Verdict::kRefused) continue;
+      const double p_in = chiSquareSurvival(c.f_statistic * c.added_params, c.added_params);
+      if (std::min(1.0, r.family_size * p_in) < o.family_alpha) ++past_in_sample;
     }
-    // The data set needs a guard: Bonferroni lets several candidates through.
-    EXPECT_GE(past_bonferroni, 3) << "seed " << seed;
-    off += best >= 0.0 ? 1 : 0;
-    sign += best > 0.0 ? 1 : 0;
-    margin += best > rule_margin ? 1 : 0;
-    std::printf("  seed %llu: %d past Bonferroni, best recommended held-out reduction %.4f\n",
-                static_cast<unsigned long long>(seed), past_bonferroni, best);
+    in_sample += past_in_sample > 0 ? 1 : 0;
+    held_out += anySignificant(r) ? 1 : 0;
+    std::printf("  seed %llu: %d candidates past the in-sample family-wise p, rule %s\n",
+                static_cast<unsigned long long>(seed), past_in_sample, anySignificant(r) ? "ALARMS" : "quiet");
   }
-  std::printf("  of %d rankings on coloured noise: %d alarm with the held-out condition off, %d as a sign "
-              "constraint, %d with the %.3g margin\n", seeds, off, sign, margin, rule_margin);
-  EXPECT_GE(off, 15) << "the data set must need a guard";
-  EXPECT_LE(margin, 5) << "the rule's held-out margin should silence most rankings on coloured noise";
-  EXPECT_GT(sign, margin) << "the margin exists because the sign constraint alone does not silence them";
+  std::printf("  of %d rankings on mis-described coloured noise: %d alarm in-sample, %d under the rule's held-out test\n",
+              seeds, in_sample, held_out);
+  EXPECT_GE(in_sample, 15) << "the data set must be hard for a test that takes the rows as independent";
+  EXPECT_LE(2 * held_out, in_sample) << "the held-out test should alarm on at most half as many";
 }
 
 // --- Ranking by held-out, not in-sample, improvement ---------------------------------------------

@@ -101,6 +101,42 @@ TEST(Statistics, UncertainScaleSurvivalIsUniformUnderItsModel) {
   }
 }
 
+// The held-out test's tail P(sum_k lambda_k chi2_1 >= x), against independent formulations: the
+// exact chi-square tail when every weight is 1 (a sum of k chi2_1 is chi2_k), and a seeded Monte
+// Carlo of the sum itself for weights of both signs (the law of a held-out gain).
+TEST(Statistics, WeightedChiSquareTailMatchesChiSquareAndSimulation) {
+  for (int k : {1, 3, 12}) {
+    const std::vector<double> ones(static_cast<std::size_t>(k), 1.0);
+    for (double x : {k + 3.0 * std::sqrt(2.0 * k), 30.0 + k, 100.0 + 3.0 * k, 600.0}) {
+      const double exact = lab::chiSquareSurvival(x, k);
+      const double approx = lab::weightedChiSquareSurvival(ones, x);
+      // Lugannani-Rice is least accurate for a single weight (about 14 % at 1e-132, measured).
+      EXPECT_NEAR(approx / exact, 1.0, k == 1 ? 0.15 : 0.06) << "k " << k << " x " << x << ": " << approx << " vs " << exact;
+    }
+  }
+  const std::vector<double> lambda = {3.0, 1.2, 0.5, 0.1, -0.4, -1.5, -2.5};
+  std::mt19937_64 rng(77);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const int draws = 1000000;
+  std::vector<double> q(draws);
+  for (auto& v : q) {
+    v = 0.0;
+    for (double l : lambda) {
+      const double z = n01(rng);
+      v += l * z * z;
+    }
+  }
+  for (double x : {4.0, 12.0, 20.0, 28.0}) {
+    const double frac = static_cast<double>(std::count_if(q.begin(), q.end(), [x](double v) { return v >= x; })) / draws;
+    const double p = lab::weightedChiSquareSurvival(lambda, x);
+    const double se = std::sqrt(frac * (1.0 - frac) / draws);
+    std::printf("  x %5.1f: simulated %.3e +- %.1e, saddlepoint %.3e\n", x, frac, se, p);
+    EXPECT_NEAR(p, frac, 4.0 * se + 0.05 * frac) << "x " << x;
+  }
+  EXPECT_EQ(lab::weightedChiSquareSurvival({-1.0, -2.0}, 1.0), 1.0);  // cannot exceed 0 by chance: no claim
+  EXPECT_EQ(lab::weightedChiSquareSurvivalUncertainScale(lambda, 12.0, 0.0), lab::weightedChiSquareSurvival(lambda, 12.0));
+}
+
 TEST(Analyze, CleanRunsRaiseNoAlarm) {
   // Several seeds: the truth is the paper model plus noise; no candidate may be significant.
   for (std::uint64_t seed : {11u, 12u, 13u}) {
