@@ -58,14 +58,14 @@ std::vector<double> heldOutNullWeights(const Engine& eng, const Engine::Design& 
     for (int b = 0; b < nb; ++b) {
       if (data.trains(f, b)) GT += Gb[static_cast<std::size_t>(b)];
     }
-    const Eigen::MatrixXd GT_inv = pseudoInverse(GT);
-    const Eigen::MatrixXd GTS_inv = pseudoInverse(select(GT, simple_cols));
+    const Eigen::MatrixXd train_inv = pseudoInverse(GT);
+    const Eigen::MatrixXd simple_inv = pseudoInverse(select(GT, simple_cols));
     // c_f = C U (the richer fold fit), b_f = P U (the simpler one), u_h = E U.
     Eigen::MatrixXd C = Eigen::MatrixXd::Zero(p, dim), P = Eigen::MatrixXd::Zero(p0, dim), E = Eigen::MatrixXd::Zero(p, dim);
     for (int b = 0; b < nb; ++b) {
       if (!data.trains(f, b)) continue;
-      C.middleCols(b * p, p) = GT_inv;
-      P.middleCols(b * p, p) = GTS_inv * sel;
+      C.middleCols(b * p, p) = train_inv;
+      P.middleCols(b * p, p) = simple_inv * sel;
     }
     E.middleCols(h * p, p).setIdentity();
     const Eigen::MatrixXd& Gh = Gb[static_cast<std::size_t>(h)];

@@ -125,14 +125,14 @@ double weightedChiSquareSurvival(const std::vector<double>& lambda, double x) {
     (dK(mid) < x ? lo : hi) = mid;
   }
   const double t = 0.5 * (lo + hi);
-  double K = 0.0, d2K = 0.0;
+  double K = 0.0, d2k = 0.0;
   for (double l : lambda) {
     const double a = 1.0 - 2.0 * l * t;
     K += -0.5 * std::log(a);
-    d2K += 2.0 * l * l / (a * a);
+    d2k += 2.0 * l * l / (a * a);
   }
   const double w = std::sqrt(std::max(0.0, 2.0 * (t * x - K)));
-  const double v = t * std::sqrt(d2K);
+  const double v = t * std::sqrt(d2k);
   if (!(w > 1e-6) || !(v > 0.0)) return std::clamp(normalUpperTail((x - mean) / sd), 0.0, 1.0);
   const double density = std::exp(-0.5 * w * w) / std::sqrt(2.0 * 3.141592653589793);
   return std::clamp(normalUpperTail(w) + density * (1.0 / v - 1.0 / w), 0.0, 1.0);
