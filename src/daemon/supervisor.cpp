@@ -338,6 +338,8 @@ void Supervisor::publishStats() {
   s.valid_cycles = static_cast<std::int64_t>(c.valid.load());
   s.invalid_cycles = static_cast<std::int64_t>(c.invalid.load());
   s.stale_sensor_cycles = static_cast<std::int64_t>(c.stale_sensor.load());
+  s.robot_clock_faults = static_cast<std::int64_t>(c.robot_clock_faults.load());
+  s.robot_clock_invalid_cycles = static_cast<std::int64_t>(c.robot_clock_invalid.load());
   const auto oc = s_.outbox->counters();
   s.publish_dropped = static_cast<std::int64_t>(oc.dropped);
   s.published = static_cast<std::int64_t>(oc.published);

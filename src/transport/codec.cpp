@@ -159,6 +159,8 @@ void toLcm(const LoopStatsRecord& in, ftid_lcm::loop_stats_t* out) noexcept {
   out->valid_cycles = in.valid_cycles;
   out->invalid_cycles = in.invalid_cycles;
   out->stale_sensor_cycles = in.stale_sensor_cycles;
+  out->robot_clock_faults = in.robot_clock_faults;
+  out->robot_clock_invalid_cycles = in.robot_clock_invalid_cycles;
   out->publish_dropped = in.publish_dropped;
   out->published = in.published;
   out->reloads_applied = in.reloads_applied;
@@ -240,6 +242,8 @@ void fromLcm(const ftid_lcm::loop_stats_t& in, LoopStatsRecord* out) noexcept {
   out->valid_cycles = in.valid_cycles;
   out->invalid_cycles = in.invalid_cycles;
   out->stale_sensor_cycles = in.stale_sensor_cycles;
+  out->robot_clock_faults = in.robot_clock_faults;
+  out->robot_clock_invalid_cycles = in.robot_clock_invalid_cycles;
   out->publish_dropped = in.publish_dropped;
   out->published = in.published;
   out->reloads_applied = in.reloads_applied;

@@ -69,6 +69,8 @@ struct LoopStatsRecord {
   std::int64_t valid_cycles = 0;
   std::int64_t invalid_cycles = 0;
   std::int64_t stale_sensor_cycles = 0;
+  std::int64_t robot_clock_faults = 0;          ///< controller clock states found not sane
+  std::int64_t robot_clock_invalid_cycles = 0;  ///< cycles invalid because of it
   std::int64_t publish_dropped = 0;
   std::int64_t published = 0;
   std::int32_t reloads_applied = 0;

@@ -94,6 +94,8 @@ TEST(Codec, LoopStatsRoundTripIsExact) {
   in.valid_cycles = 990;
   in.invalid_cycles = 10;
   in.stale_sensor_cycles = 4;
+  in.robot_clock_faults = 9;
+  in.robot_clock_invalid_cycles = 11;
   in.publish_dropped = 1;
   in.published = 1999;
   in.reloads_applied = 5;
@@ -128,6 +130,8 @@ TEST(Codec, LoopStatsRoundTripIsExact) {
   EXPECT_EQ(out.compute_p999_us, in.compute_p999_us);
   EXPECT_EQ(out.compute_max_us, in.compute_max_us);
   EXPECT_EQ(out.stale_sensor_cycles, in.stale_sensor_cycles);
+  EXPECT_EQ(out.robot_clock_faults, in.robot_clock_faults);
+  EXPECT_EQ(out.robot_clock_invalid_cycles, in.robot_clock_invalid_cycles);
   EXPECT_EQ(out.published, in.published);
   EXPECT_EQ(out.reloads_applied, in.reloads_applied);
   EXPECT_EQ(out.reloads_failed, in.reloads_failed);
