@@ -36,8 +36,7 @@ Mat3 fromUrOrder(const Vec6& v) {
   I << v(0), v(3), v(4), v(3), v(1), v(5), v(4), v(5), v(2);
   return I;
 }
-/// "" unless the model's payload moves with a signal (payload(s), docs/effects.md): then a comment
-/// line saying that the export holds the payload at the signal's reference value only.
+
 /// Notes on what a fixed-payload export cannot carry: a payload that moves with a signal, and a
 /// tilt that absorbs an effect's uniform pull (Effect::foldsIntoTilt, the cable). "" when none.
 std::string modelNotes(const std::string& model) {

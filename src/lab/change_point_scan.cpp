@@ -466,7 +466,7 @@ std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, cons
   in.p_value = scanned.p_scan;
   in.family_size = rc.family_size + 1;
   in.family_alpha = rc.options.family_alpha;
-  in.min_heldout_reduction = rc.options.min_relative_reduction;
+  in.min_heldout_reduction = rc.options.search_heldout_margin;  // its test is in-sample (docs/analyze.md)
   in.added_params = static_cast<int>(scanned.kind.u.size());
   in.heldout_reduction = 1.0;  // significance first: the step is fitted only when it is significant
   if (note != nullptr) note->p_scan = scanned.p_scan;

@@ -250,7 +250,7 @@ DynamicsCheck checkDynamics(const RankContext& rc, const Fitted& last, double mo
   const double gain = std::max(0.0, last.sol.sse_fit - sol.sse_fit);
   out.p_value = chiSquareSurvivalUncertainScale(gain / std::max(sigma2, 1e-300), k, rc.scale_sd);
   out.family_p = std::min(1.0, out.grid_points * out.p_value);
-  out.significant = out.family_p < rc.options.family_alpha && out.relative_reduction > rc.options.min_relative_reduction;
+  out.significant = out.family_p < rc.options.family_alpha && out.relative_reduction > rc.options.search_heldout_margin;
   return out;
 }
 

@@ -11,7 +11,7 @@ namespace ftid::lab::detail {
 /// zeta 0.05, 0.15, 0.4, 1; filter: the same 12 f_c), re-solves, refines the best (golden sections
 /// in log f_n, zeta, log f_n between the neighbouring grid points), takes the better of the two
 /// kinds, solves it with the folds and judges it: the held-out error
-/// falls (more than options.min_relative_reduction, 0 by default) and min(1, grid x p) < family_alpha, p the chi-square
+/// falls by more than options.search_heldout_margin (1 %) and min(1, grid x p) < family_alpha, p the chi-square
 /// tail of the in-sample gain (2 dof for the mount, 1 for the filter). Searched only when the last
 /// model leaves something (spectral_peak: a significant peak on some axis; or a held-out residual
 /// above 1.2x the noise floor on some axis) unless options.always_search_dynamics.

@@ -90,12 +90,22 @@ std::vector<double> heldOutNullWeights(const Engine& eng, const Engine::Design& 
   return kept;
 }
 
-double heldOutPValue(const RankContext& rc, const Engine::Design& Z, const FitView& rich, double simple_sse_heldout,
-                     const Solution& rich_sol) {
-  std::vector<int> simple_cols;
-  for (std::size_t k = 0; k < rich.added.size() && static_cast<Eigen::Index>(k) + 1 < Z.cols(); ++k) {
-    if (!rich.added[k]) simple_cols.push_back(static_cast<int>(k));
+double heldOutPValue(const RankContext& rc, const Engine::Design& simple, const Engine::Design& rich,
+                     const FitView& rich_view, double simple_sse_heldout, const Solution& rich_sol) {
+  // The null's design: the simpler model's own columns, then the columns the richer one adds (its
+  // effects may also add terms to the simpler model's columns, and its nonlinear parameters may sit
+  // at another linearisation: the law is that of adding E's new columns to M's design).
+  const Eigen::Index p0 = simple.cols() - 1;
+  std::vector<Eigen::Index> added;
+  for (std::size_t k = 0; k < rich_view.added.size() && static_cast<Eigen::Index>(k) + 1 < rich.cols(); ++k) {
+    if (rich_view.added[k]) added.push_back(static_cast<Eigen::Index>(k));
   }
+  Engine::Design Z(simple.rows(), p0 + static_cast<Eigen::Index>(added.size()) + 1);
+  Z.leftCols(p0) = simple.leftCols(p0);
+  for (std::size_t k = 0; k < added.size(); ++k) Z.col(p0 + static_cast<Eigen::Index>(k)) = rich.col(added[k]);
+  Z.col(Z.cols() - 1) = simple.col(p0);
+  std::vector<int> simple_cols(static_cast<std::size_t>(p0));
+  for (Eigen::Index k = 0; k < p0; ++k) simple_cols[static_cast<std::size_t>(k)] = static_cast<int>(k);
   const double gain = (simple_sse_heldout - rich_sol.sse_heldout) / std::max(rich_sol.sigma2, 1e-300);
   return weightedChiSquareSurvivalUncertainScale(heldOutNullWeights(rc.eng, Z, simple_cols), gain, rc.scale_sd);
 }

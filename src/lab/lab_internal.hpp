@@ -67,9 +67,11 @@ FitView fitView(const effects::Model& model, const Linearization& lin, const Sol
 /// form in the u_b ~ N(0, sigma^2 G_b), independent across blocks, so Delta / sigma^2 =
 /// sum_k lambda_k chi2_1: returns the lambda_k (weightedChiSquareSurvival gives its tail).
 std::vector<double> heldOutNullWeights(const Engine& eng, const Engine::Design& Z, const std::vector<int>& simple_cols);
-/// The candidate's p-value: P(Delta_null >= the observed held-out gain) (heldOutNullWeights).
-double heldOutPValue(const RankContext& rc, const Engine::Design& Z, const FitView& rich, double simple_sse_heldout,
-                     const Solution& rich_sol);
+/// The candidate's p-value: P(Delta_null >= the observed held-out gain), Delta_null the gain of
+/// adding the columns rich_view marks as added (rich's design) to the simpler model's own design
+/// (heldOutNullWeights on [simple's columns | those columns]).
+double heldOutPValue(const RankContext& rc, const Engine::Design& simple, const Engine::Design& rich,
+                     const FitView& rich_view, double simple_sse_heldout, const Solution& rich_sol);
 
 /// Ranks the menu against `base`, each candidate judged by the rule (screened to first order in
 /// its nonlinear parameters). Recommended ones first, then by held-out BIC.

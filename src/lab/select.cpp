@@ -268,7 +268,7 @@ std::vector<CandidateResult> rankCandidates(const RankContext& rc, const Fitted&
       const double dof2 = std::max(1, s.rows_fit - s.rank);
       c.f_statistic = ((base.sol.sse_fit - s.sse_fit) / c.added_params) / (s.sse_fit / dof2);
       const FitView view = fitView(cand, lin, s, &base_names, eng.data().ctx);
-      c.p_value = heldOutPValue(rc, X, view, base.sol.sse_heldout, s);
+      c.p_value = heldOutPValue(rc, base_design, X, view, base.sol.sse_heldout, s);
       in.p_value = c.p_value;
       in.refusals = refusalsOf(view);
     }
@@ -313,7 +313,8 @@ CandidateResult judgeNested(const RankContext& rc, const Fitted& simple, const F
     c.f_statistic = std::max(0.0, ((simple.sol.sse_fit - rich.sol.sse_fit) / c.added_params) / (rich.sol.sse_fit / dof2));
     const auto simple_names = fittedNames(simple.model, simple.lin);
     const FitView rich_view = fitView(rich.model, rich.lin, rich.sol, &simple_names, rc.eng.data().ctx);
-    c.p_value = heldOutPValue(rc, rc.eng.design(rich.model, rich.lin), rich_view, simple.sol.sse_heldout, rich.sol);
+    c.p_value = heldOutPValue(rc, rc.eng.design(simple.model, simple.lin), rc.eng.design(rich.model, rich.lin), rich_view,
+                              simple.sol.sse_heldout, rich.sol);
     in.p_value = c.p_value;
     in.refusals = identifiabilityRefusals(rich_view);
     // A physics refusal is charged to the effect only when the model without it is physical:

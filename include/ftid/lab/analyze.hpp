@@ -39,6 +39,10 @@ struct AnalyzeOptions {
   double min_relative_reduction = 0.0;  ///< a recommended effect must cut the held-out residual (sum of
                                          ///< squares) by more than this fraction; 0: it must fall (implied by
                                          ///< the held-out test; docs/analyze.md, "The verdict"). Tests only.
+  /// The held-out margin of the two searches whose significance is still an in-sample test (a
+  /// change point, the reading's dynamics; docs/analyze.md): their model must cut the held-out sum
+  /// of squares by more than this fraction. The ranking's candidates need none (the held-out test).
+  double search_heldout_margin = 0.01;
   int top_windows = 3;              ///< failing time windows reported
   int window_count = 20;            ///< the log is cut into this many windows
   int top_correlations = 8;
