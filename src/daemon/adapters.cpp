@@ -4,6 +4,7 @@
 
 #include <poll.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <ctime>
@@ -97,9 +98,22 @@ void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* ou
   out->valid = in.valid;
 }
 
+std::int64_t monotonicReceiptUs(std::int64_t recv_utime, std::int64_t real_now_us,
+                                std::int64_t mono_now_us) noexcept {
+  if (recv_utime <= 0) return 0;
+  const std::int64_t age_us = std::max<std::int64_t>(0, real_now_us - recv_utime);
+  const std::int64_t receipt = mono_now_us - age_us;
+  return receipt > 0 ? receipt : 0;
+}
+
 CanSensorSource::CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
-                                 const drivers::can::SensorHealthOptions& health)
-    : sensor_(std::move(sensor)), options_(health), assembler_(sensor_->layout(), health) {}
+                                 const drivers::can::SensorHealthOptions& health,
+                                 HostClocks clocks)
+    : sensor_(std::move(sensor)), options_(health), assembler_(sensor_->layout(), health),
+      clocks_(clocks) {
+  if (clocks_.realtime_us == nullptr) clocks_.realtime_us = &realtimeUs;
+  if (clocks_.monotonic_us == nullptr) clocks_.monotonic_us = &monotonicUs;
+}
 
 namespace {
 // The events of one per-sample read that belong to the interval since the previous cycle: lost
@@ -132,11 +146,15 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
   while (total < drivers::can::CanFtImuSensor::kMaxFramesPerRead) {
     drivers::can::IoResult status = drivers::can::IoResult::kOk;
     const int n = bus.tryReceiveBatch(batch_.data(), static_cast<int>(batch_.size()), status);
+    // Both host clocks, read together right after the receipt (monotonicReceiptUs).
+    const std::int64_t real_now_us = clocks_.realtime_us();
+    const std::int64_t mono_now_us = clocks_.monotonic_us();
     for (int i = 0; i < n; ++i) {
       if (!assembler_.feed(batch_[static_cast<std::size_t>(i)])) continue;
       assembler_.readLatest(sample_, assembler_.latest().rx_time_ns);
       interval_flags_ |= intervalEvents(sample_.health_flags);
       toSensorRecord(sample_, &record_);
+      record_.recv_mono_us = monotonicReceiptUs(record_.recv_utime, real_now_us, mono_now_us);
       history->push(record_);
     }
     total += n;
@@ -160,6 +178,8 @@ void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
   }
   interval_flags_ = 0;
   toSensorRecord(sample_, latest);
+  // The newest sample is the last one pumped (the assembler completes samples in order).
+  latest->recv_mono_us = latest->recv_utime == record_.recv_utime ? record_.recv_mono_us : 0;
 }
 
 bool CanSensorSource::waitForSample(std::int64_t t_utime, std::chrono::nanoseconds timeout,

@@ -115,9 +115,9 @@ void DaemonCycle::awaitBracketingSample() noexcept {
   }
   const std::int64_t t_pair = clock_map_.update(robot_time, robot_.recv_utime);  // step() repeats it
   if (sensor_->waitForSample(t_pair, std::chrono::nanoseconds(0), &history_)) return;  // there
-  if (history_.empty() ||
-      options_.now_us() - history_.newest().recv_utime > options_.stale_timeout_us) {
-    return;  // no sensor data yet, or the sensor is silent
+  if (history_.empty() || history_.newest().recv_mono_us <= 0 ||
+      options_.mono_now_us() - history_.newest().recv_mono_us > options_.stale_timeout_us) {
+    return;  // no sensor data yet, or the sensor is silent (on the monotonic clock)
   }
   std::int64_t wait_us = options_.max_sensor_wait_us;
   if (period_s > 0.0 && period_s < 1.0) {
@@ -147,6 +147,9 @@ CycleAction DaemonCycle::onMissed(std::uint32_t /*consecutive_missed*/) noexcept
 void DaemonCycle::step(const RobotStateRecord& robot,
                        CycleRecord* out) noexcept {
   const std::int64_t now = options_.now_us();
+  // Ages and the controller clock's check are on the host's monotonic clock, read once here: a
+  // step of the real-time clock (NTP, an operator) never makes an old sample fresh (issue 26).
+  const std::int64_t mono_now = options_.mono_now_us();
   if (params_->tryAcquire() != nullptr) {
     counters_.param_swaps.fetch_add(1, std::memory_order_relaxed);
   }
@@ -169,7 +172,7 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   if (arm_ != nullptr && arm_->robotStopped()) rec.fault_bits |= kFaultRobotStopped;
   // The controller's clock against the host's monotonic clock (issue 26): stopped, jumping or
   // running at a wrong rate, the pairing below would pick samples of the wrong time.
-  const bool clock_sane = clock_check_.update(robot.robot_time, options_.mono_now_us());
+  const bool clock_sane = clock_check_.update(robot.robot_time, mono_now);
   counters_.robot_clock_faults.store(clock_check_.faults(), std::memory_order_relaxed);
   if (robot_ok && !clock_sane) {
     // Its time cannot be trusted, so neither can any pairing with it: the state is unusable
@@ -205,17 +208,18 @@ void DaemonCycle::step(const RobotStateRecord& robot,
       counters_.sensor_one_sided.fetch_add(1, std::memory_order_relaxed);
     }
   }
-  // Stale: no sample ever, or the newest one older than the timeout at the start of the cycle
-  // (the rule before pairing); the pairing itself (reach_us above) adds the samples' distance
-  // from the robot state's time.
-  rec.sensor_age_us = rec.sensor.recv_utime > 0 ? now - rec.sensor.recv_utime : -1;
-  if (rec.sensor.recv_utime <= 0 || latest_.recv_utime <= 0 ||
-      now - latest_.recv_utime > options_.stale_timeout_us) {
+  // Stale: no sample ever (or its receipt unknown), or the newest one older than the timeout at
+  // the start of the cycle on the monotonic clock (the rule before pairing); the pairing itself
+  // (reach_us above) adds the samples' distance from the robot state's time.
+  rec.sensor_age_us = rec.sensor.recv_mono_us > 0 ? mono_now - rec.sensor.recv_mono_us : -1;
+  if (rec.sensor.recv_mono_us <= 0 || latest_.recv_mono_us <= 0 ||
+      mono_now - latest_.recv_mono_us > options_.stale_timeout_us) {
     rec.sensor.health_flags |= kHealthStale;
   }
   // Freshness of the output (issue 26): the sample used must itself be younger than the timeout
-  // on the host clock, whatever the controller's clock says, or the published contact wrench is
-  // not the current one; a negative age (the host clock stepped back) proves nothing. The sample
+  // on the host's monotonic clock, whatever the controller's clock says, or the published
+  // contact wrench is not the current one; a negative age (a receipt after the cycle's clock
+  // read: impossible unless a source stamped it wrongly) proves nothing. The sample
   // stays valid as data (a backlog's pairing is time-consistent and may be recorded for
   // identification): only the compensated wrench of this cycle is refused, as stale.
   const bool sample_fresh = rec.sensor_age_us >= 0 && rec.sensor_age_us <= options_.stale_timeout_us;

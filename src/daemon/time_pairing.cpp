@@ -58,6 +58,7 @@ SensorPairing SensorHistory::sampleAt(std::int64_t t_us, SensorSampleRecord* out
   const std::int64_t span = s1.recv_utime - s0.recv_utime;  // > 0: push keeps times increasing
   const double a = static_cast<double>(t_us - s0.recv_utime) / static_cast<double>(span);
   out->recv_utime = s1.recv_utime;
+  out->recv_mono_us = s1.recv_mono_us;  // the age is that of the newer sample used
   out->counter = s1.counter;
   out->status_word = s1.status_word;
   out->wrench_S = lerp(s0.wrench_S, s1.wrench_S, a);

@@ -5,9 +5,10 @@
 // Midway the parameter file is replaced (f0_x + 1 N) and ftidd gets SIGHUP, then SIGTERM.
 // Checks: every cycle ftidd ran was published (consecutive cycle numbers, also across the
 // reload), robot packets mostly one period apart (this machine may be heavily loaded, so
-// drain-to-latest skips are counted, not forbidden), valid compensated wrench ~ 0 with the true
-// parameters and exactly -1 N in fx after the reload, loop statistics published, clean exit,
-// and ftidd's own recording converts to a CSV log.
+// drain-to-latest skips are counted, not forbidden), once the sensor is up every cycle valid
+// except a few that ran late on a loaded host (stale alone), valid compensated wrench ~ 0 with
+// the true parameters and exactly -1 N in fx after the reload, loop statistics published, clean
+// exit, and ftidd's own recording converts to a CSV log.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -21,6 +22,7 @@
 #include <sstream>
 #include <string>
 
+#include "ftid/common/status.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
@@ -158,7 +160,7 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
 
   ftid::transport::LcmLogReader reader(dir + "/logger.lcm");
   ftid::transport::LcmLogEvent ev;
-  int wrenches = 0, stats = 0, valid = 0, v1 = 0, v2 = 0;
+  int wrenches = 0, stats = 0, valid = 0, v1 = 0, v2 = 0, late_stale = 0;
   std::int64_t prev_cycle = -1;
   double prev_time = 0.0;
   double first_time = 0.0, last_time = 0.0;
@@ -189,7 +191,13 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
       seen_valid = true;
       ++valid;
     } else {
-      EXPECT_FALSE(seen_valid) << "invalid wrench after the sensor was up, cycle " << m.cycle;
+      // Once the sensor is up, the only admissible invalid cycle is a late one: the host was
+      // too busy to run the cycle while its sample was young (stale, and nothing else).
+      if (seen_valid) {
+        EXPECT_EQ(static_cast<std::uint32_t>(m.fault_bits), ftid::kFaultSensorStale)
+            << "invalid wrench after the sensor was up, cycle " << m.cycle;
+        ++late_stale;
+      }
       continue;
     }
     if (prev_version != 0 && m.param_version != prev_version) ++version_changes;
@@ -206,6 +214,10 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
     }
   }
   EXPECT_GT(wrenches, 400);
+  // A loaded machine may run a few cycles late (sample older than the 20 ms timeout); at most
+  // one in 50 (issue 26: the age is on the monotonic clock, so this counts real lateness).
+  RecordProperty("stale_cycles_after_start", late_stale);
+  EXPECT_LE(late_stale, wrenches / 50);
   EXPECT_GT(valid, 300);
   EXPECT_GT(v1, 100);
   EXPECT_GT(v2, 100);

@@ -1,6 +1,7 @@
 #pragma once
 // The one set of clock helpers (real-time safe: clock_gettime only, no allocation, no throw).
-//   monotonicNs(): CLOCK_MONOTONIC [ns], for timeouts, deadlines and loop timing.
+//   monotonicNs(), monotonicUs(): CLOCK_MONOTONIC [ns], [us], for timeouts, deadlines, loop
+//   timing and the ages of sensor samples (docs/conventions.md, "Host clocks").
 //   realtimeNs(), realtimeUs(): CLOCK_REALTIME [ns], [us since the epoch], the clock of the
 //   published records' utime / recv_utime and of command timestamps.
 #include <cstdint>
@@ -13,6 +14,8 @@ inline std::int64_t monotonicNs() noexcept {
   clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
 }
+
+inline std::int64_t monotonicUs() noexcept { return monotonicNs() / 1000; }
 
 inline std::int64_t realtimeNs() noexcept {
   timespec ts{};

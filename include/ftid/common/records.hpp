@@ -25,6 +25,10 @@ struct RobotStateRecord {
 /// One raw sensor sample (sensor_sample_t).
 struct SensorSampleRecord {
   std::int64_t recv_utime = 0;      ///< host receive time of the sample's last frame [us since epoch]
+  /// The same receipt on the host's CLOCK_MONOTONIC [us]: the clock of the sample's age, which a
+  /// step of the real-time clock cannot change. 0: unknown, and such a sample is never fresh.
+  /// Loop-internal: not in sensor_sample_t (a subscriber's monotonic clock is not this host's).
+  std::int64_t recv_mono_us = 0;
   std::int32_t counter = 0;         ///< sensor rolling counter
   Wrench wrench_S = Wrench::Zero(); ///< raw reading in S [N, Nm]
   Vec3 imu_acc_S = Vec3::Zero();    ///< specific force [m/s^2]
@@ -44,7 +48,9 @@ struct CycleRecord {
   std::int64_t cycle = 0;         ///< cycle number since start
   RobotStateRecord robot;
   SensorSampleRecord sensor;
-  std::int64_t sensor_age_us = 0; ///< utime - sensor.recv_utime; -1 if no sample ever
+  /// Age of the sample used at the cycle's start on the host's monotonic clock [us]
+  /// (now - sensor.recv_mono_us); -1 if no sample ever (or its receipt is unknown).
+  std::int64_t sensor_age_us = 0;
   std::uint32_t fault_bits = 0;   ///< ftid::FaultBit
   Wrench modelled_S = Wrench::Zero();  ///< model prediction [N, Nm]
   Wrench contact_S = Wrench::Zero();   ///< raw - modelled, zero when !wrench_valid

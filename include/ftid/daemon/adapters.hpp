@@ -61,6 +61,25 @@ class RtdeArmSource final : public ArmStateSource {
 /// health flags are copied unchanged: the driver sets the published bits.
 void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* out) noexcept;
 
+/// A receipt stamped on CLOCK_REALTIME (recv_utime: the kernel's receive timestamp) moved onto
+/// CLOCK_MONOTONIC with the two clocks read together after it (real_now_us, mono_now_us):
+///   monotonicReceiptUs = mono_now_us - max(0, real_now_us - recv_utime),
+/// and 0 (unknown) if recv_utime <= 0 or the result is not positive. Exact when the real-time clock
+/// did not step between the receipt and the read. A step forward in between makes the sample
+/// older by the step (never fresher than it is); a step back makes it younger by at most the time
+/// from receipt to read (the age is clamped at 0), which is one receive batch in CanSensorSource.
+/// After the read, no step of the real-time clock changes the receipt (docs/conventions.md,
+/// "Host clocks").
+std::int64_t monotonicReceiptUs(std::int64_t recv_utime, std::int64_t real_now_us,
+                                std::int64_t mono_now_us) noexcept;
+
+/// The host clocks a CanSensorSource reads right after each receive batch [us]; nullptr: the
+/// real CLOCK_REALTIME / CLOCK_MONOTONIC (tests inject fakes). Both noexcept and RT-safe.
+struct HostClocks {
+  std::int64_t (*realtime_us)() noexcept = nullptr;
+  std::int64_t (*monotonic_us)() noexcept = nullptr;
+};
+
 /// The CAN sensor, drained each cycle with every complete sample handed to the history.
 /// drivers::can::FtImuSensor::tryReadLatest keeps only the newest sample of a drain, so this adapter
 /// drains the sensor's transport itself and assembles with its own drivers::can::SampleAssembler (same
@@ -75,9 +94,11 @@ void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* ou
 /// collectRetired() off the loop. Samples resume with the next complete one.
 class CanSensorSource final : public SensorSource {
  public:
-  /// `health` must be the options the sensor was opened with (CanSensorConfig::health).
+  /// `health` must be the options the sensor was opened with (CanSensorConfig::health). Every
+  /// sample gets recv_mono_us = monotonicReceiptUs(its recv_utime, both clocks read after the
+  /// receive batch that completed it).
   CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
-                  const drivers::can::SensorHealthOptions& health);
+                  const drivers::can::SensorHealthOptions& health, HostClocks clocks = {});
   /// Any thread: true if the transport in use closed or failed and no replacement is waiting.
   bool transportDown() const noexcept {
     return transport_down_.load(std::memory_order_acquire) && !replacement_.hasPending();
@@ -111,6 +132,7 @@ class CanSensorSource final : public SensorSource {
   drivers::can::SensorSample sample_;
   SensorSampleRecord record_;
   std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
+  HostClocks clocks_;
 };
 
 /// Sensor-frame kinematics from RobotKinematics (with the sensor mount already set).

@@ -11,7 +11,8 @@
 //                               -> the sensor sample at the robot state's time: robot_time
 //                                  mapped to the host clock (RobotClockMap), interpolated
 //                                  between the two bracketing samples (SensorHistory)
-//                               -> flag stale/invalid data (never compensated as valid)
+//                               -> flag stale/invalid data (ages on the monotonic clock;
+//                                  never compensated as valid)
 //                               -> sensor motion from the joint state (kinematics)
 //                               -> compensation with the current parameters
 //                               -> hand the CycleRecord to the sink (LcmOutbox queue)
@@ -44,7 +45,8 @@ std::int64_t realtimeNowUs() noexcept;
 std::int64_t monotonicNowUs() noexcept;
 
 struct CycleOptions {
-  /// A sensor sample older than this at the start of a cycle is stale [us]. The same bound
+  /// A sensor sample older than this at the start of a cycle, on the host's monotonic clock
+  /// (now - recv_mono_us), is stale [us]. The same bound
   /// applies to the pairing: a sample used for the robot state's time that lies farther than
   /// this from it (or two bracketing samples farther apart) is stale as well.
   std::int64_t stale_timeout_us = 20'000;
@@ -55,11 +57,13 @@ struct CycleOptions {
   /// exist (docs/daemon.md, "Time base"). 0: never wait (the newest sample is used whenever the
   /// following one has not arrived yet).
   std::int64_t max_sensor_wait_us = 1500;
-  /// Clock used for utime and sensor ages (tests inject a fake). Must be noexcept and RT-safe.
+  /// Clock of utime and of the pairing's host times (recv_utime; tests inject a fake). Must be
+  /// noexcept and RT-safe.
   std::int64_t (*now_us)() noexcept = &realtimeNowUs;
-  /// The host's monotonic clock [us] against which the controller's clock is checked
-  /// (ControllerClockCheck). nullptr: CLOCK_MONOTONIC, or, when a test injected now_us, that
-  /// fake clock (one fake serves both). Must be noexcept and RT-safe.
+  /// The host's monotonic clock [us]: the clock of sensor ages and staleness (recv_mono_us) and
+  /// the one against which the controller's clock is checked (ControllerClockCheck). nullptr:
+  /// CLOCK_MONOTONIC, or, when a test injected now_us, that fake clock (one fake serves both).
+  /// Must be noexcept and RT-safe.
   std::int64_t (*mono_now_us)() noexcept = nullptr;
   ControllerClockCheck::Options clock_check;
 };

@@ -45,7 +45,9 @@ class SensorSource {
   /// and writes the newest sample, with the driver's health rules applied at now_utime, to
   /// *latest (always written; latest->valid and latest->health_flags tell whether it may be
   /// used, and carry what happened since the previous call: stale, counter gap, error frame,
-  /// transport down). now_utime: CLOCK_REALTIME [us], the clock of recv_utime.
+  /// transport down). now_utime: CLOCK_REALTIME [us], the clock of recv_utime. Each sample
+  /// must carry its receipt on the host's monotonic clock too (recv_mono_us; 0 = unknown, and
+  /// the cycle treats it as stale): ages and freshness are measured on that clock.
   /// Never blocks, never allocates.
   virtual void drain(std::int64_t now_utime, SensorHistory* history,
                      SensorSampleRecord* latest) noexcept = 0;

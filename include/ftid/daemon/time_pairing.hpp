@@ -58,8 +58,9 @@ class SensorHistory {
   ///       values (wrench, IMU, temperature) = (1 - a) s0 + a s1, a = (t_us - t0) / (t1 - t0),
   ///       so that a quantity linear in time is reproduced exactly at t_us; at t_us == t1 the
   ///       sample s1 itself. health_flags = s0 | s1, valid = s0 && s1, has_imu / has_temp =
-  ///       s0 && s1; recv_utime, counter and status_word are those of s1 (the newest sample
-  ///       that contributed: the time the value became available). *reach_us = t1 - t0.
+  ///       s0 && s1; recv_utime, recv_mono_us, counter and status_word are those of s1 (the
+  ///       newest sample that contributed: the time the value became available).
+  ///       *reach_us = t1 - t0.
   ///   kNewest / kOldest: the nearest sample unchanged, *reach_us = |t_us - its recv_utime|.
   ///   kNone: out and *reach_us untouched.
   SensorPairing sampleAt(std::int64_t t_us, SensorSampleRecord* out,

@@ -9,6 +9,8 @@
 #include <chrono>
 #include <string>
 
+#include "ftid/common/clock.hpp"
+
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/transport/codec.hpp"
@@ -21,8 +23,10 @@ struct Bench {
       drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
   drivers::can::SeqpacketPair pair = drivers::can::makeSeqpacketPair();
   drivers::can::CanTransport* bus = pair.a.get();
-  CanSensorSource source{std::make_unique<drivers::can::CanFtImuSensor>(std::move(pair.b), layout),
-                         drivers::can::SensorHealthOptions{}};
+  CanSensorSource source;
+  explicit Bench(HostClocks clocks = {})
+      : source(std::make_unique<drivers::can::CanFtImuSensor>(std::move(pair.b), layout),
+               drivers::can::SensorHealthOptions{}, clocks) {}
   void send(std::uint32_t counter, double fz) {
     std::array<can_frame, drivers::can::SensorLayout::kMaxMessages> frames{};
     drivers::can::SensorValues v;
@@ -65,6 +69,70 @@ TEST(CanSensorSource, EverySampleOfADrainReachesTheHistory) {
   EXPECT_EQ(history.size(), 10);
   EXPECT_EQ(latest.counter, 13);
   EXPECT_EQ(latest.health_flags & kHealthCounterGap, 0u);  // reported once
+}
+
+// monotonicReceiptUs against a simulated host: true time t [us], CLOCK_MONOTONIC m(t) = t + M0,
+// CLOCK_REALTIME r(t) = t + R0, stepped by D at t_step. A sample is received at t_r (the kernel
+// stamps r(t_r)) and both clocks are read 700 us later, at t_read. A step before the receipt or
+// after the read leaves the receipt exact on the monotonic clock; a step between them moves it
+// older by a forward step D, and younger by at most t_read - t_r for a step back.
+TEST(MonotonicReceipt, MatchesTheTrueReceiptUnlessTheRealtimeClockSteppedBetweenReceiptAndRead) {
+  constexpr std::int64_t kM0 = 9'000'000'000, kR0 = 1'700'000'000'000'000;
+  const std::int64_t t_r = 50'000'000, t_read = t_r + 700;
+  const std::int64_t m_r = t_r + kM0, m_read = t_read + kM0;
+  int cases = 0;
+  for (const std::int64_t d : {-1'000'000LL, -5'000LL, -1LL, 1LL, 5'000LL, 1'000'000LL}) {
+    for (const std::int64_t t_step : {t_r - 1, t_r + 350, t_read + 1}) {
+      auto real = [&](std::int64_t t) { return t + kR0 + (t >= t_step ? d : 0); };
+      const std::int64_t got = monotonicReceiptUs(real(t_r), real(t_read), m_read);
+      SCOPED_TRACE("step " + std::to_string(d) + " us at t_r + " + std::to_string(t_step - t_r));
+      if (t_step <= t_r || t_step > t_read) {
+        EXPECT_EQ(got, m_r);
+      } else if (d > 0) {
+        EXPECT_EQ(got, m_r - d);  // older by the step: never fresher than it is
+      } else {
+        EXPECT_GE(got, m_r);
+        EXPECT_LE(got, m_read);  // younger by at most the receipt-to-read time
+        EXPECT_EQ(got, m_read - std::max<std::int64_t>(0, t_read - t_r + d));
+      }
+      ++cases;
+    }
+  }
+  EXPECT_EQ(cases, 18);
+  EXPECT_EQ(monotonicReceiptUs(0, kR0, kM0), 0);       // no receipt: unknown
+  EXPECT_EQ(monotonicReceiptUs(kR0 - 2 * kM0, kR0, kM0), 0);  // before the boot: unknown
+}
+
+std::int64_t g_realtime_shift_us = 0;
+std::int64_t shiftedRealtimeUs() noexcept { return realtimeUs() + g_realtime_shift_us; }
+
+// The production adapter over a real socket with kernel receive timestamps: each sample's
+// recv_mono_us lies within the monotonic interval in which it was sent and drained, and a
+// real-time clock that steps between the receipt and the clocks' read (simulated by shifting the
+// clock the source reads) moves it as monotonicReceiptUs says: never later than the read.
+TEST(CanSensorSource, EachSampleCarriesItsReceiptOnTheMonotonicClock) {
+  for (const std::int64_t shift_us : {0LL, -1'000'000LL, 50'000LL}) {
+    SCOPED_TRACE("real-time clock shifted by " + std::to_string(shift_us) + " us");
+    g_realtime_shift_us = shift_us;
+    Bench b(HostClocks{&shiftedRealtimeUs, &monotonicUs});
+    const std::int64_t before = monotonicUs();
+    for (std::uint32_t k = 1; k <= 3; ++k) b.send(k, -1.0 * k);
+    SensorHistory history;
+    SensorSampleRecord latest;
+    b.source.drain(realtimeUs(), &history, &latest);
+    const std::int64_t after = monotonicUs();
+    ASSERT_EQ(history.size(), 3);
+    const std::int64_t older_by = std::max<std::int64_t>(0, shift_us);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_GE(history.at(i).recv_mono_us, before - older_by - 50);
+      EXPECT_LE(history.at(i).recv_mono_us, after - older_by + 50);
+    }
+    EXPECT_EQ(latest.recv_mono_us, history.newest().recv_mono_us);
+    if (shift_us == 0) {  // exact: the samples' spacing is kept
+      EXPECT_GT(history.at(2).recv_mono_us, history.at(0).recv_mono_us);
+    }
+  }
+  g_realtime_shift_us = 0;
 }
 
 TEST(CanSensorSource, GapSeenWhileWaitingIsReportedByTheNextDrain) {

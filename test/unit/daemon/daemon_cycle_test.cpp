@@ -34,16 +34,24 @@ struct Rig {
   rt::OwnedSwapSlot<Compensation> slot;
   RecordingSink sink;
   std::unique_ptr<DaemonCycle> cycle;
-  explicit Rig(std::unique_ptr<Compensation> initial = nullptr) : slot(std::move(initial)) {
+  /// separate_mono: the cycle and the sensor read a monotonic clock of their own
+  /// (test::fakeMonoUs), so that a test can step the real-time one alone.
+  explicit Rig(std::unique_ptr<Compensation> initial = nullptr, bool separate_mono = false)
+      : slot(std::move(initial)) {
     CycleOptions opt;
     opt.stale_timeout_us = 20'000;
     opt.now_us = &test::fakeNowUs;
+    if (separate_mono) {
+      opt.mono_now_us = &test::fakeMonoUs;
+      sensor.mono_now_us = &test::fakeMonoUs;
+    }
     cycle = std::make_unique<DaemonCycle>(&arm, &sensor, &motion, &slot, &sink, opt);
     sensor.sample.wrench_S = wrench(1, 2, 3, 0.1, 0.2, 0.3);
   }
-  // One tick as the executor runs it.
-  void tick() {
-    test::g_fake_now_us += 8000;
+  // One tick as the executor runs it; the clocks advance by the steps given [us].
+  void tick(std::int64_t real_step_us = 8000, std::int64_t mono_step_us = 8000) {
+    test::g_fake_now_us += real_step_us;
+    test::g_fake_mono_us += mono_step_us;
     ASSERT_EQ(cycle->waitForTick(std::chrono::milliseconds(12)), Status::kOk);
     cycle->onTick();
   }
@@ -88,6 +96,7 @@ TEST(DaemonCycle, StaleSensorIsFlaggedAndNeverCompensated) {
   Rig rig(std::make_unique<OffsetCompensation>(Wrench::Zero()));
   rig.sensor.follow_clock = false;
   rig.sensor.sample.recv_utime = test::g_fake_now_us - 15000;  // 23 ms old at the next tick
+  rig.sensor.sample.recv_mono_us = rig.sensor.sample.recv_utime;  // one fake clock serves both
   rig.tick();
   rig.tick();
   const auto& r = rig.last();
@@ -101,6 +110,7 @@ TEST(DaemonCycle, StaleSensorIsFlaggedAndNeverCompensated) {
 
   // Never received anything: stale as well.
   rig.sensor.sample.recv_utime = 0;
+  rig.sensor.sample.recv_mono_us = 0;
   rig.tick();
   EXPECT_FALSE(rig.last().wrench_valid);
   EXPECT_NE(rig.last().fault_bits & kFaultSensorStale, 0u);
@@ -109,6 +119,36 @@ TEST(DaemonCycle, StaleSensorIsFlaggedAndNeverCompensated) {
   rig.sensor.follow_clock = true;
   rig.tick();
   EXPECT_TRUE(rig.last().wrench_valid);
+}
+
+// Issue 26: ages are measured on the host's monotonic clock. The sensor falls silent; about
+// 100 ms later the real-time clock is set back (NTP, an operator) so that on it the last sample
+// looks a few ms old. It is over 100 ms old: the cycle stays stale and publishes the true age.
+// Then the sensor resumes across the step and its samples are fresh again.
+TEST(DaemonCycle, ARealtimeClockStepBackNeverMakesAnOldSampleFresh) {
+  Rig rig(std::make_unique<OffsetCompensation>(Wrench::Zero()), /*separate_mono=*/true);
+  rig.tick();
+  ASSERT_TRUE(rig.last().wrench_valid);
+  rig.sensor.follow_clock = false;  // silent from here: the same last sample at every drain
+  for (int i = 0; i < 12; ++i) rig.tick();
+  EXPECT_FALSE(rig.last().wrench_valid);
+  rig.tick(8000 - 95'000, 8000);  // the real-time clock steps back 95 ms
+  const SensorSampleRecord& old = rig.sensor.sample;
+  const std::int64_t realtime_age_us = test::g_fake_now_us - old.recv_utime;
+  ASSERT_GT(realtime_age_us, 0);  // the scenario: fresh by the real-time clock
+  ASSERT_LT(realtime_age_us, 20'000);
+  for (int i = 0; i < 3; ++i) {
+    const CycleRecord& r = rig.last();
+    EXPECT_FALSE(r.wrench_valid);
+    EXPECT_NE(r.fault_bits & kFaultSensorStale, 0u);
+    EXPECT_EQ(r.sensor_age_us, test::g_fake_mono_us - old.recv_mono_us);
+    EXPECT_GT(r.sensor_age_us, 100'000);
+    rig.tick();
+  }
+  rig.sensor.follow_clock = true;
+  rig.tick();
+  EXPECT_TRUE(rig.last().wrench_valid);
+  EXPECT_EQ(rig.last().sensor_age_us, 300);
 }
 
 TEST(DaemonCycle, SensorInvalidatedByTheDriverIsNotCompensated) {

@@ -11,6 +11,9 @@ namespace ftid::daemon::test {
 
 inline std::int64_t g_fake_now_us = 1'700'000'000'000'000;
 inline std::int64_t fakeNowUs() noexcept { return g_fake_now_us; }
+/// A fake monotonic clock [us] for tests that step the real-time one (fakeNowUs) apart from it.
+inline std::int64_t g_fake_mono_us = 5'000'000'000;
+inline std::int64_t fakeMonoUs() noexcept { return g_fake_mono_us; }
 
 class FakeArm : public ArmStateSource {
  public:
@@ -36,10 +39,17 @@ class FakeSensor : public SensorSource {
  public:
   SensorSampleRecord sample;
   bool follow_clock = true;  ///< stamp each read with the current time (a fresh sample)
-  FakeSensor() { sample.valid = true; }
+  /// The host's monotonic clock of recv_mono_us: the cycle's (CycleOptions::mono_now_us).
+  std::int64_t (*mono_now_us)() noexcept;
+  explicit FakeSensor(std::int64_t (*mono)() noexcept = &fakeNowUs) : mono_now_us(mono) {
+    sample.valid = true;
+  }
   void drain(std::int64_t now_utime, SensorHistory* history,
              SensorSampleRecord* latest) noexcept override {
-    if (follow_clock) sample.recv_utime = now_utime - 300;
+    if (follow_clock) {
+      sample.recv_utime = now_utime - 300;
+      sample.recv_mono_us = mono_now_us() - 300;
+    }
     history->push(sample);
     *latest = sample;
   }

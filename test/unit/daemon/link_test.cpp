@@ -125,7 +125,7 @@ class ScriptedArm : public ArmStateSource {
 
 struct Rig {
   double robot_time = 50.0;
-  FakeSensor sensor;
+  FakeSensor sensor{&monotonicNowUs};  // the cycle's clocks are the real ones (CycleOptions{})
   FixedMotion motion;
   rt::OwnedSwapSlot<Compensation> params{std::make_unique<OffsetCompensation>(Wrench::Zero())};
   RecordingSink sink;

@@ -50,6 +50,7 @@ TEST(SensorHistory, InterpolationReproducesALinearFunctionAtAnyTime) {
     s.has_temp = true;
     s.temp_degC = 2.0 * x(t);
     s.counter = i;
+    s.recv_mono_us = 7'000'000 + 3 * i;  // unrelated to t: only carried, never interpolated
     h.push(s);
     t += dt(rng);
   }
@@ -67,6 +68,7 @@ TEST(SensorHistory, InterpolationReproducesALinearFunctionAtAnyTime) {
     const auto it = std::lower_bound(times.begin(), times.end(), tq);
     EXPECT_EQ(out.recv_utime, *it);
     EXPECT_EQ(out.counter, static_cast<int>(it - times.begin()));
+    EXPECT_EQ(out.recv_mono_us, 7'000'000 + 3 * out.counter);  // its age is the later one's
     EXPECT_EQ(reach, *it == tq ? 0 : *it - *(it - 1));
   }
 }
@@ -222,6 +224,7 @@ class ClockedSensor : public SensorSource {
     while (next_k_ <= last_k && time(next_k_) <= now_utime) {
       SensorSampleRecord s;
       s.recv_utime = time(next_k_);
+      s.recv_mono_us = s.recv_utime;  // the cycle reads one fake clock as both
       s.counter = next_k_;
       s.wrench_S = value(s.recv_utime);
       s.valid = true;
