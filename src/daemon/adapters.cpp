@@ -100,10 +100,16 @@ void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* ou
 
 std::int64_t monotonicReceiptUs(std::int64_t recv_utime, std::int64_t real_now_us,
                                 std::int64_t mono_now_us) noexcept {
-  if (recv_utime <= 0) return 0;
-  const std::int64_t age_us = std::max<std::int64_t>(0, real_now_us - recv_utime);
-  const std::int64_t receipt = mono_now_us - age_us;
+  if (recv_utime <= 0 || real_now_us < recv_utime) return 0;
+  const std::int64_t receipt = mono_now_us - (real_now_us - recv_utime);
   return receipt > 0 ? receipt : 0;
+}
+
+bool realtimeStepped(const HostClockRead& prev, const HostClockRead& now) noexcept {
+  const std::int64_t change_us = (now.real_us - now.monoUs()) - (prev.real_us - prev.monoUs());
+  const std::int64_t between_us = std::max<std::int64_t>(0, now.monoUs() - prev.monoUs());
+  const std::int64_t tolerance_us = 500 + prev.spanUs() + now.spanUs() + between_us / 1000;
+  return change_us > tolerance_us || change_us < -tolerance_us;
 }
 
 CanSensorSource::CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
@@ -113,6 +119,14 @@ CanSensorSource::CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> s
       clocks_(clocks) {
   if (clocks_.realtime_us == nullptr) clocks_.realtime_us = &realtimeUs;
   if (clocks_.monotonic_us == nullptr) clocks_.monotonic_us = &monotonicUs;
+}
+
+HostClockRead CanSensorSource::readClocks() const noexcept {
+  HostClockRead r;
+  r.mono_before_us = clocks_.monotonic_us();
+  r.real_us = clocks_.realtime_us();
+  r.mono_after_us = clocks_.monotonic_us();
+  return r;
 }
 
 namespace {
@@ -145,16 +159,22 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
   int total = 0;
   while (total < drivers::can::CanFtImuSensor::kMaxFramesPerRead) {
     drivers::can::IoResult status = drivers::can::IoResult::kOk;
+    const std::int64_t mono_before_receive_us = clocks_.monotonic_us();
     const int n = bus.tryReceiveBatch(batch_.data(), static_cast<int>(batch_.size()), status);
-    // Both host clocks, read together right after the receipt (monotonicReceiptUs).
-    const std::int64_t real_now_us = clocks_.realtime_us();
-    const std::int64_t mono_now_us = clocks_.monotonic_us();
+    // Both host clocks, read together right after the receipt (monotonicReceiptUs). If the
+    // real-time clock stepped since the previous read, the kernel's stamps of the frames still
+    // queued say nothing until the socket has been emptied: they get the oldest possible receipt.
+    const HostClockRead read = readClocks();
+    if (last_read_.mono_after_us > 0 && realtimeStepped(last_read_, read)) step_unresolved_ = true;
+    last_read_ = read;
     for (int i = 0; i < n; ++i) {
       if (!assembler_.feed(batch_[static_cast<std::size_t>(i)])) continue;
       assembler_.readLatest(sample_, assembler_.latest().rx_time_ns);
       interval_flags_ |= intervalEvents(sample_.health_flags);
       toSensorRecord(sample_, &record_);
-      record_.recv_mono_us = monotonicReceiptUs(record_.recv_utime, real_now_us, mono_now_us);
+      record_.recv_mono_us =
+          step_unresolved_ ? drained_at_mono_us_
+                  : monotonicReceiptUs(record_.recv_utime, read.real_us, read.monoUs());
       history->push(record_);
     }
     total += n;
@@ -163,14 +183,24 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
       transport_down_.store(true, std::memory_order_release);
       break;
     }
-    if (n < static_cast<int>(batch_.size())) break;  // drained
+    if (n < static_cast<int>(batch_.size())) {  // emptied: later frames arrive after the call
+      drained_at_mono_us_ = mono_before_receive_us;
+      step_unresolved_ = false;
+      break;
+    }
   }
 }
 
 void CanSensorSource::drain(std::int64_t now_utime, SensorHistory* history,
                             SensorSampleRecord* latest) noexcept {
   pump(history);
-  assembler_.readLatest(sample_, now_utime * 1000);
+  // The driver's own staleness test, on the monotonic age of the newest sample (the last one
+  // pumped) when it is known: a step of the real-time clock does not flag a fresh sample.
+  std::int64_t now_ns = now_utime * 1000;
+  if (record_.recv_mono_us > 0) {
+    now_ns = (record_.recv_utime + (clocks_.monotonic_us() - record_.recv_mono_us)) * 1000;
+  }
+  assembler_.readLatest(sample_, now_ns);
   sample_.health_flags |= interval_flags_;
   if (((interval_flags_ & kHealthCounterGap) != 0 && options_.counter_gap_invalidates) ||
       ((interval_flags_ & kHealthErrorFrame) != 0 && options_.error_frame_invalidates)) {

@@ -211,17 +211,20 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   // Stale: no sample ever (or its receipt unknown), or the newest one older than the timeout at
   // the start of the cycle on the monotonic clock (the rule before pairing); the pairing itself
   // (reach_us above) adds the samples' distance from the robot state's time.
-  rec.sensor_age_us = rec.sensor.recv_mono_us > 0 ? mono_now - rec.sensor.recv_mono_us : -1;
+  // A sample completed by the drain above, after mono_now was read, is of age 0.
+  rec.sensor_age_us = -1;
+  if (rec.sensor.recv_mono_us > 0) {
+    rec.sensor_age_us = std::max<std::int64_t>(0, mono_now - rec.sensor.recv_mono_us);
+  }
   if (rec.sensor.recv_mono_us <= 0 || latest_.recv_mono_us <= 0 ||
       mono_now - latest_.recv_mono_us > options_.stale_timeout_us) {
     rec.sensor.health_flags |= kHealthStale;
   }
   // Freshness of the output (issue 26): the sample used must itself be younger than the timeout
   // on the host's monotonic clock, whatever the controller's clock says, or the published
-  // contact wrench is not the current one; a negative age (a receipt after the cycle's clock
-  // read: impossible unless a source stamped it wrongly) proves nothing. The sample
-  // stays valid as data (a backlog's pairing is time-consistent and may be recorded for
-  // identification): only the compensated wrench of this cycle is refused, as stale.
+  // contact wrench is not the current one. The sample stays valid as data (a backlog's pairing
+  // is time-consistent and may be recorded for identification): only the compensated wrench of
+  // this cycle is refused, as stale.
   const bool sample_fresh = rec.sensor_age_us >= 0 && rec.sensor_age_us <= options_.stale_timeout_us;
   if (!sensorFinite(rec.sensor)) rec.sensor.health_flags |= kHealthNonFinite;
   if ((rec.sensor.health_flags & (kHealthStale | kHealthNonFinite)) != 0) {

@@ -98,7 +98,7 @@ void PayloadWatch::start() {
   if (running_.exchange(true)) return;
   thread_ = std::thread([this] {
     while (running_.load()) {
-      poll(realtimeNowUs());
+      poll(realtimeNowUs(), monotonicNowUs());
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
   });
@@ -117,7 +117,7 @@ void PayloadWatch::publish(const MonitorReport& report) {
   if (publish_) publish_(report);
 }
 
-void PayloadWatch::poll(std::int64_t now_us) {
+void PayloadWatch::poll(std::int64_t now_us, std::int64_t mono_now_us) {
   MonitorInput in;
   while (link_->queue.tryPop(&in)) {
     if (in.param_version != param_version_) {
@@ -152,8 +152,8 @@ void PayloadWatch::poll(std::int64_t now_us) {
   r.param_version = param_version_;
   r.dropped = link_->dropped.load(std::memory_order_relaxed);
   r.utime = now_us;
-  if (now_us - last_report_us_ >= period_us_) {
-    last_report_us_ = now_us;
+  if (mono_now_us - last_report_mono_us_ >= period_us_) {  // a real-time step changes no period
+    last_report_mono_us_ = mono_now_us;
     publish(r);
   } else {
     const std::lock_guard<std::mutex> lock(mutex_);

@@ -61,17 +61,32 @@ class RtdeArmSource final : public ArmStateSource {
 /// health flags are copied unchanged: the driver sets the published bits.
 void toSensorRecord(const drivers::can::SensorSample& in, SensorSampleRecord* out) noexcept;
 
+/// One read of both host clocks [us]: CLOCK_MONOTONIC just before (mono_before_us) and just after
+/// (mono_after_us) the CLOCK_REALTIME read (real_us), so that the real-time reading lies between.
+struct HostClockRead {
+  std::int64_t real_us = 0;
+  std::int64_t mono_before_us = 0;
+  std::int64_t mono_after_us = 0;
+  std::int64_t monoUs() const noexcept {
+    return mono_before_us + (mono_after_us - mono_before_us) / 2;
+  }
+  std::int64_t spanUs() const noexcept { return mono_after_us - mono_before_us; }
+};
+
 /// A receipt stamped on CLOCK_REALTIME (recv_utime: the kernel's receive timestamp) moved onto
-/// CLOCK_MONOTONIC with the two clocks read together after it (real_now_us, mono_now_us):
-///   monotonicReceiptUs = mono_now_us - max(0, real_now_us - recv_utime),
-/// and 0 (unknown) if recv_utime <= 0 or the result is not positive. Exact when the real-time clock
-/// did not step between the receipt and the read. A step forward in between makes the sample
-/// older by the step (never fresher than it is); a step back makes it younger by at most the time
-/// from receipt to read (the age is clamped at 0), which is one receive batch in CanSensorSource.
-/// After the read, no step of the real-time clock changes the receipt (docs/conventions.md,
-/// "Host clocks").
+/// CLOCK_MONOTONIC with both clocks read after it (real_now_us, mono_now_us, one instant):
+///   monotonicReceiptUs = mono_now_us - (real_now_us - recv_utime),
+/// exact when the real-time clock did not step between the receipt and the read. 0 (unknown)
+/// if recv_utime <= 0, if real_now_us < recv_utime (the clock stepped back: no age can be read
+/// off it) or if the result is not positive.
 std::int64_t monotonicReceiptUs(std::int64_t recv_utime, std::int64_t real_now_us,
                                 std::int64_t mono_now_us) noexcept;
+
+/// True if CLOCK_REALTIME stepped between two reads of both clocks (prev, then now): their
+/// offset real - mono changed by more than both reads' spans, plus 1000 ppm of the time between
+/// them (twice the fastest slew adjtime makes) plus 0.5 ms. A smaller step moves an age by less
+/// than 0.5 ms plus those spans.
+bool realtimeStepped(const HostClockRead& prev, const HostClockRead& now) noexcept;
 
 /// The host clocks a CanSensorSource reads right after each receive batch [us]; nullptr: the
 /// real CLOCK_REALTIME / CLOCK_MONOTONIC (tests inject fakes). Both noexcept and RT-safe.
@@ -95,8 +110,14 @@ struct HostClocks {
 class CanSensorSource final : public SensorSource {
  public:
   /// `health` must be the options the sensor was opened with (CanSensorConfig::health). Every
-  /// sample gets recv_mono_us = monotonicReceiptUs(its recv_utime, both clocks read after the
-  /// receive batch that completed it).
+  /// sample gets its receipt on the monotonic clock, recv_mono_us: monotonicReceiptUs(its
+  /// recv_utime, both clocks read after the receive batch that completed it), unless the
+  /// real-time clock stepped since the previous read (realtimeStepped); then, until the socket
+  /// has been emptied, the kernel's stamps say nothing and each receipt is put at the oldest
+  /// time it can have: just before the receive call that last emptied the socket (0, unknown,
+  /// if none did). A step makes no sample younger than it is by more than realtimeStepped's
+  /// tolerance, apart from frames that arrive within the microseconds between that call and the
+  /// clocks' read (docs/daemon.md, "Ages on the monotonic clock").
   CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
                   const drivers::can::SensorHealthOptions& health, HostClocks clocks = {});
   /// Any thread: true if the transport in use closed or failed and no replacement is waiting.
@@ -133,6 +154,12 @@ class CanSensorSource final : public SensorSource {
   SensorSampleRecord record_;
   std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
   HostClocks clocks_;
+  HostClockRead last_read_;          ///< after the previous receive batch (mono 0: none yet)
+  /// Monotonic time just before the last receive call that emptied the socket (0: none yet).
+  std::int64_t drained_at_mono_us_ = 0;
+  bool step_unresolved_ = false;  ///< a real-time step seen, the socket not emptied since
+  /// Both clocks, read together (the real-time read bracketed by two monotonic ones).
+  HostClockRead readClocks() const noexcept;
 };
 
 /// Sensor-frame kinematics from RobotKinematics (with the sensor mount already set).

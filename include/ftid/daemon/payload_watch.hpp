@@ -95,9 +95,9 @@ class PayloadWatch {
   void stop();   ///< idempotent
 
   /// One pass of the thread (tests drive it without the thread): drains the queue, updates the
-  /// monitor and the flags, publishes each event and, when `now_us` is a period past the last
-  /// report, the status.
-  void poll(std::int64_t now_us);
+  /// monitor and the flags, publishes each event and, when `mono_now_us` (CLOCK_MONOTONIC) is a
+  /// period past the last report, the status. now_us (CLOCK_REALTIME) stamps the reports' utime.
+  void poll(std::int64_t now_us, std::int64_t mono_now_us);
 
   /// The kept samples of the newest parameter version from the last `window_s` (sample time), in
   /// order (any thread).
@@ -115,7 +115,7 @@ class PayloadWatch {
   MonitorLink* link_;
   Publisher publish_;
   std::int32_t param_version_ = -1;
-  std::int64_t last_report_us_ = 0;
+  std::int64_t last_report_mono_us_ = 0;  ///< CLOCK_MONOTONIC of the last periodic report
   mutable std::mutex mutex_;
   MonitorReport latest_;
   std::vector<MonitorInput> history_;  ///< ring, fixed capacity

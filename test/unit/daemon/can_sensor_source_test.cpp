@@ -75,7 +75,8 @@ TEST(CanSensorSource, EverySampleOfADrainReachesTheHistory) {
 // CLOCK_REALTIME r(t) = t + R0, stepped by D at t_step. A sample is received at t_r (the kernel
 // stamps r(t_r)) and both clocks are read 700 us later, at t_read. A step before the receipt or
 // after the read leaves the receipt exact on the monotonic clock; a step between them moves it
-// older by a forward step D, and younger by at most t_read - t_r for a step back.
+// older by a forward step D, younger by a step back smaller than the 700 us, and a larger step
+// back (the stamp lies after the read) makes it unknown (0).
 TEST(MonotonicReceipt, MatchesTheTrueReceiptUnlessTheRealtimeClockSteppedBetweenReceiptAndRead) {
   constexpr std::int64_t kM0 = 9'000'000'000, kR0 = 1'700'000'000'000'000;
   const std::int64_t t_r = 50'000'000, t_read = t_r + 700;
@@ -90,26 +91,52 @@ TEST(MonotonicReceipt, MatchesTheTrueReceiptUnlessTheRealtimeClockSteppedBetween
         EXPECT_EQ(got, m_r);
       } else if (d > 0) {
         EXPECT_EQ(got, m_r - d);  // older by the step: never fresher than it is
+      } else if (t_read - t_r + d >= 0) {
+        EXPECT_EQ(got, m_r - d);  // younger by the step, at most the receipt-to-read time
+        EXPECT_LE(got, m_read);
       } else {
-        EXPECT_GE(got, m_r);
-        EXPECT_LE(got, m_read);  // younger by at most the receipt-to-read time
-        EXPECT_EQ(got, m_read - std::max<std::int64_t>(0, t_read - t_r + d));
+        EXPECT_EQ(got, 0);  // the stamp lies after the read: a step back, no age to read
       }
       ++cases;
     }
   }
   EXPECT_EQ(cases, 18);
-  EXPECT_EQ(monotonicReceiptUs(0, kR0, kM0), 0);       // no receipt: unknown
+  EXPECT_EQ(monotonicReceiptUs(0, kR0, kM0), 0);              // no receipt: unknown
   EXPECT_EQ(monotonicReceiptUs(kR0 - 2 * kM0, kR0, kM0), 0);  // before the boot: unknown
+}
+
+// realtimeStepped: the offset real - mono of two reads of both clocks, against its tolerance of
+// 0.5 ms + both reads' spans + 1000 ppm of the time between them.
+TEST(RealtimeStepped, AStepIsAnOffsetChangeBeyondSlewAndTheReadsSpans) {
+  auto read = [](std::int64_t mono, std::int64_t offset, std::int64_t span) {
+    return HostClockRead{mono + offset, mono - span / 2, mono - span / 2 + span};
+  };
+  constexpr std::int64_t kOff = 1'700'000'000'000'000;
+  const HostClockRead a = read(5'000'000, kOff, 2);
+  EXPECT_FALSE(realtimeStepped(a, read(5'008'000, kOff, 2)));           // no change
+  EXPECT_FALSE(realtimeStepped(a, read(5'008'000, kOff + 400, 2)));     // below 0.5 ms
+  EXPECT_TRUE(realtimeStepped(a, read(5'008'000, kOff + 600, 2)));      // a 0.6 ms step
+  EXPECT_TRUE(realtimeStepped(a, read(5'008'000, kOff - 95'000, 2)));   // set back 95 ms
+  EXPECT_FALSE(realtimeStepped(a, read(15'000'000, kOff + 8'000, 2)));  // 800 ppm over 10 s: slew
+  EXPECT_TRUE(realtimeStepped(a, read(6'000'000, kOff + 2'000, 2)));    // 2000 ppm over 1 s
+  EXPECT_FALSE(realtimeStepped(a, read(5'008'000, kOff + 3'000, 6'000)));  // a preempted read
 }
 
 std::int64_t g_realtime_shift_us = 0;
 std::int64_t shiftedRealtimeUs() noexcept { return realtimeUs() + g_realtime_shift_us; }
+std::int64_t g_monotonic_shift_us = 0;
+std::int64_t shiftedMonotonicUs() noexcept { return monotonicUs() + g_monotonic_shift_us; }
+
+void spinFor(std::int64_t us) {
+  const std::int64_t until = monotonicUs() + us;
+  while (monotonicUs() < until) {
+  }
+}
 
 // The production adapter over a real socket with kernel receive timestamps: each sample's
-// recv_mono_us lies within the monotonic interval in which it was sent and drained, and a
-// real-time clock that steps between the receipt and the clocks' read (simulated by shifting the
-// clock the source reads) moves it as monotonicReceiptUs says: never later than the read.
+// recv_mono_us lies within the monotonic interval in which it was sent and drained. The clock
+// the source reads is shifted to act as a real-time clock that stepped between the kernel's
+// stamp and the read: forward, the receipt is older by the step; back beyond the stamp, unknown.
 TEST(CanSensorSource, EachSampleCarriesItsReceiptOnTheMonotonicClock) {
   for (const std::int64_t shift_us : {0LL, -1'000'000LL, 50'000LL}) {
     SCOPED_TRACE("real-time clock shifted by " + std::to_string(shift_us) + " us");
@@ -122,16 +149,64 @@ TEST(CanSensorSource, EachSampleCarriesItsReceiptOnTheMonotonicClock) {
     b.source.drain(realtimeUs(), &history, &latest);
     const std::int64_t after = monotonicUs();
     ASSERT_EQ(history.size(), 3);
-    const std::int64_t older_by = std::max<std::int64_t>(0, shift_us);
     for (int i = 0; i < 3; ++i) {
-      EXPECT_GE(history.at(i).recv_mono_us, before - older_by - 50);
-      EXPECT_LE(history.at(i).recv_mono_us, after - older_by + 50);
+      if (shift_us < 0) {
+        EXPECT_EQ(history.at(i).recv_mono_us, 0);
+      } else {
+        EXPECT_GE(history.at(i).recv_mono_us, before - shift_us - 50);
+        EXPECT_LE(history.at(i).recv_mono_us, after - shift_us + 50);
+      }
     }
     EXPECT_EQ(latest.recv_mono_us, history.newest().recv_mono_us);
     if (shift_us == 0) {  // exact: the samples' spacing is kept
       EXPECT_GT(history.at(2).recv_mono_us, history.at(0).recv_mono_us);
     }
   }
+  g_realtime_shift_us = 0;
+}
+
+// Frames wait 60 ms in the socket (the loop stalled), and meanwhile the real-time clock is set
+// back 50 ms: by their kernel stamps they would look 10 ms old, fresh. The source sees the step
+// between its two clock reads and gives them the oldest receipt they can have, the moment the
+// socket was last found empty; then the driver's own staleness test is on the monotonic age.
+TEST(CanSensorSource, AStepWhileFramesWaitGivesThemTheirOldestPossibleReceipt) {
+  g_realtime_shift_us = 0;
+  Bench b(HostClocks{&shiftedRealtimeUs, &monotonicUs});
+  SensorHistory history;
+  SensorSampleRecord latest;
+  b.source.drain(realtimeUs(), &history, &latest);  // empties the socket
+  const std::int64_t emptied = monotonicUs();
+  for (std::uint32_t k = 1; k <= 3; ++k) b.send(k, -1.0 * k);
+  spinFor(60'000);
+  g_realtime_shift_us = -50'000;
+  b.source.drain(shiftedRealtimeUs(), &history, &latest);
+  ASSERT_EQ(history.size(), 3);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GT(history.at(i).recv_mono_us, 0);
+    EXPECT_LE(history.at(i).recv_mono_us, emptied);
+  }
+  // By the stamps alone: a receipt 50 ms later than the true one.
+  const std::int64_t naive =
+      monotonicReceiptUs(history.newest().recv_utime, shiftedRealtimeUs(), monotonicUs());
+  EXPECT_GT(naive, emptied + 40'000);
+  EXPECT_NE(latest.health_flags & kHealthStale, 0u);  // 60 ms old on the monotonic clock
+  g_realtime_shift_us = 0;
+}
+
+// The driver's stale flag follows the monotonic age: a sample received a moment ago is not
+// flagged stale by a drain after the real-time clock jumped 100 ms forward.
+TEST(CanSensorSource, AForwardStepAfterTheReceiptDoesNotMakeAFreshSampleStale) {
+  g_realtime_shift_us = 0;
+  Bench b(HostClocks{&shiftedRealtimeUs, &monotonicUs});
+  SensorHistory history;
+  SensorSampleRecord latest;
+  b.send(1, -1.0);
+  ASSERT_TRUE(b.source.waitForSample(0, std::chrono::milliseconds(0), &history));  // pumped
+  g_realtime_shift_us = 100'000;
+  b.source.drain(shiftedRealtimeUs(), &history, &latest);
+  EXPECT_EQ(latest.counter, 1);
+  EXPECT_EQ(latest.health_flags & kHealthStale, 0u);
+  EXPECT_TRUE(latest.valid);
   g_realtime_shift_us = 0;
 }
 
@@ -181,7 +256,10 @@ TEST(CanSensorSource, DriverHealthFlagsReachThePublishedMessageUnchanged) {
       can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
   can::SeqpacketPair pair = can::makeSeqpacketPair();
   can::CanTransport* bus = pair.a.get();
-  CanSensorSource source{std::make_unique<can::CanFtImuSensor>(std::move(pair.b), layout), options};
+  // The source's monotonic clock can be moved on (the stale step below); its real-time clock is
+  // the kernel stamps' own.
+  CanSensorSource source{std::make_unique<can::CanFtImuSensor>(std::move(pair.b), layout), options,
+                         HostClocks{&realtimeUs, &shiftedMonotonicUs}};
   can::SampleAssembler reference(layout, options);
 
   auto sendFrame = [&](const can_frame& f) {
@@ -259,7 +337,9 @@ TEST(CanSensorSource, DriverHealthFlagsReachThePublishedMessageUnchanged) {
   step("a repeat followed by a clean sample in one cycle", kHealthOk);  // not an interval event
   {
     SCOPED_TRACE("stale");
+    g_monotonic_shift_us = 60'000'000;  // a minute later on the source's clock (its ages)
     publishedAfterDrain(can::realtimeNowNs() + 60'000'000'000, kHealthStale);
+    g_monotonic_shift_us = 0;
   }
 }
 

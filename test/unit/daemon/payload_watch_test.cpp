@@ -56,12 +56,12 @@ TEST(PayloadWatch, DecidesAsTheOfflineReplayAndFlagsAndReports) {
     link.handOver(run.inputs[i]);
     if (i % 10 == 9) {  // the thread wakes every 10 ms; 10 samples are 80 ms
       now_us += 80'000;
-      watch.poll(now_us);
+      watch.poll(now_us, now_us);
       if (run.inputs[i].sample.t < 4.9) flags_before |= link.flags();
     }
   }
   now_us += 80'000;
-  watch.poll(now_us);
+  watch.poll(now_us, now_us);
   EXPECT_EQ(flags_before, 0u);
   EXPECT_EQ(link.flags(), static_cast<std::uint32_t>(kFlagPayloadChanged));
   EXPECT_EQ(link.dropped.load(), 0u);
@@ -88,9 +88,30 @@ TEST(PayloadWatch, DecidesAsTheOfflineReplayAndFlagsAndReports) {
   next.sample.residual_S.setZero();
   next.param_version = 2;
   link.handOver(next);
-  watch.poll(now_us + 10'000);
+  watch.poll(now_us + 10'000, now_us + 10'000);
   EXPECT_EQ(link.flags(), 0u);
   EXPECT_EQ(watch.latest().status.state, monitor::MonitorState::kOk);
+}
+
+// The periodic report is timed on the monotonic clock: the real-time clock set back by an hour
+// (NTP, an operator) does not silence it, and the reports keep the real-time clock's utime.
+TEST(PayloadWatch, ARealtimeClockStepDoesNotSilenceThePeriodicReports) {
+  MonitorLink link;
+  std::vector<MonitorReport> reports;
+  PayloadWatch watch(monitor::MonitorSettings{}, 4.0, &link,
+                     [&](const MonitorReport& r) { reports.push_back(r); });
+  std::int64_t real_us = 1'700'000'000'000'000, mono_us = 9'000'000'000;
+  for (int k = 0; k < 200; ++k) {  // 2 s in 10 ms polls; the real-time clock steps back at 1 s
+    if (k == 100) real_us -= 3'600'000'000;
+    watch.poll(real_us, mono_us);
+    real_us += 10'000;
+    mono_us += 10'000;
+  }
+  int after_step = 0;
+  for (const MonitorReport& r : reports) after_step += r.utime < 1'700'000'000'000'000 ? 1 : 0;
+  EXPECT_GE(reports.size(), 8u);  // 4 Hz over 2 s
+  EXPECT_LE(reports.size(), 9u);
+  EXPECT_GE(after_step, 4);       // and as many in the second after the step
 }
 
 TEST(PayloadWatch, MessageCarriesVersionStateAndEstimate) {
@@ -136,7 +157,7 @@ TEST(PayloadWatch, RecentKeepsTheNewestVersionWithinTheWindow) {
     in.param_version = k < 250 ? 1 : 2;
     link.handOver(in);
   }
-  watch.poll(1);
+  watch.poll(1, 1);
   const auto last = watch.recent(10.0);
   ASSERT_EQ(last.size(), 50u);  // version 2 only
   EXPECT_DOUBLE_EQ(last.front().t, 2.5);
