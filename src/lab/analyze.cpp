@@ -5,7 +5,6 @@
 #include <memory>
 #include <tuple>
 #include <cmath>
-#include <sstream>
 
 #include "change_point_scan.hpp"
 #include "lab_internal.hpp"
@@ -209,6 +208,16 @@ bool hasMoves(const std::vector<SampleContext>& ctx) {
     if (run >= 3) return true;
   }
   return false;
+}
+
+// A possible last model that `ftid identify --out` would still refuse (its inertia is not
+// determined): identify's reason, and the same model without rigid_body as what it can write.
+void noteUnwritable(const FitView& view, AnalysisResult& result) {
+  result.unwritable = writeRefusal(view);
+  if (result.unwritable.empty()) return;
+  std::vector<std::string> rest = detail::effectNames(*view.model);
+  rest.erase(std::remove(rest.begin(), rest.end(), "rigid_body"), rest.end());
+  if (!rest.empty()) result.writable_alternative = detail::canonicalModel(rest).name();
 }
 
 }  // namespace
@@ -452,11 +461,13 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   const Fitted last_fit =
       options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.
-  for (const auto& r : physicsRefusals(detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr, engine.data().ctx))) {
+  const FitView last_view = detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr, engine.data().ctx);
+  for (const auto& r : physicsRefusals(last_view)) {
     result.unphysical.push_back(r.reason);
     result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
                               "; do not write or export its parameters");
   }
+  if (result.unphysical.empty()) noteUnwritable(last_view, result);
   // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics).
   {
     std::vector<char> excluded(tests.size(), 0);

@@ -115,6 +115,8 @@ std::string formatJson(const AnalysisResult& r) {
   o["family_size"] = r.family_size;
   o["heldout_margin"] = jsonNumber(r.heldout_margin);
   o["unphysical"] = r.unphysical;
+  o["unwritable"] = r.unwritable;
+  o["writable_alternative"] = r.writable_alternative;
   detail::addChangePointsJson(r, o);  // change_points (change_point_report.cpp)
   if (!r.steps.empty()) {
     Json why = Json::array();

@@ -166,7 +166,17 @@ std::string formatText(const AnalysisResult& r) {
   }
   s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
   for (const auto& w : r.warnings) s += "warning: " + w + "\n";
-  if (!r.steps.empty() && r.unphysical.empty()) {
+  if (!r.steps.empty() && r.unphysical.empty() && !r.unwritable.empty()) {
+    // Possible, but identify would refuse to write it: say so, and what it can write.
+    const std::string& m = r.steps.back().model;
+    s += "\nftid identify writes no parameter file for " + m + ": " + r.unwritable + "\n";
+    s += "  for one, record a motion with more wrist rotation (ftid design) and identify on it";
+    if (!r.writable_alternative.empty()) {
+      s += ",\n  or leave the inertia terms out of the compensation:\n  ftid identify --log " + shellQuote(r.log) +
+           " --model " + shellQuote(r.writable_alternative) + " --out params.yaml";
+    }
+    s += "\n";
+  } else if (!r.steps.empty() && r.unphysical.empty()) {
     // --explain closes with the commands that turn the final model into parameters and exports.
     s += "\nidentify the final model, write its parameters and the UR / ros2_control exports:\n";
     s += "  ftid identify --log " + shellQuote(r.log) + " --model " + shellQuote(r.steps.back().model) +

@@ -8,6 +8,7 @@
 
 #include "ftid/effects/cable.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/params/parameter_set.hpp"
 
 namespace ftid::lab {
 
@@ -254,6 +255,25 @@ std::vector<Refusal> physicsRefusals(const FitView& f) {
     }
   }
   return out;
+}
+
+std::string writeRefusal(const FitView& f) {
+  if (f.model == nullptr || !f.model->contains("rigid_body")) return {};
+  params::ParameterSet set;
+  set.model = f.model->name();
+  const std::size_t n = std::min(f.names.size(), static_cast<std::size_t>(f.theta.size()));
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::string& nm = f.names[i];
+    if (nm != "mass" && nm.rfind("mass_com_", 0) != 0 && nm.rfind("i_s_", 0) != 0) continue;
+    const int k = static_cast<int>(i);
+    set.params.push_back({nm, f.theta(k), std::sqrt(std::max(0.0, f.covariance(k, k))), ""});
+  }
+  const auto problem = params::findParameterProblem(set);
+  if (!problem) return {};
+  std::string refused;
+  params::projectInertiaWithinUncertainty(&set, &refused);
+  if (!params::findParameterProblem(set)) return {};  // identify writes the projected inertia
+  return problem->message + (refused.empty() ? "" : " (" + refused + ")");
 }
 
 double wrapAngle(double rad) {

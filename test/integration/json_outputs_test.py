@@ -22,8 +22,8 @@ IDENTIFY_KEYS = ["model", "method", "n_samples", "parameters", "residual_rms", "
 ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "folds", "residual_rms",
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "saturation", "warnings",
                 "raw_rms", "fit", "windows", "correlations", "extra_signals", "candidates", "family_alpha", "family_size",
-                "heldout_margin", "unphysical", "change_points", "change_point_scan_p_value", "spectrum", "autocorrelation",
-                "dynamics", "seconds"]
+                "heldout_margin", "unphysical", "unwritable", "writable_alternative", "change_points",
+                "change_point_scan_p_value", "spectrum", "autocorrelation", "dynamics", "seconds"]
 CANDIDATE_KEYS = ["effect", "relative_reduction", "significant", "p_value", "f_statistic", "added_params",
                   "delta_bic", "residual_rms", "description", "next_command", "skipped", "note",
                   "confounded", "confound", "separating_motion", "verdict", "family_p_value", "reason"]

@@ -209,6 +209,12 @@ struct AnalysisResult {
   /// Why the last model (final, else the starting one) is not physically possible, one line each;
   /// empty when it is. The lab then gives no advice to write or export its parameters.
   std::vector<std::string> unphysical;
+  /// When the last model is possible but `ftid identify --out` would refuse to write it (the data
+  /// do not determine its inertia; writeRefusal): identify's reason, else "". The lab then gives
+  /// no advice to write it, and says what would.
+  std::string unwritable;
+  /// With unwritable: the last model without rigid_body, which identify can write ("" if none).
+  std::string writable_alternative;
   /// With explain: the ranking against the last model of the path (why each was not taken).
   std::vector<CandidateResult> final_candidates;
   // Time series of the evaluated data for the report (starting model).

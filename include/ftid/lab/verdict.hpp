@@ -90,6 +90,15 @@ std::vector<Refusal> identifiabilityRefusals(const FitView& f);
 /// Physical possibility of the fitted model (mass, inertia about the centre of mass, cable).
 std::vector<Refusal> physicsRefusals(const FitView& f);
 
+/// Whether `ftid identify --out` would write this fit's payload: identify's own rule applied to
+/// the fit's mass, centre of mass and rigid-body inertia with their standard errors
+/// (params::findParameterProblem, then params::projectInertiaWithinUncertainty). "" when it
+/// would, as estimated or projected onto the nearest possible inertia; otherwise identify's
+/// reason for refusing. A model can pass physicsRefusals (possible within 3 standard errors)
+/// and still be refused here, when the data do not determine its inertia: the laboratory then
+/// gives no advice to write it (docs/analyze.md, "Advice to write parameters").
+std::string writeRefusal(const FitView& f);
+
 /// Angle wrapped to (-pi, pi].
 double wrapAngle(double rad);
 

@@ -13,7 +13,10 @@
 
 #include "ftid/common/error.hpp"
 
+#include "ftid/identify/offline.hpp"
+#include "ftid/identify/physical_check.hpp"
 #include "ftid/lab/analyze.hpp"
+#include "ftid/params/parameter_set.hpp"
 #include "ftid/logio/log.hpp"
 #include "lab_sim.hpp"
 
@@ -325,6 +328,51 @@ TEST(Analyze, AnUnphysicalModelIsNamedAndNotExported) {
     }
   }
   EXPECT_TRUE(cable_judged) << "the cable must be among the final verdicts\n" << lab::formatText(r2);
+}
+
+// What `ftid identify --out` does with a model (apps/ftid/cmd_identify.cpp): fit with the IMU as
+// its default, project an inertia within its uncertainty, then the physical validity check.
+bool identifyWouldWrite(const samples::ContextSet& set, const std::string& model) {
+  identify::IdentifyRequest req;
+  req.model = model;
+  req.log_path = "sim.csv";
+  req.imu = identify::IdentifyRequest::ImuUse::kAuto;
+  identify::CheckedIdentification id = identify::identifyContextsChecked(set, req, /*check=*/false);
+  params::projectInertiaWithinUncertainty(&id.set);
+  return identify::checkPhysicalValidity(id.set, id.varying_mass).valid;
+}
+
+// The lab's advice to write parameters agrees with identify (docs/analyze.md, "Advice to write
+// parameters"). The simulator's default 10 s paper-style run (joints 4-6) with a hidden
+// temperature drift and coloured noise: the path ends at a model with rigid_body whose inertia
+// this motion does not determine. Possible within its errors, so the verdict keeps it; but
+// identify refuses to write it, so the lab must not advise `--out` for it, and the alternative it
+// offers (without rigid_body) must be one identify writes.
+TEST(Analyze, ExplainAdvisesOnlyAModelIdentifyWrites) {
+  sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
+  c.seed = 7;
+  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  c.noise.wrench_lowpass_hz = 5.0;
+  c.temperature_drift.enabled = true;
+  c.temperature_drift.dF0_dT_N_per_degC = Vec3(0.05, 0.0, 0.1);
+  const samples::ContextSet set = labtest::contexts(c);
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.explain = true;
+  const lab::AnalysisResult r = lab::analyze(set.samples, nullptr, o, "sim.csv");
+  const std::string text = lab::formatText(r);
+  ASSERT_FALSE(r.steps.empty());
+  const std::string last = r.steps.back().model;
+  ASSERT_TRUE(r.unphysical.empty()) << text;
+  ASSERT_NE(last.find("temperature_drift"), std::string::npos) << text;
+  ASSERT_FALSE(r.unwritable.empty()) << "the case needs a model identify does not write\n" << text;
+  EXPECT_FALSE(identifyWouldWrite(set, last)) << "the lab says identify refuses " << last;
+  EXPECT_EQ(text.find("--model " + lab::shellQuote(last) + " --out"), std::string::npos) << text;
+  ASSERT_FALSE(r.writable_alternative.empty()) << text;
+  EXPECT_EQ(r.writable_alternative.find("rigid_body"), std::string::npos);
+  EXPECT_NE(text.find("--model " + lab::shellQuote(r.writable_alternative) + " --out params.yaml"),
+            std::string::npos) << text;
+  EXPECT_TRUE(identifyWouldWrite(set, r.writable_alternative)) << r.writable_alternative;
 }
 
 // One family size m for the whole analysis: the menu's effects that can be tried on this data,

@@ -122,6 +122,33 @@ TEST(Verdict, PhysicsRefusesNegativeMassNonPhysicalInertiaAndAPushingSpring) {
   EXPECT_TRUE(lab::physicsRefusals(g).empty());
 }
 
+// writeRefusal is identify's writing rule on the lab's fit: a possible inertia is written; an
+// impossible one within 3 standard errors is written projected when its standard errors are at most
+// a third of the tensor's scale (its largest |eigenvalue|), and refused, with identify's reason,
+// when they are not (the data do not determine it); models without rigid_body have no inertia to refuse.
+TEST(Verdict, WriteRefusalFollowsIdentifysProjectionRule) {
+  const auto m = effects::Model::fromName("paper+rigid_body+cable");
+  EXPECT_EQ(lab::writeRefusal(view(m, 1e-4)), "");
+  // I_C zz 0.0205 > xx + yy = 0.02: the triangle inequality broken by 0.0005, within the errors.
+  auto h = view(m, 0.001);  // +- 0.001, a twentieth of the tensor's scale (0.0205): projected
+  h.theta(col(h, "i_s_zz")) = 0.0205;
+  EXPECT_TRUE(lab::physicsRefusals(h).empty());
+  EXPECT_EQ(lab::writeRefusal(h), "");
+  auto u = view(m, 0.01);  // +- 0.01, half the scale: not a measurement of the tensor, refused
+  u.theta(col(u, "i_s_zz")) = 0.0205;
+  EXPECT_TRUE(lab::physicsRefusals(u).empty());
+  const std::string why = lab::writeRefusal(u);
+  EXPECT_NE(why.find("triangle inequality"), std::string::npos) << why;
+  EXPECT_NE(why.find("do not determine the inertia"), std::string::npos) << why;
+  const auto paper = effects::Model::fromName("paper");
+  lab::FitView p;
+  p.model = &paper;
+  p.names = paper.paramIndex().names();
+  p.theta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p.names.size()));
+  p.covariance = Eigen::MatrixXd::Identity(p.theta.size(), p.theta.size());
+  EXPECT_EQ(lab::writeRefusal(p), "");
+}
+
 // A mass that moves with a signal must be positive at every sample of the fit, not only at the
 // signal's reference: payload(grip) with mass 0.5 kg at grip = 0 and -0.8 kg per unit of grip is
 // impossible once grip passes 0.625.
