@@ -96,7 +96,7 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
   double worst = 0.0;
   for (int a = 0; a < 6; ++a) {
     out.residual_to_noise(a) = out.heldout_rms(a) / std::max(out.noise.std(a), 1e-12);
-    if (out.residual_to_noise(a) > 1.2) {
+    if (out.residual_to_noise(a) > kAboveFloorMark) {
       char b[48];
       std::snprintf(b, sizeof b, "%s%s %.2gx", above.empty() ? "" : ", ", kWrenchAxisNames[a], out.residual_to_noise(a));
       above += b;
@@ -121,7 +121,7 @@ std::string formatFitCheck(const FitCheck& c) {
     const char* u = a < 3 ? "N" : "Nm";
     char ratio[40] = "(noise not observable)";
     if (std::isfinite(c.residual_to_noise(a))) {
-      std::snprintf(ratio, sizeof ratio, "%.2fx%s", c.residual_to_noise(a), c.residual_to_noise(a) > 1.2 ? "  <- above" : "");
+      std::snprintf(ratio, sizeof ratio, "%.2fx%s", c.residual_to_noise(a), c.residual_to_noise(a) > kAboveFloorMark ? "  <- above" : "");
     }
     std::snprintf(line, sizeof line, "  %-3s %10.4g %-2s  noise %10.4g %-2s  %s\n", kWrenchAxisNames[a], c.heldout_rms(a), u,
                   c.noise.std(a), u, ratio);

@@ -489,7 +489,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     for (int a = 0; a < 6; ++a) {
       const double ratio = last.residual_rms(a) / std::max(result.noise_floor(a), 1e-12);
       worst = std::max(worst, ratio);
-      if (ratio > 1.2) above += std::string(above.empty() ? "" : ", ") + kWrenchAxisNames[a] + " " + fmt(ratio, 3) + "x";
+      if (ratio > identify::kAboveFloorMark) above += std::string(above.empty() ? "" : ", ") + kWrenchAxisNames[a] + " " + fmt(ratio, 3) + "x";
     }
     if (!above.empty()) {
       result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +

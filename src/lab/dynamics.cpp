@@ -7,6 +7,8 @@
 #include <cstdio>
 #include <functional>
 
+#include "ftid/identify/noise.hpp"
+
 namespace ftid::lab {
 
 namespace {
@@ -147,14 +149,15 @@ double golden(const std::function<double(double)>& g, double lo, double hi) {
   return 0.5 * (lo + hi);
 }
 
-/// Whether the last model leaves something: a spectral peak, or a held-out residual above 1.2x the
-/// noise floor on some axis (the floor: the weights' innovation std over sqrt(1 - phi^2)).
+/// Whether the last model leaves something: a spectral peak, or a held-out residual above
+/// identify::kAboveFloorMark times the noise floor on some axis (the floor: the weights'
+/// innovation std over sqrt(1 - phi^2)).
 bool somethingLeft(const Dataset& d, const Solution& sol, bool spectral_peak) {
   if (spectral_peak) return true;
   for (int a = 0; a < 6; ++a) {
     const double floor = 1.0 / (d.weights(a) * std::sqrt(std::max(1e-6, 1.0 - d.ar1(a) * d.ar1(a))));
     const double rms = std::sqrt(sol.sse_heldout_axis(a) / std::max(1, sol.n_heldout));
-    if (rms > 1.2 * floor) return true;
+    if (rms > identify::kAboveFloorMark * floor) return true;
   }
   return false;
 }
@@ -185,7 +188,8 @@ DynamicsCheck checkDynamics(const RankContext& rc, const Fitted& last, double mo
     return out;
   }
   if (!rc.options.always_search_dynamics && !somethingLeft(eng.data(), last.sol, spectral_peak)) {
-    out.note = "the last model's held-out residual is within 1.2x the noise floor with no spectral peak";
+    out.note = "the last model's held-out residual is within " + fmt(identify::kAboveFloorMark, 3) +
+                 "x the noise floor with no spectral peak";
     return out;
   }
   const Design raw = eng.rawDesign(last.model, last.lin);

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "change_point_scan.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_internal.hpp"  // saturation (issue 22)
 #include "spectrum_report.hpp"
@@ -32,7 +33,7 @@ std::string axisTable(const Vec6& raw, const Vec6& res, const Vec6& noise) {
   for (int a = 0; a < 6; ++a) {
     const double ratio = noise(a) > 0.0 ? res(a) / noise(a) : 0.0;
     s += line("  %-5s %9.4f %-2s %13.4f %-2s %9.4f %-2s %8.2f%s", kWrenchAxisNames[a], raw(a), unitOf(a), res(a),
-              unitOf(a), noise(a), unitOf(a), ratio, ratio > 1.2 ? "  <- model fails here" : "");
+              unitOf(a), noise(a), unitOf(a), ratio, ratio > identify::kAboveFloorMark ? "  <- model fails here" : "");
   }
   return s;
 }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "change_point_scan.hpp"
+#include "ftid/identify/noise.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_internal.hpp"  // saturation (issue 22)
 
@@ -221,7 +222,7 @@ std::string axisTable(const AnalysisResult& r) {
   o << "<table><tr><th>axis</th><th>raw RMS</th><th>held-out residual RMS</th><th>noise floor</th><th>residual / noise</th></tr>";
   for (int a = 0; a < 6; ++a) {
     const double ratio = r.report.residual_rms(a) / r.noise_floor(a);
-    o << "<tr" << (ratio > 1.2 ? " class=\"bad\"" : "") << "><td>" << kWrenchAxisNames[a] << "</td><td>"
+    o << "<tr" << (ratio > identify::kAboveFloorMark ? " class=\"bad\"" : "") << "><td>" << kWrenchAxisNames[a] << "</td><td>"
       << f(r.report.raw_rms(a)) << "</td><td>" << f(r.report.residual_rms(a)) << "</td><td>" << f(r.noise_floor(a))
       << "</td><td>" << f(ratio, 3) << "</td></tr>";
   }

@@ -33,6 +33,12 @@ enum class NoiseMethod { kWhite, kColoured, kStaticPoses, kNotObservable, kDataS
 /// "white", "coloured", "static_poses", "not_observable", "data_sheet" (the JSON noise_method).
 std::string toString(NoiseMethod method);
 
+/// An axis whose held-out residual RMS is above this multiple of its noise floor is marked in
+/// every report ("<- model fails here", "<- above", the warnings that the model misses something)
+/// and opens the laboratory's search for the reading's dynamics. A display mark, not a
+/// significance test: the lab's verdicts rest on its one rule (docs/analyze.md, "The verdict").
+inline constexpr double kAboveFloorMark = 1.2;
+
 struct NoiseFloor {
   NoiseMethod method = NoiseMethod::kWhite;
   Vec6 std = Vec6::Zero();        ///< marginal noise std per axis [N, Nm] (0: not observable)
