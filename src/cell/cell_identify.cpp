@@ -139,7 +139,7 @@ std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
     const double ratio = noise(i) > 0 ? heldout(i) / noise(i) : 0.0;
     char line[160];
     std::snprintf(line, sizeof(line), "  %-4s %9.4f %12.4f %16.4f %10.2f%s\n", kWrenchAxisNames[i], raw(i),
-                  heldout(i), noise(i), ratio, ratio > 1.2 ? "   <- above noise" : "");
+                  heldout(i), noise(i), ratio, ratio > identify::kAboveFloorMark ? "   <- above noise" : "");
     o << line;
   }
   return o.str();

@@ -106,9 +106,9 @@ std::int64_t monotonicReceiptUs(std::int64_t recv_utime, std::int64_t real_now_u
 }
 
 bool realtimeStepped(const HostClockRead& prev, const HostClockRead& now) noexcept {
+  // NTP's and adjtime's slewing changes both clocks' rate alike: only a step moves the offset.
   const std::int64_t change_us = (now.real_us - now.monoUs()) - (prev.real_us - prev.monoUs());
-  const std::int64_t between_us = std::max<std::int64_t>(0, now.monoUs() - prev.monoUs());
-  const std::int64_t tolerance_us = 500 + prev.spanUs() + now.spanUs() + between_us / 1000;
+  const std::int64_t tolerance_us = 500 + prev.spanUs() + now.spanUs();
   return change_us > tolerance_us || change_us < -tolerance_us;
 }
 
@@ -119,6 +119,7 @@ CanSensorSource::CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> s
       clocks_(clocks) {
   if (clocks_.realtime_us == nullptr) clocks_.realtime_us = &realtimeUs;
   if (clocks_.monotonic_us == nullptr) clocks_.monotonic_us = &monotonicUs;
+  last_read_ = readClocks();  // a step before the first drain is seen too (frames queue from here)
 }
 
 HostClockRead CanSensorSource::readClocks() const noexcept {
@@ -165,7 +166,8 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
     // real-time clock stepped since the previous read, the kernel's stamps of the frames still
     // queued say nothing until the socket has been emptied: they get the oldest possible receipt.
     const HostClockRead read = readClocks();
-    if (last_read_.mono_after_us > 0 && realtimeStepped(last_read_, read)) step_unresolved_ = true;
+    const bool stepped = realtimeStepped(last_read_, read);
+    if (stepped) step_unresolved_ = true;
     last_read_ = read;
     for (int i = 0; i < n; ++i) {
       if (!assembler_.feed(batch_[static_cast<std::size_t>(i)])) continue;
@@ -185,7 +187,9 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
     }
     if (n < static_cast<int>(batch_.size())) {  // emptied: later frames arrive after the call
       drained_at_mono_us_ = mono_before_receive_us;
-      step_unresolved_ = false;
+      // Resolved once a call that began after the step's read has emptied the socket (the step
+      // may lie after this call, before the read: frames of that moment are still queued).
+      if (!stepped) step_unresolved_ = false;
       break;
     }
   }

@@ -210,14 +210,23 @@ bool hasMoves(const std::vector<SampleContext>& ctx) {
   return false;
 }
 
-// A possible last model that `ftid identify --out` would still refuse (its inertia is not
-// determined): identify's reason, and the same model without rigid_body as what it can write.
-void noteUnwritable(const FitView& view, AnalysisResult& result) {
+// A possible last model that `ftid identify --out` would still refuse (its mass or inertia is not
+// determined): identify's reason, and the same model without rigid_body, fitted and judged by the
+// same rules, as what it can write.
+void noteUnwritable(const Engine& engine, const Fitted& last_fit, const FitView& view, AnalysisResult& result) {
   result.unwritable = writeRefusal(view);
-  if (result.unwritable.empty()) return;
-  std::vector<std::string> rest = detail::effectNames(*view.model);
+  if (result.unwritable.empty() || !last_fit.model.contains("rigid_body")) return;
+  std::vector<std::string> rest = detail::effectNames(last_fit.model);
   rest.erase(std::remove(rest.begin(), rest.end(), "rigid_body"), rest.end());
-  if (!rest.empty()) result.writable_alternative = detail::canonicalModel(rest).name();
+  if (rest.empty()) return;
+  try {
+    const Model alt = detail::canonicalModel(rest);
+    auto [lin, sol] = engine.fitFully(alt, last_fit.lin);
+    const FitView v = detail::fitView(alt, lin, sol, nullptr, engine.data().ctx);
+    if (physicsRefusals(v).empty() && writeRefusal(v).empty()) result.writable_alternative = alt.name();
+  } catch (const std::exception&) {  // no fit of the alternative: none is offered
+    result.writable_alternative.clear();
+  }
 }
 
 }  // namespace
@@ -467,7 +476,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
                               "; do not write or export its parameters");
   }
-  if (result.unphysical.empty()) noteUnwritable(last_view, result);
+  if (result.unphysical.empty()) noteUnwritable(engine, last_fit, last_view, result);
   // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics).
   {
     std::vector<char> excluded(tests.size(), 0);

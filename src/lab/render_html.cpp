@@ -362,7 +362,11 @@ void writeCandidates(std::ostringstream& o, const AnalysisResult& r) {
   }
   o << "</table>";
   for (const auto& u : r.unphysical) o << "<p><b>Not physically possible:</b> " << esc(u) << "</p>";
-  if (!r.unwritable.empty()) o << "<p><b>ftid identify would write no parameters:</b> " << esc(r.unwritable) << "</p>";
+  if (!r.unwritable.empty()) {
+    o << "<p><b>ftid identify would write no parameters:</b> " << esc(r.unwritable);
+    if (!r.writable_alternative.empty()) o << " It can write " << esc(r.writable_alternative) << ".";
+    o << "</p>";
+  }
   const bool any = !r.candidates.empty() && r.candidates.front().significant;
   o << "<p><b>" << (any ? "Missing effect: " + esc(r.candidates.front().effect) + " &mdash; " + esc(r.candidates.front().description)
                         : std::string("Nothing is missing: no candidate is recommended."))

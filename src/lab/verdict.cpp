@@ -8,6 +8,7 @@
 
 #include "ftid/effects/cable.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/identify/physical_check.hpp"
 #include "ftid/params/parameter_set.hpp"
 
 namespace ftid::lab {
@@ -258,22 +259,25 @@ std::vector<Refusal> physicsRefusals(const FitView& f) {
 }
 
 std::string writeRefusal(const FitView& f) {
-  if (f.model == nullptr || !f.model->contains("rigid_body")) return {};
+  if (f.model == nullptr) return {};
   params::ParameterSet set;
   set.model = f.model->name();
+  bool has_mass = false;
   const std::size_t n = std::min(f.names.size(), static_cast<std::size_t>(f.theta.size()));
   for (std::size_t i = 0; i < n; ++i) {
     const std::string& nm = f.names[i];
     if (nm != "mass" && nm.rfind("mass_com_", 0) != 0 && nm.rfind("i_s_", 0) != 0) continue;
     const int k = static_cast<int>(i);
     set.params.push_back({nm, f.theta(k), std::sqrt(std::max(0.0, f.covariance(k, k))), ""});
+    has_mass = has_mass || nm == "mass";
   }
-  const auto problem = params::findParameterProblem(set);
-  if (!problem) return {};
-  std::string refused;
-  params::projectInertiaWithinUncertainty(&set, &refused);
-  if (!params::findParameterProblem(set)) return {};  // identify writes the projected inertia
-  return problem->message + (refused.empty() ? "" : " (" + refused + ")");
+  if (!has_mass) return {};
+  // As `ftid identify --out`: an inertia within its uncertainty is projected, then the check.
+  std::string not_projected;
+  params::projectInertiaWithinUncertainty(&set, &not_projected);
+  const identify::PhysicalValidity validity = identify::checkPhysicalValidity(set);
+  if (validity.valid) return {};
+  return validity.problem->message + (not_projected.empty() ? "" : " (" + not_projected + ")");
 }
 
 double wrapAngle(double rad) {

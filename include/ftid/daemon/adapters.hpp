@@ -83,9 +83,9 @@ std::int64_t monotonicReceiptUs(std::int64_t recv_utime, std::int64_t real_now_u
                                 std::int64_t mono_now_us) noexcept;
 
 /// True if CLOCK_REALTIME stepped between two reads of both clocks (prev, then now): their
-/// offset real - mono changed by more than both reads' spans, plus 1000 ppm of the time between
-/// them (twice the fastest slew adjtime makes) plus 0.5 ms. A smaller step moves an age by less
-/// than 0.5 ms plus those spans.
+/// offset real - mono changed by more than both reads' spans plus 0.5 ms. Slewing (NTP,
+/// adjtime) changes both clocks' rate alike and never the offset; only a step does. A smaller
+/// step moves an age by less than 0.5 ms plus those spans.
 bool realtimeStepped(const HostClockRead& prev, const HostClockRead& now) noexcept;
 
 /// The host clocks a CanSensorSource reads right after each receive batch [us]; nullptr: the
@@ -112,12 +112,12 @@ class CanSensorSource final : public SensorSource {
   /// `health` must be the options the sensor was opened with (CanSensorConfig::health). Every
   /// sample gets its receipt on the monotonic clock, recv_mono_us: monotonicReceiptUs(its
   /// recv_utime, both clocks read after the receive batch that completed it), unless the
-  /// real-time clock stepped since the previous read (realtimeStepped); then, until the socket
-  /// has been emptied, the kernel's stamps say nothing and each receipt is put at the oldest
-  /// time it can have: just before the receive call that last emptied the socket (0, unknown,
-  /// if none did). A step makes no sample younger than it is by more than realtimeStepped's
-  /// tolerance, apart from frames that arrive within the microseconds between that call and the
-  /// clocks' read (docs/daemon.md, "Ages on the monotonic clock").
+  /// real-time clock stepped since the previous read (realtimeStepped; the first read is at
+  /// construction); then, until a receive call begun after the step's detection has emptied the
+  /// socket, the kernel's stamps say nothing and each receipt is put at the oldest time it can
+  /// have: just before the receive call that last emptied the socket (0, unknown, if none did).
+  /// A step makes no sample younger than it is by more than realtimeStepped's tolerance
+  /// (docs/daemon.md, "Ages on the monotonic clock").
   CanSensorSource(std::unique_ptr<drivers::can::CanFtImuSensor> sensor,
                   const drivers::can::SensorHealthOptions& health, HostClocks clocks = {});
   /// Any thread: true if the transport in use closed or failed and no replacement is waiting.
@@ -154,7 +154,7 @@ class CanSensorSource final : public SensorSource {
   SensorSampleRecord record_;
   std::uint32_t interval_flags_ = 0;  ///< gap / error-frame flags pumped since the last drain()
   HostClocks clocks_;
-  HostClockRead last_read_;          ///< after the previous receive batch (mono 0: none yet)
+  HostClockRead last_read_;  ///< after the previous receive batch (at construction before any)
   /// Monotonic time just before the last receive call that emptied the socket (0: none yet).
   std::int64_t drained_at_mono_us_ = 0;
   bool step_unresolved_ = false;  ///< a real-time step seen, the socket not emptied since

@@ -92,11 +92,13 @@ std::vector<Refusal> physicsRefusals(const FitView& f);
 
 /// Whether `ftid identify --out` would write this fit's payload: identify's own rule applied to
 /// the fit's mass, centre of mass and rigid-body inertia with their standard errors
-/// (params::findParameterProblem, then params::projectInertiaWithinUncertainty). "" when it
-/// would, as estimated or projected onto the nearest possible inertia; otherwise identify's
-/// reason for refusing. A model can pass physicsRefusals (possible within 3 standard errors)
-/// and still be refused here, when the data do not determine its inertia: the laboratory then
-/// gives no advice to write it (docs/analyze.md, "Advice to write parameters").
+/// (params::projectInertiaWithinUncertainty, then identify::checkPhysicalValidity: a determined
+/// mass, a possible inertia). "" when it would, as estimated or with the inertia projected;
+/// otherwise identify's reason for refusing. A model can pass physicsRefusals (possible within
+/// 3 standard errors) and still be refused here, when the data do not determine its mass or
+/// inertia: the laboratory then gives no advice to write it (docs/analyze.md, "Advice to write
+/// parameters"). Not judged here: the cell's plausibility limits (rated payload, sensor range),
+/// which identify reads from the cell's configuration, and identify's own fit (with the IMU).
 std::string writeRefusal(const FitView& f);
 
 /// Angle wrapped to (-pi, pi].

@@ -140,13 +140,19 @@ TEST(Verdict, WriteRefusalFollowsIdentifysProjectionRule) {
   const std::string why = lab::writeRefusal(u);
   EXPECT_NE(why.find("triangle inequality"), std::string::npos) << why;
   EXPECT_NE(why.find("do not determine the inertia"), std::string::npos) << why;
+  // Any model with a mass: identify refuses a mass the data do not determine (its standard error
+  // above a third of it), as the verdict's physics, possible within 3 standard errors, does not.
   const auto paper = effects::Model::fromName("paper");
   lab::FitView p;
   p.model = &paper;
   p.names = paper.paramIndex().names();
   p.theta = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(p.names.size()));
-  p.covariance = Eigen::MatrixXd::Identity(p.theta.size(), p.theta.size());
+  p.covariance = Eigen::MatrixXd::Identity(p.theta.size(), p.theta.size()) * 1e-4;
+  p.theta(col(p, "mass")) = 0.9;  // +- 0.01
   EXPECT_EQ(lab::writeRefusal(p), "");
+  p.covariance(col(p, "mass"), col(p, "mass")) = 0.4 * 0.4;  // 0.9 +- 0.4
+  EXPECT_TRUE(lab::physicsRefusals(p).empty());
+  EXPECT_NE(lab::writeRefusal(p).find("not determined"), std::string::npos) << lab::writeRefusal(p);
 }
 
 // A mass that moves with a signal must be positive at every sample of the fit, not only at the
