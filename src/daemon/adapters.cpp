@@ -174,9 +174,10 @@ void CanSensorSource::pump(SensorHistory* history) noexcept {
       assembler_.readLatest(sample_, assembler_.latest().rx_time_ns);
       interval_flags_ |= intervalEvents(sample_.health_flags);
       toSensorRecord(sample_, &record_);
-      record_.recv_mono_us =
-          step_unresolved_ ? drained_at_mono_us_
-                  : monotonicReceiptUs(record_.recv_utime, read.real_us, read.monoUs());
+      // mono_before_us: no later than the real-time read, so a receipt is never made younger.
+      record_.recv_mono_us = step_unresolved_ ? drained_at_mono_us_
+                                              : monotonicReceiptUs(record_.recv_utime, read.real_us,
+                                                                   read.mono_before_us);
       history->push(record_);
     }
     total += n;

@@ -171,7 +171,7 @@ std::string formatText(const AnalysisResult& r) {
     // Possible, but identify would refuse to write it: say so, and what it can write.
     const std::string& m = r.steps.back().model;
     s += "\nftid identify writes no parameter file for " + m + ": " + r.unwritable + "\n";
-    s += "  for one, record a motion with more wrist rotation (ftid design) and identify on it";
+    s += "  for one, record a richer motion (ftid design: more orientations, more wrist rotation) and identify on it";
     if (!r.writable_alternative.empty()) {
       s += ",\n  or leave the inertia terms out of the compensation:\n  ftid identify --log " + shellQuote(r.log) +
            " --model " + shellQuote(r.writable_alternative) + " --out params.yaml";

@@ -111,7 +111,8 @@ class CanSensorSource final : public SensorSource {
  public:
   /// `health` must be the options the sensor was opened with (CanSensorConfig::health). Every
   /// sample gets its receipt on the monotonic clock, recv_mono_us: monotonicReceiptUs(its
-  /// recv_utime, both clocks read after the receive batch that completed it), unless the
+  /// recv_utime, the real-time read after the receive batch that completed it, and the monotonic
+  /// read just before that, so that a preempted read makes it older, never younger), unless the
   /// real-time clock stepped since the previous read (realtimeStepped; the first read is at
   /// construction); then, until a receive call begun after the step's detection has emptied the
   /// socket, the kernel's stamps say nothing and each receipt is put at the oldest time it can
