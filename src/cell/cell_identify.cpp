@@ -481,9 +481,12 @@ void analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
       break;
     }
   }
-  for (const auto& cp : ar.change_points) {  // change in time (lab/change_point.hpp)
-    print("WARNING: " + lab::describeChangePoint(cp) + ": the run holds two set-ups; the parameters describe "
-          "neither. Repeat the run without the change.");
+  if (!ar.change_points.empty()) {  // change in time (lab/change_point.hpp)
+    std::string what;
+    for (const auto& cp : ar.change_points) what += (what.empty() ? "" : "; ") + lab::describeChangePoint(cp);
+    print("WARNING: " + what + ": the run holds " + std::to_string(ar.change_points.size() + 1) +
+          " set-ups; the parameters describe none of them. Repeat the run without the change (no contact, "
+          "no grasp or release while it moves).");
   }
   if (top) {
     result.suggested_effect = top->effect;

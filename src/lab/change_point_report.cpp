@@ -76,10 +76,32 @@ std::string describeChangePoint(const ChangePoint& cp) {
   return s;
 }
 
-std::vector<std::string> splitCommands(const ChangePoint& cp, const std::string& log_cmd, const std::string& model) {
-  const std::string t = timeArg(cp);
+std::vector<std::string> segmentCommands(const std::vector<ChangePoint>& cps, const std::string& log_cmd,
+                                         const std::string& model) {
   const std::string m = " --model " + shellQuote(model);
-  return {"ftid analyze " + log_cmd + " --t-to " + t + m, "ftid analyze " + log_cmd + " --t-from " + t + m};
+  std::vector<std::string> out;
+  for (std::size_t j = 0; j <= cps.size(); ++j) {
+    std::string c = "ftid analyze " + log_cmd;
+    if (j > 0) c += " --t-from " + timeArg(cps[j - 1]);
+    if (j < cps.size()) c += " --t-to " + timeArg(cps[j]);
+    out.push_back(c + m);
+  }
+  return out;
+}
+
+bool undoes(const ChangePoint& first, const ChangePoint& second) {
+  if (first.kind != second.kind || first.delta.size() != second.delta.size()) return false;
+  double left = 0.0, changed = 0.0;
+  bool shown = false;
+  for (std::size_t j = 0; j < first.delta.size(); ++j) {
+    const ChangeDelta& a = first.delta[j];
+    const ChangeDelta& b = second.delta[j];
+    const double sd = std::max(a.std, 1e-300);
+    left += std::pow((a.value + b.value) / sd, 2);
+    changed += std::pow(a.value / sd, 2);
+    shown = shown || std::abs(a.value) > 3.0 * a.std;
+  }
+  return shown && left <= 0.25 * changed;
 }
 
 void applyTimeWindow(samples::ContextSet& set, double t_from, double t_to, const std::string& log) {
@@ -107,6 +129,14 @@ void applyTimeWindow(samples::ContextSet& set, double t_from, double t_to, const
 
 namespace detail {
 
+/// What two change points of one log say together.
+std::string transientNote(const std::vector<ChangePoint>& cps) {
+  if (cps.size() < 2) return "";
+  return undoes(cps[0], cps[1]) ? "the second change undoes the first: a transient, such as a contact with the tool "
+                                  "or an object held for a while"
+                                : "two changes";
+}
+
 void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result) {
   double best = 0.0;
   for (const auto& c : result.candidates) {
@@ -114,20 +144,26 @@ void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResul
   }
   ScanNote note;
   const auto t0 = std::chrono::steady_clock::now();
-  const auto cp = findChangePoint(rc, base, best, &note);
+  const auto cps = findChangePoints(rc, base, best, &note);
   say(rc.options, "change-point scan: " +
                       fmt(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 3) + " s");
   result.change_point_scan_p = note.p_scan;
-  if (!cp) {
+  if (cps.empty()) {
     if (!note.why.empty()) say(rc.options, "no change point: " + note.why);
     return;
   }
-  result.change_points.push_back(*cp);
-  const auto cmds = splitCommands(*cp, rc.log_cmd, base.model.name());
-  say(rc.options, describeChangePoint(*cp));
-  result.warnings.push_back(describeChangePoint(*cp) + ": the log holds two set-ups, which no smooth effect "
-                            "describes; analyze each segment (" + cmds[0] + "; " + cmds[1] +
-                            ") and write no parameters fitted across the change");
+  result.change_points = cps;
+  const auto cmds = segmentCommands(cps, rc.log_cmd, base.model.name());
+  std::string what;
+  for (const auto& cp : cps) {
+    say(rc.options, describeChangePoint(cp));
+    what += (what.empty() ? "" : "; ") + describeChangePoint(cp);
+  }
+  std::string list;
+  for (const auto& c : cmds) list += (list.empty() ? "" : "; ") + c;
+  result.warnings.push_back(what + ": the log holds " + (cps.size() == 1 ? "two set-ups" : "three stretches") +
+                            ", which no smooth effect describes" + (cps.size() > 1 ? " (" + transientNote(cps) + ")" : "") +
+                            "; analyze each segment (" + list + ") and write no parameters fitted across a change");
 }
 
 std::string changePointText(const AnalysisResult& r) {
@@ -136,26 +172,28 @@ std::string changePointText(const AnalysisResult& r) {
   for (const auto& cp : r.change_points) {
     s += describeChangePoint(cp) + "\n";
     s += "  (" + std::string(cp.kind == "payload" ? "payload step: mass, centre of mass" : "offsets step") +
-         "; held-out error " + fixed(-100.0 * cp.heldout_reduction, 1, true) + " % with the step; family-wise p = " +
+         "; held-out error " + fixed(-100.0 * cp.heldout_reduction, 1, true) + " % with the steps; family-wise p = " +
          (cp.family_p < 1e-300 ? std::string("< 1e-300") : fmt(cp.family_p, 2)) + ")\n";
-    const auto cmds = splitCommands(cp, shellQuote(r.log), r.report.model);
-    s += "  the log holds two set-ups: analyze each segment, not one model with smooth effects:\n";
-    for (const auto& c : cmds) s += "    " + c + "\n";
   }
+  if (r.change_points.size() > 1) s += "  " + transientNote(r.change_points) + "\n";
+  s += "  the log holds " + std::to_string(r.change_points.size() + 1) +
+       " set-ups: analyze each segment, not one model with smooth effects:\n";
+  for (const auto& c : segmentCommands(r.change_points, shellQuote(r.log), r.report.model)) s += "    " + c + "\n";
   return s + "\n";
 }
 
 std::string changePointHtml(const AnalysisResult& r) {
   if (r.change_points.empty()) return "";
   std::ostringstream o;
-  o << "<h2>Change in time</h2>\n";
+  o << "<h2>Change in time</h2>\n<p class=\"warn\">";
   for (const auto& cp : r.change_points) {
-    o << "<p class=\"warn\"><b>" << escHtml(describeChangePoint(cp)) << "</b> (held-out error "
-      << escHtml(fixed(-100.0 * cp.heldout_reduction, 1, true)) << " % with the step). The log holds two set-ups: "
-      << "analyze each segment:<br>";
-    for (const auto& c : splitCommands(cp, shellQuote(r.log), r.report.model)) o << "<code>" << escHtml(c) << "</code><br>";
-    o << "</p>\n";
+    o << "<b>" << escHtml(describeChangePoint(cp)) << "</b> (held-out error "
+      << escHtml(fixed(-100.0 * cp.heldout_reduction, 1, true)) << " % with the steps).<br>";
   }
+  if (r.change_points.size() > 1) o << escHtml(transientNote(r.change_points)) << ".<br>";
+  o << "The log holds " << r.change_points.size() + 1 << " set-ups: analyze each segment:<br>";
+  for (const auto& c : segmentCommands(r.change_points, shellQuote(r.log), r.report.model)) o << "<code>" << escHtml(c) << "</code><br>";
+  o << "</p>\n";
   return o.str();
 }
 
@@ -166,18 +204,21 @@ void addChangePointsJson(const AnalysisResult& r, nlohmann::ordered_json& o) {
     for (const auto& d : cp.delta) {
       delta[d.name] = Json{{"value", jsonNumber(d.value)}, {"std", jsonNumber(d.std)}, {"unit", d.unit}};
     }
-    Json split = Json::array();
-    for (const auto& c : splitCommands(cp, shellQuote(r.log), r.report.model)) split.push_back(c);
     list.push_back(Json{{"t", jsonNumber(cp.t)},
                         {"t_std", jsonNumber(cp.t_std)},
                         {"kind", cp.kind},
                         {"delta", std::move(delta)},
                         {"p_value", jsonNumber(cp.p_value)},
                         {"family_p_value", jsonNumber(cp.family_p)},
-                        {"heldout_reduction", jsonNumber(cp.heldout_reduction)},
-                        {"split_commands", std::move(split)}});
+                        {"heldout_reduction", jsonNumber(cp.heldout_reduction)}});
   }
+  Json split = Json::array();
+  for (const auto& c : segmentCommands(r.change_points, shellQuote(r.log), r.report.model)) split.push_back(c);
   o["change_points"] = std::move(list);
+  if (!r.change_points.empty()) {
+    o["segment_commands"] = std::move(split);
+    if (r.change_points.size() > 1) o["change_points_undo"] = undoes(r.change_points[0], r.change_points[1]);
+  }
   o["change_point_scan_p_value"] = jsonNumber(r.change_point_scan_p);
 }
 

@@ -8,48 +8,14 @@
 #include <random>
 #include <tuple>
 
+#include "change_point_core.hpp"
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/normal_equations.hpp"
 
-namespace ftid::lab::detail {
+namespace ftid::lab::detail::cpscan {
 
 namespace {
-
-using Design = Engine::Design;
-
-constexpr int kMaxGrid = 1000;            // splits scanned at most (a coarser grid on long logs)
-constexpr int kMinSegment = 20;           // samples on either side of a split, at least
-constexpr double kArgmaxVariance = 26.0;  // Var of argmax_s (W(s) - |s|/2) (Bai 1997)
-constexpr double kRankTolerance = 1e-9;   // of the step's information matrix (equilibrated)
-
-struct Kind {
-  std::string name;    // "payload" or "offsets"
-  std::vector<int> u;  // positions in ScanData::cols
-};
-
-/// The regressor and residual a scan reads (whitened rows of the fitting samples).
-struct ScanData {
-  const Engine* eng = nullptr;
-  Design X;                 // base design, measurement last
-  int p = 0;                // its parameter columns
-  int n = 0;                // fitting samples
-  Eigen::VectorXd r;        // residual of the base fit per row of the fitting samples
-  Eigen::MatrixXd a_inv;    // (X^T X)^+ on the fitting rows
-  std::vector<int> cols;    // the step columns of every kind (X columns)
-  std::vector<std::string> names, units;
-  std::vector<Kind> kinds;
-  double sigma2 = 1.0;      // residual variance of the base fit (whitened)
-  Design xs;                // the step columns of X, contiguous (rows of the fitting samples)
-  std::vector<int> rows;    // rows[6 i + a]: the row of sample i, axis a
-  double scale_sd = 0.0;    // colourScaleSd
-};
-
-/// The pseudo-inverse of one split's step information Z^T M Z for one kind.
-struct SplitForm {
-  Eigen::MatrixXd inv;
-  int rank = 0;
-};
 
 /// The best split of a scan: grid position, kind and its score.
 struct Best {
@@ -81,97 +47,6 @@ void stepColumns(const effects::Model& model, ScanData& s) {
   };
   add(payload, "payload");
   add(offsets, "offsets");
-}
-
-ScanData scanData(const RankContext& rc, const Fitted& base) {
-  ScanData s;
-  s.eng = &rc.eng;
-  s.X = rc.eng.design(base.model, base.lin);
-  s.p = static_cast<int>(s.X.cols()) - 1;
-  s.n = rc.eng.data().n_fit;
-  s.scale_sd = rc.scale_sd;
-  stepColumns(base.model, s);
-  s.rows.resize(6 * static_cast<std::size_t>(s.n));
-  s.xs.resize(6 * static_cast<Eigen::Index>(s.n), static_cast<Eigen::Index>(s.cols.size()));
-  for (int i = 0; i < s.n; ++i) {
-    for (int a = 0; a < 6; ++a) {
-      const int row = rc.eng.core().rowOf(i, a);
-      s.rows[static_cast<std::size_t>(6 * i + a)] = row;
-      for (std::size_t j = 0; j < s.cols.size(); ++j) s.xs(row, static_cast<Eigen::Index>(j)) = s.X(row, s.cols[j]);
-    }
-  }
-  const auto xf = s.X.topRows(6 * static_cast<Eigen::Index>(s.n));
-  const Eigen::MatrixXd gram = xf.leftCols(s.p).transpose() * xf.leftCols(s.p);
-  const auto sol = identify::solveGram(gram, xf.leftCols(s.p).transpose() * xf.col(s.p), true);
-  s.a_inv = sol.inverse;
-  s.r = xf.col(s.p) - xf.leftCols(s.p) * sol.x;
-  int active = 0;
-  for (Eigen::Index i = 0; i < xf.rows(); ++i) active += xf.row(i).squaredNorm() > 0.0 ? 1 : 0;
-  s.sigma2 = std::max(1e-300, s.r.squaredNorm() / std::max(1, active - sol.rank));
-  return s;
-}
-
-/// Adds sample i's rows to the sums C = sum x_S x^T (optional) and v = sum x_S r.
-void addSample(const ScanData& s, int i, Eigen::MatrixXd* c, Eigen::VectorXd& v, const Eigen::VectorXd& r) {
-  for (int a = 0; a < 6; ++a) {
-    const int row = s.rows[static_cast<std::size_t>(6 * i + a)];
-    const auto x = s.xs.row(row);
-    v.noalias() += r(row) * x.transpose();
-    if (c != nullptr) c->noalias() += x.transpose() * s.X.row(row).head(s.p);
-  }
-}
-
-/// Calls f(position, C, v) at every split ks[position] (increasing) with the sums over the
-/// samples from the split to the end of the fitting log (the step columns' side).
-template <class F>
-void sweep(const ScanData& s, const std::vector<int>& ks, bool with_c, const Eigen::VectorXd& r, F f) {
-  const auto q = static_cast<Eigen::Index>(s.cols.size());
-  Eigen::MatrixXd c_total = Eigen::MatrixXd::Zero(with_c ? q : 0, s.p), c = c_total;
-  Eigen::VectorXd v_total = Eigen::VectorXd::Zero(q), v = v_total;
-  for (int i = ks.empty() ? s.n : ks.front(); i < s.n; ++i) addSample(s, i, with_c ? &c_total : nullptr, v_total, r);
-  int i = ks.empty() ? 0 : ks.front();
-  for (std::size_t g = 0; g < ks.size(); ++g) {
-    while (i < ks[g]) addSample(s, i++, with_c ? &c : nullptr, v, r);
-    f(g, c_total - c, v_total - v);
-  }
-}
-
-SplitForm splitForm(const ScanData& s, const Kind& kind, const Eigen::MatrixXd& c_suffix) {
-  const auto q = static_cast<Eigen::Index>(kind.u.size());
-  Eigen::MatrixXd cz(q, s.p);
-  Eigen::MatrixXd zz(q, q);
-  for (Eigen::Index j = 0; j < q; ++j) {
-    cz.row(j) = c_suffix.row(kind.u[static_cast<std::size_t>(j)]);
-    for (Eigen::Index l = 0; l < q; ++l) zz(j, l) = cz(j, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(l)])]);
-  }
-  const Eigen::MatrixXd info = zz - cz * s.a_inv * cz.transpose();
-  const auto g = identify::solveGram(0.5 * (info + info.transpose()), Eigen::VectorXd::Zero(q), true, kRankTolerance);
-  return {g.inverse, g.rank};
-}
-
-Eigen::VectorXd sub(const Eigen::VectorXd& v, const Kind& kind) {
-  Eigen::VectorXd out(static_cast<Eigen::Index>(kind.u.size()));
-  for (std::size_t j = 0; j < kind.u.size(); ++j) out(static_cast<Eigen::Index>(j)) = v(kind.u[j]);
-  return out;
-}
-
-/// log of the chi-square survival function (for ranking splits and kinds of different degrees of
-/// freedom): exact while it is representable, else its large-statistic asymptote
-/// log Q(k/2, x/2) ~ -x/2 + (k/2 - 1) log(x/2) - lgamma(k/2).
-double logSurvival(double chi2, int dof) {
-  const double p = chiSquareSurvival(chi2, dof);
-  if (p > 1e-280) return std::log(p);
-  const double h = 0.5 * std::max(1, dof);
-  return -0.5 * chi2 + (h - 1.0) * std::log(0.5 * chi2) - std::lgamma(h);
-}
-
-std::vector<int> gridOf(int n, int step_cap) {
-  const int margin = std::max(kMinSegment, n / 50);
-  std::vector<int> ks;
-  if (n - margin <= margin) return ks;
-  const int step = std::max(1, (n - 2 * margin + step_cap - 1) / step_cap);
-  for (int k = margin; k <= n - margin; k += step) ks.push_back(k);
-  return ks;
 }
 
 /// The observed scan: forms of every split and kind (for the null) and the best split.
@@ -251,58 +126,31 @@ Best refine(const ScanData& s, const Best& coarse, int step) {
   return best;
 }
 
-/// The whitened design of the base model at `lin` with the step columns of `kind` from sample k on
-/// (the raw design's columns masked, then whitened as every design is).
-Design stepDesign(const ScanData& s, const effects::Model& model, const Linearization& lin, const Kind& kind, int k,
-                  bool whitened = true) {
-  const Engine& eng = *s.eng;
-  const Design raw = eng.rawDesign(model, lin);
-  const auto q = static_cast<Eigen::Index>(kind.u.size());
-  Design xe = Design::Zero(raw.rows(), s.p + q + 1);
-  xe.leftCols(s.p) = raw.leftCols(s.p);
-  xe.col(s.p + q) = raw.col(s.p);
-  for (int i = k; i < eng.data().size(); ++i) {
-    for (int a = 0; a < 6; ++a) {
-      const int row = eng.core().rowOf(i, a);
-      for (Eigen::Index j = 0; j < q; ++j) xe(row, s.p + j) = raw(row, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)])]);
-    }
-  }
-  if (whitened) eng.core().whiten(xe, 0, static_cast<int>(xe.cols()));
-  return xe;
-}
-
-/// Moves the tilt by the solution's correction and recomputes its Jacobian columns with the
-/// parameters before the change for the samples before k and with the step added after it.
-bool stepTilt(const ScanData& s, const effects::Model& model, const Kind& kind, int k, const Solution& sol,
-              Linearization& lin) {
+/// Moves the tilt by the solution's correction and recomputes its Jacobian columns per segment:
+/// before at[0] with the parameters before the change, from at[j] on with the steps up to j added.
+bool stepTilt(const ScanData& s, const effects::Model& model, const Kind& kind, const std::vector<int>& at,
+              const Solution& sol, Linearization& lin) {
   const int pm = model.numParams();
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  const auto steps = static_cast<Eigen::Index>(at.size());
   const double du = sol.theta(pm), dv = sol.theta(pm + 1);
   lin.u += du;
   lin.v += dv;
-  Eigen::VectorXd after = sol.theta.head(s.p);
-  for (std::size_t j = 0; j < kind.u.size(); ++j) {
-    after(s.cols[static_cast<std::size_t>(kind.u[j])]) += sol.theta(s.p + static_cast<Eigen::Index>(j));
+  Eigen::VectorXd theta = sol.theta.head(s.p);
+  const Linearization moved = lin;
+  s.eng->tiltColumns(model, lin, theta);
+  for (Eigen::Index m = 0; m < steps; ++m) {
+    for (Eigen::Index j = 0; j < q; ++j) {
+      theta(s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)])]) += sol.theta(s.p + m * q + j);
+    }
+    Linearization lb = moved;
+    s.eng->tiltColumns(model, lb, theta);
+    const Eigen::Index from = at[static_cast<std::size_t>(m)];
+    const Eigen::Index to = m + 1 < steps ? at[static_cast<std::size_t>(m + 1)] : lin.j_u.cols();
+    lin.j_u.middleCols(from, to - from) = lb.j_u.middleCols(from, to - from);
+    lin.j_v.middleCols(from, to - from) = lb.j_v.middleCols(from, to - from);
   }
-  Linearization lb = lin;
-  s.eng->tiltColumns(model, lin, sol.theta.head(s.p));
-  s.eng->tiltColumns(model, lb, after);
-  const Eigen::Index tail = lin.j_u.cols() - k;
-  lin.j_u.rightCols(tail) = lb.j_u.rightCols(tail);
-  lin.j_v.rightCols(tail) = lb.j_v.rightCols(tail);
   return std::abs(du) + std::abs(dv) > 1e-9;
-}
-
-/// The base model refitted with the step of `kind` from sample k on, the tilt shared and
-/// re-linearised (Gauss-Newton, a few passes: the start's tilt was fitted without the step): the
-/// exact fit behind the reported step and its held-out error.
-std::pair<Linearization, Solution> fitWithStep(const ScanData& s, const Fitted& base, const Kind& kind, int k,
-                                               int passes) {
-  Linearization lin = base.lin;
-  Solution sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
-  for (int pass = 0; pass < passes && lin.tilt_columns && stepTilt(s, base.model, kind, k, sol, lin); ++pass) {
-    sol = s.eng->solve(stepDesign(s, base.model, lin, kind, k), true);
-  }
-  return {lin, sol};
 }
 
 /// The change point's time uncertainty from the step's per-sample signal delta^2 near the split
@@ -325,36 +173,6 @@ double timeStd(const ScanData& s, const Kind& kind, const Eigen::VectorXd& step,
   const double samples_sd = delta2 > 0.0 ? std::sqrt(kArgmaxVariance) / delta2 : 1e9;
   return dt * std::sqrt(samples_sd * samples_sd + 1.0 / 12.0);
 }
-
-ChangePoint describe(const ScanData& s, const Kind& kind, const Solution& sol, int k) {
-  const auto& ctx = s.eng->data().ctx;
-  ChangePoint cp;
-  cp.kind = kind.name;
-  cp.sample = k;
-  const double t0 = ctx[static_cast<std::size_t>(k - 1)].t, t1 = ctx[static_cast<std::size_t>(k)].t;
-  cp.t = 0.5 * (t0 + t1);
-  cp.t_first = ctx.front().t;
-  cp.t_last = ctx[static_cast<std::size_t>(s.n - 1)].t;
-  const auto q = static_cast<Eigen::Index>(kind.u.size());
-  const Eigen::VectorXd step = sol.theta.segment(s.p, q);
-  for (Eigen::Index j = 0; j < q; ++j) {
-    const auto u = static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)]);
-    cp.delta.push_back({s.names[u], s.units[u], step(j), std::sqrt(std::max(0.0, sol.covariance(s.p + j, s.p + j)))});
-  }
-  const double dt = (cp.t_last - cp.t_first) / std::max(1, s.n - 1);
-  cp.t_std = timeStd(s, kind, step, k, dt);
-  return cp;
-}
-
-/// One scan against `base` on rc's engine: the best split, its exact fit and the scan's p-value.
-struct Scan {
-  ScanData data;
-  Kind kind;
-  int k = -1;
-  double p_scan = 1.0;
-  Linearization lin;
-  Solution sol;
-};
 
 /// `with_null` = false only locates the split (no simulated null). The step is not fitted yet
 /// (relinearised() fits it).
@@ -380,12 +198,6 @@ std::optional<Scan> scanOnce(const RankContext& rc, const Fitted& base, bool wit
   return sc;
 }
 
-/// The step's fit with the tilt re-linearised (the one judged and reported).
-Scan relinearised(Scan sc, const Fitted& base) {
-  std::tie(sc.lin, sc.sol) = fitWithStep(sc.data, base, sc.kind, sc.k, 5);
-  return sc;
-}
-
 /// The fitting samples' readings alone: the noise floor before any model (robust to a step: the
 /// 4th-order differences see it in 5 samples at most, which their median ignores).
 std::vector<SampleContext> fittingSamples(const Engine& eng) {
@@ -406,15 +218,15 @@ bool dense(const identify::NoiseFloor& nf) {
   return nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured;
 }
 
-/// The noise model re-estimated from the residual of the model with the step (the start's
-/// residual holds the step itself, which reads as strongly coloured noise).
+/// The noise model re-estimated from the residual of the model with the steps (the start's
+/// residual holds the steps themselves, which reads as strongly coloured noise).
 identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
-  const auto [lin, sol] = fitWithStep(sc.data, base, sc.kind, sc.k, 0);
+  const auto [lin, sol] = fitWithSteps(sc.data, base, sc.kind, sc.splits(), 0);
   const Engine& eng = *sc.data.eng;
   const std::vector<SampleContext> fit = fittingSamples(eng);
   identify::NoiseFloor nf = identify::estimateNoiseFloor(fit);
   if (!dense(nf)) return nf;
-  const Design raw = stepDesign(sc.data, base.model, lin, sc.kind, sc.k, false);
+  const Design raw = stepDesign(sc.data, base.model, lin, sc.kind, sc.splits(), false);
   const auto cols = raw.cols() - 1;
   const auto n = static_cast<int>(fit.size());
   Mat6X res(6, n);
@@ -458,33 +270,45 @@ Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::No
   return p;
 }
 
-/// The rule on the scan's best split (the change point one more candidate of the family), then
-/// the comparison with the best recommended smooth candidate.
-std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& scanned,
-                                 double best_smooth_reduction, ScanNote* note) {
-  RuleInputs in;
-  in.p_value = scanned.p_scan;
-  in.family_size = rc.family_size + 1;
-  in.family_alpha = rc.options.family_alpha;
-  in.min_heldout_reduction = rc.options.search_heldout_margin;  // its test is in-sample (docs/analyze.md)
-  in.added_params = static_cast<int>(scanned.kind.u.size());
-  in.heldout_reduction = 1.0;  // significance first: the step is fitted only when it is significant
+/// The rule on the scan's best split (and a second change after it, when significant: a change
+/// that ends), then the comparison with the best recommended smooth candidate.
+std::vector<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& scanned,
+                               double best_smooth_reduction, ScanNote* note) {
+  RuleInputs in = changeRule(rc, scanned.p_scan, static_cast<int>(scanned.kind.u.size()));
   if (note != nullptr) note->p_scan = scanned.p_scan;
   const auto& ctx = rc.eng.data().ctx;
   const double t_split = 0.5 * (ctx[static_cast<std::size_t>(scanned.k - 1)].t + ctx[static_cast<std::size_t>(scanned.k)].t);
   const std::string where = "the best split (" + scanned.kind.name + " step at t = " + fmt(t_split, 6) + " s)";
   Decision d = decide(in);
   if (d.verdict == Verdict::kRecommended) {
-    const Scan sc = relinearised(scanned, base);
+    // The exact fit with the step, and with a second change after it when that one is significant
+    // and lowers the held-out error of the one-step model by the margin (the rule, as for any
+    // effect added to a model): judged on its held-out error against the start.
+    Second second;
+    Scan sc = relinearised(scanned, base);
+    const Scan two = withSecond(rc, scanned, second);
+    Decision d2;
+    if (two.k2 > 0) {
+      const Scan sc2 = relinearised(two, base);
+      RuleInputs in2 = changeRule(rc, second.p, sc2.sol.rank - sc.sol.rank);
+      in2.heldout_reduction = 1.0 - sc2.sol.sse_heldout / std::max(1e-300, sc.sol.sse_heldout);
+      d2 = decide(in2);
+      if (d2.verdict == Verdict::kRecommended) sc = sc2;
+    }
     in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
     in.added_params = sc.sol.rank - base.sol.rank;
     d = decide(in);
     if (d.verdict == Verdict::kRecommended && in.heldout_reduction > best_smooth_reduction) {
-      ChangePoint cp = describe(sc.data, sc.kind, sc.sol, sc.k);
-      cp.p_value = sc.p_scan;
-      cp.family_p = d.family_p;
-      cp.heldout_reduction = in.heldout_reduction;
-      return cp;
+      std::vector<ChangePoint> cps;
+      const std::vector<int> at = sc.splits();
+      for (std::size_t m = 0; m < at.size(); ++m) {
+        ChangePoint cp = describe(sc.data, sc.kind, sc.sol, at[m], static_cast<int>(m));
+        cp.p_value = m == 0 ? sc.p_scan : second.p;
+        cp.family_p = m == 0 ? d.family_p : d2.family_p;
+        cp.heldout_reduction = in.heldout_reduction;
+        cps.push_back(cp);
+      }
+      return cps;
     }
   }
   if (note != nullptr) {
@@ -493,15 +317,13 @@ std::optional<ChangePoint> judge(const RankContext& rc, const Fitted& base, cons
                     : where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
                           " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
   }
-  return std::nullopt;
+  return {};
 }
 
-}  // namespace
-
-std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
-                                           ScanNote* note) {
+std::vector<ChangePoint> findSteps(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
+                                   ScanNote* note) {
   const std::optional<Scan> first = scanOnce(rc, base, true);
-  if (!first) return std::nullopt;
+  if (!first) return {};
   if (rc.options.noise_std) return judge(rc, base, *first, best_smooth_reduction, note);
   // The analysis' noise model came from the start's residual, which holds a step if there is one
   // (it reads as strongly coloured noise and hides the step). When the first scan is nominally
@@ -512,15 +334,177 @@ std::optional<ChangePoint> findChangePoint(const RankContext& rc, const Fitted& 
   if (!dense(readings) || (first->p_scan >= rc.options.family_alpha && !aboveReadings(rc.eng, readings))) {
     return judge(rc, base, *first, best_smooth_reduction, note);
   }
-  const Pass locate = scanWithNoise(rc, base, readings, false);
+  Pass locate = scanWithNoise(rc, base, readings, false);
   // Nothing under the readings' floor either (its best split's p fails the rule): the first scan stands.
   if (!locate.scan || (rc.family_size + 1) * locate.scan->p_scan >= rc.options.family_alpha) {
     return judge(rc, base, *first, best_smooth_reduction, note);
   }
+  Second second;  // a change that ends is a step and its end: both out of the noise's residual
+  *locate.scan = withSecond(*locate.rc, *locate.scan, second);
   const identify::NoiseFloor with_step = noiseWithStep(*locate.scan, *locate.base);
   const Pass final_pass = scanWithNoise(rc, base, dense(with_step) ? with_step : readings, true);
-  if (!final_pass.scan) return std::nullopt;
+  if (!final_pass.scan) return {};
   return judge(*final_pass.rc, *final_pass.base, *final_pass.scan, best_smooth_reduction, note);
+}
+
+}  // namespace
+
+ScanData scanData(const RankContext& rc, const Fitted& base) {
+  ScanData s;
+  s.eng = &rc.eng;
+  s.X = rc.eng.design(base.model, base.lin);
+  s.p = static_cast<int>(s.X.cols()) - 1;
+  s.n = rc.eng.data().n_fit;
+  s.scale_sd = rc.scale_sd;
+  stepColumns(base.model, s);
+  s.rows.resize(6 * static_cast<std::size_t>(s.n));
+  s.xs.resize(6 * static_cast<Eigen::Index>(s.n), static_cast<Eigen::Index>(s.cols.size()));
+  for (int i = 0; i < s.n; ++i) {
+    for (int a = 0; a < 6; ++a) {
+      const int row = rc.eng.core().rowOf(i, a);
+      s.rows[static_cast<std::size_t>(6 * i + a)] = row;
+      for (std::size_t j = 0; j < s.cols.size(); ++j) s.xs(row, static_cast<Eigen::Index>(j)) = s.X(row, s.cols[j]);
+    }
+  }
+  const auto xf = s.X.topRows(6 * static_cast<Eigen::Index>(s.n));
+  const Eigen::MatrixXd gram = xf.leftCols(s.p).transpose() * xf.leftCols(s.p);
+  const auto sol = identify::solveGram(gram, xf.leftCols(s.p).transpose() * xf.col(s.p), true);
+  s.a_inv = sol.inverse;
+  s.r = xf.col(s.p) - xf.leftCols(s.p) * sol.x;
+  int active = 0;
+  for (Eigen::Index i = 0; i < xf.rows(); ++i) active += xf.row(i).squaredNorm() > 0.0 ? 1 : 0;
+  s.dof = std::max(1, active - sol.rank);
+  s.sigma2 = std::max(1e-300, s.r.squaredNorm() / s.dof);
+  return s;
+}
+
+/// One kind's blocks of a split's suffix sums: cz = Z^T X (q x p) and zz = Z^T Z (q x q).
+void kindBlocks(const ScanData& s, const Kind& kind, const Eigen::MatrixXd& c_suffix, Eigen::MatrixXd& cz,
+                Eigen::MatrixXd& zz) {
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  cz.resize(q, s.p);
+  zz.resize(q, q);
+  for (Eigen::Index j = 0; j < q; ++j) {
+    cz.row(j) = c_suffix.row(kind.u[static_cast<std::size_t>(j)]);
+    for (Eigen::Index l = 0; l < q; ++l) zz(j, l) = cz(j, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(l)])]);
+  }
+}
+
+SplitForm splitForm(const ScanData& s, const Kind& kind, const Eigen::MatrixXd& c_suffix) {
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  Eigen::MatrixXd cz, zz;
+  kindBlocks(s, kind, c_suffix, cz, zz);
+  const Eigen::MatrixXd info = zz - cz * s.a_inv * cz.transpose();
+  const auto g = identify::solveGram(0.5 * (info + info.transpose()), Eigen::VectorXd::Zero(q), true, kRankTolerance);
+  return {g.inverse, g.rank};
+}
+
+Eigen::VectorXd sub(const Eigen::VectorXd& v, const Kind& kind) {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(kind.u.size()));
+  for (std::size_t j = 0; j < kind.u.size(); ++j) out(static_cast<Eigen::Index>(j)) = v(kind.u[j]);
+  return out;
+}
+
+/// log of the chi-square survival function (for ranking splits and kinds of different degrees of
+/// freedom): exact while it is representable, else its large-statistic asymptote
+/// log Q(k/2, x/2) ~ -x/2 + (k/2 - 1) log(x/2) - lgamma(k/2).
+double logSurvival(double chi2, int dof) {
+  const double p = chiSquareSurvival(chi2, dof);
+  if (p > 1e-280) return std::log(p);
+  const double h = 0.5 * std::max(1, dof);
+  return -0.5 * chi2 + (h - 1.0) * std::log(0.5 * chi2) - std::lgamma(h);
+}
+
+std::vector<int> gridOf(int n, int step_cap) {
+  const int margin = std::max(kMinSegment, n / 50);
+  std::vector<int> ks;
+  if (n - margin <= margin) return ks;
+  const int step = std::max(1, (n - 2 * margin + step_cap - 1) / step_cap);
+  for (int k = margin; k <= n - margin; k += step) ks.push_back(k);
+  return ks;
+}
+
+/// The whitened design of the base model at `lin` with one set of step columns of `kind` per split
+/// in `at` (increasing): the set of split j is the raw design's columns masked to the samples from
+/// at[j] on, then whitened as every design is.
+Design stepDesign(const ScanData& s, const effects::Model& model, const Linearization& lin, const Kind& kind,
+                  const std::vector<int>& at, bool whitened) {
+  const Engine& eng = *s.eng;
+  const Design raw = eng.rawDesign(model, lin);
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  const auto steps = static_cast<Eigen::Index>(at.size());
+  Design xe = Design::Zero(raw.rows(), s.p + steps * q + 1);
+  xe.leftCols(s.p) = raw.leftCols(s.p);
+  xe.col(s.p + steps * q) = raw.col(s.p);
+  for (Eigen::Index m = 0; m < steps; ++m) {
+    for (int i = at[static_cast<std::size_t>(m)]; i < eng.data().size(); ++i) {
+      for (int a = 0; a < 6; ++a) {
+        const int row = eng.core().rowOf(i, a);
+        for (Eigen::Index j = 0; j < q; ++j) {
+          xe(row, s.p + m * q + j) = raw(row, s.cols[static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)])]);
+        }
+      }
+    }
+  }
+  if (whitened) eng.core().whiten(xe, 0, static_cast<int>(xe.cols()));
+  return xe;
+}
+
+/// The base model refitted with the steps of `kind` at the splits `at`, the tilt shared and
+/// re-linearised (Gauss-Newton, a few passes: the start's tilt was fitted without the steps): the
+/// exact fit behind the reported change points and their held-out error.
+std::pair<Linearization, Solution> fitWithSteps(const ScanData& s, const Fitted& base, const Kind& kind,
+                                                const std::vector<int>& at, int passes) {
+  Linearization lin = base.lin;
+  Solution sol = s.eng->solve(stepDesign(s, base.model, lin, kind, at), true);
+  for (int pass = 0; pass < passes && lin.tilt_columns && stepTilt(s, base.model, kind, at, sol, lin); ++pass) {
+    sol = s.eng->solve(stepDesign(s, base.model, lin, kind, at), true);
+  }
+  return {lin, sol};
+}
+
+/// The change point at split k, the m-th step set of `sol` (stepDesign's column order).
+ChangePoint describe(const ScanData& s, const Kind& kind, const Solution& sol, int k, int m) {
+  const auto& ctx = s.eng->data().ctx;
+  ChangePoint cp;
+  cp.kind = kind.name;
+  cp.sample = k;
+  const double t0 = ctx[static_cast<std::size_t>(k - 1)].t, t1 = ctx[static_cast<std::size_t>(k)].t;
+  cp.t = 0.5 * (t0 + t1);
+  cp.t_first = ctx.front().t;
+  cp.t_last = ctx[static_cast<std::size_t>(s.n - 1)].t;
+  const auto q = static_cast<Eigen::Index>(kind.u.size());
+  const Eigen::Index first = s.p + m * q;
+  const Eigen::VectorXd step = sol.theta.segment(first, q);
+  for (Eigen::Index j = 0; j < q; ++j) {
+    const auto u = static_cast<std::size_t>(kind.u[static_cast<std::size_t>(j)]);
+    cp.delta.push_back({s.names[u], s.units[u], step(j), std::sqrt(std::max(0.0, sol.covariance(first + j, first + j)))});
+  }
+  const double dt = (cp.t_last - cp.t_first) / std::max(1, s.n - 1);
+  cp.t_std = timeStd(s, kind, step, k, dt);
+  return cp;
+}
+
+/// The step's fit with the tilt re-linearised (the one judged and reported).
+Scan relinearised(Scan sc, const Fitted& base) {
+  std::tie(sc.lin, sc.sol) = fitWithSteps(sc.data, base, sc.kind, sc.splits(), 5);
+  return sc;
+}
+
+}  // namespace ftid::lab::detail::cpscan
+
+namespace ftid::lab::detail {
+
+using namespace cpscan;  // NOLINT(google-build-using-namespace): this file's own scan
+
+std::vector<ChangePoint> findChangePoints(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
+                                          ScanNote* note) {
+  std::vector<ChangePoint> cps = findSteps(rc, base, best_smooth_reduction, note);
+  if (!cps.empty()) return cps;
+  const std::optional<Scan> win = windowOnce(rc, base);
+  if (win) cps = judgeWindow(rc, base, *win, best_smooth_reduction);
+  if (!cps.empty() && note != nullptr) note->why.clear();
+  return cps;
 }
 
 }  // namespace ftid::lab::detail

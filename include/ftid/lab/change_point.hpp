@@ -42,9 +42,19 @@ struct ChangePoint {
 /// One line: "the payload changed at t = 5.02 ± 0.03 s: mass +0.61 ± 0.01 kg, ...".
 std::string describeChangePoint(const ChangePoint& cp);
 
-/// The two segment commands the log splits into at cp (shell-quoted; `log_cmd` already quoted),
-/// e.g. "ftid analyze run.csv --t-to 5.02 --model paper" and "... --t-from 5.02 ...".
-std::vector<std::string> splitCommands(const ChangePoint& cp, const std::string& log_cmd, const std::string& model);
+/// The commands for the segments the log splits into at the change points `cps` (increasing t;
+/// shell-quoted, `log_cmd` already quoted): one more than there are change points, e.g. for one
+/// "ftid analyze run.csv --t-to 5.02 --model paper" and "... --t-from 5.02 ...", for two the
+/// middle one "... --t-from 4.00 --t-to 6.00 ...".
+std::vector<std::string> segmentCommands(const std::vector<ChangePoint>& cps, const std::string& log_cmd,
+                                         const std::string& model);
+
+/// Whether the second change point undoes the first (a description for the report, not a test):
+/// the same kind, some step of the first beyond 3 of its standard errors, and what is left of it
+/// after the second, |first + second|, at most half of |first| (each step in units of the first's
+/// standard errors). Not "within the errors": a contact pushes in the world and turns in the
+/// sensor's frame as the arm moves, so its two steps differ by more than their errors.
+bool undoes(const ChangePoint& first, const ChangePoint& second);
 
 /// `--t-from`, `--t-to`: keeps the samples with t_from <= t < t_to (t: seconds since the log's
 /// first sample, as every time the laboratory prints). Throws DataError naming `log` and the span

@@ -117,5 +117,29 @@ TEST(ChangePoint, PrintedUncertaintiesHoldOverSeeds) {
   EXPECT_GE(t_inside, 18);
 }
 
+/// A sensor re-bias that stays (the log's wrench shifted from 2.0 s on), 20 seeds of 4 s runs: one
+/// change point every time, never a second (the second change's test, src/lab/change_point_scan.cpp,
+/// on data with exactly one change).
+TEST(ChangePoint, ARebiasThatStaysIsOneChangeOverSeeds) {
+  Wrench bias;
+  bias << 0.4, -0.3, 0.5, 0.03, -0.02, 0.04;
+  for (int k = 0; k < 20; ++k) {
+    sim::CellSimConfig c = baseConfig(static_cast<std::uint64_t>(4000 + k));
+    c.duration_s = 4.0;
+    logio::LogData log = sim::CellSim(c).run();
+    for (auto& s : log.samples) {
+      if (s.t >= 2.0) s.wrench_S += bias;
+    }
+    const samples::ContextSet set = samples::buildContexts(log, *c.robot, {c.R_FS, c.p_FS_F, 0.0, 0.0});
+    lab::AnalyzeOptions o;
+    o.model = "paper";
+    o.candidates = {"time_drift"};
+    const auto r = lab::analyze(set.samples, nullptr, o, "sim.csv");
+    ASSERT_FALSE(r.change_points.empty()) << "seed " << 4000 + k;
+    EXPECT_EQ(r.change_points.size(), 1u) << "seed " << 4000 + k << ": " << lab::describeChangePoint(r.change_points.back());
+    EXPECT_EQ(r.change_points.front().kind, "offsets");
+  }
+}
+
 }  // namespace
 }  // namespace ftid

@@ -158,6 +158,75 @@ TEST(ChangePoint, SplitCommandsAreShellQuotedAndExplainStops) {
   EXPECT_LT(html.find("Change in time"), html.find("Residual per axis"));
 }
 
+/// A push on the tool while the arm moves (the simulator's contact: sin^2 profile, 8 N peak along the
+/// base's x, on a point 12 cm out; a push straight down would be an added weight, a payload change),
+/// a 4 s run: a change that ends. The scan reports two offsets
+/// changes, the second undoing the first, and the three segments; --explain does not walk past them
+/// and nothing advises writing parameters. With the second change not scanned (one step at most),
+/// the single step alone had no held-out gain and the contact went unreported.
+TEST(ChangePoint, AContactIsAChangeThatIsUndone) {
+  sim::CellSimConfig c = baseConfig(31);
+  c.duration_s = 4.0;
+  c.contact.enabled = true;
+  c.contact.t_start_s = 1.5;
+  c.contact.t_end_s = 2.7;
+  c.contact.force_B = Vec3(8.0, 0.0, 0.0);
+  c.contact.p_SP_S = Vec3(0.0, 0.0, 0.12);
+  const samples::ContextSet set = labtest::contexts(c);
+  lab::AnalyzeOptions o;
+  o.model = "paper";
+  o.candidates = {"time_drift", "harmonic(q4,1)"};
+  o.explain = true;
+  const auto r = lab::analyze(set.samples, nullptr, o, "run.csv");
+  ASSERT_EQ(r.change_points.size(), 2u);
+  const auto& on = r.change_points[0];
+  const auto& off = r.change_points[1];
+  EXPECT_EQ(on.kind, "offsets");
+  EXPECT_EQ(off.kind, "offsets");
+  EXPECT_GT(on.t, 1.5);  // the sin^2 push is half up at 1.8 s and half down at 2.4 s
+  EXPECT_LT(on.t, 2.1);
+  EXPECT_GT(off.t, 2.1);
+  EXPECT_LT(off.t, 2.7);
+  EXPECT_TRUE(lab::undoes(on, off));
+  EXPECT_LT(on.family_p, o.family_alpha);
+  EXPECT_LT(off.family_p, o.family_alpha);
+  EXPECT_TRUE(r.steps.empty()) << "--explain walked past a change point";
+  const auto cmds = lab::segmentCommands(r.change_points, "run.csv", "paper");
+  ASSERT_EQ(cmds.size(), 3u);
+  EXPECT_EQ(cmds[0].find("--t-from"), std::string::npos);
+  EXPECT_NE(cmds[1].find("--t-from"), std::string::npos);
+  EXPECT_NE(cmds[1].find("--t-to"), std::string::npos);
+  EXPECT_EQ(cmds[2].find("--t-to"), std::string::npos);
+  const std::string text = lab::formatText(r);
+  EXPECT_NE(text.find("the second change undoes the first: a transient"), std::string::npos) << text.substr(0, 900);
+  EXPECT_NE(text.find(cmds[1]), std::string::npos);
+  EXPECT_EQ(text.find("--out"), std::string::npos) << "parameters advised across a change";
+  const std::string json = lab::formatJson(r);
+  EXPECT_NE(json.find("\"change_points_undo\": true"), std::string::npos) << json.substr(0, 400);
+  EXPECT_NE(json.find("\"segment_commands\""), std::string::npos);
+}
+
+/// Two steps that do not undo each other (a re-bias, then another) are not called a transient.
+TEST(ChangePoint, UndoesMeansMostOfTheFirstChangeReversed) {
+  lab::ChangePoint a, b;
+  a.kind = b.kind = "offsets";
+  a.delta = {{"f0_x", "N", 2.0, 0.05}, {"f0_y", "N", 0.0, 0.05}};
+  b.delta = {{"f0_x", "N", -1.6, 0.05}, {"f0_y", "N", 0.3, 0.05}};  // 0.5 of 2.0 left
+  EXPECT_TRUE(lab::undoes(a, b));
+  b.delta[1].value = 1.0;  // a second re-bias with its own y: 1.08 of 2.0 left
+  EXPECT_FALSE(lab::undoes(a, b));
+  b.delta[1].value = 0.0;
+  b.delta[0].value = -0.9;  // half of the first stays
+  EXPECT_FALSE(lab::undoes(a, b));
+  b.delta[0].value = -2.0;
+  b.kind = "payload";
+  EXPECT_FALSE(lab::undoes(a, b));
+  a.delta[0].value = 0.1;  // nothing changed beyond 3 errors: nothing to undo
+  b = a;
+  b.delta[0].value = -0.1;
+  EXPECT_FALSE(lab::undoes(a, b));
+}
+
 TEST(ChangePoint, TimeWindowKeepsTheSamplesBetween) {
   sim::CellSimConfig c = baseConfig(5);
   c.duration_s = 2.0;
