@@ -447,7 +447,9 @@ bool judgeRun(IdentifyRun& r) {
 
 /// The model laboratory on the run (o.analyze): held-out residuals per axis, the missing effect
 /// it names and the command that adds it; analysis.json and report.html in the run directory.
-void analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
+/// Returns the change in time the laboratory found ("" when none): a run that holds more than one
+/// set-up (a contact with the tool, a grasp or release while it moved) is not written.
+std::string analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
   const CellIdentifyOptions& o = r.o;
   const effects::Model& model = r.model;
   const fs::path& run_dir = r.run_dir;
@@ -481,14 +483,17 @@ void analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
       break;
     }
   }
-  if (!ar.change_points.empty()) {  // change in time (lab/change_point.hpp)
-    std::string what;
-    for (const auto& cp : ar.change_points) what += (what.empty() ? "" : "; ") + lab::describeChangePoint(cp);
-    print("WARNING: " + what + ": the run holds " + std::to_string(ar.change_points.size() + 1) +
+  std::string change;  // change in time (lab/change_point.hpp)
+  for (const auto& cp : ar.change_points) change += (change.empty() ? "" : "; ") + lab::describeChangePoint(cp);
+  if (!change.empty()) {
+    print("WARNING: " + change + ": the run holds " + std::to_string(ar.change_points.size() + 1) +
           " set-ups; the parameters describe none of them. Repeat the run without the change (no contact, "
           "no grasp or release while it moves).");
   }
-  if (top) {
+  if (!change.empty()) {
+    print("The candidate effects would only imitate the change: analyse the recorded data in segments, "
+          "ftid analyze " + lab::shellQuote(result.data_csv) + " (it prints the commands).");
+  } else if (top) {
     result.suggested_effect = top->effect;
     print("A physical effect is missing from the model: " + top->effect + " (" + top->description + ").");
     print("  adding it would cut the held-out residual by " + fmt(0, 100.0 * top->relative_reduction) +
@@ -499,6 +504,18 @@ void analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
     print("No significant effect is missing: the model explains the data down to the sensor noise.");
   }
   print("Report: " + (run_dir / "report.html").string());
+  return change;
+}
+
+/// The laboratory on the run (analyseRun); true, with the refusal in the result's message, when it
+/// found a change in time.
+bool refuseAChange(IdentifyRun& r, const samples::ContextSet& contexts) {
+  const std::string change = analyseRun(r, contexts);
+  if (change.empty()) return false;
+  r.result.message = "identification refused: the run holds more than one set-up (" + change +
+                     "): no parameters describe it; repeat the run without touching the tool and without a "
+                     "grasp or release while it moves; parameters unchanged, " + r.data_note;
+  return true;
 }
 
 /// Identify and analyse: the offline identification's treatment (several tilt starts, glitches
@@ -544,6 +561,11 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     const identify::PhysicalValidity validity =
         identify::checkPhysicalValidity(set, identify::varyingMass(set, robust.samples));
     print(validity.line);
+    // A run of two set-ups (a contact, a grasp) is the cause to name, even when its fit is also
+    // impossible: the laboratory looks first.
+    if (o.analyze && !validity.valid) {
+      if (refuseAChange(r, contexts)) return false;
+    }
     if (!validity.valid) {
       result.message = "identification refused: " + identify::physicalRefusal(validity) + "; parameters unchanged, " + data_note;
       return false;
@@ -556,7 +578,7 @@ bool identifyAndAnalyse(IdentifyRun& r) {
         },
         "ftid analyze " + lab::shellQuote(result.data_csv) + " --model " + lab::shellQuote(model.name()) +
             " --explain")));
-    if (o.analyze) analyseRun(r, contexts);
+    if (o.analyze && refuseAChange(r, contexts)) return false;
   } catch (const std::exception& e) {
     result.message = "identification failed: " + std::string(e.what()) + "; parameters unchanged, " + data_note;
     return false;

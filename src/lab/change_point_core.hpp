@@ -128,10 +128,12 @@ Second secondChange(const Scan& sc);
 RuleInputs changeRule(const RankContext& rc, double p, int added_params, int looks = 1);
 /// The scan with a second change after its split when the rule finds that one significant.
 Scan withSecond(const RankContext& rc, Scan sc, Second& second);
-/// The best window [a, b) of a coarse grid as a scan with two splits, its p over every window.
-std::optional<Scan> windowOnce(const RankContext& rc, const Fitted& base);
-/// The rule on the window (fitted as two steps, judged on its held-out error against the start).
-std::vector<ChangePoint> judgeWindow(const RankContext& rc, const Fitted& base, const Scan& win,
+/// The best window [a, b) of a coarse grid per kind, each as a scan with two splits, in the order
+/// of their statistic; each p counts every window and kind tried.
+std::vector<Scan> windowScans(const RankContext& rc, const Fitted& base);
+/// The rule on the windows in turn (each fitted as two steps, judged on its held-out error against
+/// the start); the first recommended, or nothing.
+std::vector<ChangePoint> judgeWindow(const RankContext& rc, const Fitted& base, const std::vector<Scan>& wins,
                                      double best_smooth_reduction);
 
 }  // namespace ftid::lab::detail::cpscan

@@ -501,8 +501,7 @@ std::vector<ChangePoint> findChangePoints(const RankContext& rc, const Fitted& b
                                           ScanNote* note) {
   std::vector<ChangePoint> cps = findSteps(rc, base, best_smooth_reduction, note);
   if (!cps.empty()) return cps;
-  const std::optional<Scan> win = windowOnce(rc, base);
-  if (win) cps = judgeWindow(rc, base, *win, best_smooth_reduction);
+  cps = judgeWindow(rc, base, windowScans(rc, base), best_smooth_reduction);
   if (!cps.empty() && note != nullptr) note->why.clear();
   return cps;
 }

@@ -68,10 +68,12 @@ struct Window {
   double p = 1.0;
 };
 
-Window windowScan(const ScanData& s) {
+/// The best window of each kind (in the kinds' order; a = -1 where none), every p-value counting
+/// every window and kind tried.
+std::vector<Window> windowScan(const ScanData& s) {
   constexpr int kWindowGrid = 120;  // windows: kWindowGrid^2 / 2 at most
   const std::vector<int> ks = gridOf(s.n, kWindowGrid);
-  Window best;
+  std::vector<Window> best(s.kinds.size());
   if (ks.size() < 3 || s.kinds.empty()) return best;
   std::vector<Eigen::MatrixXd> cs;
   std::vector<Eigen::VectorXd> vs;
@@ -94,14 +96,14 @@ Window windowScan(const ScanData& s) {
         const double g = vk.dot(f.inv * vk);
         const double sigma2 = std::max(1e-300, (rss - g) / std::max(1, s.dof - f.rank));
         const double z = -logSurvival(g / sigma2, f.rank);
-        if (z > best.z) {
-          best = {ks[i], ks[j], static_cast<int>(kk), z,
-                  chiSquareSurvivalUncertainScale(g / sigma2, f.rank, s.scale_sd)};
+        if (z > best[kk].z) {
+          best[kk] = {ks[i], ks[j], static_cast<int>(kk), z,
+                      chiSquareSurvivalUncertainScale(g / sigma2, f.rank, s.scale_sd)};
         }
       }
     }
   }
-  best.p = -std::expm1(tried * std::log1p(-std::min(best.p, 1.0 - 1e-16)));
+  for (auto& w : best) w.p = -std::expm1(tried * std::log1p(-std::min(w.p, 1.0 - 1e-16)));
   return best;
 }
 
@@ -134,21 +136,29 @@ Second secondChange(const Scan& sc) {
 /// The best window of the scan on rc's engine as a Scan with two splits (the window's ends, each
 /// refined to the sample by the second change's statistic given the other), its p the window
 /// scan's; nothing when there is no window to scan.
-std::optional<Scan> windowOnce(const RankContext& rc, const Fitted& base) {
-  Scan sc;
-  sc.data = scanData(rc, base);
-  const Window w = windowScan(sc.data);
-  if (w.a < 0) return std::nullopt;
-  sc.kind = sc.data.kinds[static_cast<std::size_t>(w.kind)];
-  sc.k = w.a;
-  sc.k2 = w.b;
-  sc.p_scan = w.p;
-  const int step = std::max(1, (sc.data.n + 119) / 120);
-  std::vector<int> ends;
-  for (int e = std::max(sc.k + kMinSegment, w.b - step + 1); e <= std::min(sc.data.n - kMinSegment, w.b + step - 1); ++e) ends.push_back(e);
-  const Second refined = secondSplit(sc.data, sc.kind, sc.k, ends);
-  if (refined.e > 0) sc.k2 = refined.e;
-  return sc;
+std::vector<Scan> windowScans(const RankContext& rc, const Fitted& base) {
+  const ScanData data = scanData(rc, base);
+  std::vector<Window> ws = windowScan(data);
+  std::sort(ws.begin(), ws.end(), [](const Window& x, const Window& y) { return x.z > y.z; });
+  std::vector<Scan> out;
+  for (const Window& w : ws) {
+    if (w.a < 0) continue;
+    Scan sc;
+    sc.data = data;
+    sc.kind = data.kinds[static_cast<std::size_t>(w.kind)];
+    sc.k = w.a;
+    sc.k2 = w.b;
+    sc.p_scan = w.p;
+    const int step = std::max(1, (data.n + 119) / 120);
+    std::vector<int> ends;
+    for (int e = std::max(sc.k + kMinSegment, w.b - step + 1); e <= std::min(data.n - kMinSegment, w.b + step - 1); ++e) {
+      ends.push_back(e);
+    }
+    const Second refined = secondSplit(data, sc.kind, sc.k, ends);
+    if (refined.e > 0) sc.k2 = refined.e;
+    out.push_back(std::move(sc));
+  }
+  return out;
 }
 
 /// The rule's inputs for a change point (one more candidate of the family; its test is in-sample,
@@ -171,29 +181,34 @@ Scan withSecond(const RankContext& rc, Scan sc, Second& second) {
   return sc;
 }
 
-/// The rule on the window scan's best window (a second look at the log: the family grows by two,
-/// the single split's scan and this one), fitted as two steps and judged on its held-out error
-/// against the start like any change point.
-std::vector<ChangePoint> judgeWindow(const RankContext& rc, const Fitted& base, const Scan& win,
+/// The rule on the window scan's best windows, one per kind, in the order of their statistic (a
+/// second look at the log: the family grows by two, the single split's scan and this one): each
+/// fitted as two steps and judged on its held-out error against the start like any change point;
+/// the first the rule recommends is reported. (A payload window with the inertia has 20 columns: a
+/// contact it imitates in-sample may predict the held-out blocks worse than the offsets window.)
+std::vector<ChangePoint> judgeWindow(const RankContext& rc, const Fitted& base, const std::vector<Scan>& wins,
                                      double best_smooth_reduction) {
-  RuleInputs in = changeRule(rc, win.p_scan, static_cast<int>(win.kind.u.size()), 2);
-  Decision d = decide(in);
-  if (d.verdict != Verdict::kRecommended) return {};
-  const Scan sc = relinearised(win, base);
-  in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
-  in.added_params = sc.sol.rank - base.sol.rank;
-  d = decide(in);
-  if (d.verdict != Verdict::kRecommended || !(in.heldout_reduction > best_smooth_reduction)) return {};
-  std::vector<ChangePoint> cps;
-  const std::vector<int> at = sc.splits();
-  for (std::size_t m = 0; m < at.size(); ++m) {
-    ChangePoint cp = describe(sc.data, sc.kind, sc.sol, at[m], static_cast<int>(m));
-    cp.p_value = sc.p_scan;
-    cp.family_p = d.family_p;
-    cp.heldout_reduction = in.heldout_reduction;
-    cps.push_back(cp);
+  for (const Scan& win : wins) {
+    RuleInputs in = changeRule(rc, win.p_scan, static_cast<int>(win.kind.u.size()), 2);
+    Decision d = decide(in);
+    if (d.verdict != Verdict::kRecommended) continue;
+    const Scan sc = relinearised(win, base);
+    in.heldout_reduction = 1.0 - sc.sol.sse_heldout / std::max(1e-300, base.sol.sse_heldout);
+    in.added_params = sc.sol.rank - base.sol.rank;
+    d = decide(in);
+    if (d.verdict != Verdict::kRecommended || !(in.heldout_reduction > best_smooth_reduction)) continue;
+    std::vector<ChangePoint> cps;
+    const std::vector<int> at = sc.splits();
+    for (std::size_t m = 0; m < at.size(); ++m) {
+      ChangePoint cp = describe(sc.data, sc.kind, sc.sol, at[m], static_cast<int>(m));
+      cp.p_value = sc.p_scan;
+      cp.family_p = d.family_p;
+      cp.heldout_reduction = in.heldout_reduction;
+      cps.push_back(cp);
+    }
+    return cps;
   }
-  return cps;
+  return {};
 }
 
 }  // namespace ftid::lab::detail::cpscan

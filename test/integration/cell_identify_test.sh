@@ -4,7 +4,7 @@
 #   cell_identify_test.sh FTID FTIDD SRC_DIR CASE
 #
 # CASE = normal | protective_stop | sensor_silent | ftidd_killed | disk_full | below_floor | poisoned
-#        | sigstop
+#        | sigstop | contact
 #
 # Each case runs `ftid sim-robot` (UR10, 125 Hz), `ftid sim-sensor` (the paper payload) and ftidd
 # in a private network namespace (unshare -rn: loopback only, LCM multicast routed on lo), then
@@ -28,6 +28,10 @@
 #                    ("does not match the controller"), the parameters stay byte-identical.
 #   sigstop          (issue 14) `ftid --identify` itself is stopped (SIGSTOP) for 0.5 s during
 #                    the motion: the message must blame ftid, not ftidd.
+#   contact          someone pushes the tool during the motion (the sensor simulator's contact
+#                    push on request, SIGRTMIN+1: 8 N down at 12 cm for 2 s, sin^2): the
+#                    laboratory finds a change that ends, and the run is refused (a run of two
+#                    set-ups describes neither), the parameters unchanged.
 # Every fault case must end with exit status 1, a one-line message naming the cause, the arm
 # stopped (dashboard programState STOPPED and RTDE actual_qd ~ 0), the previous parameter file
 # byte-identical, and the recorded data saved (run.csv with samples).
@@ -39,7 +43,7 @@ SRC=${3:?}
 CASE=${4:?}
 SKIP=77
 
-case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|below_floor|poisoned|sigstop) ;;
+case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|below_floor|poisoned|sigstop|contact) ;;
   *) echo "unknown case '$CASE'"; exit 2 ;; esac
 
 # ---- re-enter in the private namespaces
@@ -216,7 +220,7 @@ fi
 # model (the paper model alone is biased by the unmodelled rotational terms, which the analysis
 # reports); the fault cases skip the analysis to stay short.
 extra="--model paper+rigid_body"
-[ "$CASE" != normal ] && extra="--no-analyze"
+[ "$CASE" != normal ] && [ "$CASE" != contact ] && extra="--no-analyze"
 # RTDE clients of the robot so far: ftidd and the sensor simulator (it reads the robot's motion;
 # it retries every second, so wait until both are there).
 i=0
@@ -242,6 +246,7 @@ if [ "$CASE" != normal ] && [ "$CASE" != disk_full ] && [ "$CASE" != below_floor
       for _ in $(seq 1 40); do kill -USR2 $SENSOR 2>/dev/null; sleep 0.05; done & ;;
     ftidd_killed) echo "inject: kill -KILL ftidd"; kill -KILL $DAEMON ;;
     sigstop) echo "inject: SIGSTOP ftid --identify for 0.5 s"; kill -STOP $ID; sleep 0.5; kill -CONT $ID ;;
+    contact) echo "inject: a push on the tool"; kill -s RTMIN+1 $SENSOR ;;
   esac
 fi
 
@@ -304,6 +309,7 @@ else
     # (identification refused; or, if the loaded host aborted the motion first, named as well)
     poisoned) want="FTID_CYCLE stream does not match the controller.*(conflicting|off the controller)" ;;
     sigstop) want="ftid --identify itself was stopped or stalled for [0-9]+ ms.*ftidd was not at fault" ;;
+    contact) want="identification refused: the run holds more than one set-up \(the (payload|offsets) changed at .*changed at .*without touching the tool" ;;
   esac
   echo "$MSG" | grep -Eqi "$want" || fail "message does not name the cause (/$want/): $MSG"
   cmp -s "$WORK/previous.yaml" "$PARAMS" || fail "the previous parameter file was changed"
