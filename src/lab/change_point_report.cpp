@@ -129,6 +129,11 @@ void applyTimeWindow(samples::ContextSet& set, double t_from, double t_to, const
 
 namespace detail {
 
+/// "two set-ups" for one change point, "three set-ups" for two.
+std::string setUps(std::size_t change_points) {
+  return std::string(change_points == 1 ? "two" : "three") + " set-ups";
+}
+
 /// What two change points of one log say together.
 std::string transientNote(const std::vector<ChangePoint>& cps) {
   if (cps.size() < 2) return "";
@@ -161,7 +166,7 @@ void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResul
   }
   std::string list;
   for (const auto& c : cmds) list += (list.empty() ? "" : "; ") + c;
-  result.warnings.push_back(what + ": the log holds " + (cps.size() == 1 ? "two set-ups" : "three stretches") +
+  result.warnings.push_back(what + ": the log holds " + setUps(cps.size()) +
                             ", which no smooth effect describes" + (cps.size() > 1 ? " (" + transientNote(cps) + ")" : "") +
                             "; analyze each segment (" + list + ") and write no parameters fitted across a change");
 }
@@ -176,8 +181,7 @@ std::string changePointText(const AnalysisResult& r) {
          (cp.family_p < 1e-300 ? std::string("< 1e-300") : fmt(cp.family_p, 2)) + ")\n";
   }
   if (r.change_points.size() > 1) s += "  " + transientNote(r.change_points) + "\n";
-  s += "  the log holds " + std::to_string(r.change_points.size() + 1) +
-       " set-ups: analyze each segment, not one model with smooth effects:\n";
+  s += "  the log holds " + setUps(r.change_points.size()) + ": analyze each segment, not one model with smooth effects:\n";
   for (const auto& c : segmentCommands(r.change_points, shellQuote(r.log), r.report.model)) s += "    " + c + "\n";
   return s + "\n";
 }
@@ -191,7 +195,7 @@ std::string changePointHtml(const AnalysisResult& r) {
       << escHtml(fixed(-100.0 * cp.heldout_reduction, 1, true)) << " % with the steps).<br>";
   }
   if (r.change_points.size() > 1) o << escHtml(transientNote(r.change_points)) << ".<br>";
-  o << "The log holds " << r.change_points.size() + 1 << " set-ups: analyze each segment:<br>";
+  o << "The log holds " << setUps(r.change_points.size()) << ": analyze each segment:<br>";
   for (const auto& c : segmentCommands(r.change_points, shellQuote(r.log), r.report.model)) o << "<code>" << escHtml(c) << "</code><br>";
   o << "</p>\n";
   return o.str();
