@@ -491,8 +491,10 @@ std::string analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
           "no grasp or release while it moves).");
   }
   if (!change.empty()) {
-    print("The candidate effects would only imitate the change: analyse the recorded data in segments, "
-          "ftid analyze " + lab::shellQuote(result.data_csv) + " (it prints the commands).");
+    print("The candidate effects would only imitate the change. The recorded data in segments:");
+    for (const auto& c : lab::segmentCommands(ar.change_points, lab::shellQuote(result.data_csv), model.name())) {
+      print("  " + c);
+    }
   } else if (top) {
     result.suggested_effect = top->effect;
     print("A physical effect is missing from the model: " + top->effect + " (" + top->description + ").");
@@ -564,7 +566,11 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     // A run of two set-ups (a contact, a grasp) is the cause to name, even when its fit is also
     // impossible: the laboratory looks first.
     if (o.analyze && !validity.valid) {
-      if (refuseAChange(r, contexts)) return false;
+      try {
+        if (refuseAChange(r, contexts)) return false;
+      } catch (const std::exception& e) {  // the laboratory could not run: the physical refusal stands
+        print("  WARNING: the laboratory could not analyse the run: " + std::string(e.what()));
+      }
     }
     if (!validity.valid) {
       result.message = "identification refused: " + identify::physicalRefusal(validity) + "; parameters unchanged, " + data_note;

@@ -290,7 +290,7 @@ std::vector<ChangePoint> judge(const RankContext& rc, const Fitted& base, const 
     Decision d2;
     if (two.k2 > 0) {
       const Scan sc2 = relinearised(two, base);
-      RuleInputs in2 = changeRule(rc, second.p, sc2.sol.rank - sc.sol.rank);
+      RuleInputs in2 = changeRule(rc, second.p, sc2.sol.rank - sc.sol.rank, 2);
       in2.heldout_reduction = 1.0 - sc2.sol.sse_heldout / std::max(1e-300, sc.sol.sse_heldout);
       d2 = decide(in2);
       if (d2.verdict == Verdict::kRecommended) sc = sc2;
@@ -303,8 +303,9 @@ std::vector<ChangePoint> judge(const RankContext& rc, const Fitted& base, const 
       const std::vector<int> at = sc.splits();
       for (std::size_t m = 0; m < at.size(); ++m) {
         ChangePoint cp = describe(sc.data, sc.kind, sc.sol, at[m], static_cast<int>(m));
-        cp.p_value = m == 0 ? sc.p_scan : second.p;
-        cp.family_p = m == 0 ? d.family_p : d2.family_p;
+        const bool first = at[m] == scanned.k;  // the scan's own split; the other is the second change
+        cp.p_value = first ? sc.p_scan : second.p;
+        cp.family_p = first ? d.family_p : d2.family_p;
         cp.heldout_reduction = in.heldout_reduction;
         cps.push_back(cp);
       }
@@ -502,7 +503,10 @@ std::vector<ChangePoint> findChangePoints(const RankContext& rc, const Fitted& b
   std::vector<ChangePoint> cps = findSteps(rc, base, best_smooth_reduction, note);
   if (!cps.empty()) return cps;
   cps = judgeWindow(rc, base, windowScans(rc, base), best_smooth_reduction);
-  if (!cps.empty() && note != nullptr) note->why.clear();
+  if (!cps.empty() && note != nullptr) {
+    note->why.clear();
+    note->p_scan = cps.front().p_value;  // the window scan's p decided
+  }
   return cps;
 }
 

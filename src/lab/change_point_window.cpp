@@ -11,6 +11,8 @@ namespace ftid::lab::detail::cpscan {
 
 namespace {
 
+constexpr int kWindowGrid = 120;  // grid points of the window scan
+
 /// A second change of the same kind after the split k (binary segmentation: a contact that ends,
 /// an object put down again). For every split e in `ends` after k, the gain of a step set from e
 /// given the base model and the step set from k: with Z1, Z2 the two sets' columns and M the base
@@ -24,35 +26,43 @@ Second secondSplit(const ScanData& s, const Kind& kind, int k, const std::vector
   const auto q = static_cast<Eigen::Index>(kind.u.size());
   std::vector<int> ks{k};
   for (int e : ends) {
-    if (e > k) ks.push_back(e);
+    if (std::abs(e - k) >= kMinSegment) ks.push_back(e);
   }
-  Second best;
+  std::sort(ks.begin(), ks.end());
+  ks.erase(std::unique(ks.begin(), ks.end()), ks.end());
+  std::vector<Eigen::MatrixXd> cs;
+  std::vector<Eigen::VectorXd> vs;
+  sweep(s, ks, true, s.r, [&](std::size_t, const Eigen::MatrixXd& c, const Eigen::VectorXd& v) {
+    cs.push_back(c);
+    vs.push_back(v);
+  });
+  const auto at_k = static_cast<std::size_t>(std::find(ks.begin(), ks.end(), k) - ks.begin());
   Eigen::MatrixXd cz_k, zz_k;
-  Eigen::VectorXd v_k;
-  SplitForm f_k;
+  kindBlocks(s, kind, cs[at_k], cz_k, zz_k);
+  const SplitForm f_k = splitForm(s, kind, cs[at_k]);
+  const Eigen::VectorXd v_k = sub(vs[at_k], kind);
+  Second best;
+  if (f_k.rank == 0) return best;
   const double rss = s.r.squaredNorm();
-  sweep(s, ks, true, s.r, [&](std::size_t g, const Eigen::MatrixXd& c, const Eigen::VectorXd& v) {
-    if (g == 0) {
-      kindBlocks(s, kind, c, cz_k, zz_k);
-      f_k = splitForm(s, kind, c);
-      v_k = sub(v, kind);
-      return;
-    }
-    if (f_k.rank == 0) return;
+  const double g1 = v_k.dot(f_k.inv * v_k);
+  for (std::size_t g = 0; g < ks.size(); ++g) {
+    if (g == at_k) continue;
     Eigen::MatrixXd cz_e, zz_e;
-    kindBlocks(s, kind, c, cz_e, zz_e);
-    const Eigen::MatrixXd cross = zz_e - cz_e * s.a_inv * cz_k.transpose();
+    kindBlocks(s, kind, cs[g], cz_e, zz_e);
+    // Z2^T Z1 sums over the suffixes' overlap, from the later split on.
+    const Eigen::MatrixXd cross = (ks[g] > k ? zz_e : zz_k) - cz_e * s.a_inv * cz_k.transpose();
     const Eigen::MatrixXd info_e = zz_e - cz_e * s.a_inv * cz_e.transpose();
-    const Eigen::VectorXd cond_v = sub(v, kind) - cross * (f_k.inv * v_k);
+    const Eigen::VectorXd cond_v = sub(vs[g], kind) - cross * (f_k.inv * v_k);
     const Eigen::MatrixXd cond_i = info_e - cross * f_k.inv * cross.transpose();
     const auto gi = identify::solveGram(0.5 * (cond_i + cond_i.transpose()), Eigen::VectorXd::Zero(q), true, kRankTolerance);
-    if (gi.rank == 0) return;
-    const double g1 = v_k.dot(f_k.inv * v_k), g2 = cond_v.dot(gi.inverse * cond_v);
-    const double sigma2 = std::max(1e-300, (rss - g1 - g2) / std::max(1, s.dof - f_k.rank - gi.rank));
+    if (gi.rank == 0) continue;
+    const double g2 = cond_v.dot(gi.inverse * cond_v);
+    // The two-step fit's residual variance (floored against round-off on noise-free data).
+    const double sigma2 = std::max(1e-12 * rss + 1e-300, (rss - g1 - g2) / std::max(1, s.dof - f_k.rank - gi.rank));
     const double chi2 = g2 / sigma2;
     const double z = -logSurvival(chi2, gi.rank);
     if (z > best.z) best = {ks[g], chiSquareSurvivalUncertainScale(chi2, gi.rank, s.scale_sd), z, gi.rank};
-  });
+  }
   return best;
 }
 
@@ -71,7 +81,7 @@ struct Window {
 /// The best window of each kind (in the kinds' order; a = -1 where none), every p-value counting
 /// every window and kind tried.
 std::vector<Window> windowScan(const ScanData& s) {
-  constexpr int kWindowGrid = 120;  // windows: kWindowGrid^2 / 2 at most
+  // windows: kWindowGrid^2 / 2 at most
   const std::vector<int> ks = gridOf(s.n, kWindowGrid);
   std::vector<Window> best(s.kinds.size());
   if (ks.size() < 3 || s.kinds.empty()) return best;
@@ -94,7 +104,7 @@ std::vector<Window> windowScan(const ScanData& s) {
         if (f.rank == 0) continue;
         const Eigen::VectorXd vk = sub(v, s.kinds[kk]);
         const double g = vk.dot(f.inv * vk);
-        const double sigma2 = std::max(1e-300, (rss - g) / std::max(1, s.dof - f.rank));
+        const double sigma2 = std::max(1e-12 * rss + 1e-300, (rss - g) / std::max(1, s.dof - f.rank));
         const double z = -logSurvival(g / sigma2, f.rank);
         if (z > best[kk].z) {
           best[kk] = {ks[i], ks[j], static_cast<int>(kk), z,
@@ -115,7 +125,7 @@ Second secondChange(const Scan& sc) {
   const ScanData& s = sc.data;
   std::vector<int> ends;
   for (int e : gridOf(s.n, kMaxGrid)) {
-    if (e >= sc.k + kMinSegment) ends.push_back(e);
+    if (std::abs(e - sc.k) >= kMinSegment) ends.push_back(e);
   }
   if (ends.empty()) return {};
   Second coarse = secondSplit(s, sc.kind, sc.k, ends);
@@ -123,7 +133,7 @@ Second secondChange(const Scan& sc) {
   const int step = ends.size() > 1 ? ends[1] - ends[0] : 1;
   if (step > 1) {
     std::vector<int> fine;
-    for (int e = std::max(sc.k + kMinSegment, coarse.e - step + 1); e <= std::min(s.n - kMinSegment, coarse.e + step - 1); ++e) {
+    for (int e = std::max(kMinSegment, coarse.e - step + 1); e <= std::min(s.n - kMinSegment, coarse.e + step - 1); ++e) {
       fine.push_back(e);
     }
     const Second refined = secondSplit(s, sc.kind, sc.k, fine);
@@ -149,13 +159,18 @@ std::vector<Scan> windowScans(const RankContext& rc, const Fitted& base) {
     sc.k = w.a;
     sc.k2 = w.b;
     sc.p_scan = w.p;
-    const int step = std::max(1, (data.n + 119) / 120);
-    std::vector<int> ends;
-    for (int e = std::max(sc.k + kMinSegment, w.b - step + 1); e <= std::min(data.n - kMinSegment, w.b + step - 1); ++e) {
-      ends.push_back(e);
-    }
-    const Second refined = secondSplit(data, sc.kind, sc.k, ends);
-    if (refined.e > 0) sc.k2 = refined.e;
+    // Both ends to the sample, each given the other (the grid's step either side).
+    const std::vector<int> grid = gridOf(data.n, kWindowGrid);
+    const int step = grid.size() > 1 ? grid[1] - grid[0] : 1;
+    const auto around = [&](int x, int lo, int hi) {
+      std::vector<int> xs;
+      for (int e = std::max(lo, x - step + 1); e <= std::min(hi, x + step - 1); ++e) xs.push_back(e);
+      return xs;
+    };
+    const Second end = secondSplit(data, sc.kind, sc.k, around(w.b, sc.k + kMinSegment, data.n - kMinSegment));
+    if (end.e > 0) sc.k2 = end.e;
+    const Second start = secondSplit(data, sc.kind, sc.k2, around(w.a, kMinSegment, sc.k2 - kMinSegment));
+    if (start.e > 0) sc.k = start.e;
     out.push_back(std::move(sc));
   }
   return out;
@@ -177,7 +192,10 @@ RuleInputs changeRule(const RankContext& rc, double p, int added_params, int loo
 /// The scan with a second change after its split when the rule finds that one significant.
 Scan withSecond(const RankContext& rc, Scan sc, Second& second) {
   second = secondChange(sc);
-  if (second.e > 0 && decide(changeRule(rc, second.p, second.rank)).verdict == Verdict::kRecommended) sc.k2 = second.e;
+  if (second.e > 0 && decide(changeRule(rc, second.p, second.rank, 2)).verdict == Verdict::kRecommended) {
+    sc.k2 = std::max(sc.k, second.e);  // the splits in time order
+    sc.k = std::min(sc.k, second.e);
+  }
   return sc;
 }
 
