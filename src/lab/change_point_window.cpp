@@ -13,15 +13,14 @@ namespace {
 
 constexpr int kWindowGrid = 120;  // grid points of the window scan
 
-/// A second change of the same kind after the split k (binary segmentation: a contact that ends,
-/// an object put down again). For every split e in `ends` after k, the gain of a step set from e
+/// A second change of the same kind beside the split k (binary segmentation: a contact that ends,
+/// an object put down again). For every split e in `ends` (at least kMinSegment from k, after it or
+/// before it), the gain of a step set from e
 /// given the base model and the step set from k: with Z1, Z2 the two sets' columns and M the base
 /// model's residual projector, v = Z2^T r - C (Z1^T M Z1)^+ Z1^T r and I = Z2^T M Z2 - C (Z1^T M
-/// Z1)^+ C^T with C = Z2^T M Z1 = zz(e) - cz(e) A cz(k)^T (the suffixes overlap from e on). The
-/// gain v^T I^+ v is chi-square with rank(I) degrees of freedom under no second change, in units
-/// of the two-step fit's residual variance.
-
-
+/// Z1)^+ C^T with C = Z2^T M Z1 = zz(max(e, k)) - cz(e) A cz(k)^T (the suffixes overlap from the
+/// later split on). The gain v^T I^+ v is chi-square with rank(I) degrees of freedom under no
+/// second change, in units of the two-step fit's residual variance.
 Second secondSplit(const ScanData& s, const Kind& kind, int k, const std::vector<int>& ends) {
   const auto q = static_cast<Eigen::Index>(kind.u.size());
   std::vector<int> ks{k};
