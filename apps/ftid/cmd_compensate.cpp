@@ -17,7 +17,7 @@ namespace {
 const char* const kUsage =
     "usage: ftid compensate --log FILE --params PARAMS.yaml --out OUT.csv [--robot URDF]\n"
     "                       [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
-    "                       [--wrench-log FILE] [--qdd-source diff|target]\n"
+    "                       [--wrench-log FILE] [--qdd-source diff|target] [--motion kinematics|imu]\n"
     "\n"
     "Computes, per sample, the contact wrench = reading - modelled wrench (offsets, gravity,\n"
     "inertia and every other effect of the parameter file's model) and writes OUT.csv with\n"
@@ -41,6 +41,11 @@ const char* const kUsage =
     "                    (default: the --config file's sensor mount, else the identity), e.g.\n"
     "                    --mount-rpy 0,0,1.5708 for a sensor mounted turned 90 deg about z\n"
     "  --robot URDF      robot description (default: the shipped ur10.urdf, docs/operations.md)\n"
+    "  --motion M        where the sensor's acceleration and angular motion come from: kinematics\n"
+    "                    (default: the joints' q, qd, qdd through the robot model) or imu (the log's\n"
+    "                    IMU columns ax..alz, less the parameter file's `imu` biases; for arms whose\n"
+    "                    joint accelerations are poor or late; the orientation stays the kinematics').\n"
+    "                    docs/effects.md \"Motion from the IMU\" measures the trade-off\n"
     "%INPUT%"
     "\n"
     "A parameter set that is physically impossible (whatever its standard errors) or beyond what\n"
@@ -66,10 +71,13 @@ int runCompensate(const std::vector<std::string>& argv) {
   app.add_option("--wrench-frame", wrench_frame)->transform(ftid::cli::oneOf({"sensor", "base"}));
   app.add_option("--mount-rpy", mount_rpy);
   app.add_option("--config", config);
+  std::string motion;
+  app.add_option("--motion", motion)->transform(ftid::cli::oneOf({"kinematics", "imu"}));
   ftid::cli::InputFlags input;
   ftid::cli::addInputFlags(app, input);
   ftid::cli::parse(app, argv);
   ftid::cli::applyInputFlags(input, req.context.input);
+  if (motion == "imu") req.motion = ftid::compensate::MotionSource::kImu;
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   ftid::cli::applyMount(req.context, mount_rpy, config);
   if (req.log_path.empty() || req.params_path.empty() || req.out_csv.empty()) {
@@ -93,6 +101,7 @@ int runCompensate(const std::vector<std::string>& argv) {
                 s.n_without_kinematics);
   }
   if (!s.time_note.empty()) std::fprintf(stderr, "warning: %s\n", s.time_note.c_str());
+  if (!s.imu_note.empty()) std::fprintf(stderr, "warning: %s\n", s.imu_note.c_str());
   std::printf("%-6s %12s %12s\n", "axis", "raw RMS", "contact RMS");
   const char* axes[6] = {"fx", "fy", "fz", "tx", "ty", "tz"};
   for (int a = 0; a < 6; ++a) std::printf("%-6s %12.4g %12.4g\n", axes[a], s.raw_rms(a), s.contact_rms(a));

@@ -557,6 +557,9 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     set.provenance.method = "fit";
     set.provenance.trajectory = r.traj_path;
     set.provenance.n_samples = static_cast<int>(robust.samples.size());
+    std::string imu_note;  // the IMU's biases, for ftidd's sensor.motion_source: imu
+    set.imu = identify::imuBiasEntriesOf(robust.samples, &imu_note);
+    if (!imu_note.empty()) print("  " + imu_note);
     print("");
     print(identify::formatParameterTable(set));
     // A mass that moves with a signal (payload(t)) must be positive at every sample too.

@@ -341,7 +341,7 @@ bool startProcesses(DemoCell& c) {
   const fs::path& sock = c.sock;
   say(c.step(1) + " UR10 controller simulator (CB3, 125 Hz): RTDE 127.0.0.1:30004, dashboard 29999, script 30003");
   c.robot = std::make_unique<Child>("sim-robot", std::vector<std::string>{ftid.string(), "sim-robot", "--model", "ur10"},
-                                    work / "logs" / "sim-robot.log");
+                                    work / "logs" / "sim-robot.log", kSimulatorFifoPriority);
   const Child& robot = *c.robot;
   if (!waitFor([] { return tcpPortOpen(30004) && tcpPortOpen(29999); }, 10.0)) {
     say("demo: the robot simulator did not start:\n" + tail(robot.log(), 10));
@@ -354,8 +354,12 @@ bool startProcesses(DemoCell& c) {
                                        (cfgdir / "ftsensor.dbc").string(), "--socket", sock.string(), "--seed",
                                        std::to_string(opt.seed)};
   for (const auto& e : c.effects) sensor_args.insert(sensor_args.end(), {"--effect", e});
-  c.sensor = std::make_unique<Child>("sim-sensor", sensor_args, work / "logs" / "sim-sensor.log");
+  c.sensor = std::make_unique<Child>("sim-sensor", sensor_args, work / "logs" / "sim-sensor.log", kSimulatorFifoPriority);
   Child& sensor = *c.sensor;
+  if (c.robot->realtime() && sensor.realtime()) {
+    say("      (both simulators run SCHED_FIFO " + std::to_string(kSimulatorFifoPriority) +
+        ": a controller and a sensor keep their own time whatever this PC's load)");
+  }
   if (!waitFor([&] { return fs::exists(sock) || !sensor.alive(); }, 10.0) || !sensor.alive()) {
     say("demo: the sensor simulator did not start:\n" + tail(sensor.log(), 10));
     return false;

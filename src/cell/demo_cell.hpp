@@ -3,6 +3,7 @@
 // story) and demo_payload.cpp (`--scenario payload-change`) run their steps over one DemoCell.
 #include <fcntl.h>
 #include <signal.h>
+#include <sched.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -35,10 +36,16 @@ std::string f3(double v);
 /// The last `lines` lines of a file (a child's log), for messages.
 std::string tail(const fs::path& p, int lines);
 
+/// SCHED_FIFO priority of the two simulators where the demo may use it (root): the controller and
+/// the sensor they stand for keep their own time on their own hardware, whatever the cell PC's load
+/// (as in scripts/soak.sh); below ftidd's loop (80) and the motion runner's.
+inline constexpr int kSimulatorFifoPriority = 70;
+
 /// A child process with its output in a log file; terminated (SIGTERM, then SIGKILL) on scope exit.
+/// With fifo_priority > 0 it runs SCHED_FIFO at that priority when permitted, else as usual.
 class Child {
  public:
-  Child(const std::string& name, const std::vector<std::string>& argv, const fs::path& log)
+  Child(const std::string& name, const std::vector<std::string>& argv, const fs::path& log, int fifo_priority = 0)
       : name_(name), log_(log) {
     posix_spawn_file_actions_t fa;
     posix_spawn_file_actions_init(&fa);
@@ -48,10 +55,25 @@ class Child {
     std::vector<char*> args;
     for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
     args.push_back(nullptr);
-    const int rc = posix_spawn(&pid_, args[0], &fa, nullptr, args.data(), environ);
+    int rc = EPERM;
+    if (fifo_priority > 0) {
+      posix_spawnattr_t attr;
+      posix_spawnattr_init(&attr);
+      sched_param sp{};
+      sp.sched_priority = fifo_priority;
+      posix_spawnattr_setschedpolicy(&attr, SCHED_FIFO);
+      posix_spawnattr_setschedparam(&attr, &sp);
+      posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSCHEDULER | POSIX_SPAWN_SETSCHEDPARAM);
+      rc = posix_spawn(&pid_, args[0], &fa, &attr, args.data(), environ);
+      posix_spawnattr_destroy(&attr);
+      realtime_ = rc == 0;
+    }
+    if (rc == EPERM) rc = posix_spawn(&pid_, args[0], &fa, nullptr, args.data(), environ);  // not permitted
     posix_spawn_file_actions_destroy(&fa);
     if (rc != 0) throw Error("cannot start " + name + " (" + argv[0] + "): " + std::strerror(rc));
   }
+  /// Whether it runs SCHED_FIFO (fifo_priority given and permitted).
+  bool realtime() const { return realtime_; }
   ~Child() { stop(); }
   Child(const Child&) = delete;
   Child& operator=(const Child&) = delete;
@@ -88,6 +110,7 @@ class Child {
   std::string name_;
   fs::path log_;
   pid_t pid_ = -1;
+  bool realtime_ = false;
 };
 
 struct LiveStats {

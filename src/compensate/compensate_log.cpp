@@ -31,9 +31,26 @@ CompensateSummary compensateLogFile(const CompensateRequest& request, const para
   if (const std::string miss = model.cannotFit(contexts.samples); !miss.empty()) {
     throw DataError(request.log_path + ": cannot be compensated with " + request.params_path + ": " + miss);
   }
-  Compensator comp(model, theta, params::nonlinearFor(model, set, request.params_path));
-
   CompensateSummary summary;
+  CompensatorOptions options;
+  options.motion = request.motion;
+  if (request.motion == MotionSource::kImu) {
+    const bool has_imu = std::all_of(contexts.samples.begin(), contexts.samples.end(),
+                                     [](const effects::SampleContext& c) { return c.has_imu; });
+    if (!has_imu) {
+      throw DataError(request.log_path + ": has no IMU columns (ax..alz): the motion from the IMU needs them "
+                      "(compensate with the kinematics instead: leave out --motion imu)");
+    }
+    const Vec6 bias = params::imuBiasesOf(set);
+    options.imu_bias.acc_mps2 = bias.head<3>();
+    options.imu_bias.gyro_radps = bias.tail<3>();
+    if (set.imu.empty()) {
+      summary.imu_note = request.params_path + " has no IMU biases (identified without the IMU): the IMU's readings "
+                         "are used as they are; identify with the IMU (`ftid identify --imu on`) to have them";
+    }
+  }
+  Compensator comp(model, theta, params::nonlinearFor(model, set, request.params_path), options);
+
   if ((model.signals() & effects::kSignalTime) != 0) {
     if (!std::isfinite(contexts.time_origin_unix_s)) {
       summary.time_note = request.log_path + " has no host_time column: the model's time (" + set.model +

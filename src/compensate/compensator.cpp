@@ -32,8 +32,13 @@ int ringCapacity(double delay_s) {
 
 Compensator::Compensator(const effects::Model& model, const Eigen::VectorXd& theta,
                          const NonlinearParams& nonlinear)
+    : Compensator(model, theta, nonlinear, CompensatorOptions{}) {}
+
+Compensator::Compensator(const effects::Model& model, const Eigen::VectorXd& theta,
+                         const NonlinearParams& nonlinear, const CompensatorOptions& options)
     : eval_(model, theta),
       nl_(nonlinear),
+      options_(options),
       g_B_(model::gravityInBase(nonlinear.tilt_u_rad, nonlinear.tilt_v_rad)),
       R_SM_(effects::mountingRotation(nonlinear.mount_rpy_rad)),
       mounting_(model.estimatesMounting()),
@@ -41,6 +46,14 @@ Compensator::Compensator(const effects::Model& model, const Eigen::VectorXd& the
   if (!theta.allFinite() || !std::isfinite(nonlinear.tilt_u_rad) || !std::isfinite(nonlinear.tilt_v_rad) ||
       !nonlinear.mount_rpy_rad.allFinite() || !std::isfinite(nonlinear.delay_s)) {
     throw ConfigError("compensator: non-finite parameter, tilt, mounting angle or delay");
+  }
+  if (!options.imu_bias.acc_mps2.allFinite() || !options.imu_bias.gyro_radps.allFinite()) {
+    throw ConfigError("compensator: non-finite IMU bias");
+  }
+  if (options.motion == MotionSource::kImu && !model.tiltAbsorbers().empty()) {
+    throw ConfigError("compensator: model '" + model.name() + "' folds the pull of " + model.tiltAbsorbers() +
+                      " into an apparent tilt, which the motion from the IMU (a measured gravity) would drop: "
+                      "compensate it with the kinematics' motion (docs/effects.md \"Motion from the IMU\")");
   }
   if (std::abs(delay_s_) > kMaxDelayS) {
     throw ConfigError("compensator: delay " + std::to_string(delay_s_) + " s is beyond +-" +
@@ -80,6 +93,13 @@ void Compensator::push(const SampleContext& ctx) noexcept {
 Status Compensator::evaluate(const SampleContext& reading, Wrench* contact_S, Wrench* modelled_S) noexcept {
   if (mounting_) effects::applyMounting(R_SM_, &work_);
   work_.g_S.noalias() = work_.R_BS.transpose() * g_B_;
+  if (options_.motion == MotionSource::kImu) {
+    // The IMU at the reading's kinematics time (the header): a_S - g_S is the specific force.
+    if (!reading.has_imu || !work_.has_imu) return Status::kInvalidInput;
+    work_.w_S = work_.imu_w_S - options_.imu_bias.gyro_radps;
+    work_.alpha_S = work_.imu_alpha_S;
+    work_.a_S = work_.imu_acc_S - options_.imu_bias.acc_mps2 + work_.g_S;
+  }
   work_.wrench_S = reading.wrench_S;
   Wrench modelled;
   const Wrench contact = eval_.contact(work_, &modelled);

@@ -244,6 +244,9 @@ void validate(const DaemonConfig& c, const std::function<std::string(const std::
   } else if (c.sensor.can_interface.empty() || c.sensor.can_interface.size() > 15) {
     fail("sensor.can_interface", "must be 1..15 characters (network interface name)");
   }
+  if (c.sensor.motion_source != "kinematics" && c.sensor.motion_source != "imu") {
+    fail("sensor.motion_source", "must be 'kinematics' or 'imu', got '" + c.sensor.motion_source + "'");
+  }
   if (!fileReadable(c.sensor.dbc_path)) fail("sensor.dbc_path", "cannot read '" + c.sensor.dbc_path + "'");
   if (!(c.sensor.stale_timeout_ms > 0.0 && c.sensor.stale_timeout_ms <= 10000.0)) {
     fail("sensor.stale_timeout_ms", "must be in (0, 10000] ms");
@@ -492,6 +495,7 @@ DaemonConfig parseDaemonConfigUnguarded(const std::string& yaml_text, const std:
         {"stale_timeout_ms", number(c.sensor.stale_timeout_ms)},
         {"mount_xyz", vec3(c.sensor.mount_xyz)},
         {"mount_rpy", vec3(c.sensor.mount_rpy)},
+        {"motion_source", text(c.sensor.motion_source)},
       })},
       {"parameters", section({
         {"path", path(c.parameters.path)},
@@ -623,6 +627,7 @@ std::string describeDaemonConfig(const DaemonConfig& c) {
      << "sensor.stale_timeout_ms: " << c.sensor.stale_timeout_ms << "\n"
      << "sensor.mount_xyz: [" << c.sensor.mount_xyz.transpose() << "]\n"
      << "sensor.mount_rpy: [" << c.sensor.mount_rpy.transpose() << "]\n"
+     << "sensor.motion_source: " << c.sensor.motion_source << "\n"
      << "parameters.path: " << c.parameters.path << "\n"
      << "parameters.required: " << b(c.parameters.required) << "\n"
      << "parameters.tare: window " << c.parameters.tare_window_s << " s, max qd " << c.parameters.tare_max_qd

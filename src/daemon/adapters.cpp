@@ -247,8 +247,8 @@ model::SensorMotion KinematicsMotionModel::computeSensorMotion(const JointVector
 ParameterFileCompensation::ParameterFileCompensation(const std::string& path)
     : ParameterFileCompensation(params::readParameterFile(path), path) {}
 
-ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet& set,
-                                                     const std::string& path) {
+ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet& set, const std::string& path,
+                                                     compensate::MotionSource motion) {
   const effects::Model model = effects::Model::fromName(set.model);
   const Eigen::VectorXd theta = params::thetaFor(model, set, path);
   if (const auto columns = effects::extraColumnsRead(model); !columns.empty()) {
@@ -265,8 +265,13 @@ ParameterFileCompensation::ParameterFileCompensation(const params::ParameterSet&
   tilt_v_ = set.tilt_v_rad;
   time_origin_unix_s_ = set.time_origin_unix_s;
   model_name_ = model.name();
-  compensator_ = std::make_unique<compensate::Compensator>(model, theta,
-                                                           params::nonlinearFor(model, set, path));
+  compensate::CompensatorOptions options;
+  options.motion = motion;
+  const Vec6 bias = params::imuBiasesOf(set);
+  options.imu_bias.acc_mps2 = bias.head<3>();
+  options.imu_bias.gyro_radps = bias.tail<3>();
+  compensator_ = std::make_unique<compensate::Compensator>(model, theta, params::nonlinearFor(model, set, path),
+                                                           options);
 }
 
 bool ParameterFileCompensation::compute(const effects::SampleContext& ctx, Wrench* contact,

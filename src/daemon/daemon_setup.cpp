@@ -80,7 +80,7 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   const CompensationFactory factory = [this](const std::string& path) -> std::unique_ptr<Compensation> {
     LoadedParameters lp = loadParameters(path, apply_tare);
     requirePlausible(lp.set, limits, path);
-    auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path);
+    auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path, motionSource(cfg));
     if ((effects::Model::fromName(lp.set.model).signals() & effects::kSignalTime) != 0 &&
         !std::isfinite(lp.set.time_origin_unix_s)) {
       logLine(path + ": model '" + lp.set.model + "' reads time but the file has no time_origin (written "
@@ -91,6 +91,10 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
     return comp;
   };
   reloader = std::make_unique<ParameterReloader>(&params, factory);
+  if (motionSource(cfg) == compensate::MotionSource::kImu) {
+    logLine("compensating with the motion of the sensor from its IMU (sensor.motion_source: imu): a cycle "
+            "without an IMU sample is invalid");
+  }
   {
     const ReloadResult first = reloader->reload(cfg.parameters.path, std::chrono::milliseconds(0));
     if (!first.ok) {

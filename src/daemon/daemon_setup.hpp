@@ -36,6 +36,11 @@ namespace ftid::daemon {
 /// One line on stderr (the journal under systemd), prefixed "ftidd: ".
 void logLine(const std::string& line);
 
+/// The compensation's motion source from `sensor.motion_source` (validated by the config reader).
+inline compensate::MotionSource motionSource(const config::DaemonConfig& cfg) {
+  return cfg.sensor.motion_source == "imu" ? compensate::MotionSource::kImu : compensate::MotionSource::kKinematics;
+}
+
 /// Commands received by the outbox's receive thread, taken by the supervisor (bounded: 64).
 struct CommandQueue {
   std::mutex mutex;

@@ -173,7 +173,7 @@ Supervisor::TareAnswer Supervisor::doTare() {
     state.utime = realtimeNowUs();
     state.cycles = res.cycles;
     requirePlausible(next.set, s_.limits, cfg.parameters.path + " with the new offsets");
-    comp = std::make_unique<ParameterFileCompensation>(next.set, cfg.parameters.path);
+    comp = std::make_unique<ParameterFileCompensation>(next.set, cfg.parameters.path, motionSource(cfg));
     writeTareState(state_path, state);
   } catch (const std::exception& e) {
     return {false, std::string("tare refused: ") + e.what()};

@@ -147,6 +147,38 @@ ParameterSet identifyLogFile(const IdentifyRequest& request) {
   return identifyLogFileChecked(request, false).set;
 }
 
+std::vector<NamedValue> imuBiasEntries(const ImuEstimate& imu, std::string* left_out) {
+  std::vector<NamedValue> out;
+  const AccTiltEstimate& acc = imu.acc;
+  const GyroMountEstimate& gyro = imu.gyro;
+  // A bias no working IMU has (params::kMaxImu*) is left out, so that a broken IMU never blocks
+  // the payload's parameter file (compensation with the kinematics does not need the IMU).
+  const bool acc_ok = acc.bias_estimated && acc.bias_mps2.cwiseAbs().maxCoeff() <= params::kMaxImuAccBias_mps2;
+  const bool gyro_ok = gyro.bias_radps.cwiseAbs().maxCoeff() <= params::kMaxImuGyroBias_radps;
+  for (int k = 0; k < 3 && acc_ok; ++k) {
+    out.push_back({params::kImuBiasNames[k], acc.bias_mps2(k), acc.bias_std_mps2(k), "m/s^2"});
+  }
+  for (int k = 0; k < 3 && gyro_ok; ++k) {
+    out.push_back({params::kImuBiasNames[3 + k], gyro.bias_radps(k), gyro.bias_std_radps(k), "rad/s"});
+  }
+  if (left_out != nullptr && ((acc.bias_estimated && !acc_ok) || !gyro_ok)) {
+    *left_out = std::string("the IMU's ") + (gyro_ok ? "accelerometer" : (acc.bias_estimated && !acc_ok ? "accelerometer and gyro" : "gyro")) +
+                " bias is beyond what a working IMU has (2 m/s^2, 0.2 rad/s): not written to the parameter file "
+                "(a broken IMU, or one in other units; compensation with the IMU's motion would be wrong)";
+  }
+  return out;
+}
+
+std::vector<NamedValue> imuBiasEntriesOf(const std::vector<SampleContext>& samples, std::string* note) {
+  if (samples.empty() || !samples.front().has_imu) return {};
+  try {
+    return imuBiasEntries(estimateImu(samples), note);
+  } catch (const Error& e) {
+    if (note != nullptr) *note = std::string("the IMU's biases are not estimated (") + e.what() + ")";
+    return {};
+  }
+}
+
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
   const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, request.progress);
   CheckedIdentification out;
@@ -202,6 +234,11 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
   out.varying_mass = varyingMass(out.set, robust.samples);
   out.set.provenance.data_file = request.log_path;
   out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
+  if (out.imu.used) {
+    std::string left_out;
+    out.set.imu = imuBiasEntries(out.imu.estimate, &left_out);
+    if (!left_out.empty()) out.imu.warnings.push_back(left_out);
+  }
   if (check) {
     say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
     const std::string model = request.model.empty() ? out.set.model : request.model;
@@ -292,42 +329,45 @@ std::string formatImuReport(const ImuReport& report) {
   return os.str();
 }
 
-std::string identificationJson(const CheckedIdentification& id, bool imu_consulted, const PhysicalValidity& validity) {
-  if (!imu_consulted) return identificationJson(id.set, id.check, validity);
-  Json j = Json::parse(identificationJson(id.set, id.check, validity));
-  const ImuReport& r = id.imu;
+std::string imuReportJson(const ImuReport& r) {
   Json imu = Json::object();
   imu["used"] = r.used;
   if (!r.used) {
     imu["not_used_reason"] = r.not_used_reason;
-  } else {
-    const ImuEstimate& e = r.estimate;
-    auto vec = [](const Vec3& v) { return Json::array({jsonNumber(v.x()), jsonNumber(v.y()), jsonNumber(v.z())}); };
-    imu["fused"] = r.fused;
-    imu["tilt_u"] = jsonNumber(e.acc.tilt_u_rad);
-    imu["tilt_u_std"] = jsonNumber(e.acc.tilt_u_std);
-    imu["tilt_v"] = jsonNumber(e.acc.tilt_v_rad);
-    imu["tilt_v_std"] = jsonNumber(e.acc.tilt_v_std);
-    imu["acc_bias_estimated"] = e.acc.bias_estimated;
-    imu["acc_bias"] = vec(e.acc.bias_mps2);
-    imu["acc_bias_std"] = vec(e.acc.bias_std_mps2);
-    imu["acc_noise"] = jsonNumber(e.acc.sigma_mps2);
-    imu["gyro_bias"] = vec(e.gyro.bias_radps);
-    imu["gyro_bias_std"] = vec(e.gyro.bias_std_radps);
-    imu["gyro_noise"] = jsonNumber(e.gyro.sigma_radps);
-    imu["mount_rpy"] = vec(e.gyro.rpy_rad);
-    imu["mount_rotation_std"] = vec(e.gyro.rotation_std_rad);
-    imu["delay"] = jsonNumber(e.gyro.delay_s);
-    imu["delay_std"] = jsonNumber(e.gyro.delay_std_s);
-    Json comps = Json::array();
-    for (const auto& c : r.comparisons) {
-      comps.push_back({{"quantity", c.quantity}, {"chi2", jsonNumber(c.chi2)}, {"dof", c.dof},
-                       {"limit", c.limit}, {"disagrees", c.disagrees}, {"message", c.message}});
-    }
-    imu["comparisons"] = std::move(comps);
-    imu["warnings"] = r.warnings;
+    return jsonText(imu);
   }
-  j["imu"] = std::move(imu);
+  const ImuEstimate& e = r.estimate;
+  auto vec = [](const Vec3& v) { return Json::array({jsonNumber(v.x()), jsonNumber(v.y()), jsonNumber(v.z())}); };
+  imu["fused"] = r.fused;
+  imu["tilt_u"] = jsonNumber(e.acc.tilt_u_rad);
+  imu["tilt_u_std"] = jsonNumber(e.acc.tilt_u_std);
+  imu["tilt_v"] = jsonNumber(e.acc.tilt_v_rad);
+  imu["tilt_v_std"] = jsonNumber(e.acc.tilt_v_std);
+  imu["acc_bias_estimated"] = e.acc.bias_estimated;
+  imu["acc_bias"] = vec(e.acc.bias_mps2);
+  imu["acc_bias_std"] = vec(e.acc.bias_std_mps2);
+  imu["acc_noise"] = jsonNumber(e.acc.sigma_mps2);
+  imu["gyro_bias"] = vec(e.gyro.bias_radps);
+  imu["gyro_bias_std"] = vec(e.gyro.bias_std_radps);
+  imu["gyro_noise"] = jsonNumber(e.gyro.sigma_radps);
+  imu["mount_rpy"] = vec(e.gyro.rpy_rad);
+  imu["mount_rotation_std"] = vec(e.gyro.rotation_std_rad);
+  imu["delay"] = jsonNumber(e.gyro.delay_s);
+  imu["delay_std"] = jsonNumber(e.gyro.delay_std_s);
+  Json comps = Json::array();
+  for (const auto& c : r.comparisons) {
+    comps.push_back({{"quantity", c.quantity}, {"chi2", jsonNumber(c.chi2)}, {"dof", c.dof},
+                     {"limit", c.limit}, {"disagrees", c.disagrees}, {"message", c.message}});
+  }
+  imu["comparisons"] = std::move(comps);
+  imu["warnings"] = r.warnings;
+  return jsonText(imu);
+}
+
+std::string identificationJson(const CheckedIdentification& id, bool imu_consulted, const PhysicalValidity& validity) {
+  if (!imu_consulted) return identificationJson(id.set, id.check, validity);
+  Json j = Json::parse(identificationJson(id.set, id.check, validity));
+  j["imu"] = Json::parse(imuReportJson(id.imu));
   return jsonText(j);
 }
 

@@ -9,6 +9,7 @@
 #include "change_point_scan.hpp"
 #include "lab_internal.hpp"
 #include "extra_signals.hpp"
+#include "imu_check.hpp"
 #include "dynamics_check.hpp"
 #include "spectrum_report.hpp"
 #include "ftid/effects/nonlinear.hpp"
@@ -490,6 +491,8 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
     if (!filtered.empty()) result.warnings.push_back(filtered);
   }
+  // The sensor's IMU against the kinematics and the last model (imu_check.hpp).
+  detail::checkImu(fit, result.final_report ? *result.final_report : result.report, &result);
   // What is left: the last model's held-out residual against the noise floor.
   if (nf.observable()) {
     const ModelReport& last = result.final_report ? *result.final_report : result.report;

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "ftid/fileio/json_text.hpp"
+#include "ftid/identify/offline.hpp"
 #include "change_point_scan.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "spectrum_report.hpp"
@@ -146,6 +147,7 @@ std::string formatJson(const AnalysisResult& r) {
   o["spectrum"] = detail::spectrumJson(r.spectrum);
   o["autocorrelation"] = detail::autocorrelationJson(r.spectrum);
   o["dynamics"] = detail::dynamicsJson(r.dynamics);
+  o["imu"] = Json::parse(identify::imuReportJson(r.imu));  // issue 23 (docs/analyze.md "The IMU")
   o["seconds"] = jsonNumber(r.seconds);
   return jsonText(o, 1) + "\n";
 }

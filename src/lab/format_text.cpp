@@ -8,6 +8,7 @@
 
 #include "change_point_scan.hpp"
 #include "ftid/identify/noise.hpp"
+#include "ftid/identify/imu.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "lab_internal.hpp"  // saturation (issue 22)
 #include "spectrum_report.hpp"
@@ -92,6 +93,13 @@ std::string formatText(const AnalysisResult& r) {
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
   s += detail::spectrumText(r.spectrum);  // issue 22: sensor and mount dynamics
   if (r.dynamics.tested || !r.dynamics.note.empty()) s += dynamicsLine(r.dynamics, r.noise_floor) + "\n";
+  if (r.imu.used || !r.imu.not_used_reason.empty()) {  // issue 23: the IMU against the kinematics
+    s += "\nthe sensor's IMU against the kinematics" +
+         std::string(r.imu.used ? " and " + (r.final_report ? r.final_report->model : r.report.model) : "") + ":\n";
+    if (!r.imu.used) s += "  not checked: " + r.imu.not_used_reason + "\n";
+    if (r.imu.used) s += identify::formatImuEstimate(r.imu.estimate);
+    for (const auto& c : r.imu.comparisons) s += std::string(c.disagrees ? "  DISAGREE " : "  agree    ") + c.message + "\n";
+  }
   if (!r.windows.empty()) {
     s += "\nwhere it fails (time windows with the largest held-out residual, x noise floor):\n";
     for (const auto& w : r.windows) {

@@ -91,12 +91,23 @@ std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set) {
   auto bad = [](const std::string& key, const std::string& msg) {
     return std::optional<ParameterProblem>(ParameterProblem{key, msg});
   };
-  for (const auto* group : {&set.params, &set.derived}) {
-    const std::string prefix = group == &set.params ? "parameters." : "derived.";
+  for (const auto* group : {&set.params, &set.derived, &set.imu}) {
+    const std::string prefix = group == &set.params ? "parameters." : (group == &set.imu ? "imu." : "derived.");
     for (const auto& p : *group) {
       if (!std::isfinite(p.value)) return bad(prefix + p.name, "value is not finite");
       if (!std::isfinite(p.std)) return bad(prefix + p.name, "standard error is not finite");
       if (p.std < 0.0) return bad(prefix + p.name, "standard error is negative");
+    }
+  }
+  for (const auto& b : set.imu) {
+    // A working MEMS IMU's bias is a few 0.01 m/s^2 and 0.001 rad/s; far beyond: a broken IMU or
+    // a hand-edited file, whose subtraction would corrupt the compensation with the IMU's motion.
+    const bool acc = b.name.rfind("acc_", 0) == 0;
+    const double limit = acc ? kMaxImuAccBias_mps2 : kMaxImuGyroBias_radps;
+    if (std::abs(b.value) > limit) {
+      char text[96];
+      std::snprintf(text, sizeof(text), "bias %.6g %s is beyond %g", b.value, acc ? "m/s^2" : "rad/s", limit);
+      return bad("imu." + b.name, std::string(text) + " (no working IMU has it: a broken IMU or a wrong unit)");
     }
   }
   if (!std::isfinite(set.tilt_u_rad) || !std::isfinite(set.tilt_u_std)) return bad("tilt.u", "not finite");
@@ -180,7 +191,7 @@ ParameterSet parseParameterText(const std::string& text, const std::string& path
   const YamlFile file = YamlFile::parse(text, path);
   const YamlValue root = file.root();
   root.expectMap("not a parameter file (expected a YAML mapping)");
-  root.onlyKeys({"model", "parameters", "derived", "tilt", "time_origin", "provenance"});
+  root.onlyKeys({"model", "parameters", "derived", "tilt", "time_origin", "imu", "provenance"});
   ParameterSet set;
   const YamlValue model = root["model"];
   if (!model.isScalar()) model.fail("missing (e.g. 'model: paper')");
@@ -206,6 +217,11 @@ ParameterSet parseParameterText(const std::string& text, const std::string& path
     origin.expectMap("expected {unix_s, utc}");
     origin.onlyKeys({"unix_s", "utc"});
     set.time_origin_unix_s = origin.required("unix_s").number(NumberRange::nonNegative("must be a non-negative Unix time [s]"));
+  }
+  if (const YamlValue imu = root["imu"]) {  // optional: written when identify used the IMU
+    imu.expectMap("expected the IMU's biases, e.g. 'gyro_bias_x: {value: 0.001, std: 0.0001, unit: \"rad/s\"}'");
+    imu.onlyKeys(std::vector<std::string>(std::begin(kImuBiasNames), std::end(kImuBiasNames)));
+    for (const auto& [name, entry] : imu.entries()) set.imu.push_back(readEntry(entry, name));
   }
   if (const YamlValue prov = root["provenance"]) {
     prov.onlyKeys({"date", "data_file", "model", "method", "trajectory", "n_samples", "residual_rms",
@@ -271,6 +287,13 @@ void writeParameterFile(const std::string& path, const ParameterSet& set) {
         << YAML::Flow << YAML::BeginMap << YAML::Key << "unix_s" << YAML::Value
         << YamlNumber{set.time_origin_unix_s} << YAML::Key << "utc" << YAML::Value << YAML::DoubleQuoted
         << utcText(set.time_origin_unix_s) << YAML::EndMap;
+  }
+  if (!set.imu.empty()) {
+    out << YAML::Key << "imu" << YAML::Value
+        << YAML::Comment("the IMU's biases in its frame (compensation with the motion from the IMU)")
+        << YAML::BeginMap;
+    for (const auto& p : set.imu) yamlEntry(out, p);
+    out << YAML::EndMap;
   }
   out << YAML::Key << "provenance" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "date" << YAML::Value << YAML::DoubleQuoted

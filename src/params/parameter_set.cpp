@@ -25,6 +25,16 @@ Eigen::VectorXd thetaFor(const effects::Model& model, const ParameterSet& set, c
   return theta;
 }
 
+Vec6 imuBiasesOf(const ParameterSet& set) {
+  Vec6 b = Vec6::Zero();
+  for (const auto& v : set.imu) {
+    for (int k = 0; k < 6; ++k) {
+      if (v.name == kImuBiasNames[k]) b(k) = v.value;
+    }
+  }
+  return b;
+}
+
 effects::NonlinearParams nonlinearFor(const effects::Model& model, const ParameterSet& set,
                                       const std::string& source) {
   effects::NonlinearParams nl;

@@ -38,7 +38,7 @@ bool commandWorks(const std::string& cmd) {
 bool fileExists(const std::string& p) { return ::access(p.c_str(), X_OK) == 0; }
 
 // The simulator's default payload (paper Table 2, docs/sensor.md) as a "paper" parameter file.
-void writePaperParams(const std::string& path, double f0_x_extra) {
+void writePaperParams(const std::string& path, double f0_x_extra, double imu_acc_bias_x = 0.0) {
   const double g = 9.80665;
   const double m = 8.862 / g;
   const double cx = 0.005, cy = 0.002, cz = 0.051;
@@ -55,7 +55,48 @@ void writePaperParams(const std::string& path, double f0_x_extra) {
   set.tilt_estimated = true;
   set.tilt_u_rad = -9.8716 * deg;
   set.tilt_v_rad = -5.3709 * deg;
+  if (imu_acc_bias_x != 0.0) set.imu = {{"acc_bias_x", imu_acc_bias_x, 0.0, "m/s^2"}};
   ftid::params::writeParameterFile(path, set);
+}
+
+// ftidd beside the two simulators in the cell's own network namespace: its configuration (with
+// `sensor_extra` lines under sensor:) and the script that runs it for 5 s, recording FTID_* with
+// lcm-logger; with `reload`, params_v2.yaml replaces params.yaml after 3 s and ftidd gets SIGHUP.
+void writeCellScript(const std::string& dir, const std::string& sensor_extra, bool reload) {
+  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
+  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  {
+    std::ofstream cfg(dir + "/ftidd.yaml");
+    cfg << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
+        << "sensor:\n  socket_path: " << dir << "/ft.sock\n  dbc_path: " FTID_SOURCE_DIR
+        << "/config/ftsensor.dbc\n" << sensor_extra
+        << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
+        << "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  stats_period_s: 0.5\n"
+        << "rt:\n  lock_memory: false\n  priority: 10\n";
+  }
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::ofstream script(dir + "/run.sh");
+  script << "set -u\n"
+         << "ip link set lo up && ip route add 224.0.0.0/4 dev lo || exit 90\n"
+         << "'" << ftid << "' sim-robot > '" << dir << "/robot.log' 2>&1 & R=$!\n"
+         << "'" << ftid << "' sim-sensor --socket '" << dir << "/ft.sock' --urdf " FTID_SOURCE_DIR
+         << "/config/ur10.urdf --dbc " FTID_SOURCE_DIR "/config/ftsensor.dbc > '" << dir
+         << "/sensor.log' 2>&1 & S=$!\n"
+         << "lcm-logger --quiet --force --lcm-url='" << url << "' --channel='FTID_.*' '" << dir
+         << "/logger.lcm' & L=$!\n"
+         << "'" << ftidd << "' --config '" << dir << "/ftidd.yaml' --record '" << dir
+         << "/ftidd.lcm' > '" << dir << "/ftidd.log' 2>&1 & D=$!\n"
+         << "i=0; until grep -q 'running at' '" << dir << "/ftidd.log'; do\n"
+         << "  sleep 0.2; i=$((i+1)); [ $i -gt 150 ] && break\n"
+         << "done\n"
+         << "sleep 3\n";
+  if (reload) script << "mv '" << dir << "/params_v2.yaml' '" << dir << "/params.yaml'\n" << "kill -HUP $D\n";
+  script << "sleep 2\n"
+         << "kill -TERM $D; wait $D; RC=$?\n"
+         << "kill -INT $L; wait $L\n"
+         << "kill -TERM $S $R; wait $S $R\n"
+         << "exit $RC\n";
+  script.close();
 }
 
 // Issue 26: with parameters.required, ftidd does not start on an implausible (10^6 kg) or a
@@ -121,39 +162,7 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
   ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
   writePaperParams(dir + "/params.yaml", 0.0);
   writePaperParams(dir + "/params_v2.yaml", 1.0);
-  {
-    std::ofstream cfg(dir + "/ftidd.yaml");
-    cfg << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
-        << "sensor:\n  socket_path: " << dir << "/ft.sock\n  dbc_path: " FTID_SOURCE_DIR
-        << "/config/ftsensor.dbc\n"
-        << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
-        << "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  stats_period_s: 0.5\n"
-        << "rt:\n  lock_memory: false\n  priority: 10\n";
-  }
-  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
-  std::ofstream script(dir + "/run.sh");
-  script << "set -u\n"
-         << "ip link set lo up && ip route add 224.0.0.0/4 dev lo || exit 90\n"
-         << "'" << ftid << "' sim-robot > '" << dir << "/robot.log' 2>&1 & R=$!\n"
-         << "'" << ftid << "' sim-sensor --socket '" << dir << "/ft.sock' --urdf " FTID_SOURCE_DIR
-         << "/config/ur10.urdf --dbc " FTID_SOURCE_DIR "/config/ftsensor.dbc > '" << dir
-         << "/sensor.log' 2>&1 & S=$!\n"
-         << "lcm-logger --quiet --force --lcm-url='" << url << "' --channel='FTID_.*' '" << dir
-         << "/logger.lcm' & L=$!\n"
-         << "'" << ftidd << "' --config '" << dir << "/ftidd.yaml' --record '" << dir
-         << "/ftidd.lcm' > '" << dir << "/ftidd.log' 2>&1 & D=$!\n"
-         << "i=0; until grep -q 'running at' '" << dir << "/ftidd.log'; do\n"
-         << "  sleep 0.2; i=$((i+1)); [ $i -gt 150 ] && break\n"
-         << "done\n"
-         << "sleep 3\n"
-         << "mv '" << dir << "/params_v2.yaml' '" << dir << "/params.yaml'\n"
-         << "kill -HUP $D\n"
-         << "sleep 2\n"
-         << "kill -TERM $D; wait $D; RC=$?\n"
-         << "kill -INT $L; wait $L\n"
-         << "kill -TERM $S $R; wait $S $R\n"
-         << "exit $RC\n";
-  script.close();
+  writeCellScript(dir, "", true);
   const int rc = std::system(("unshare -rn sh '" + dir + "/run.sh'").c_str());
   ASSERT_EQ(rc, 0) << "ftidd log:\n"
                    << std::ifstream(dir + "/ftidd.log").rdbuf();
@@ -240,6 +249,50 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
   EXPECT_GT(log.samples.size(), 300u);
   EXPECT_TRUE(log.has_imu);
   if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());  // kept for diagnosis otherwise
+}
+
+// Compensation with the motion of S from the sensor's IMU (sensor.motion_source: imu; docs/effects.md
+// "Motion from the IMU"): the parameter file's accelerometer bias (0.5 m/s^2 on x, where the
+// simulated IMU has none) is subtracted from the IMU's reading in every cycle, so the contact is
+// exactly what that false bias makes of the payload, -m b on fx and c x (-m b) in the moments, and
+// every cycle is valid. With the kinematics' motion the bias would change nothing.
+TEST(FtiddEndToEnd, CompensatesWithTheMotionFromTheImu) {
+  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
+  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  if (!fileExists(ftid) || !fileExists(ftidd)) GTEST_SKIP() << "ftid/ftidd not built";
+  if (!commandWorks("command -v lcm-logger")) GTEST_SKIP() << "lcm-logger (liblcm-bin) not installed";
+  if (!commandWorks("unshare -rn true")) GTEST_SKIP() << "unshare -rn not permitted";
+  const std::string dir = ::testing::TempDir() + "ftidd_imu_" + std::to_string(::getpid());
+  ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
+  const double b = 0.5;
+  writePaperParams(dir + "/params.yaml", 0.0, b);
+  writeCellScript(dir, "  motion_source: imu\n", false);
+  const int rc = std::system(("unshare -rn sh '" + dir + "/run.sh'").c_str());
+  std::stringstream log;
+  log << std::ifstream(dir + "/ftidd.log").rdbuf();
+  ASSERT_EQ(rc, 0) << "ftidd log:\n" << log.str();
+  EXPECT_NE(log.str().find("compensating with the motion of the sensor from its IMU"), std::string::npos) << log.str();
+  const double m = 8.862 / 9.80665;
+  const ftid::Vec3 c(0.005, 0.002, 0.051);
+  const ftid::Vec3 f(-m * b, 0.0, 0.0);
+  Eigen::Matrix<double, 6, 1> expected;
+  expected << f, c.cross(f);
+  ftid::transport::LcmLogReader reader(dir + "/logger.lcm");
+  ftid::transport::LcmLogEvent ev;
+  int valid = 0;
+  double worst = 0.0;
+  while (reader.next(&ev)) {
+    if (ev.channel != "FTID_WRENCH") continue;
+    ftid_lcm::compensated_wrench_t w{};
+    ASSERT_TRUE(ftid::transport::decodeFrom(ev.data.data(), ev.data.size(), &w));
+    if (!w.valid) continue;
+    ++valid;
+    for (int i = 0; i < 6; ++i) worst = std::max(worst, std::abs(w.contact[i] - expected(i)));
+  }
+  EXPECT_GT(valid, 300);
+  // The CAN encoding's quanta (0.05 N, 0.001 Nm, 0.002 m/s^2) bound what is left.
+  EXPECT_LT(worst, 0.03);
+  if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());
 }
 
 }  // namespace

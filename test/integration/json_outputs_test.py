@@ -23,7 +23,7 @@ ANALYZE_KEYS = ["model", "log", "validate_log", "samples", "heldout_samples", "f
                 "noise_floor", "noise_method", "noise_detail", "noise_ar1", "outliers", "saturation", "warnings",
                 "raw_rms", "fit", "windows", "correlations", "extra_signals", "candidates", "family_alpha", "family_size",
                 "heldout_margin", "unphysical", "unwritable", "writable_alternative", "change_points",
-                "change_point_scan_p_value", "spectrum", "autocorrelation", "dynamics", "seconds"]
+                "change_point_scan_p_value", "spectrum", "autocorrelation", "dynamics", "imu", "seconds"]
 CANDIDATE_KEYS = ["effect", "relative_reduction", "significant", "p_value", "f_statistic", "added_params",
                   "delta_bic", "residual_rms", "description", "next_command", "skipped", "note",
                   "confounded", "confound", "separating_motion", "verdict", "family_p_value", "reason"]
@@ -109,6 +109,9 @@ def main():
     for key in ["residual_rms", "noise_floor", "noise_ar1", "raw_rms"]:
         axes_of(ana[key], key)
     check(list(ana["outliers"].keys()) == ["count", "times"], "outliers keys")
+    # The IMU against the kinematics and the model (docs/analyze.md "The IMU"): the simulated log has it.
+    check(ana["imu"].get("used") is True and [c["quantity"] for c in ana["imu"]["comparisons"]] == ["mount", "delay", "tilt"],
+          f"analyze imu {ana['imu']}")
     check(ana["change_points"] == [], f"no change point on a clean run, got {ana['change_points']}")
     check(ana["saturation"] == [], f"no saturation on a clean run: {ana['saturation']}")
     check(len(ana["candidates"]) == 2, f"two candidates, got {len(ana['candidates'])}")

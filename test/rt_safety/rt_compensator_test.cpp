@@ -1,7 +1,7 @@
 // Compensator::compute is allocation-free (counted by the test allocator) for the paper model,
 // including the rejected-input path, and for the richest model (every effect that changes the
 // compensation path: crosstalk's inverse, the mounting rotation, the delay ring of either sign) at
-// 125 Hz and 500 Hz.
+// 125 Hz and 500 Hz, with the motion from the kinematics or from the IMU.
 #include <gtest/gtest.h>
 
 #include <limits>
@@ -50,22 +50,32 @@ TEST(RtCompensator, ComputeDoesNotAllocate) {
 struct RateCase {
   double rate_hz;
   double delay_s;
+  bool imu_motion = false;  ///< MotionSource::kImu with biases
 };
 
 class RtCompensatorRichest : public ::testing::TestWithParam<RateCase> {};
 
 TEST_P(RtCompensatorRichest, ComputeDoesNotAllocateWithEveryEffect) {
   const RateCase rc = GetParam();
+  // The IMU's motion refuses a model with an apparent tilt (cable): the richest model without it.
   const auto model = effects::Model::fromName(
-      "paper+rigid_body+cable+temperature_drift+time_drift+crosstalk+mounting+sensor_delay+harmonic(q6,1)+payload(q6)");
+      std::string("paper+rigid_body") + (rc.imu_motion ? "" : "+cable") +
+      "+temperature_drift+time_drift+crosstalk+mounting+sensor_delay+harmonic(q6,1)+payload(q6)");
   Eigen::VectorXd theta = Eigen::VectorXd::LinSpaced(model.numParams(), -0.01, 0.01);
   theta(model.paramIndex().column("mass")) = 2.0;
   NonlinearParams nl;
   nl.tilt_u_rad = 0.01;
   nl.mount_rpy_rad = Vec3(0.01, -0.02, 0.05);
   nl.delay_s = rc.delay_s;
-  Compensator comp(model, theta, nl);
+  CompensatorOptions options;
+  if (rc.imu_motion) {
+    options.motion = MotionSource::kImu;
+    options.imu_bias.acc_mps2 = Vec3(0.03, -0.02, 0.04);
+    options.imu_bias.gyro_radps = Vec3(0.002, -0.003, 0.001);
+  }
+  Compensator comp(model, theta, nl, options);
   effects::SampleContext ctx;
+  ctx.has_imu = true;
   ctx.has_temp = true;
   ctx.temp_degC = 26.0;
   ctx.wrench_S << 1, 2, 3, 0.1, 0.2, 0.3;
@@ -83,6 +93,9 @@ TEST_P(RtCompensatorRichest, ComputeDoesNotAllocateWithEveryEffect) {
       ctx.R_BS = Eigen::AngleAxisd(0.3 + 0.2 * ctx.t, Vec3(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
       ctx.w_S = Vec3(0.1, 0.2 * std::cos(ctx.t), 0.3);
       ctx.a_S = Vec3(0.5 * std::sin(ctx.t), -0.2, 0.1);
+      ctx.imu_acc_S = Vec3(0.4 * std::sin(ctx.t), -0.3, 9.7);
+      ctx.imu_w_S = Vec3(0.1, 0.2 * std::cos(ctx.t), 0.31);
+      ctx.imu_alpha_S = Vec3(0.0, -0.2 * std::sin(ctx.t), 0.0);
       const Status st = comp.compute(ctx, &contact, &modelled);
       if (st == Status::kOk) {
         ++ok;
@@ -104,7 +117,8 @@ TEST_P(RtCompensatorRichest, ComputeDoesNotAllocateWithEveryEffect) {
 
 INSTANTIATE_TEST_SUITE_P(Rates, RtCompensatorRichest,
                          ::testing::Values(RateCase{125.0, 0.024}, RateCase{500.0, 0.024},
-                                           RateCase{500.0, -0.3}, RateCase{125.0, 0.0}));
+                                           RateCase{500.0, -0.3}, RateCase{125.0, 0.0},
+                                           RateCase{125.0, 0.0, true}, RateCase{500.0, -0.3, true}));
 
 }  // namespace
 }  // namespace ftid::compensate

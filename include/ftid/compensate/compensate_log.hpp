@@ -5,6 +5,7 @@
 #include <string>
 
 #include "ftid/common/types.hpp"
+#include "ftid/compensate/compensator.hpp"
 #include "ftid/samples/context.hpp"
 
 namespace ftid::params {
@@ -19,6 +20,9 @@ struct CompensateRequest {
   std::string out_csv;
   std::string robot_urdf;
   samples::ContextOptions context;
+  /// kImu: the motion of S from the log's IMU columns, less the parameter file's `imu` biases
+  /// (compensator.hpp; a log without the IMU columns is a DataError).
+  MotionSource motion = MotionSource::kKinematics;
 };
 
 struct CompensateSummary {
@@ -29,6 +33,8 @@ struct CompensateSummary {
   /// For a model that reads time (time_drift, the t signal) whose time cannot be placed as ftidd
   /// places it: why (the log has no host_time column, or the set has no time origin); else empty.
   std::string time_note;
+  /// With MotionSource::kImu and a set without the IMU's biases: what that means; else empty.
+  std::string imu_note;
 };
 
 /// Writes OUT.csv (atomically) with columns t, fx..tz (contact wrench = reading - modelled) and

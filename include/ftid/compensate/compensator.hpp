@@ -15,6 +15,18 @@
 //           output, so the output is |tau| late; outputTime() tells which reading it is.
 // Nothing differentiates the compensator's own output.
 //
+// Motion from the IMU (MotionSource::kImu, docs/effects.md "Motion from the IMU"): the prepared
+// context's motion of S is taken from the IMU instead of the kinematics,
+//   w_S = imu_w_S - b_g,   alpha_S = imu_alpha_S,   a_S = (imu_acc_S - b_a) + g_S
+// with g_S from the kinematic orientation and the tilt as above, so that a_S - g_S, the specific
+// force every inertial effect reads, is the accelerometer's. The IMU is taken in the robot state's
+// time, as `sensor_delay` defines it (the wrench lags the robot state and the IMU): with a delay its
+// channels are interpolated at the reading's kinematics time like the rest of the motion. Its axes
+// are taken as the sensor's (the gyro's mount check in `ftid identify` and the lab says when they
+// are not). A reading without the IMU gives Status::kInvalidInput. A model whose tilt is apparent
+// (Model::tiltAbsorbers: the tilt holds a cable's uniform pull) is refused at construction: the
+// IMU measures gravity, so the pull folded into the tilt would be lost.
+//
 // compute() is real-time safe: no heap allocation (workspace and ring preallocated at
 // construction), no exceptions, no locks, no I/O. Non-finite input is rejected with
 // Status::kInvalidInput and the outputs are left untouched. One instance per thread.
@@ -28,6 +40,20 @@ namespace ftid::compensate {
 using effects::NonlinearParams;
 using effects::SampleContext;
 
+/// Where the compensation takes the motion of S from (above).
+enum class MotionSource { kKinematics, kImu };
+
+/// The IMU's biases in its own frame (ftid identify writes them to the parameter file's `imu`).
+struct ImuBiases {
+  Vec3 acc_mps2 = Vec3::Zero();
+  Vec3 gyro_radps = Vec3::Zero();
+};
+
+struct CompensatorOptions {
+  MotionSource motion = MotionSource::kKinematics;
+  ImuBiases imu_bias;  ///< subtracted from the IMU's readings with MotionSource::kImu
+};
+
 class Compensator {
  public:
   /// The highest sample rate the delay ring is sized for [Hz]: ring = |tau| * rate * 1.25 + 8.
@@ -37,6 +63,10 @@ class Compensator {
   /// not estimate are ignored except the tilt, which always sets gravity). Throws ConfigError if
   /// theta has the wrong size, a value is not finite, or |delay| > 10 s.
   Compensator(const effects::Model& model, const Eigen::VectorXd& theta, const NonlinearParams& nonlinear);
+  /// The same with the motion's source; throws ConfigError also for non-finite biases and for
+  /// MotionSource::kImu with a model whose tilt is apparent (above).
+  Compensator(const effects::Model& model, const Eigen::VectorXd& theta, const NonlinearParams& nonlinear,
+              const CompensatorOptions& options);
   /// Paper-style: tilt only.
   Compensator(const effects::Model& model, const Eigen::VectorXd& theta, double tilt_u_rad,
               double tilt_v_rad);
@@ -54,6 +84,7 @@ class Compensator {
   const effects::Model& model() const noexcept { return eval_.model(); }
   const Eigen::VectorXd& theta() const noexcept { return eval_.theta(); }
   const NonlinearParams& nonlinear() const noexcept { return nl_; }
+  const CompensatorOptions& options() const noexcept { return options_; }
 
  private:
   const SampleContext& ringAt(int i) const noexcept;  ///< 0 = oldest
@@ -62,6 +93,7 @@ class Compensator {
 
   effects::ModelEvaluator eval_;
   NonlinearParams nl_;
+  CompensatorOptions options_;
   Vec3 g_B_;
   Mat3 R_SM_;
   bool mounting_;

@@ -58,6 +58,10 @@ struct SensorConfig {
   /// yaw [rad] (R_FS = Rz(yaw) * Ry(pitch) * Rx(roll), as in URDF).
   Vec3 mount_xyz = Vec3::Zero();
   Vec3 mount_rpy = Vec3::Zero();
+  /// Where compensation takes the sensor's acceleration and angular motion from: "kinematics"
+  /// (the joints through the robot model) or "imu" (the sensor's IMU, less the parameter file's
+  /// `imu` biases; a cycle without an IMU sample is then invalid). docs/effects.md "Motion from the IMU".
+  std::string motion_source = "kinematics";
 
   Mat3 R_FS() const;
   Vec3 p_FS_F() const { return mount_xyz; }

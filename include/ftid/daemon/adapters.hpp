@@ -179,8 +179,11 @@ class ParameterFileCompensation final : public Compensation {
  public:
   /// Reads and validates the file; throws ConfigError naming the file and key.
   explicit ParameterFileCompensation(const std::string& path);
-  /// From a set already read (e.g. with tared offsets); `source` names it in errors.
-  ParameterFileCompensation(const params::ParameterSet& set, const std::string& source);
+  /// From a set already read (e.g. with tared offsets); `source` names it in errors. `motion`:
+  /// where the motion of S comes from (config sensor.motion_source; kImu subtracts the set's IMU
+  /// biases, compensate/compensator.hpp).
+  ParameterFileCompensation(const params::ParameterSet& set, const std::string& source,
+                            compensate::MotionSource motion = compensate::MotionSource::kKinematics);
   double tiltU() const noexcept override { return tilt_u_; }
   double tiltV() const noexcept override { return tilt_v_; }
   double timeOriginUnixS() const noexcept override { return time_origin_unix_s_; }

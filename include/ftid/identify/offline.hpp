@@ -87,11 +87,25 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
 CheckedIdentification identifyContextsChecked(const samples::ContextSet& contexts, const IdentifyRequest& request,
                                               bool check = true);
 
+/// The IMU's biases as a parameter file's `imu` entries (params::kImuBiasNames; compensation with
+/// the motion from the IMU subtracts them): the gyro's, and the accelerometer's when the motion
+/// determined it (estimate.acc.bias_estimated). A bias beyond what a working IMU has
+/// (params::kMaxImuAccBias_mps2, kMaxImuGyroBias_radps) is left out, and `left_out` (if given) says so.
+std::vector<NamedValue> imuBiasEntries(const ImuEstimate& estimate, std::string* left_out = nullptr);
+
+/// The IMU's biases of a run for its parameter file: estimateImu(samples), then imuBiasEntries.
+/// Empty when the samples have no IMU (note untouched) or the motion cannot determine them (`note`
+/// says why); `note` also gets imuBiasEntries' word on a bias left out.
+std::vector<NamedValue> imuBiasEntriesOf(const std::vector<SampleContext>& samples, std::string* note);
+
 /// Human-readable table: parameter, value, std, unit; residual RMS per axis; condition number.
 std::string formatParameterTable(const ParameterSet& set);
 
 /// Text lines of the IMU report (estimates, comparisons, warnings); empty when the IMU was off.
 std::string formatImuReport(const ImuReport& report);
+
+/// The IMU report as one JSON object (the keys of identificationJson's "imu"; also `ftid analyze`'s).
+std::string imuReportJson(const ImuReport& report);
 
 /// `ftid identify --json`'s object: identificationJson(set, check, validity) plus, when the IMU was
 /// consulted, the key "imu" (docs/identification.md "Outputs").

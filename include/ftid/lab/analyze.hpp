@@ -17,6 +17,7 @@
 #include "ftid/common/types.hpp"
 #include "ftid/effects/effect.hpp"
 #include "ftid/effects/rigid_body.hpp"
+#include "ftid/identify/offline.hpp"
 #include "ftid/identify/saturation.hpp"
 #include "ftid/lab/change_point.hpp"
 #include "ftid/lab/dynamics.hpp"
@@ -239,6 +240,10 @@ struct AnalysisResult {
   // held-out residual against the noise model, with the motion band (ftid/lab/spectrum.hpp).
   ResidualSpectrum spectrum;
   DynamicsCheck dynamics;  ///< a filter of the reading on the last model (ftid/lab/dynamics.hpp)
+  /// The sensor's IMU (issue 23, docs/analyze.md "The IMU"): its frame, bias and delay from the gyro,
+  /// its tilt and bias from the accelerometer (IMU against kinematics, residual RMS as `sigma`), and
+  /// the comparisons with the last model's mounting, sensor_delay and tilt (or the configuration).
+  identify::ImuReport imu;
 };
 
 /// Runs the analysis on contexts built from the log (samples::buildContexts). `validate`, if

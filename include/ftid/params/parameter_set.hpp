@@ -47,11 +47,27 @@ struct ParameterSet {
   /// column (and in files written before time origins: the drift then runs from the start of
   /// the run, ftidd's first valid cycle or the log's first sample). File key `time_origin`.
   double time_origin_unix_s = std::numeric_limits<double>::quiet_NaN();
+  /// The sensor IMU's biases in its own frame, as `ftid identify` estimated them with the IMU
+  /// (file key `imu`; names kImuBiasNames, units m/s^2 and rad/s); empty when the IMU was not
+  /// used. Read by compensation with the motion from the IMU (docs/effects.md "Motion from the IMU").
+  std::vector<NamedValue> imu;
   Provenance provenance;
 
   /// Finds a parameter in params, derived or tilt ("tilt_u"/"tilt_v"); nullptr if absent.
   const NamedValue* find(const std::string& name) const;
 };
+
+/// The names an `imu` entry may have: the accelerometer's bias [m/s^2], then the gyro's [rad/s].
+inline constexpr const char* kImuBiasNames[6] = {"acc_bias_x",  "acc_bias_y",  "acc_bias_z",
+                                                 "gyro_bias_x", "gyro_bias_y", "gyro_bias_z"};
+
+/// Largest IMU bias a parameter set may hold (findParameterProblem): ten times a poor MEMS part's.
+inline constexpr double kMaxImuAccBias_mps2 = 2.0;
+inline constexpr double kMaxImuGyroBias_radps = 0.2;
+
+/// The IMU's biases from the set: the six values in kImuBiasNames' order, zero where the set has
+/// none (an accelerometer bias the motion did not determine, or a set identified without the IMU).
+Vec6 imuBiasesOf(const ParameterSet& set);
 
 /// theta for `model` (ordered as model.paramIndex()) from the set. Throws ConfigError naming the
 /// source (file) and the missing parameter.
@@ -76,7 +92,7 @@ inline constexpr double kInertiaRelativeTolerance = 1e-9;
 /// non-finite value or standard error; a non-positive `mass`; a non-finite centre of mass; with
 /// rigid_body's i_s_* parameters, an inertia about the centre of mass with a negative principal
 /// moment or a violated triangle inequality (beyond kInertiaRelativeTolerance of the tensor's
-/// scale; effects::inertiaAboutCom).
+/// scale; effects::inertiaAboutCom); an IMU bias beyond kMaxImuAccBias_mps2 / kMaxImuGyroBias_radps.
 std::optional<ParameterProblem> findParameterProblem(const ParameterSet& set);
 
 /// What the robot and the sensor can carry (issue 26): a set beyond them is implausible

@@ -70,7 +70,7 @@ TEST_F(DaemonConfigTest, DefaultsWithRequiredFilesAreValid) {
 TEST_F(DaemonConfigTest, ReadsEveryKey) {
   const DaemonConfig c = parse(
       "  transport: socketcan\n  can_interface: can1\n  stale_timeout_ms: 5\n"
-      "  mount_xyz: [0, 0, 0.05]\n  mount_rpy: [0, 0, 1.5707963267948966]\n"
+      "  mount_xyz: [0, 0, 0.05]\n  mount_rpy: [0, 0, 1.5707963267948966]\n  motion_source: imu\n"
       "parameters:\n  path: p.yaml\n  required: false\n"
       "lcm:\n  url: memq://\n  publish_cycle: false\n  stats_period_s: 2\n"
       "  channels:\n    wrench: MY_WRENCH\n    cycle: MY_CYCLE\n"
@@ -79,6 +79,7 @@ TEST_F(DaemonConfigTest, ReadsEveryKey) {
   EXPECT_EQ(c.sensor.transport, "socketcan");
   EXPECT_EQ(c.sensor.can_interface, "can1");
   EXPECT_EQ(c.sensor.stale_timeout_ms, 5.0);
+  EXPECT_EQ(c.sensor.motion_source, "imu");
   EXPECT_EQ(c.sensor.p_FS_F(), Vec3(0, 0, 0.05));
   EXPECT_TRUE((c.sensor.R_FS() * Vec3::UnitX()).isApprox(Vec3::UnitY(), 1e-12));  // yaw 90 deg
   EXPECT_EQ(c.parameters.path, dir_ + "/p.yaml");
@@ -117,6 +118,7 @@ TEST_F(DaemonConfigTest, BadValuesNameKeyFileAndLine) {
               "robot.rtde_frequency_hz", 3, "1..500");
   expectError(base() + "  transport: usb\n", "sensor.transport", 5, "seqpacket");
   expectError(base() + "  stale_timeout_ms: 0\n", "sensor.stale_timeout_ms", 5);
+  expectError(base() + "  motion_source: gyro\n", "sensor.motion_source", 5, "'kinematics' or 'imu'");
   expectError(base() + "  can_interface: a_very_long_interface_name\n  transport: socketcan\n",
               "sensor.can_interface", 5);
   expectError(base() + "rt:\n  priority: 100\n", "rt.priority", 6, "1..99");

@@ -225,6 +225,85 @@ TEST(IdentifyCli, ImuOffIsTheWrenchAloneAndOnReportsTheImu) {
   for (const auto& f : {with_imu, without_imu}) std::remove(f.c_str());
 }
 
+/// The `imu:` entries of a parameter file: name -> value ("name: {value: V, ...").
+double imuEntry(const std::string& text, const std::string& name) {
+  const std::size_t at = text.find(name + ": {value: ");
+  if (at == std::string::npos) return std::nan("");
+  return std::stod(text.substr(at + name.size() + 10));
+}
+
+/// The contact RMS of axis `axis` that `ftid compensate` prints ("fx  <raw>  <contact>").
+double contactRms(const std::string& out, const std::string& axis) {
+  std::istringstream in(out);
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream l(line);
+    std::string name;
+    double raw = 0.0, contact = 0.0;
+    if (l >> name >> raw >> contact && name == axis) return contact;
+  }
+  return std::nan("");
+}
+
+// Compensation with the motion from the IMU (docs/effects.md "Motion from the IMU"): identify writes
+// the IMU's biases; `ftid compensate --motion imu` subtracts them and compensates to the noise; a
+// log without the IMU columns is a one-line error.
+TEST(IdentifyCli, TheImuBiasesAreWrittenAndCompensateWithTheImuUsesThem) {
+  ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, 24);
+  cfg.noise.acc_std = 0.01;
+  cfg.noise.gyro_std = 0.002;
+  cfg.imu.enabled = true;  // biases (0.03, -0.02, 0.04) m/s^2, (0.002, -0.003, 0.001) rad/s
+  ftid::logio::LogData log = ftid::sim::CellSim(cfg).run();
+  const std::string with_imu = dir() + "imu_motion.csv";
+  ftid::logio::writeLog(with_imu, log);
+  log.has_imu = false;
+  const std::string without_imu = dir() + "imu_motion_none.csv";
+  ftid::logio::writeLog(without_imu, log);
+  const std::string params = dir() + "imu_motion.yaml";
+  std::remove(params.c_str());
+  const CliRun id = ftidRun("identify --log " + with_imu + " --model paper --out " + params);
+  ASSERT_EQ(id.code, 0) << id.err;
+  std::stringstream read;
+  read << std::ifstream(params).rdbuf();
+  const std::string text = read.str();
+  ASSERT_NE(text.find("imu:"), std::string::npos) << text;
+  EXPECT_NEAR(imuEntry(text, "gyro_bias_x"), 0.002, 2e-4) << text;
+  EXPECT_NEAR(imuEntry(text, "gyro_bias_y"), -0.003, 2e-4) << text;
+  EXPECT_NEAR(imuEntry(text, "acc_bias_z"), 0.04, 0.01) << text;
+
+  const std::string out = dir() + "imu_motion_contact.csv";
+  const CliRun imu = ftidRun("compensate --log " + with_imu + " --params " + params + " --out " + out + " --motion imu");
+  ASSERT_EQ(imu.code, 0) << imu.err;
+  const CliRun kin = ftidRun("compensate --log " + with_imu + " --params " + params + " --out " + out);
+  ASSERT_EQ(kin.code, 0) << kin.err;
+  for (const char* axis : {"fx", "fy", "fz"}) {
+    // The wrench noise (0.05 N) and m sigma_acc (0.009 N) add in quadrature: 0.051 N.
+    EXPECT_LT(contactRms(imu.out, axis), 0.06) << imu.out;
+    EXPECT_LT(contactRms(kin.out, axis), 0.06) << kin.out;
+  }
+  // The file's biases are what the IMU's motion subtracts: 1 m/s^2 more on x leaves -m x 1 m/s^2
+  // on fx (0.90 N) with the IMU's motion, and nothing with the kinematics'.
+  const std::string key = "acc_bias_x: {value: ";
+  const std::size_t at = text.find(key) + key.size();
+  const std::string shifted = text.substr(0, at) + std::to_string(imuEntry(text, "acc_bias_x") + 1.0) +
+                              text.substr(text.find(',', at));
+  std::ofstream(params) << shifted;
+  const double m = 8.862 / 9.80665;
+  const CliRun imu1 = ftidRun("compensate --log " + with_imu + " --params " + params + " --out " + out + " --motion imu");
+  ASSERT_EQ(imu1.code, 0) << imu1.err;
+  EXPECT_NEAR(contactRms(imu1.out, "fx"), m, 0.05) << imu1.out;
+  EXPECT_LT(contactRms(imu1.out, "fy"), 0.06) << imu1.out;
+  const CliRun kin1 = ftidRun("compensate --log " + with_imu + " --params " + params + " --out " + out);
+  ASSERT_EQ(kin1.code, 0) << kin1.err;
+  EXPECT_EQ(contactRms(kin1.out, "fx"), contactRms(kin.out, "fx"));
+  const CliRun none = ftidRun("compensate --log " + without_imu + " --params " + params + " --out " + out +
+                              " --motion imu");
+  EXPECT_EQ(none.code, 1);
+  EXPECT_NE(none.err.find("has no IMU columns"), std::string::npos) << none.err;
+  EXPECT_EQ(ftidRun("compensate --log " + with_imu + " --params " + params + " --out " + out + " --motion gps").code, 2);
+  for (const auto& f : {with_imu, without_imu, params, out, params + ".bak"}) std::remove(f.c_str());
+}
+
 }  // namespace
 namespace recordings {
 

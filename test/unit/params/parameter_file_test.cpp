@@ -153,6 +153,33 @@ TEST(ParameterFile, BadValuesAndUnknownKeysNameFileLineColumnAndKey) {
   std::filesystem::remove(p);
 }
 
+// The IMU's biases (compensation with the motion from the IMU): written, read back bit for bit,
+// zero where absent, strict keys, and a bias no working IMU has is refused naming the key.
+TEST(ParameterFile, ImuBiasesRoundTripAndAreChecked) {
+  const std::string p = scratch("imu.yaml");
+  std::filesystem::remove(p);
+  ParameterSet set = paperSet(0.9);
+  EXPECT_EQ(imuBiasesOf(set), Vec6::Zero());
+  set.imu = {{"gyro_bias_x", 0.0021, 1e-5, "rad/s"}, {"gyro_bias_y", -0.0029, 1e-5, "rad/s"},
+             {"gyro_bias_z", 0.0011, 1e-5, "rad/s"}, {"acc_bias_z", 0.037, 1e-3, "m/s^2"}};
+  writeParameterFile(p, set);
+  const ParameterSet back = readParameterFile(p);
+  Vec6 expected;
+  expected << 0.0, 0.0, 0.037, 0.0021, -0.0029, 0.0011;
+  EXPECT_EQ(imuBiasesOf(back), expected);
+  ASSERT_EQ(back.imu.size(), 4u);
+  const std::string head = "model: paper\nparameters:\n  mass: {value: 1}\n";
+  spit(p, head + "imu:\n  gyro_bias_w: {value: 0.001}\n");
+  EXPECT_NE(errorOf(p).find(":5:3: key 'imu.gyro_bias_w': unknown key"), std::string::npos) << errorOf(p);
+  spit(p, head + "imu:\n  acc_bias_x: {value: 9.81}\n");
+  EXPECT_NE(errorOf(p).find("key 'imu.acc_bias_x': bias 9.81 m/s^2 is beyond 2 (no working IMU"), std::string::npos)
+      << errorOf(p);
+  spit(p, head + "imu:\n  gyro_bias_x: {value: 0.5}\n");
+  EXPECT_NE(errorOf(p).find("key 'imu.gyro_bias_x': bias 0.5 rad/s is beyond 0.2 (no working IMU"), std::string::npos) << errorOf(p);
+  std::filesystem::remove(p);
+  std::filesystem::remove(p + ".bak");
+}
+
 TEST(ParameterFile, InvalidInertiaIsRefused) {
   ParameterSet s = paperSet(1.0);
   // I_S about the S origin with the com at ~5 cm: a valid tensor first ...

@@ -1,0 +1,17 @@
+#pragma once
+// The laboratory's look at the sensor's IMU (issue 23; docs/analyze.md "The IMU"). Private to ftid_lab.
+#include <vector>
+
+#include "ftid/lab/analyze.hpp"
+
+namespace ftid::lab::detail {
+
+/// The IMU against the kinematics (identify::estimateImu on the fitting contexts: the gyro's frame,
+/// bias and delay; the accelerometer's tilt and bias), then against `last`, the last model: its
+/// `mounting` and `sensor_delay` (or, without them, the configured frame and no delay) and its tilt
+/// when it estimates one (identify::compareImuMountAndDelay, compareImuTilt: the 0.999 chi-square
+/// quantile of each). Fills result->imu; each disagreement is also a warning. A log without the IMU
+/// columns, or a motion that cannot determine the gyro's frame, is said in imu.not_used_reason.
+void checkImu(const std::vector<SampleContext>& fit, const ModelReport& last, AnalysisResult* result);
+
+}  // namespace ftid::lab::detail
