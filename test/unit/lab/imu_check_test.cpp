@@ -62,21 +62,22 @@ TEST(LabImu, AnImuThatTurnsWithTheSensorAgreesWithMounting) {
   EXPECT_NE(formatText(r).find("the sensor's IMU against the kinematics and paper+mounting"), std::string::npos);
 }
 
-TEST(LabImu, AnImuLeftInTheConfiguredFrameIsReported) {
-  const AnalysisResult r = analyzeWith(rotatedSensor(32, false), "paper+mounting");
+/// The IMU's mount disagrees with the model's (or the configuration's), in the result and its warning.
+void expectMountDisagreement(const AnalysisResult& r, const std::string& warning) {
   ASSERT_TRUE(r.imu.used) << r.imu.not_used_reason;
   ASSERT_NE(comparison(r, "mount"), nullptr);
   EXPECT_TRUE(comparison(r, "mount")->disagrees) << comparison(r, "mount")->message;
-  EXPECT_TRUE(warned(r, "the IMU and paper+mounting disagree on the mount"));
+  EXPECT_TRUE(warned(r, warning));
   EXPECT_NE(formatText(r).find("DISAGREE"), std::string::npos);
 }
 
+TEST(LabImu, AnImuLeftInTheConfiguredFrameIsReported) {
+  expectMountDisagreement(analyzeWith(rotatedSensor(32, false), "paper+mounting"),
+                          "the IMU and paper+mounting disagree on the mount");
+}
+
 TEST(LabImu, AModelWithoutMountingHearsOfTheRotationFromTheImu) {
-  const AnalysisResult r = analyzeWith(rotatedSensor(33, true), "paper");
-  ASSERT_TRUE(r.imu.used) << r.imu.not_used_reason;
-  ASSERT_NE(comparison(r, "mount"), nullptr);
-  EXPECT_TRUE(comparison(r, "mount")->disagrees) << comparison(r, "mount")->message;
-  EXPECT_TRUE(warned(r, "disagree on the mount"));
+  expectMountDisagreement(analyzeWith(rotatedSensor(33, true), "paper"), "the IMU and paper disagree on the mount");
 }
 
 TEST(LabImu, ALogWithoutTheImuSaysSo) {
