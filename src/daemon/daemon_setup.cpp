@@ -7,6 +7,8 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/daemon/backoff.hpp"
+#include "ftid/drivers/can/dbc.hpp"
+#include "ftid/drivers/can/sensor_layout.hpp"
 #include "ftid/effects/model.hpp"
 #include "ftid/transport/source_filter.hpp"
 
@@ -92,6 +94,11 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   };
   reloader = std::make_unique<ParameterReloader>(&params, factory);
   if (motionSource(cfg) == compensate::MotionSource::kImu) {
+    // A sensor whose frames carry no IMU could never give a valid cycle: a set-up error.
+    if (!drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(cfg.sensor.dbc_path)).hasImu()) {
+      throw ConfigError("sensor.motion_source: imu, but the sensor's DBC " + cfg.sensor.dbc_path +
+                        " has no IMU signals (AccX..AngAccZ): use 'kinematics'");
+    }
     logLine("compensating with the motion of the sensor from its IMU (sensor.motion_source: imu): a cycle "
             "without an IMU sample is invalid");
   }

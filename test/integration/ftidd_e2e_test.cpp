@@ -251,6 +251,40 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
   if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());  // kept for diagnosis otherwise
 }
 
+// sensor.motion_source: imu with a sensor whose DBC has no IMU signals could never give a valid
+// cycle: ftidd refuses to start and names the key and the DBC.
+TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbc) {
+  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  if (!fileExists(ftidd)) GTEST_SKIP() << "ftidd not built";
+  const std::string dir = ::testing::TempDir() + "ftidd_no_imu_" + std::to_string(::getpid());
+  ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
+  writePaperParams(dir + "/params.yaml", 0.0);
+  std::stringstream dbc;
+  dbc << std::ifstream(FTID_SOURCE_DIR "/config/ftsensor.dbc").rdbuf();
+  std::string text = dbc.str();
+  for (const std::string prefix : {" SG_ Acc", " SG_ Gyro", " SG_ AngAcc"}) {  // the nine IMU signals renamed
+    for (std::size_t at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at + 1)) {
+      text.replace(at, 5, " SG_ Spare");
+    }
+  }
+  std::ofstream(dir + "/no_imu.dbc") << text;
+  std::ofstream(dir + "/ftidd.yaml") << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
+                                     << "sensor:\n  socket_path: " << dir << "/no-sensor.sock\n  dbc_path: " << dir
+                                     << "/no_imu.dbc\n  motion_source: imu\n"
+                                     << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
+                                     << "lcm:\n  url: \"memq://\"\nrt:\n  lock_memory: false\n  priority: 10\n";
+  const int status = std::system(("'" + ftidd + "' --config '" + dir + "/ftidd.yaml' --connect-timeout 0 > '" + dir +
+                                  "/out.log' 2>&1").c_str());
+  std::stringstream log;
+  log << std::ifstream(dir + "/out.log").rdbuf();
+  ASSERT_TRUE(WIFEXITED(status)) << log.str();
+  EXPECT_NE(WEXITSTATUS(status), 0) << log.str();
+  EXPECT_NE(log.str().find("sensor.motion_source: imu, but the sensor's DBC " + dir + "/no_imu.dbc has no IMU signals"),
+            std::string::npos)
+      << log.str();
+  if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());
+}
+
 // Compensation with the motion of S from the sensor's IMU (sensor.motion_source: imu; docs/effects.md
 // "Motion from the IMU"): the parameter file's accelerometer bias (0.5 m/s^2 on x, where the
 // simulated IMU has none) is subtracted from the IMU's reading in every cycle, so the contact is
