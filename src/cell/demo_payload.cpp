@@ -5,6 +5,7 @@
 // compensation restored. Steps over the shared DemoCell (demo_cell.hpp).
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <string>
 
@@ -117,15 +118,43 @@ GraspFigures graspWhileMoving(DemoCell& c, lcm::LCM& lc) {
   return g;
 }
 
-/// Step 6: the same motion again with the re-identified payload: |contact force| RMS, or -1.
+/// Servo ticks a motion runner missed or whose state packages it lost, from its log's line "loop: N
+/// cycles, O overruns, K missed, L packets lost" (K + L; 0 without the line). The simulated arm jerks
+/// at such a tick, and the sensor simulator, which learns the motion over RTDE, cannot follow the
+/// jerk (docs/sensor.md, "Between robot ticks"): that motion's contact force measures the simulated
+/// cell on a busy host, not the compensation.
+unsigned long long missedTicks(const fs::path& log) {
+  const std::string line = firstLineWith(log, "loop: ");
+  const std::size_t at = line.find("loop: ");
+  unsigned long long cycles = 0, overruns = 0, missed = 0, lost = 0;
+  if (at == std::string::npos ||
+      std::sscanf(line.c_str() + at, "loop: %llu cycles, %llu overruns, %llu missed, %llu packets lost", &cycles,
+                  &overruns, &missed, &lost) != 4) {
+    return 0;
+  }
+  return missed + lost;
+}
+
+/// Step 6: the same motion again with the re-identified payload: |contact force| RMS, or -1. A
+/// motion in which the host missed servo ticks (missedTicks) is said and measured again, up to three
+/// motions in all.
 double moveAgain(DemoCell& c, lcm::LCM& lc) {
-  const std::unique_ptr<Child> motion = startMotion(c, "motion-3");
-  if (!motion) return -1.0;
-  Collector& col = c.collector;
-  col.recs.clear();
-  col.since_utime = transport::realtimeUs();
-  collectFor(lc, 15.0, [&] { return !motion->alive(); });
-  return contactRms(col.recs, 0, col.recs.size());
+  double rms = -1.0;
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    const std::unique_ptr<Child> motion = startMotion(c, attempt == 1 ? "motion-3" : "motion-3-" + std::to_string(attempt));
+    if (!motion) return -1.0;
+    Collector& col = c.collector;
+    col.recs.clear();
+    col.since_utime = transport::realtimeUs();
+    collectFor(lc, 15.0, [&] { return !motion->alive(); });
+    rms = contactRms(col.recs, 0, col.recs.size());
+    const unsigned long long missed = missedTicks(motion->log());
+    if (missed == 0) break;
+    say("   (this host missed " + std::to_string(missed) + " servo tick(s) of that motion: the simulated arm jerked, "
+        "which the sensor simulator cannot follow, docs/sensor.md; |contact force| RMS " + f3(rms) +
+        " N; the motion again)");
+  }
+  return rms;
 }
 
 }  // namespace
