@@ -28,6 +28,21 @@ FTIDD=${2:?}
 SRC=${3:?}
 SKIP=77
 
+# A host stall (a virtual machine's, a loaded desktop's) can make a servo target reach the
+# simulated controller late or not at all: the arm then jerks (its 40 rad/s^2 clamp for a tick) and
+# the sensor simulator, which learns the arm's motion over RTDE a tick later, cannot follow it, so
+# the window holds wrenches no physics made. A failed attempt whose recording shows such a jerk is
+# said and the whole scenario runs again, at most three times; a failure without a jerk, or on the
+# third attempt, fails (docs/testing.md, "Host stalls in integration_payload_change").
+if [ -z "${FTID_PC_ATTEMPT:-}" ]; then
+  for attempt in 1 2 3; do
+    FTID_PC_ATTEMPT=$attempt "$0" "$@"; rc=$?
+    [ $rc -ne 3 ] && exit $rc
+    echo "attempt $attempt: the simulated arm jerked (a host stall); running the scenario again"
+  done
+  exit 1
+fi
+
 . "$SRC/test/integration/cell_lib.sh"
 cell_reexec_in_netns "" "$@"
 command -v python3 >/dev/null || { echo "SKIP: python3 not found"; exit $SKIP; }
@@ -147,4 +162,18 @@ else
   fail "no payload change in the offline replay of the cell's recording"
 fi
 [ "$FAILED" -eq 0 ] && echo "PASS" || { echo "--- ftidd.log"; tail -20 "$WORK/ftidd.log"; }
+# The simulated arm jerked when it reached its acceleration clamp (40 rad/s^2) on some tick: the
+# shipped excitation plans at most 4 rad/s^2, so a tick above 20 rad/s^2 in the runner's recording
+# is a target that reached the controller late (a host stall held the previous one) or not at all.
+jerks=$(python3 - "$WORK/run.csv" <<'PY' 2>/dev/null
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+print(sum(1 for r in rows if max(abs(float(r["qdd%d" % j])) for j in range(1, 7)) > 20.0))
+PY
+)
+jerks=${jerks:-0}
+if [ "$FAILED" -ne 0 ] && [ "$jerks" -gt 0 ] && [ "$FTID_PC_ATTEMPT" -lt 3 ]; then
+  echo "this attempt's arm jerked at its acceleration clamp on $jerks tick(s) (a servo target late or lost): $(grep -m1 '^loop:' "$WORK/run.out")"
+  exit 3
+fi
 exit "$FAILED"
