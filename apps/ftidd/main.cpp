@@ -10,6 +10,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/daemon.hpp"
+#include "ftid/daemon/plausibility.hpp"
 
 namespace {
 
@@ -100,6 +101,12 @@ int main(int argc, char** argv) {
   }
   for (const auto& w : config.warnings) std::fprintf(stderr, "ftidd: warning: %s\n", w.c_str());
   if (check_only) {
+    try {
+      ftid::daemon::checkSensorDescription(config);
+    } catch (const ftid::ConfigError& e) {
+      std::fprintf(stderr, "ftidd: %s: %s\n", config_path.c_str(), e.what());
+      return 2;
+    }
     std::printf("%sconfiguration OK%s\n", ftid::config::describeDaemonConfig(config).c_str(),
                 config.warnings.empty() ? "" : " (with warnings, see above)");
     return 0;

@@ -93,12 +93,8 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
     return comp;
   };
   reloader = std::make_unique<ParameterReloader>(&params, factory);
+  checkSensorDescription(cfg);  // a sensor without the IMU that motion_source needs: a set-up error
   if (motionSource(cfg) == compensate::MotionSource::kImu) {
-    // A sensor whose frames carry no IMU could never give a valid cycle: a set-up error.
-    if (!drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(cfg.sensor.dbc_path)).hasImu()) {
-      throw ConfigError("sensor.motion_source: imu, but the sensor's DBC " + cfg.sensor.dbc_path +
-                        " has no IMU signals (AccX..AngAccZ): use 'kinematics'");
-    }
     logLine("compensating with the motion of the sensor from its IMU (sensor.motion_source: imu): a cycle "
             "without an IMU sample is invalid");
   }

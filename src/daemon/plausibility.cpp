@@ -27,6 +27,21 @@ params::PlausibilityLimits plausibilityLimits(const config::DaemonConfig& config
   return limits;
 }
 
+void checkSensorDescription(const config::DaemonConfig& config) {
+  (void)plausibilityLimits(config);
+  if (config.sensor.motion_source != "imu") return;
+  bool has_imu = false;
+  try {
+    has_imu = drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(config.sensor.dbc_path)).hasImu();
+  } catch (const Error& e) {
+    throw ConfigError("key 'sensor.dbc_path': " + std::string(e.what()));
+  }
+  if (!has_imu) {
+    throw ConfigError("sensor.motion_source: imu, but the sensor's DBC " + config.sensor.dbc_path +
+                      " has no IMU signals (AccX..AngAccZ): use 'kinematics'");
+  }
+}
+
 OfflineLimits offlinePlausibilityLimits(const std::string& config_path) {
   OfflineLimits out;
   params::PlausibilityLimits& limits = out.limits;

@@ -253,7 +253,7 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
 
 // sensor.motion_source: imu with a sensor whose DBC has no IMU signals could never give a valid
 // cycle: ftidd refuses to start and names the key and the DBC.
-TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbc) {
+TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbcAtStartAndInCheckConfig) {
   const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
   if (!fileExists(ftidd)) GTEST_SKIP() << "ftidd not built";
   const std::string dir = ::testing::TempDir() + "ftidd_no_imu_" + std::to_string(::getpid());
@@ -282,6 +282,15 @@ TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbc) {
   EXPECT_NE(log.str().find("sensor.motion_source: imu, but the sensor's DBC " + dir + "/no_imu.dbc has no IMU signals"),
             std::string::npos)
       << log.str();
+  // `--check-config` says the same before anything starts (exit 2, a configuration error).
+  const int check = std::system(("'" + ftidd + "' --check-config --config '" + dir + "/ftidd.yaml' > '" + dir +
+                                 "/check.log' 2>&1").c_str());
+  std::stringstream check_log;
+  check_log << std::ifstream(dir + "/check.log").rdbuf();
+  ASSERT_TRUE(WIFEXITED(check)) << check_log.str();
+  EXPECT_EQ(WEXITSTATUS(check), 2) << check_log.str();
+  EXPECT_NE(check_log.str().find("has no IMU signals (AccX..AngAccZ)"), std::string::npos) << check_log.str();
+  EXPECT_EQ(check_log.str().find("configuration OK"), std::string::npos) << check_log.str();
   if (!HasFailure()) std::system(("rm -rf '" + dir + "'").c_str());
 }
 

@@ -11,6 +11,12 @@ namespace ftid::daemon {
 /// Throws ConfigError naming the DBC if it cannot be read or lacks a wrench signal.
 params::PlausibilityLimits plausibilityLimits(const config::DaemonConfig& config);
 
+/// The checks of the sensor's description that ftidd's start and `ftidd --check-config` share:
+/// sensor.dbc_path parses, gives the wrench signals' rated range (plausibilityLimits), and has the
+/// IMU's signals when sensor.motion_source is imu (a sensor without them could never give a valid
+/// cycle). Throws ConfigError naming the key and the file.
+void checkSensorDescription(const config::DaemonConfig& config);
+
 /// The limits for an offline command (`ftid compensate`, `ftid identify --out`): only the two
 /// plausibility inputs are read from `config_path` (robot.rated_payload_kg, sensor.dbc_path; the
 /// rest of ftidd.yaml is not validated, so a config with a problem elsewhere does not matter);
