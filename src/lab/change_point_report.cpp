@@ -143,9 +143,12 @@ std::string transientNote(const std::vector<ChangePoint>& cps) {
 }
 
 void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result) {
+  // The smooth effects a step must beat: every candidate whose held-out gain the rule finds
+  // significant, recommended or refused. A refused fit (not identifiable, not physical) is no
+  // model to take, but its gain still shows a residual that follows the motion rather than time.
   double best = 0.0;
   for (const auto& c : result.candidates) {
-    if (c.significant) best = std::max(best, c.relative_reduction);
+    if (c.verdict == Verdict::kRecommended || c.verdict == Verdict::kRefused) best = std::max(best, c.relative_reduction);
   }
   ScanNote note;
   const auto t0 = std::chrono::steady_clock::now();

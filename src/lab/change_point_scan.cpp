@@ -271,7 +271,8 @@ Pass scanWithNoise(const RankContext& rc, const Fitted& base, const identify::No
 }
 
 /// The rule on the scan's best split (and a second change after it, when significant: a change
-/// that ends), then the comparison with the best recommended smooth candidate.
+/// that ends), then the comparison with the best smooth candidate whose held-out gain is
+/// significant (recommended or refused: reportChangePoints).
 std::vector<ChangePoint> judge(const RankContext& rc, const Fitted& base, const Scan& scanned,
                                double best_smooth_reduction, ScanNote* note) {
   RuleInputs in = changeRule(rc, scanned.p_scan, static_cast<int>(scanned.kind.u.size()));
@@ -316,7 +317,7 @@ std::vector<ChangePoint> judge(const RankContext& rc, const Fitted& base, const 
     note->why = d.verdict != Verdict::kRecommended
                     ? where + " is " + verdictWord(d.verdict) + ": " + d.reason
                     : where + " would lower the held-out error by " + fmt(100.0 * in.heldout_reduction, 3) +
-                          " %, less than the best recommended effect (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
+                          " %, less than the best effect with a significant held-out gain (" + fmt(100.0 * best_smooth_reduction, 3) + " %)";
   }
   return {};
 }

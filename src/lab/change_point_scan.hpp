@@ -21,13 +21,14 @@ struct ScanNote {
 /// step), or that one and a second change of the same kind after it (binary segmentation: a
 /// contact that ends, an object held for a while). Each is judged by the rule (lab/verdict.hpp)
 /// as one more candidate of the family; they are kept only when the model with their steps lowers
-/// the held-out error more than `best_smooth_reduction` (the best recommended smooth candidate's:
-/// a step must explain the data better than the effects that would imitate it). `note` (may be
+/// the held-out error more than `best_smooth_reduction` (the best smooth candidate's whose gain is
+/// significant, recommended or refused: a step must explain the data better than the effects that
+/// would imitate it). `note` (may be
 /// null): the scan's p-value and, when none is reported, why.
 std::vector<ChangePoint> findChangePoints(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
                                           ScanNote* note);
 
-/// analyze()'s call: scans against `base` with the ranking's best recommended reduction, fills
+/// analyze()'s call: scans against `base` with the ranking's best significant reduction, fills
 /// result.change_points and a warning, and says why none was reported in a progress line.
 void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result);
 

@@ -46,6 +46,19 @@ SKIP=77
 case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|below_floor|poisoned|sigstop|contact) ;;
   *) echo "unknown case '$CASE'"; exit 2 ;; esac
 
+# A host stall long enough that the motion runner loses three state packages in a row (this VM has
+# shown 100 ms with nothing else running) aborts the run, rightly, before the case's own fault: an
+# attempt that fails with that abort is said and the case runs again, at most three times in all
+# (no case here expects it; a deterministic failure still fails on the third attempt).
+if [ -z "${FTID_CELL_ATTEMPT:-}" ]; then
+  for attempt in 1 2 3; do
+    FTID_CELL_ATTEMPT=$attempt "$0" "$@"; rc=$?
+    [ $rc -ne 3 ] && exit $rc
+    echo "attempt $attempt [$CASE]: the host stalled the motion (lost state packages); running the case again"
+  done
+  exit 1
+fi
+
 # ---- re-enter in the private namespaces
 . "$SRC/test/integration/cell_lib.sh"
 cell_reexec_in_netns "$([ "$CASE" = disk_full ] && echo m)" "$@"
@@ -351,4 +364,7 @@ else
 fi
 
 [ $FAILED -eq 0 ] && echo "PASS [$CASE]" && exit 0
+if echo "${MSG:-}" | grep -q "identification run aborted: lost state packages" && [ "$FTID_CELL_ATTEMPT" -lt 3 ]; then
+  exit 3
+fi
 exit 1

@@ -4,10 +4,16 @@
 // of a change point over 20 seeds of a grasp.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <functional>
+#include <string>
+#include <filesystem>
 
 #include "ftid/lab/analyze.hpp"
+#include "ftid/logio/log.hpp"
+#include "ftid/sim/effect_spec.hpp"
 #include "ftid/sim/scenarios.hpp"
 #include "lab_sim.hpp"
 
@@ -57,6 +63,38 @@ TEST(ChangePoint, NoFalseAlarmOnStaticPoseSets) {
     c.static_poses.poses = 30;
     c.static_poses.hold_s = 0.2;
   });
+}
+
+/// A smooth effect whose fit the rule refuses is still no change in time. With the sensor's
+/// crosstalk at half the simulator's matrix and full rigid-body physics (`ftid simulate --seed N
+/// --effect crosstalk:scale=0.5`, the paper's cell, 10 s), the starting model `paper` misses both;
+/// from it crosstalk is refused (its gains are confounded with the payload) and rigid_body too (its
+/// inertia comes out non-physical), yet they lower the held-out error by 13-18 %. The scan's best
+/// split gains less, and while only the recommended candidates were its competition it was
+/// reported as "three set-ups" in 5 of these 24 seeds (3, 7, 15, 20, 21: offsets steps of 0.1 N
+/// and back, or a payload change of -0.014 kg for 1.5 s). A step must beat every candidate whose
+/// held-out gain the rule finds significant. Through the log file, as the commands do.
+TEST(ChangePoint, NoStepWhereASmoothEffectsFitIsRefused) {
+  const std::string dir = ::testing::TempDir() + "cp_refused_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  for (std::uint64_t seed = 1; seed <= 24; ++seed) {
+    // As `ftid simulate --seed N --effect crosstalk:scale=0.5 --out LOG` and `ftid analyze LOG`.
+    sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
+    c.seed = seed;
+    c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;  // the command's defaults
+    sim::applyEffectSpec("crosstalk:scale=0.5", c);
+    const std::string log = dir + "/crosstalk_" + std::to_string(seed) + ".csv";
+    logio::writeLog(log, sim::CellSim(c).run());
+    lab::AnalyzeFilesRequest req;
+    req.log_path = log;
+    req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+    const auto r = lab::analyzeRecordings(req);
+    for (const auto& cp : r.change_points) ADD_FAILURE() << "seed " << seed << ": " << lab::describeChangePoint(cp);
+    bool competitor = false;  // the case is the one described: a refused smooth effect beats the split
+    for (const auto& cand : r.candidates) competitor = competitor || cand.verdict == lab::Verdict::kRefused;
+    EXPECT_TRUE(competitor) << "seed " << seed;
+  }
+  if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
 /// The scan's p-value with its simulated null (alpha 0.5 makes every scan simulate it; at the
