@@ -2,9 +2,10 @@
 // (include/ftid/lab/analyze.hpp, docs/analyze.md).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <tuple>
-#include <cmath>
+#include <utility>
 
 #include "change_point_scan.hpp"
 #include "lab_internal.hpp"
@@ -228,6 +229,38 @@ void noteUnwritable(const Engine& engine, const Fitted& last_fit, const FitView&
   } catch (const std::exception&) {  // no fit of the alternative: none is offered
     result.writable_alternative.clear();
   }
+}
+
+/// The spectrum of the held-out residual `result` holds (its last model's) and the search for
+/// dynamics of the reading on `fit`, which the spectrum's motion band and peaks steer.
+std::pair<ResidualSpectrum, DynamicsCheck> readingDynamics(const detail::RankContext& rc, const Fitted& fit,
+                                                           const AnalysisResult& result) {
+  const auto& tests = rc.eng.testSamples();
+  std::vector<char> excluded(tests.size(), 0);
+  for (std::size_t k = 0; k < tests.size(); ++k) excluded[k] = rc.eng.excluded(tests[k]) ? 1 : 0;
+  ResidualSpectrum spectrum = detail::spectrumOfAnalysis(result, excluded, rc.scale_sd);
+  bool peak = false;
+  for (const auto& ax : spectrum.axes) peak = peak || ax.peak.significant;
+  DynamicsCheck dynamics = detail::checkDynamics(rc, fit, spectrum.motion_band_hz, peak);
+  return {std::move(spectrum), std::move(dynamics)};
+}
+
+/// A change point must beat the reading's dynamics too, as it beats every smooth candidate (a
+/// compliant mount's lag in a slow motion reads as offsets steps): when the dynamics found on
+/// `base` lower the held-out error more than the steps do, the change points and their warning
+/// are withdrawn, saying so, and the analysis goes on as without them.
+void weighStepsAgainstDynamics(const detail::RankContext& rc, const Fitted& base, AnalysisResult& result) {
+  if (result.change_points.empty()) return;
+  const DynamicsCheck d = readingDynamics(rc, base, result).second;
+  const double steps = result.change_points.front().heldout_reduction;
+  if (!d.significant || !(d.relative_reduction > steps)) return;
+  say(rc.options, "no change point: the steps would lower the held-out error by " + detail::fmt(100.0 * steps, 3) +
+                      " %, less than the reading's dynamics (" + d.effect + ", " + detail::fmt(100.0 * d.relative_reduction, 3) +
+                      " %)");
+  const std::string first = describeChangePoint(result.change_points.front());
+  auto& w = result.warnings;
+  w.erase(std::remove_if(w.begin(), w.end(), [&](const std::string& x) { return x.rfind(first, 0) == 0; }), w.end());
+  result.change_points.clear();
 }
 
 }  // namespace
@@ -468,6 +501,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
 
   // Change in time (change_point_scan.hpp): a step no smooth effect describes; --explain then stops.
   detail::reportChangePoints(rc, base, result);
+  weighStepsAgainstDynamics(rc, base, result);
   const Fitted last_fit =
       options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.
@@ -480,14 +514,9 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   if (result.unphysical.empty()) noteUnwritable(engine, last_fit, last_view, result);
   // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics).
   {
-    std::vector<char> excluded(tests.size(), 0);
-    for (std::size_t k = 0; k < tests.size(); ++k) excluded[k] = engine.excluded(tests[k]) ? 1 : 0;
-    result.spectrum = detail::spectrumOfAnalysis(result, excluded, rc.scale_sd);
+    std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
     const std::string dynamics = detail::spectrumWarning(result.spectrum);
     if (!dynamics.empty()) result.warnings.push_back(dynamics);
-    bool peak = false;
-    for (const auto& ax : result.spectrum.axes) peak = peak || ax.peak.significant;
-    result.dynamics = detail::checkDynamics(rc, last_fit, result.spectrum.motion_band_hz, peak);
     const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
     if (!filtered.empty()) result.warnings.push_back(filtered);
   }
