@@ -50,17 +50,10 @@ case "$CASE" in normal|protective_stop|sensor_silent|ftidd_killed|disk_full|belo
 # shown 100 ms with nothing else running) aborts the run, rightly, before the case's own fault: an
 # attempt that fails with that abort is said and the case runs again, at most three times in all
 # (no case here expects it; a deterministic failure still fails on the third attempt).
-if [ -z "${FTID_CELL_ATTEMPT:-}" ]; then
-  for attempt in 1 2 3; do
-    FTID_CELL_ATTEMPT=$attempt "$0" "$@"; rc=$?
-    [ $rc -ne 3 ] && exit $rc
-    echo "attempt $attempt [$CASE]: the host stalled the motion (lost state packages); running the case again"
-  done
-  exit 1
-fi
+. "$SRC/test/integration/cell_lib.sh"
+cell_run_attempts "[$CASE] the host stalled the motion (lost state packages)" "$@"
 
 # ---- re-enter in the private namespaces
-. "$SRC/test/integration/cell_lib.sh"
 cell_reexec_in_netns "$([ "$CASE" = disk_full ] && echo m)" "$@"
 
 fail() { echo "FAIL [$CASE]: $*"; FAILED=1; }

@@ -24,6 +24,23 @@ cell_reexec_in_netns() {
   FTID_CELL_TEST_IN_NS=1 exec unshare $flags "$0" "$@"
 }
 
+# cell_run_attempts WHAT ARGS...: unless already inside an attempt (FTID_CELL_ATTEMPT set), runs the
+# calling script ($0 ARGS...) as attempts 1..3 and exits with the first status that is not 3; an
+# attempt exits 3 when it found its own run spoilt by WHAT (a host stall: the script decides from
+# its recordings, and only before its last attempt), which is said before the next; after three
+# such attempts it exits 1. Inside an attempt it returns at once.
+cell_run_attempts() {
+  local what=$1 attempt rc
+  shift
+  [ -n "${FTID_CELL_ATTEMPT:-}" ] && return 0
+  for attempt in 1 2 3; do
+    FTID_CELL_ATTEMPT=$attempt "$0" "$@"; rc=$?
+    [ $rc -ne 3 ] && exit $rc
+    echo "attempt $attempt: $what; running it again"
+  done
+  exit 1
+}
+
 cell_cleanup() {
   for p in $PIDS; do kill -TERM "$p" 2>/dev/null; done
   for p in $PIDS; do wait "$p" 2>/dev/null; done

@@ -34,16 +34,8 @@ SKIP=77
 # the window holds wrenches no physics made. A failed attempt whose recording shows such a jerk is
 # said and the whole scenario runs again, at most three times; a failure without a jerk, or on the
 # third attempt, fails (docs/testing.md, "Host stalls in integration_payload_change").
-if [ -z "${FTID_PC_ATTEMPT:-}" ]; then
-  for attempt in 1 2 3; do
-    FTID_PC_ATTEMPT=$attempt "$0" "$@"; rc=$?
-    [ $rc -ne 3 ] && exit $rc
-    echo "attempt $attempt: the simulated arm jerked (a host stall); running the scenario again"
-  done
-  exit 1
-fi
-
 . "$SRC/test/integration/cell_lib.sh"
+cell_run_attempts "the simulated arm jerked (a host stall)" "$@"
 cell_reexec_in_netns "" "$@"
 command -v python3 >/dev/null || { echo "SKIP: python3 not found"; exit $SKIP; }
 
@@ -172,7 +164,7 @@ print(sum(1 for r in rows if max(abs(float(r["qdd%d" % j])) for j in range(1, 7)
 PY
 )
 jerks=${jerks:-0}
-if [ "$FAILED" -ne 0 ] && [ "$jerks" -gt 0 ] && [ "$FTID_PC_ATTEMPT" -lt 3 ]; then
+if [ "$FAILED" -ne 0 ] && [ "$jerks" -gt 0 ] && [ "$FTID_CELL_ATTEMPT" -lt 3 ]; then
   echo "this attempt's arm jerked at its acceleration clamp on $jerks tick(s) (a servo target late or lost): $(grep -m1 '^loop:' "$WORK/run.out")"
   exit 3
 fi

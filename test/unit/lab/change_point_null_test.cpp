@@ -12,8 +12,6 @@
 #include <filesystem>
 
 #include "ftid/lab/analyze.hpp"
-#include "ftid/logio/log.hpp"
-#include "ftid/sim/effect_spec.hpp"
 #include "ftid/sim/scenarios.hpp"
 #include "lab_sim.hpp"
 
@@ -78,17 +76,8 @@ TEST(ChangePoint, NoStepWhereASmoothEffectsFitIsRefused) {
   const std::string dir = ::testing::TempDir() + "cp_refused_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   for (std::uint64_t seed = 1; seed <= 24; ++seed) {
-    // As `ftid simulate --seed N --effect crosstalk:scale=0.5 --out LOG` and `ftid analyze LOG`.
-    sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
-    c.seed = seed;
-    c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;  // the command's defaults
-    sim::applyEffectSpec("crosstalk:scale=0.5", c);
-    const std::string log = dir + "/crosstalk_" + std::to_string(seed) + ".csv";
-    logio::writeLog(log, sim::CellSim(c).run());
-    lab::AnalyzeFilesRequest req;
-    req.log_path = log;
-    req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
-    const auto r = lab::analyzeRecordings(req);
+    const auto r = labtest::analyzeCommandLineRun(dir + "/crosstalk_" + std::to_string(seed) + ".csv", seed,
+                                                  "crosstalk:scale=0.5", false);
     for (const auto& cp : r.change_points) ADD_FAILURE() << "seed " << seed << ": " << lab::describeChangePoint(cp);
     bool competitor = false;  // the case is the one described: a refused smooth effect beats the split
     for (const auto& cand : r.candidates) competitor = competitor || cand.verdict == lab::Verdict::kRefused;

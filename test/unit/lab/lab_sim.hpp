@@ -8,7 +8,9 @@
 #include "ftid/samples/context.hpp"
 #include "ftid/lab/analyze.hpp"
 #include "ftid/model/kinematics.hpp"
+#include "ftid/logio/log.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "ftid/sim/effect_spec.hpp"
 
 namespace ftid::labtest {
 
@@ -72,6 +74,23 @@ inline const lab::ParamEstimate* findParam(const lab::ModelReport& r, const std:
     if (p.name == name) return &p;
   }
   return nullptr;
+}
+
+/// `ftid analyze LOG` of the log that `ftid simulate --seed SEED --effect EFFECT --out LOG` writes
+/// (the paper's cell and 10 s excitation, the command's default noise), read back from `log`:
+/// what a user reproducing a case from the command line sees.
+inline lab::AnalysisResult analyzeCommandLineRun(const std::string& log, std::uint64_t seed, const std::string& effect,
+                                                 bool explain) {
+  sim::CellSimConfig c = sim::paperCellConfig(robot());
+  c.seed = seed;
+  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  sim::applyEffectSpec(effect, c);
+  logio::writeLog(log, sim::CellSim(c).run());
+  lab::AnalyzeFilesRequest req;
+  req.log_path = log;
+  req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  req.options.explain = explain;
+  return lab::analyzeRecordings(req);
 }
 
 }  // namespace ftid::labtest

@@ -25,9 +25,6 @@
 
 #include "../identify/seed_study.hpp"
 #include "ftid/lab/analyze.hpp"
-#include "ftid/logio/log.hpp"
-#include "ftid/sim/effect_spec.hpp"
-#include "ftid/sim/scenarios.hpp"
 #include "lab_sim.hpp"
 
 namespace ftid::lab {
@@ -178,17 +175,8 @@ TEST(SpectrumSim, TheCommandLinesCompliantMountIsNoChangeInTime) {
   const std::string dir = ::testing::TempDir() + "mount_cli_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   for (const std::uint64_t seed : {1u, 2u, 3u}) {
-    sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
-    c.seed = seed;
-    c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;  // the command's defaults
-    sim::applyEffectSpec("mount_dynamics", c);
-    const std::string log = dir + "/mount_" + std::to_string(seed) + ".csv";
-    logio::writeLog(log, sim::CellSim(c).run());
-    AnalyzeFilesRequest req;
-    req.log_path = log;
-    req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
-    req.options.explain = true;
-    const AnalysisResult r = analyzeRecordings(req);
+    const AnalysisResult r =
+        labtest::analyzeCommandLineRun(dir + "/mount_" + std::to_string(seed) + ".csv", seed, "mount_dynamics", true);
     for (const auto& cp : r.change_points) ADD_FAILURE() << "seed " << seed << ": " << describeChangePoint(cp);
     EXPECT_TRUE(r.dynamics.significant) << "seed " << seed << ": " << dynamicsLine(r.dynamics, r.noise_floor);
     EXPECT_EQ(r.dynamics.effect, "mount_dynamics") << "seed " << seed;
