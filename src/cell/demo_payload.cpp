@@ -135,8 +135,8 @@ unsigned long long missedTicks(const fs::path& log) {
 }
 
 /// Ticks of a motion runner's recording (`--out` CSV, columns qdd1..qdd6) where the arm's
-/// acceleration exceeded kJerkRadps2 on some joint: the shipped excitation plans at most 4 rad/s^2,
-/// the simulated arm's clamp is 40, so such a tick is a servo target that reached the controller
+/// acceleration exceeded kJerkRadps2 on some joint: the demo's excitation plans at most 6 rad/s^2
+/// (it peaks at 5.9), the simulated arm's clamp is 40, so such a tick is a servo target that reached the controller
 /// late or not at all (a host stall, with or without a missed tick). 0 if the file is unreadable.
 constexpr double kJerkRadps2 = 20.0;
 std::size_t jerkTicks(const fs::path& csv) {
