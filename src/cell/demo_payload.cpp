@@ -6,14 +6,15 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <string>
 #include <vector>
 
 #include "demo_cell.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/client.hpp"
+#include "ftid/logio/table.hpp"
 #include "ftid/transport/command_auth.hpp"
 
 namespace ftid::cell {
@@ -140,27 +141,19 @@ unsigned long long missedTicks(const fs::path& log) {
 /// late or not at all (a host stall, with or without a missed tick). 0 if the file is unreadable.
 constexpr double kJerkRadps2 = 20.0;
 std::size_t jerkTicks(const fs::path& csv) {
-  std::ifstream in(csv);
-  std::string line;
-  if (!std::getline(in, line)) return 0;
-  std::vector<int> qdd_cols;
-  int col = 0;
-  for (std::size_t from = 0; from <= line.size(); ++col) {
-    const std::size_t comma = std::min(line.find(',', from), line.size());
-    if (comma - from == 4 && line.compare(from, 3, "qdd") == 0) qdd_cols.push_back(col);
-    from = comma + 1;
+  logio::Table t;
+  try {
+    t = logio::readTable(csv.string(), logio::TableSeparator::kComma,
+                         [](const std::string& name) { return name.rfind("qdd", 0) == 0; });
+  } catch (const Error&) {
+    return 0;
   }
   std::size_t jerks = 0;
-  while (std::getline(in, line)) {
-    col = 0;
+  for (std::size_t i = 0; i < t.rows(); ++i) {
     bool jerk = false;
-    for (std::size_t from = 0; from < line.size(); ++col) {
-      const std::size_t comma = std::min(line.find(',', from), line.size());
-      if (std::find(qdd_cols.begin(), qdd_cols.end(), col) != qdd_cols.end() &&
-          std::abs(std::strtod(line.c_str() + from, nullptr)) > kJerkRadps2) {
-        jerk = true;
-      }
-      from = comma + 1;
+    for (int j = 1; j <= 6; ++j) {
+      const int k = t.find("qdd" + std::to_string(j));
+      if (k >= 0 && std::abs(t.columns[static_cast<std::size_t>(k)][i]) > kJerkRadps2) jerk = true;
     }
     if (jerk) ++jerks;
   }

@@ -245,24 +245,6 @@ std::pair<ResidualSpectrum, DynamicsCheck> readingDynamics(const detail::RankCon
   return {std::move(spectrum), std::move(dynamics)};
 }
 
-/// A change point must beat the reading's dynamics too, as it beats every smooth candidate (a
-/// compliant mount's lag in a slow motion reads as offsets steps): when the dynamics found on
-/// `base` lower the held-out error more than the steps do, the change points and their warning
-/// are withdrawn, saying so, and the analysis goes on as without them.
-void weighStepsAgainstDynamics(const detail::RankContext& rc, const Fitted& base, AnalysisResult& result) {
-  if (result.change_points.empty()) return;
-  const DynamicsCheck d = readingDynamics(rc, base, result).second;
-  const double steps = result.change_points.front().heldout_reduction;
-  if (!d.significant || !(d.relative_reduction > steps)) return;
-  say(rc.options, "no change point: the steps would lower the held-out error by " + detail::fmt(100.0 * steps, 3) +
-                      " %, less than the reading's dynamics (" + d.effect + ", " + detail::fmt(100.0 * d.relative_reduction, 3) +
-                      " %)");
-  const std::string first = describeChangePoint(result.change_points.front());
-  auto& w = result.warnings;
-  w.erase(std::remove_if(w.begin(), w.end(), [&](const std::string& x) { return x.rfind(first, 0) == 0; }), w.end());
-  result.change_points.clear();
-}
-
 }  // namespace
 
 std::vector<std::string> defaultGenericMenu() {
@@ -500,8 +482,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.heldout_margin = options.min_relative_reduction;
 
   // Change in time (change_point_scan.hpp): a step no smooth effect describes; --explain then stops.
-  detail::reportChangePoints(rc, base, result);
-  weighStepsAgainstDynamics(rc, base, result);
+  detail::reportChangePoints(rc, base, result, [&] { return readingDynamics(rc, base, result).second; });
   const Fitted last_fit =
       options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <sstream>
 
 #include "change_point_scan.hpp"
@@ -142,7 +143,8 @@ std::string transientNote(const std::vector<ChangePoint>& cps) {
                                 : "two changes";
 }
 
-void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result) {
+void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result,
+                        const std::function<DynamicsCheck()>& reading_dynamics) {
   // The smooth effects a step must beat: every candidate whose held-out gain the rule finds
   // significant, recommended or refused. A refused fit (not identifiable, not physical) is no
   // model to take, but its gain still shows a residual that follows the motion rather than time.
@@ -159,6 +161,17 @@ void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResul
   if (cps.empty()) {
     if (!note.why.empty()) say(rc.options, "no change point: " + note.why);
     return;
+  }
+  // The reading's dynamics compete too (a compliant mount's lag in a slow motion reads as offsets
+  // steps); searched only now, when steps would be reported (60 filters, each a fit).
+  if (reading_dynamics) {
+    const DynamicsCheck d = reading_dynamics();
+    if (d.significant && d.relative_reduction > cps.front().heldout_reduction) {
+      say(rc.options, "no change point: the steps would lower the held-out error by " +
+                          fmt(100.0 * cps.front().heldout_reduction, 3) + " %, less than the reading's dynamics (" +
+                          d.effect + ", " + fmt(100.0 * d.relative_reduction, 3) + " %)");
+      return;
+    }
   }
   result.change_points = cps;
   const auto cmds = segmentCommands(cps, rc.log_cmd, base.model.name());

@@ -1,12 +1,14 @@
 #pragma once
 // The change-point scan of the model laboratory (include/ftid/lab/change_point.hpp,
 // docs/analyze.md "Change points"). Private to ftid_lab.
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "ftid/fileio/json_text.hpp"
 #include "ftid/lab/change_point.hpp"
+#include "ftid/lab/dynamics.hpp"
 #include "lab_internal.hpp"
 
 namespace ftid::lab::detail {
@@ -29,8 +31,11 @@ std::vector<ChangePoint> findChangePoints(const RankContext& rc, const Fitted& b
                                           ScanNote* note);
 
 /// analyze()'s call: scans against `base` with the ranking's best significant reduction, fills
-/// result.change_points and a warning, and says why none was reported in a progress line.
-void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result);
+/// result.change_points and a warning, and says why none was reported in a progress line. When
+/// steps would be reported, `reading_dynamics` (if set) searches the dynamics of the reading on
+/// `base`; dynamics that lower the held-out error more than the steps win, and none is reported.
+void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result,
+                        const std::function<DynamicsCheck()>& reading_dynamics = {});
 
 /// The report blocks (change_point_report.cpp); "" / nothing when there is no change point.
 std::string changePointText(const AnalysisResult& r);
