@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Geometry>
 
@@ -66,7 +68,7 @@ WahbaFit wahbaAt(const std::vector<SampleContext>& c, const KinematicsInterpolat
   y.reserve(c.size());
   KinematicsAt k;
   for (const auto& ctx : c) {
-    if (!kin.at(ctx.t - delay, &k)) continue;
+    if (!kin.at(ctx.t - delay, &k, false)) continue;
     w.push_back(k.w_S);
     y.push_back(ctx.imu_w_S);
     mean_w += k.w_S;
@@ -96,20 +98,20 @@ WahbaFit wahbaAt(const std::vector<SampleContext>& c, const KinematicsInterpolat
   return f;
 }
 
-/// Coarse delay: the profiled Wahba cost on a grid of half steps, a parabola through the best three.
-double coarseGyroDelay(const std::vector<SampleContext>& c, const KinematicsInterpolator& kin, double max_delay) {
-  const double h = 0.5 * kin.step();
-  const int m = std::max(1, static_cast<int>(std::floor(max_delay / h)));
+/// The delay minimising the profiled Wahba cost on the grid center + i h, |i| <= m, refined by a
+/// parabola through the best three; `fallback` when no grid point has enough samples.
+double gridDelay(const std::vector<SampleContext>& c, const KinematicsInterpolator& kin, double center, double h,
+                 int m, double fallback) {
   std::vector<double> cost(static_cast<std::size_t>(2 * m + 1), std::numeric_limits<double>::infinity());
   int best = -1;
   for (int i = -m; i <= m; ++i) {
-    const WahbaFit f = wahbaAt(c, kin, i * h);
+    const WahbaFit f = wahbaAt(c, kin, center + i * h);
     if (f.n < kMinSamples) continue;
     cost[static_cast<std::size_t>(i + m)] = f.cost;
     if (best < 0 || f.cost < cost[static_cast<std::size_t>(best)]) best = i + m;
   }
-  if (best < 0) return 0.0;
-  double tau = (best - m) * h;
+  if (best < 0) return fallback;
+  double tau = center + (best - m) * h;
   if (best > 0 && best < 2 * m) {
     const double a = cost[static_cast<std::size_t>(best - 1)];
     const double b = cost[static_cast<std::size_t>(best)];
@@ -118,6 +120,26 @@ double coarseGyroDelay(const std::vector<SampleContext>& c, const KinematicsInte
     if (std::isfinite(denom) && denom > 0.0) tau += 0.5 * h * (a - d) / denom;
   }
   return tau;
+}
+
+/// Grid points on each side of the coarse delay grid (at 125 Hz, kCoarseDelayPoints half steps of
+/// 4 ms cover the default +-0.2 s).
+constexpr int kCoarseDelayPoints = 50;
+
+/// Coarse delay: the profiled Wahba cost on a grid of half sample steps over +-max_delay, a parabola
+/// through the best three. A fast log (half steps finer than max_delay / 50: above 125 Hz at the
+/// default 0.2 s) is searched in two levels, as the cost follows the motion's few Hz and not the
+/// sample rate: a grid of max_delay / 50 first, then half steps within two of its spacings of the
+/// best, the result kept within +-max_delay. The passes are 101 + 2 ceil(2 (max_delay / 50) /
+/// (step / 2)) + 1 instead of 4 max_delay / step + 1 (a log at 5 kHz: 262 instead of 4,001).
+double coarseGyroDelay(const std::vector<SampleContext>& c, const KinematicsInterpolator& kin, double max_delay) {
+  const double h = 0.5 * kin.step();
+  const int m = std::max(1, static_cast<int>(std::floor(max_delay / h)));
+  if (m <= kCoarseDelayPoints + 1) return gridDelay(c, kin, 0.0, h, m, 0.0);  // one level (rounding of step)
+  const double h_coarse = max_delay / kCoarseDelayPoints;
+  const double tau = gridDelay(c, kin, 0.0, h_coarse, kCoarseDelayPoints, 0.0);
+  const double fine = gridDelay(c, kin, tau, h, static_cast<int>(std::ceil(2.0 * h_coarse / h)), tau);
+  return std::clamp(fine, -max_delay, max_delay);
 }
 
 Vec3 rpyOf(const Mat3& R) {
@@ -152,10 +174,29 @@ KinematicsInterpolator::KinematicsInterpolator(const std::vector<SampleContext>&
   }
 }
 
-bool KinematicsInterpolator::at(double s, KinematicsAt* out) const {
+std::size_t KinematicsInterpolator::firstAfter(double s) const {
+  // The index a uniform log would have, then a few steps either way; a binary search when the
+  // times are too uneven for that. Either way the first t_[j] > s (std::upper_bound's answer).
+  const std::size_t n = t_.size();
+  if (step_ > 0.0) {
+    const double guess = std::floor((s - t_.front()) / step_) + 1.0;
+    std::size_t j = guess <= 0.0 ? 0 : (guess >= static_cast<double>(n) ? n : static_cast<std::size_t>(guess));
+    for (int walk = 0; walk < 8; ++walk) {
+      if (j > 0 && t_[j - 1] > s) {
+        --j;
+      } else if (j < n && t_[j] <= s) {
+        ++j;
+      } else {
+        return j;
+      }
+    }
+  }
+  return static_cast<std::size_t>(std::upper_bound(t_.begin(), t_.end(), s) - t_.begin());
+}
+
+bool KinematicsInterpolator::at(double s, KinematicsAt* out, bool rotation) const {
   if (t_.size() < 2 || !(s >= t_.front()) || !(s <= t_.back())) return false;
-  auto it = std::upper_bound(t_.begin(), t_.end(), s);
-  std::size_t j1 = static_cast<std::size_t>(it - t_.begin());
+  std::size_t j1 = firstAfter(s);
   if (j1 >= t_.size()) j1 = t_.size() - 1;
   const std::size_t j0 = j1 - 1;
   const double h = t_[j1] - t_[j0];
@@ -164,15 +205,17 @@ bool KinematicsInterpolator::at(double s, KinematicsAt* out) const {
   const SampleContext& b = c_[j1];
   const double x = (s - t_[j0]) / h;
   if (x == 0.0) {
-    out->R_BS = a.R_BS;
+    if (rotation) out->R_BS = a.R_BS;
     out->w_S = a.w_S;
     out->alpha_S = a.alpha_S;
     out->a_S = a.a_S;
     return true;
   }
-  const Eigen::Quaterniond qa(a.R_BS);
-  const Eigen::Quaterniond qb(b.R_BS);
-  out->R_BS = qa.slerp(x, qb).toRotationMatrix();
+  if (rotation) {
+    const Eigen::Quaterniond qa(a.R_BS);
+    const Eigen::Quaterniond qb(b.R_BS);
+    out->R_BS = qa.slerp(x, qb).toRotationMatrix();
+  }
   const double x2 = x * x;
   const double x3 = x2 * x;
   out->w_S = (2 * x3 - 3 * x2 + 1) * a.w_S + (x3 - 2 * x2 + x) * h * a.alpha_S + (-2 * x3 + 3 * x2) * b.w_S +
@@ -211,7 +254,7 @@ GyroMountEstimate estimateGyroMount(const std::vector<SampleContext>& contexts, 
     KinematicsAt k;
     Eigen::Matrix<double, 3, 7> J;
     for (const auto& ctx : contexts) {
-      if (!kin.at(ctx.t - tau, &k)) continue;
+      if (!kin.at(ctx.t - tau, &k, false)) continue;
       const Vec3 r = ctx.imu_w_S - Q * k.w_S - b;
       J.block<3, 3>(0, 0) = -Q * skew(k.w_S);  // d(Q (I + skew d) w)/dd
       J.block<3, 3>(0, 3) = Mat3::Identity();
@@ -261,10 +304,16 @@ AccTiltEstimate estimateAccTilt(const std::vector<SampleContext>& contexts, cons
   // Linear start: z - Q a = -Q R^T g_B + b  for [g_B; b].
   Eigen::Matrix<double, 6, 6> AtA = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> Aty = Eigen::Matrix<double, 6, 1>::Zero();
-  KinematicsAt k;
-  int n = 0;
+  // The kinematics at the IMU's delayed times, interpolated once for the start and every iteration.
+  std::vector<std::pair<const SampleContext*, KinematicsAt>> at_delay;
+  at_delay.reserve(contexts.size());
   for (const auto& ctx : contexts) {
-    if (!kin.at(ctx.t - delay_s, &k)) continue;
+    KinematicsAt k;
+    if (kin.at(ctx.t - delay_s, &k)) at_delay.emplace_back(&ctx, k);
+  }
+  int n = 0;
+  for (const auto& [c, k] : at_delay) {
+    const SampleContext& ctx = *c;
     Eigen::Matrix<double, 3, 6> A;
     A.leftCols<3>() = -Q * k.R_BS.transpose();
     A.rightCols<3>() = Mat3::Identity();
@@ -299,10 +348,9 @@ AccTiltEstimate estimateAccTilt(const std::vector<SampleContext>& contexts, cons
     Jtr->setZero();
     *ssr = 0.0;
     *count = 0;
-    KinematicsAt kk;
     Eigen::Matrix<double, 3, 5> J;
-    for (const auto& ctx : contexts) {
-      if (!kin.at(ctx.t - delay_s, &kk)) continue;
+    for (const auto& [c, kk] : at_delay) {
+      const SampleContext& ctx = *c;
       const Mat3 QRt = Q * kk.R_BS.transpose();
       const Vec3 r = ctx.imu_acc_S - (Q * kk.a_S - QRt * gB + bb);
       J.col(0) = -QRt * dgu;

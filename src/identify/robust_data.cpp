@@ -1,6 +1,8 @@
 // The one robust data treatment of an identification (include/ftid/identify/robust_data.hpp).
 #include "ftid/identify/robust_data.hpp"
 
+#include <algorithm>
+
 #include "ftid/effects/model.hpp"
 #include "ftid/identify/fit.hpp"
 
@@ -47,6 +49,31 @@ std::vector<int> originalIndices(const std::vector<int>& removed, const std::vec
     while (r < removed.size() && removed[r] <= j + static_cast<int>(r)) ++r;
     out.push_back(j + static_cast<int>(r));
   }
+  return out;
+}
+
+KeptSeries keptSeries(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual, const std::vector<SampleContext>& ctx,
+                      const std::vector<char>& left_out, const std::vector<int>& segment_starts) {
+  const int n = static_cast<int>(std::min<Eigen::Index>(residual.cols(), static_cast<Eigen::Index>(ctx.size())));
+  KeptSeries out;
+  for (int i = 0; i < n; ++i) {
+    if (static_cast<std::size_t>(i) < left_out.size() && left_out[static_cast<std::size_t>(i)] != 0) continue;
+    out.index.push_back(i);
+  }
+  const auto m = static_cast<Eigen::Index>(out.index.size());
+  out.residual.resize(6, m);
+  out.ctx.reserve(out.index.size());
+  for (Eigen::Index k = 0; k < m; ++k) {
+    const int i = out.index[static_cast<std::size_t>(k)];
+    out.residual.col(k) = residual.col(i);
+    out.ctx.push_back(ctx[static_cast<std::size_t>(i)]);
+  }
+  for (int start : segment_starts.empty() ? std::vector<int>{0} : segment_starts) {
+    const auto first = std::lower_bound(out.index.begin(), out.index.end(), start);
+    const int k = static_cast<int>(first - out.index.begin());
+    if (k < m && (out.segment_starts.empty() || out.segment_starts.back() != k)) out.segment_starts.push_back(k);
+  }
+  if (out.segment_starts.empty() || out.segment_starts.front() != 0) out.segment_starts.insert(out.segment_starts.begin(), 0);
   return out;
 }
 

@@ -19,6 +19,7 @@
 #include "ftid/effects/model.hpp"
 #include "ftid/effects/signal_source.hpp"
 #include "ftid/identify/noise.hpp"
+#include "ftid/identify/robust_data.hpp"
 #include "ftid/lab/analyze.hpp"
 
 namespace ftid::lab {
@@ -361,14 +362,14 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     const Mat6X pred = eng->predict(model, lin, sol.theta, false);
     Mat6X res(6, n_all);
     for (int i = 0; i < n_all; ++i) res.col(i) = eng->data().ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
-    for (int i = 0; i < n_all; ++i) {
-      if (eng->excluded(i)) res.col(i).setZero();  // saturated: not noise, not a glitch
-    }
+    // Saturated samples are neither noise nor glitches: both are judged on the kept series.
+    const identify::KeptSeries kept = identify::keptSeries(res, eng->data().ctx, eng->data().excluded, eng->data().segment_start);
     bool changed = false;
     d = eng->data();
     if (!options.noise_std) {
       const Vec6 before = nf.ar1;
-      identify::refineNoiseFloor(nf, res.leftCols(n_fit), fit);
+      const identify::KeptSeries kept_fit = identify::keptSeries(res.leftCols(n_fit), fit, d.excluded);
+      identify::refineNoiseFloor(nf, kept_fit.residual, kept_fit.ctx, kept_fit.segment_starts);
       if (nf.observable() && (nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured)) {
         result.noise_method = identify::toString(nf.method);
         result.noise_detail = nf.detail;
@@ -384,12 +385,11 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
     if (options.glitch_threshold > 0.0) {
       bool is_static = false;
       (void)identify::poseGroups(fit, &is_static);
-      const auto flagged = identify::detectOutliers(res, !is_static, options.glitch_threshold, d.segment_start);
+      const auto flagged = identify::detectOutliers(kept.residual, !is_static, options.glitch_threshold, kept.segment_starts);
       if (!flagged.samples.empty()) {
         if (d.excluded.empty()) d.excluded.assign(static_cast<std::size_t>(n_all), 0);
         for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
-          const int i = flagged.samples[k];
-          if (d.excluded[static_cast<std::size_t>(i)] != 0) continue;  // saturated, already left out
+          const int i = kept.index[static_cast<std::size_t>(flagged.samples[k])];
           d.excluded[static_cast<std::size_t>(i)] = 1;
           result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
           result.outliers.axes.push_back(flagged.axes[k]);

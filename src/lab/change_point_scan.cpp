@@ -11,6 +11,7 @@
 #include "change_point_core.hpp"
 #include "ftid/effects/rigid_body.hpp"
 #include "ftid/identify/noise.hpp"
+#include "ftid/identify/robust_data.hpp"
 #include "ftid/identify/normal_equations.hpp"
 
 namespace ftid::lab::detail::cpscan {
@@ -236,7 +237,9 @@ identify::NoiseFloor noiseWithStep(const Scan& sc, const Fitted& base) {
       res(a, i) = (raw(row, cols) - raw.row(row).head(cols).dot(sol.theta)) / eng.data().weights(a);
     }
   }
-  identify::refineNoiseFloor(nf, res, fit);
+  // Left-out samples (saturated, glitches) have zero rows: the floor is judged on the kept series.
+  const identify::KeptSeries kept = identify::keptSeries(res, fit, eng.data().excluded);
+  identify::refineNoiseFloor(nf, kept.residual, kept.ctx, kept.segment_starts);
   return nf;
 }
 

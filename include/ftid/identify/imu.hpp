@@ -92,10 +92,13 @@ class KinematicsInterpolator {
  public:
   /// Contexts in time order (t strictly increasing; throws DataError otherwise, naming the sample).
   explicit KinematicsInterpolator(const std::vector<effects::SampleContext>& contexts);
-  bool at(double s, KinematicsAt* out) const;
+  /// The kinematics at time s (false outside the data or across a gap). rotation = false leaves
+  /// out->R_BS untouched (the slerp is most of the cost; the gyro's fits need only the rates).
+  bool at(double s, KinematicsAt* out, bool rotation = true) const;
   double step() const { return step_; }
 
  private:
+  std::size_t firstAfter(double s) const;  ///< the first j with t_[j] > s (t_.size() if none)
   const std::vector<effects::SampleContext>& c_;
   std::vector<double> t_;
   double step_ = 0.0;

@@ -31,6 +31,23 @@ std::vector<SampleContext> withoutSamples(const std::vector<SampleContext>& ctx,
 /// Indices into the contexts left after withoutSamples(ctx, removed) mapped back to ctx's.
 std::vector<int> originalIndices(const std::vector<int>& removed, const std::vector<int>& kept_indices);
 
+/// The samples a fit kept, as one series: the columns of `residual` and the contexts of the samples
+/// with left_out[i] == 0 (left_out empty: all kept), in order, spliced across every run that was
+/// left out, as withoutSamples() splices them for `ftid identify`. The noise floor and the glitches
+/// are judged on this series (refineNoiseFloor, detectOutliers): a left-out sample has no residual,
+/// and a zero in its place would read as a quiet sensor (with fz clipped on 40 % of the samples the
+/// floor came out about 15 % low and 190-250 samples of noise were flagged as glitches). Identity: residual.col(k) ==
+/// input.col(index[k]) and ctx[k] is input ctx[index[k]]; segment_starts holds, for each input
+/// start, the first kept sample at or after it (duplicates dropped).
+struct KeptSeries {
+  Eigen::Matrix<double, 6, Eigen::Dynamic> residual;
+  std::vector<SampleContext> ctx;
+  std::vector<int> segment_starts;
+  std::vector<int> index;  ///< kept k -> input sample index[k]
+};
+KeptSeries keptSeries(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual, const std::vector<SampleContext>& ctx,
+                      const std::vector<char>& left_out, const std::vector<int>& segment_starts = {});
+
 /// A fit on data with its glitches left out: `first` is the fit on all of `ctx`; the glitches of its
 /// residual are removed and `identify` runs again on the rest (only if there were any).
 struct RobustIdentification {

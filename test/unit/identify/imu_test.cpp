@@ -5,6 +5,10 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+#include <random>
+#include <vector>
+
 #include "ftid/common/error.hpp"
 #include "ftid/identify/imu.hpp"
 #include "imu_cell.hpp"
@@ -83,6 +87,56 @@ TEST(ImuEstimate, InterpolatorRefusesGapsAndOutside) {
   EXPECT_EQ(k.w_S, c[7].w_S);
   std::swap(c[3], c[4]);
   EXPECT_THROW(identify::KinematicsInterpolator bad(c), DataError);
+}
+
+// A fast log (1 kHz: half steps of 0.5 ms over +-0.2 s would be 801 passes) is searched in two
+// levels (imu.cpp coarseGyroDelay): the delay is found as exactly as at 125 Hz.
+TEST(ImuEstimate, AFastLogsDelayIsFoundInTwoLevels) {
+  sim::CellSimConfig cfg = test::imuCellConfig(3.0);
+  cfg.rate_hz = 1000.0;
+  cfg.imu.delay_s = -0.037;
+  const samples::ContextSet cs = test::contextsOf(cfg);
+  const identify::GyroMountEstimate g = identify::estimateGyroMount(cs.samples);
+  EXPECT_NEAR(g.delay_s, -0.037, 2e-6);
+  EXPECT_LT(angleBetween(g.R_SM, cfg.mounting.rotation()), 1e-6);
+}
+
+// The interpolator's bracket on uneven times (a jittered clock, and from sample 300 on a clock
+// 20 steps ahead, where the uniform guess is too far off and the binary search answers): alpha_S
+// is the linear interpolation between the samples std::upper_bound brackets s with, and the rates
+// at a sample time are that sample's.
+TEST(ImuEstimate, InterpolatorBracketsUnevenTimesAsABinarySearchWould) {
+  const sim::CellSimConfig cfg = test::imuCellConfig(4.0);
+  samples::ContextSet cs = test::contextsOf(cfg);
+  std::vector<effects::SampleContext> c = cs.samples;
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> jitter(-0.3, 0.3);
+  const double dt = 1.0 / cfg.rate_hz;
+  for (std::size_t i = 0; i < c.size(); ++i) {
+    c[i].t = dt * (static_cast<double>(i) + jitter(rng) + (i >= 300 ? 20.0 : 0.0));
+  }
+  c[40].t = c[39].t + 0.01 * dt;  // a near-duplicate stamp
+  const identify::KinematicsInterpolator kin(c);
+  std::vector<double> t(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) t[i] = c[i].t;
+  std::uniform_real_distribution<double> when(t.front(), t.back());
+  int inside = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const double s = when(rng);
+    const std::size_t j1 = static_cast<std::size_t>(std::upper_bound(t.begin(), t.end(), s) - t.begin());
+    identify::KinematicsAt at;
+    const bool ok = kin.at(s, &at);
+    if (j1 == 0 || j1 >= t.size() || t[j1] - t[j1 - 1] > 1.5 * kin.step()) continue;  // edges, gaps
+    ASSERT_TRUE(ok) << "s = " << s;
+    const double x = (s - t[j1 - 1]) / (t[j1] - t[j1 - 1]);
+    const Vec3 expected = (1.0 - x) * c[j1 - 1].alpha_S + x * c[j1].alpha_S;
+    EXPECT_LT((at.alpha_S - expected).norm(), 1e-9 * (1.0 + expected.norm())) << "s = " << s;
+    ++inside;
+  }
+  EXPECT_GT(inside, 1500);
+  identify::KinematicsAt at;
+  ASSERT_TRUE(kin.at(c[77].t, &at));
+  EXPECT_EQ(at.w_S, c[77].w_S);
 }
 
 }  // namespace

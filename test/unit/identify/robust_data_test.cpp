@@ -80,5 +80,31 @@ TEST(RobustData, FindGlitchesIsTheRuleOnTheResidual) {
   EXPECT_DOUBLE_EQ(kept[49].t, ctx[49].t);
 }
 
+// keptSeries: column k is input column index[k], the contexts follow, and each segment start maps
+// to the first kept sample at or after it (a start inside a left-out run moves to its end).
+TEST(RobustData, KeptSeriesSplicesTheKeptSamplesAndMapsTheSegments) {
+  const int n = 10;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> res(6, n);
+  std::vector<SampleContext> ctx(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    res.col(i).setConstant(100.0 + i);
+    ctx[static_cast<std::size_t>(i)].t = 0.01 * i;
+  }
+  //                               0  1  2  3  4  5  6  7  8  9
+  const std::vector<char> left_out{1, 0, 0, 1, 1, 0, 0, 0, 1, 0};
+  const KeptSeries k = keptSeries(res, ctx, left_out, {0, 4, 8});
+  EXPECT_EQ(k.index, (std::vector<int>{1, 2, 5, 6, 7, 9}));
+  ASSERT_EQ(k.residual.cols(), 6);
+  for (int j = 0; j < 6; ++j) {
+    EXPECT_EQ(k.residual(3, j), 100.0 + k.index[static_cast<std::size_t>(j)]);
+    EXPECT_EQ(k.ctx[static_cast<std::size_t>(j)].t, 0.01 * k.index[static_cast<std::size_t>(j)]);
+  }
+  EXPECT_EQ(k.segment_starts, (std::vector<int>{0, 2, 5}));
+  // Nothing left out: the input itself; an empty mask means the same.
+  const KeptSeries all = keptSeries(res, ctx, {});
+  EXPECT_EQ(all.residual, res);
+  EXPECT_EQ(all.segment_starts, (std::vector<int>{0}));
+}
+
 }  // namespace
 }  // namespace ftid::identify
