@@ -139,6 +139,13 @@ FitResult fuseImuTilt(const effects::Model& model, const std::vector<effects::Sa
   return res;
 }
 
+std::string apparentTiltReason(const effects::Model& model) {
+  const std::string absorbers = model.tiltAbsorbers();
+  if (absorbers.empty()) return "";
+  return "tilt not compared: " + model.name() + " folds the horizontal pull of " + absorbers +
+         " into its tilt (an apparent tilt, docs/effects.md); the base's mounting tilt is the IMU's";
+}
+
 std::vector<ImuComparison> compareImuWithFit(const FitResult& fit, const ImuEstimate& imu) {
   std::vector<ImuComparison> out;
   char line[260];

@@ -1,11 +1,13 @@
 // Offline pipelines (include/ftid/identify/offline.hpp).
 #include "ftid/identify/offline.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <vector>
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -114,6 +116,12 @@ ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const I
     FitResult fit = std::move(multi.fit);
     if (imu) {
       report->comparisons = compareImuWithFit(fit, *imu);
+      if (fit.tilt_estimated) report->tilt_not_compared = apparentTiltReason(model);
+      if (!report->tilt_not_compared.empty()) {
+        auto& cs = report->comparisons;
+        cs.erase(std::remove_if(cs.begin(), cs.end(), [](const ImuComparison& c) { return c.quantity == "tilt"; }),
+                 cs.end());
+      }
       const bool tilt_agrees = !report->comparisons.empty() && report->comparisons.front().quantity == "tilt" &&
                                !report->comparisons.front().disagrees;
       if (fit.tilt_estimated && tilt_agrees) {
@@ -322,8 +330,13 @@ std::string formatImuReport(const ImuReport& report) {
     return os.str();
   }
   os << formatImuEstimate(report.estimate);
-  os << (report.fused ? "  fused: the IMU's tilt is fused with the wrench's (docs/identification.md)\n"
-                      : "  not fused (the model estimates no tilt, or the IMU and the wrench disagree on it)\n");
+  if (report.fused) {
+    os << "  fused: the IMU's tilt is fused with the wrench's (docs/identification.md)\n";
+  } else if (!report.tilt_not_compared.empty()) {
+    os << "  not fused; " << report.tilt_not_compared << "\n";
+  } else {
+    os << "  not fused (the model estimates no tilt, or the IMU and the wrench disagree on it)\n";
+  }
   for (const auto& c : report.comparisons) os << "  " << (c.disagrees ? "DISAGREE " : "agree    ") << c.message << "\n";
   for (const auto& w : report.warnings) os << "WARNING: " << w << "\n";
   return os.str();
@@ -339,6 +352,7 @@ std::string imuReportJson(const ImuReport& r) {
   const ImuEstimate& e = r.estimate;
   auto vec = [](const Vec3& v) { return Json::array({jsonNumber(v.x()), jsonNumber(v.y()), jsonNumber(v.z())}); };
   imu["fused"] = r.fused;
+  if (!r.tilt_not_compared.empty()) imu["tilt_not_compared"] = r.tilt_not_compared;
   imu["tilt_u"] = jsonNumber(e.acc.tilt_u_rad);
   imu["tilt_u_std"] = jsonNumber(e.acc.tilt_u_std);
   imu["tilt_v"] = jsonNumber(e.acc.tilt_v_rad);

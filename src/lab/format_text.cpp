@@ -99,6 +99,7 @@ std::string formatText(const AnalysisResult& r) {
     if (!r.imu.used) s += "  not checked: " + r.imu.not_used_reason + "\n";
     if (r.imu.used) s += identify::formatImuEstimate(r.imu.estimate);
     for (const auto& c : r.imu.comparisons) s += std::string(c.disagrees ? "  DISAGREE " : "  agree    ") + c.message + "\n";
+    if (!r.imu.tilt_not_compared.empty()) s += "  " + r.imu.tilt_not_compared + "\n";
   }
   if (!r.windows.empty()) {
     s += "\nwhere it fails (time windows with the largest held-out residual, x noise floor):\n";

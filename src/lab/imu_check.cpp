@@ -5,6 +5,7 @@
 #include <string>
 
 #include "ftid/common/error.hpp"
+#include "ftid/effects/model.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/imu_fusion.hpp"
 
@@ -57,6 +58,13 @@ void checkImu(const std::vector<SampleContext>& fit, const ModelReport& last, An
   const ParamEstimate* u = findParam(last, "tilt_u");
   const ParamEstimate* v = findParam(last, "tilt_v");
   if (last.tilt_estimated && u != nullptr && v != nullptr) {
+    try {  // the laboratory's own model names parse; a name that did not would only skip this note
+      imu.tilt_not_compared = identify::apparentTiltReason(effects::Model::fromName(last.model));
+    } catch (const ConfigError&) {
+      imu.tilt_not_compared.clear();
+    }
+  }
+  if (last.tilt_estimated && u != nullptr && v != nullptr && imu.tilt_not_compared.empty()) {
     imu.comparisons.push_back(identify::compareImuTilt(u->value, v->value, u->std, v->std, imu.estimate.acc));
   }
   for (const auto& c : imu.comparisons) {

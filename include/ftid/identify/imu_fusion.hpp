@@ -47,6 +47,12 @@ struct ImuComparison {
 FitResult fuseImuTilt(const effects::Model& model, const std::vector<effects::SampleContext>& contexts,
                       const FitResult& wrench_fit, const AccTiltEstimate& imu_tilt);
 
+/// Why `model`'s tilt is not the base's mounting tilt, so that the IMU's tilt can neither check nor
+/// be fused into it: "" for most models; for a model that folds a uniform pull into its tilt
+/// (effects::Model::tiltAbsorbers(), e.g. `cable`) a sentence naming it. Such a model's tilt
+/// differs from the IMU's by the pull's horizontal part, which is no set-up error.
+std::string apparentTiltReason(const effects::Model& model);
+
 /// The comparisons that apply: tilt (when the fit estimates it), mount and delay (against the fit's
 /// `mounting` / `sensor_delay`, or against the configuration when the model has none).
 std::vector<ImuComparison> compareImuWithFit(const FitResult& wrench_fit, const ImuEstimate& imu);

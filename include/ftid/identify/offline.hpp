@@ -56,6 +56,9 @@ struct ImuReport {
   std::string not_used_reason;       ///< why not (kAuto: no IMU columns, too little rotation, ...)
   ImuEstimate estimate;
   bool fused = false;                ///< the IMU's tilt was fused into the general fit
+  /// Why the model's tilt was neither compared with the IMU's nor fused (apparentTiltReason in
+  /// imu_fusion.hpp; "" when it was, or when the model estimates no tilt).
+  std::string tilt_not_compared;
   std::vector<ImuComparison> comparisons;
   std::vector<std::string> warnings; ///< one line per disagreement (a set-up error or a bad IMU)
 };

@@ -5,6 +5,8 @@
 
 #include <Eigen/Geometry>
 
+#include <cmath>
+
 #include "ftid/common/error.hpp"
 #include "ftid/identify/offline.hpp"
 #include "imu_cell.hpp"
@@ -117,6 +119,40 @@ TEST(ImuIdentify, MisalignedAccelerometerIsReportedAndNotFused) {
   off.imu = ImuUse::kOff;
   const params::ParameterSet w = identify::identifyContexts(bad, off);
   EXPECT_NEAR(set.tilt_u_rad, w.tilt_u_rad, 1e-3 * w.tilt_u_std);
+}
+
+// A model with `cable` folds the cable's horizontal pull into its tilt (Model::tiltAbsorbers): its
+// tilt is not the base's, so the IMU neither checks it (no "set-up error" warning, which it used to
+// raise with chi2 ~ 1e3) nor is fused into it; the report says why, and the tilt is the wrench's.
+TEST(ImuIdentify, ACableModelsApparentTiltIsNeitherComparedNorFused) {
+  sim::CellSimConfig cfg = noisyImuCell(10.0);  // the paper's 10 s: the apparent tilt is then determined
+  cfg.payload.mass_kg = 3.0;
+  cfg.cable.enabled = true;
+  const samples::ContextSet cs = test::contextsOf(cfg);
+  IdentifyRequest req;
+  req.model = "paper+rigid_body+cable";
+  req.imu = ImuUse::kAuto;
+  ImuReport report;
+  const params::ParameterSet set = identify::identifyContexts(cs.samples, req, &report);
+  ASSERT_TRUE(report.used) << report.not_used_reason;
+  EXPECT_FALSE(report.fused);
+  EXPECT_TRUE(report.warnings.empty()) << report.warnings.front();
+  for (const auto& c : report.comparisons) EXPECT_NE(c.quantity, "tilt") << c.message;
+  EXPECT_EQ(report.comparisons.size(), 2U);  // mount and delay are still checked
+  EXPECT_NE(report.tilt_not_compared.find("pull of cable"), std::string::npos) << report.tilt_not_compared;
+  EXPECT_NE(identify::formatImuReport(report).find("not fused; tilt not compared"), std::string::npos);
+  // The apparent tilt is far from the base's (the IMU's is the base's): the check would have failed.
+  EXPECT_GT(std::abs(set.tilt_v_rad - cfg.tilt_v_rad), 20.0 * set.tilt_v_std);
+  EXPECT_NEAR(report.estimate.acc.tilt_v_rad, cfg.tilt_v_rad, 4.0 * report.estimate.acc.tilt_v_std);
+  IdentifyRequest off = req;
+  off.imu = ImuUse::kOff;
+  const params::ParameterSet w = identify::identifyContexts(cs.samples, off);
+  EXPECT_NEAR(set.tilt_v_rad, w.tilt_v_rad, 1e-3 * w.tilt_v_std);  // the same minimum (searched from the IMU's start)
+  // Without the cable in the model the same check applies as ever.
+  req.model = "paper+rigid_body";
+  identify::identifyContexts(cs.samples, req, &report);
+  EXPECT_TRUE(report.tilt_not_compared.empty());
+  EXPECT_EQ(report.comparisons.front().quantity, "tilt");
 }
 
 TEST(ImuIdentify, NoiseFreeImuAgreesWithTheRightSetUpAndStillSeesAHundredthOfADegree) {

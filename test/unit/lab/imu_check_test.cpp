@@ -80,6 +80,26 @@ TEST(LabImu, AModelWithoutMountingHearsOfTheRotationFromTheImu) {
   expectMountDisagreement(analyzeWith(rotatedSensor(33, true), "paper"), "the IMU and paper disagree on the mount");
 }
 
+// `cable` folds the cable's horizontal pull into the tilt (an apparent tilt): the laboratory does
+// not read its difference from the IMU's tilt as a set-up error, and says why it did not compare.
+TEST(LabImu, ACableModelsApparentTiltIsNotASetUpError) {
+  sim::CellSimConfig c = rotatedSensor(35, true);
+  c.mounting.enabled = false;
+  c.cable.enabled = true;
+  const AnalysisResult r = analyzeWith(c, "paper+cable");
+  ASSERT_TRUE(r.imu.used) << r.imu.not_used_reason;
+  EXPECT_EQ(comparison(r, "tilt"), nullptr);
+  EXPECT_FALSE(warned(r, "disagree on the tilt"));
+  EXPECT_NE(r.imu.tilt_not_compared.find("pull of cable"), std::string::npos) << r.imu.tilt_not_compared;
+  EXPECT_NE(formatText(r).find("tilt not compared: paper+cable folds"), std::string::npos);
+  EXPECT_NE(nlohmann::json::parse(formatJson(r)).at("imu").at("tilt_not_compared").get<std::string>().find("cable"),
+            std::string::npos);
+  // The same run under the paper model: its tilt is the base's, and is compared.
+  const AnalysisResult p = analyzeWith(c, "paper");
+  EXPECT_NE(comparison(p, "tilt"), nullptr);
+  EXPECT_TRUE(p.imu.tilt_not_compared.empty());
+}
+
 TEST(LabImu, ALogWithoutTheImuSaysSo) {
   std::vector<SampleContext> s = labtest::contexts(labtest::baseConfig(34)).samples;
   for (auto& c : s) c.has_imu = false;
