@@ -521,10 +521,14 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                                                                 : "; try --explain"));
     }
   }
-  for (const auto& c : result.candidates) {
+  // Refusals against the model the analysis ends at: after --explain, the final ranking's (an
+  // effect refused against the start, e.g. rigid_body before sensor_delay, may be in the final model).
+  const bool explained = result.final_report.has_value();
+  for (const auto& c : explained ? result.final_candidates : result.candidates) {
     if (c.confounded) {
-      result.warnings.push_back(c.effect + " is not recommended: " + c.confound + "; to separate them: " +
-                                c.separating_motion);
+      result.warnings.push_back(c.effect + " is not recommended" +
+                                (explained ? " against " + result.final_report->model : std::string()) + ": " +
+                                c.confound + "; to separate them: " + c.separating_motion);
     }
   }
   if (result.outliers.count > 0) {

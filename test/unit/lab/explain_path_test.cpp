@@ -48,6 +48,36 @@ double param(const lab::ModelReport& rep, const std::string& name) {
   return p != nullptr ? p->value : std::nan("");
 }
 
+// The closing warnings speak of the model the path ends at: on the paper's motion with a 12 ms
+// wrench delay and coloured noise, rigid_body is refused against paper (its inertia is impossible
+// while the delay is unmodelled) and taken once sensor_delay is in; no warning may then say that
+// rigid_body "is not recommended" (it used to repeat the first ranking's refusal).
+TEST(ExplainPath, TheWarningsNameOnlyRefusalsAgainstTheFinalModel) {
+  sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
+  c.payload.mass_kg = 3.0;
+  c.seed = 6;
+  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  c.noise.wrench_lowpass_hz = 15.0;
+  c.full_rigid_body = true;
+  c.sensor_delay.enabled = true;
+  c.sensor_delay.tau_s = 0.012;
+  const lab::AnalysisResult r = explainFrom(labtest::contexts(c), "paper");
+  const auto first = std::find_if(r.candidates.begin(), r.candidates.end(),
+                                  [](const lab::CandidateResult& k) { return k.effect == "rigid_body"; });
+  ASSERT_NE(first, r.candidates.end());
+  ASSERT_EQ(first->verdict, lab::Verdict::kRefused) << lab::formatText(r);  // the case's premise
+  ASSERT_TRUE(r.final_report.has_value());
+  EXPECT_EQ(r.final_report->model, "paper+rigid_body+sensor_delay") << lab::formatText(r);
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("rigid_body is not recommended"), std::string::npos) << w;
+  for (const auto& k : r.final_candidates) {
+    if (!k.confounded) continue;
+    const std::string expected = k.effect + " is not recommended against " + r.final_report->model;
+    EXPECT_TRUE(std::any_of(r.warnings.begin(), r.warnings.end(),
+                            [&](const std::string& w) { return w.rfind(expected, 0) == 0; }))
+        << expected;
+  }
+}
+
 sim::CellSimConfig hiddenCable(std::uint64_t seed) {
   auto c = baseConfig(seed);
   c.full_rigid_body = true;
