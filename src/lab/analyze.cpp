@@ -248,6 +248,26 @@ std::pair<ResidualSpectrum, DynamicsCheck> readingDynamics(const detail::RankCon
 
 }  // namespace
 
+/// With --explain: the candidates refused against the starting model that the path did not take,
+/// each with the motion that would decide it ("" when none). Where the path ends above the floor,
+/// one of them may be what is missing (a crosstalk this motion cannot determine, imitated by
+/// harmonics), which "no candidate explains" alone would hide.
+std::string refusedAtTheStart(const AnalysisResult& r) {
+  if (!r.final_report) return "";
+  std::unique_ptr<Model> final_model;
+  try {
+    final_model = std::make_unique<Model>(Model::fromName(r.final_report->model));
+  } catch (const ConfigError&) {
+    return "";
+  }
+  std::string out;
+  for (const auto& c : r.candidates) {
+    if (!c.confounded || final_model->contains(c.effect)) continue;
+    out += (out.empty() ? "" : "; ") + c.effect + " (" + c.separating_motion + ")";
+  }
+  return out.empty() ? "" : "; refused against " + r.report.model + ", where a richer motion could decide: " + out;
+}
+
 std::vector<std::string> defaultGenericMenu() {
   return {"harmonic(q4,1)", "harmonic(q5,1)", "harmonic(q6,1)", "poly(t,2)", "poly(temp,2)"};
 }
@@ -517,7 +537,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +
                                 "): the model misses something" +
                                 (!result.change_points.empty() ? ": the change in time (analyze each segment)"
-                                 : options.explain              ? " that no candidate explains"
+                                 : options.explain              ? " that no candidate explains" + refusedAtTheStart(result)
                                                                 : "; try --explain"));
     }
   }

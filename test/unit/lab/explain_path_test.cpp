@@ -78,6 +78,34 @@ TEST(ExplainPath, TheWarningsNameOnlyRefusalsAgainstTheFinalModel) {
   }
 }
 
+// A hidden crosstalk on the paper's motion (joints 4-6): the motion cannot determine the matrix,
+// so crosstalk is refused against paper (confounded) and the path ends above the floor on effects
+// that imitate part of it. The closing warning must not say only that "no candidate explains" the
+// rest: it names crosstalk, refused at the start, with the motion that would decide it.
+TEST(ExplainPath, AnUndeterminedCandidateIsNamedWhenThePathEndsAboveTheFloor) {
+  sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
+  c.payload.mass_kg = 3.0;
+  c.seed = 5;
+  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  c.full_rigid_body = true;
+  c.crosstalk.enabled = true;
+  const lab::AnalysisResult r = explainFrom(labtest::contexts(c), "paper");
+  const auto first = std::find_if(r.candidates.begin(), r.candidates.end(),
+                                  [](const lab::CandidateResult& k) { return k.effect == "crosstalk"; });
+  ASSERT_NE(first, r.candidates.end());
+  ASSERT_EQ(first->verdict, lab::Verdict::kRefused) << lab::formatText(r);  // the case's premise
+  ASSERT_TRUE(r.final_report.has_value());
+  ASSERT_EQ(r.final_report->model.find("crosstalk"), std::string::npos) << r.final_report->model;
+  const auto above = std::find_if(r.warnings.begin(), r.warnings.end(), [](const std::string& w) {
+    return w.find("is above the noise floor") != std::string::npos;
+  });
+  ASSERT_NE(above, r.warnings.end()) << lab::formatText(r);
+  EXPECT_NE(above->find("refused against paper, where a richer motion could decide: crosstalk (" +
+                        first->separating_motion + ")"),
+            std::string::npos)
+      << *above;
+}
+
 sim::CellSimConfig hiddenCable(std::uint64_t seed) {
   auto c = baseConfig(seed);
   c.full_rigid_body = true;
