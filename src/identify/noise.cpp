@@ -198,6 +198,14 @@ double differenceNoiseStd(const std::vector<double>& x, int stride) {
   return kMadToStd * median(d) / std::sqrt(70.0);
 }
 
+/// The white-noise estimator of differenceNoiseStd over several segments (each differenced on its
+/// own); `fallback` when they hold fewer than 16 differences.
+double differenceStdOf(const std::vector<std::vector<double>>& segments, double fallback) {
+  std::vector<double> d;
+  for (const auto& seg : segments) appendDifferences(seg, 1, d);
+  return d.size() < 16 ? fallback : kMadToStd * median(d) / std::sqrt(70.0);
+}
+
 double differenceVarianceFactor(double phi, int stride) {
   const double p = std::pow(phi, stride);
   return 70.0 - 112.0 * p + 56.0 * p * p - 16.0 * p * p * p + 2.0 * p * p * p * p;
@@ -564,7 +572,9 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
     if (spectra) {
       f.std(a) = spectralLevel(P[a], L, k_lo, ph);  // phi = 0: the flat level of white noise
     } else {
-      f.std(a) = f.difference_std(a) * std::sqrt(70.0 / differenceVarianceFactor(ph, 1));
+      // The residual's own 4th differences, not the readings' (f.difference_std): a reading
+      // clipped flat on most samples has a zero spread there although the kept samples are noisy.
+      f.std(a) = differenceStdOf(segs[a], f.difference_std(a)) * std::sqrt(70.0 / differenceVarianceFactor(ph, 1));
     }
   }
   if (f.ar1.maxCoeff() > 0.0) {
@@ -577,7 +587,7 @@ void refineNoiseFloor(NoiseFloor& f, const Eigen::Matrix<double, 6, Eigen::Dynam
   } else {
     f.method = NoiseMethod::kWhite;
     f.detail = spectra ? "white noise: flat spectrum of the residual above the motion's band"
-                       : "white noise: robust spread of the 4th-order differences of the readings";
+                       : "white noise: robust spread of the 4th-order differences of the residual";
   }
 }
 

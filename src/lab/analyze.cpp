@@ -399,7 +399,10 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
         d.ar1 = nf.ar1;
         const Vec6 inn = nf.innovationStd();
         for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(inn(a), tiny);
-        changed = changed || before != nf.ar1;
+        // The fits are weighted by the floor the report prints: a changed level re-fits as a changed
+        // colour does (a reading clipped flat on most samples reads as a zero floor at first, and
+        // its weight of 1e9 made one axis the whole criterion).
+        changed = changed || before != nf.ar1 || d.weights != eng->data().weights;
       }
     }
     if (options.glitch_threshold > 0.0) {

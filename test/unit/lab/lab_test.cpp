@@ -312,22 +312,19 @@ TEST(Analyze, AnUnphysicalModelIsNamedAndNotExported) {
   EXPECT_EQ(text.find("--out params.yaml"), std::string::npos) << text;
   EXPECT_NE(text.find("not physically possible"), std::string::npos) << text;
   EXPECT_NE(text.find("the path stops at paper at the step limit"), std::string::npos) << text;
-  // The whole path: the cable would explain the data, but with it this light payload's weight
-  // (2.9 N against the cable's pull) no longer determines the tilt, so the rule refuses it and the
-  // path ends at the impossible model: still named, still not exported.
+  // The whole path takes the cable (this run's truth) and ends at a physical model at the noise
+  // floor, with the advice to write it. (Before the fits were weighted by the floor the report
+  // prints, analyze.cpp, the weights of the readings' first estimate left the light payload's tilt
+  // undetermined with the cable, and the path ended at the impossible paper model.)
   o.max_explain_steps = 6;
   const auto r2 = lab::analyze(set.samples, nullptr, o, "sim.csv");
   ASSERT_TRUE(r2.final_report.has_value());
-  EXPECT_FALSE(r2.unphysical.empty()) << lab::formatText(r2);
-  EXPECT_EQ(lab::formatText(r2).find("--out params.yaml"), std::string::npos) << lab::formatText(r2);
-  bool cable_judged = false;
-  for (const auto& c : r2.final_candidates) {
-    if (c.effect == "cable") {
-      cable_judged = true;
-      EXPECT_NE(c.reason.find("tilt"), std::string::npos) << c.reason;
-    }
-  }
-  EXPECT_TRUE(cable_judged) << "the cable must be among the final verdicts\n" << lab::formatText(r2);
+  EXPECT_EQ(r2.final_report->model, "paper+cable") << lab::formatText(r2);
+  EXPECT_TRUE(r2.unphysical.empty()) << lab::formatText(r2);
+  const auto* m2 = findParam(*r2.final_report, "mass");
+  ASSERT_NE(m2, nullptr);
+  EXPECT_NEAR(m2->value, cfg.payload.mass_kg, 4.0 * m2->std);
+  EXPECT_NE(lab::formatText(r2).find("--out params.yaml"), std::string::npos) << lab::formatText(r2);
 }
 
 // What `ftid identify --out` does with a model (apps/ftid/cmd_identify.cpp): fit with the IMU as

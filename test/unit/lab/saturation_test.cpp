@@ -137,6 +137,42 @@ TEST(LabSaturation, HeavySaturationLeavesTheNoiseFloorGlitchesAndPathAlone) {
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
+// fz clipped on more than half of the samples (a 3 kg tool on a cable, the range at 8 N): the
+// readings' own difference spread is then zero on fz, and the floor must come from the kept
+// samples' residual (it read 0.0000 N, so fz weighed 1e9 in every fit: rigid_body was "taken"
+// while the torque residuals rose twentyfold and the cable was refused). The fits are weighted by
+// the floor the report prints, every step lowers the held-out error, and the path finds the cable.
+TEST(LabSaturation, AnAxisClippedOnMostSamplesKeepsItsFloorAndThePathItsPromise) {
+  const std::string dir = ::testing::TempDir() + "mostly_clipped_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  for (const std::uint64_t seed : {15U, 16U, 17U}) {
+    sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
+    c.seed = seed;
+    c.payload.mass_kg = 3.0;
+    c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+    sim::applyEffectSpec("cable", c);
+    sim::applyEffectSpec("saturation:fz=8", c);
+    const std::string log = dir + "/run_" + std::to_string(seed) + ".csv";
+    logio::writeLog(log, sim::CellSim(c).run());
+    lab::AnalyzeFilesRequest req;
+    req.log_path = log;
+    req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+    req.options.explain = true;
+    const lab::AnalysisResult r = lab::analyzeRecordings(req);
+    ASSERT_GT(r.saturated_samples, r.n_samples / 2) << "seed " << seed << ": the case is an axis clipped on most samples";
+    EXPECT_NEAR(r.noise_floor(2) / 0.05, 1.0, 0.15) << "seed " << seed << "\n" << lab::formatText(r);
+    ASSERT_FALSE(r.steps.empty());
+    for (std::size_t k = 1; k < r.steps.size(); ++k) {
+      if (r.steps[k].added.empty()) continue;  // (a removal may cost, of a refused effect)
+      EXPECT_LT(r.steps[k].heldout_sse, r.steps[k - 1].heldout_sse) << "seed " << seed;
+      EXPECT_LT(r.steps[k].total_ratio, r.steps[k - 1].total_ratio) << "seed " << seed << "\n" << lab::formatText(r);
+    }
+    ASSERT_TRUE(r.final_report.has_value());
+    EXPECT_NE(r.final_report->model.find("cable"), std::string::npos) << "seed " << seed << "\n" << lab::formatText(r);
+  }
+  if (!HasFailure()) std::filesystem::remove_all(dir);
+}
+
 // "Unchanged": the clipped log's estimates (detector on) against the same run's unclipped log,
 // the same noise, so within one standard error (the 3 % left out move them by a fraction of it),
 // and against the truth within 5; with the detector off the clip pulls them beyond 5.
