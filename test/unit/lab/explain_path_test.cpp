@@ -48,23 +48,36 @@ double param(const lab::ModelReport& rep, const std::string& name) {
   return p != nullptr ? p->value : std::nan("");
 }
 
+/// `ftid simulate --mass 3`: the paper's motion (joints 4-6), a 3 kg tool, full rigid-body
+/// physics, 0.05 N / 0.01 Nm of white noise.
+sim::CellSimConfig paperMotionRun(std::uint64_t seed) {
+  sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
+  c.payload.mass_kg = 3.0;
+  c.seed = seed;
+  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  c.full_rigid_body = true;
+  return c;
+}
+
+const lab::CandidateResult* candidateNamed(const std::vector<lab::CandidateResult>& ranking, const std::string& effect) {
+  for (const auto& c : ranking) {
+    if (c.effect == effect) return &c;
+  }
+  return nullptr;
+}
+
 // The closing warnings speak of the model the path ends at: on the paper's motion with a 12 ms
 // wrench delay and coloured noise, rigid_body is refused against paper (its inertia is impossible
 // while the delay is unmodelled) and taken once sensor_delay is in; no warning may then say that
 // rigid_body "is not recommended" (it used to repeat the first ranking's refusal).
 TEST(ExplainPath, TheWarningsNameOnlyRefusalsAgainstTheFinalModel) {
-  sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
-  c.payload.mass_kg = 3.0;
-  c.seed = 6;
-  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  sim::CellSimConfig c = paperMotionRun(6);
   c.noise.wrench_lowpass_hz = 15.0;
-  c.full_rigid_body = true;
   c.sensor_delay.enabled = true;
   c.sensor_delay.tau_s = 0.012;
   const lab::AnalysisResult r = explainFrom(labtest::contexts(c), "paper");
-  const auto first = std::find_if(r.candidates.begin(), r.candidates.end(),
-                                  [](const lab::CandidateResult& k) { return k.effect == "rigid_body"; });
-  ASSERT_NE(first, r.candidates.end());
+  const lab::CandidateResult* first = candidateNamed(r.candidates, "rigid_body");
+  ASSERT_NE(first, nullptr);
   ASSERT_EQ(first->verdict, lab::Verdict::kRefused) << lab::formatText(r);  // the case's premise
   ASSERT_TRUE(r.final_report.has_value());
   EXPECT_EQ(r.final_report->model, "paper+rigid_body+sensor_delay") << lab::formatText(r);
@@ -83,16 +96,11 @@ TEST(ExplainPath, TheWarningsNameOnlyRefusalsAgainstTheFinalModel) {
 // that imitate part of it. The closing warning must not say only that "no candidate explains" the
 // rest: it names crosstalk, refused at the start, with the motion that would decide it.
 TEST(ExplainPath, AnUndeterminedCandidateIsNamedWhenThePathEndsAboveTheFloor) {
-  sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
-  c.payload.mass_kg = 3.0;
-  c.seed = 5;
-  c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-  c.full_rigid_body = true;
+  sim::CellSimConfig c = paperMotionRun(5);
   c.crosstalk.enabled = true;
   const lab::AnalysisResult r = explainFrom(labtest::contexts(c), "paper");
-  const auto first = std::find_if(r.candidates.begin(), r.candidates.end(),
-                                  [](const lab::CandidateResult& k) { return k.effect == "crosstalk"; });
-  ASSERT_NE(first, r.candidates.end());
+  const lab::CandidateResult* first = candidateNamed(r.candidates, "crosstalk");
+  ASSERT_NE(first, nullptr);
   ASSERT_EQ(first->verdict, lab::Verdict::kRefused) << lab::formatText(r);  // the case's premise
   ASSERT_TRUE(r.final_report.has_value());
   ASSERT_EQ(r.final_report->model.find("crosstalk"), std::string::npos) << r.final_report->model;
