@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <optional>
 #include <tuple>
 #include <utility>
 
@@ -254,9 +255,9 @@ std::pair<ResidualSpectrum, DynamicsCheck> readingDynamics(const detail::RankCon
 /// harmonics), which "no candidate explains" alone would hide.
 std::string refusedAtTheStart(const AnalysisResult& r) {
   if (!r.final_report) return "";
-  std::unique_ptr<Model> final_model;
+  std::optional<Model> final_model;
   try {
-    final_model = std::make_unique<Model>(Model::fromName(r.final_report->model));
+    final_model.emplace(Model::fromName(r.final_report->model));
   } catch (const ConfigError&) {
     return "";
   }

@@ -63,9 +63,9 @@ void checkImu(const std::vector<SampleContext>& fit, const ModelReport& last, An
     } catch (const ConfigError&) {
       imu.tilt_not_compared.clear();
     }
-  }
-  if (last.tilt_estimated && u != nullptr && v != nullptr && imu.tilt_not_compared.empty()) {
-    imu.comparisons.push_back(identify::compareImuTilt(u->value, v->value, u->std, v->std, imu.estimate.acc));
+    if (imu.tilt_not_compared.empty()) {
+      imu.comparisons.push_back(identify::compareImuTilt(u->value, v->value, u->std, v->std, imu.estimate.acc));
+    }
   }
   for (const auto& c : imu.comparisons) {
     if (!c.disagrees) continue;
