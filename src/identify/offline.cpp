@@ -75,6 +75,9 @@ void noteComparisons(ImuReport* report) {
         advice += "; check the sensor mount (X_FS), or add `mounting` to the model if the wrench turns with the IMU";
       } else if (configured && c.quantity == "delay") {
         advice += "; if the wrench shares the IMU's stream, add `sensor_delay` to the model";
+      } else if (c.quantity == "delay") {
+        advice += "; or a lag only the wrench has (a compliant mount or the sensor's filter), which `ftid analyze "
+                  "--explain` separates from the stream delay";
       }
       report->warnings.push_back("the IMU and the " + std::string(configured ? "configuration" : "wrench") +
                                  " disagree on the " + c.quantity + " beyond their uncertainties (" + c.message +
@@ -371,7 +374,7 @@ std::string imuReportJson(const ImuReport& r) {
   Json comps = Json::array();
   for (const auto& c : r.comparisons) {
     comps.push_back({{"quantity", c.quantity}, {"chi2", jsonNumber(c.chi2)}, {"dof", c.dof},
-                     {"limit", c.limit}, {"disagrees", c.disagrees}, {"message", c.message}});
+                     {"limit", jsonNumber(c.limit)}, {"disagrees", c.disagrees}, {"message", c.message}});
   }
   imu["comparisons"] = std::move(comps);
   imu["warnings"] = r.warnings;

@@ -517,16 +517,19 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                               "; do not write or export its parameters");
   }
   if (result.unphysical.empty()) noteUnwritable(engine, last_fit, last_view, result);
-  // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics).
+  // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics), a delay
+  // judged against the IMU's (payload-free: estimated first).
+  detail::estimateImu(fit, &result);
   {
     std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
+    detail::judgeDelayAgainstLag(rc, last_fit, result.imu, result.spectrum.motion_band_hz, &result.dynamics);
     const std::string dynamics = detail::spectrumWarning(result.spectrum);
     if (!dynamics.empty()) result.warnings.push_back(dynamics);
     const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
     if (!filtered.empty()) result.warnings.push_back(filtered);
   }
-  // The sensor's IMU against the kinematics and the last model (imu_check.hpp).
-  detail::checkImu(fit, result.final_report ? *result.final_report : result.report, &result);
+  // The sensor's IMU against the last model (imu_check.hpp).
+  detail::checkImu(result.final_report ? *result.final_report : result.report, &result);
   // What is left: the last model's held-out residual against the noise floor.
   if (nf.observable()) {
     const ModelReport& last = result.final_report ? *result.final_report : result.report;

@@ -93,6 +93,7 @@ std::string formatText(const AnalysisResult& r) {
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
   s += detail::spectrumText(r.spectrum);  // issue 22: sensor and mount dynamics
   if (r.dynamics.tested || !r.dynamics.note.empty()) s += dynamicsLine(r.dynamics, r.noise_floor) + "\n";
+  if (!delayAgainstLagLine(r.dynamics).empty()) s += "  " + delayAgainstLagLine(r.dynamics) + "\n";
   if (r.imu.used || !r.imu.not_used_reason.empty()) {  // issue 23: the IMU against the kinematics
     s += "\nthe sensor's IMU against the kinematics" +
          std::string(r.imu.used ? " and " + (r.final_report ? r.final_report->model : r.report.model) : "") + ":\n";

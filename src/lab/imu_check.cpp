@@ -1,6 +1,7 @@
 // The laboratory's look at the sensor's IMU (imu_check.hpp).
 #include "imu_check.hpp"
 
+#include <limits>
 #include <optional>
 #include <string>
 
@@ -8,6 +9,7 @@
 #include "ftid/effects/model.hpp"
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/imu_fusion.hpp"
+#include "lab_internal.hpp"
 
 namespace ftid::lab::detail {
 
@@ -38,9 +40,24 @@ std::optional<identify::DelayEstimate> delayOf(const ModelReport& m) {
   return identify::DelayEstimate{p->value, p->std};
 }
 
+/// The delay comparison when the dynamics check judged the model's delay against the IMU's: the
+/// rule's verdict (dynamics.hpp, DelayAgainstLag), not a chi-square beside it.
+identify::ImuComparison lagComparison(const DynamicsCheck::DelayAgainstLag& lag) {
+  identify::ImuComparison c;
+  c.quantity = "delay";
+  c.chi2 = c.limit = std::numeric_limits<double>::quiet_NaN();
+  c.disagrees = !lag.delay_is_lag;
+  c.message = "delay: IMU stream " + fmt(1e3 * lag.imu_delay_s, 3) + " ms, the model's " +
+              fmt(1e3 * lag.model_delay_s, 3) + " ms with the reading's " + lag.held_effect + " (lag " +
+              fmt(1e3 * lag.held_lag_s, 3) + " ms at the IMU's delay): a different wrench delay is " +
+              (lag.delay_is_lag ? "not " : "") + "taken by the rule (family-wise p = " + fmt(lag.family_p, 2) +
+              "; dynamics of the reading)";
+  return c;
+}
+
 }  // namespace
 
-void checkImu(const std::vector<SampleContext>& fit, const ModelReport& last, AnalysisResult* result) {
+void estimateImu(const std::vector<SampleContext>& fit, AnalysisResult* result) {
   identify::ImuReport& imu = result->imu;
   imu = identify::ImuReport{};
   if (fit.empty() || !fit.front().has_imu) {
@@ -54,7 +71,18 @@ void checkImu(const std::vector<SampleContext>& fit, const ModelReport& last, An
     return;
   }
   imu.used = true;
+}
+
+void checkImu(const ModelReport& last, AnalysisResult* result) {
+  identify::ImuReport& imu = result->imu;
+  if (!imu.used) return;
+  const DynamicsCheck::DelayAgainstLag& lag = result->dynamics.delay;
   imu.comparisons = identify::compareImuMountAndDelay(mountOf(last), delayOf(last), imu.estimate.gyro);
+  if (lag.imu_compared) {
+    for (auto& c : imu.comparisons) {
+      if (c.quantity == "delay") c = lagComparison(lag);
+    }
+  }
   const ParamEstimate* u = findParam(last, "tilt_u");
   const ParamEstimate* v = findParam(last, "tilt_v");
   if (last.tilt_estimated && u != nullptr && v != nullptr) {

@@ -444,6 +444,7 @@ void writeSpectrum(std::ostringstream& o, const AnalysisResult& r) {
   for (int a = 0; a < 6; ++a) o << "<li>" << esc(spectrumLine(s, a)) << "</li>";
   o << "</ul>";
   if (r.dynamics.tested || !r.dynamics.note.empty()) o << "<p><b>" << esc(dynamicsLine(r.dynamics, r.noise_floor)) << "</b></p>";
+  if (!delayAgainstLagLine(r.dynamics).empty()) o << "<p>" << esc(delayAgainstLagLine(r.dynamics)) << "</p>";
   o << "<div class=\"grid\">";
   auto lg = [](double v) { return std::log10(std::max(v, 1e-300)); };
   for (int a = 0; a < 6; ++a) {

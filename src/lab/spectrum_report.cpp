@@ -119,12 +119,29 @@ Json dynamicsJson(const DynamicsCheck& d) {
   o["family_p_value"] = jsonNumber(d.family_p);
   o["grid_points"] = d.grid_points;
   o["significant"] = d.significant;
+  const DynamicsCheck::DelayAgainstLag& g = d.delay;
+  if (g.tested) {
+    Json lag{{"lag_s", jsonNumber(g.lag_s)},
+             {"model_delay_s", jsonNumber(g.model_delay_s)},
+             {"delay_s", jsonNumber(g.delay_s)},
+             {"imu_compared", g.imu_compared}};
+    if (g.imu_compared) {
+      lag["imu_delay_s"] = jsonNumber(g.imu_delay_s);
+      lag["held"] = Json{{"effect", g.held_effect}, {"f_hz", jsonNumber(g.held_f_hz)}, {"zeta", jsonNumber(g.held_zeta)},
+                         {"lag_s", jsonNumber(g.held_lag_s)}};
+      lag["family_p_value"] = jsonNumber(g.family_p);
+      lag["delay_is_lag"] = g.delay_is_lag;
+    }
+    o["delay_against_lag"] = std::move(lag);
+  }
   return o;
 }
 
 std::string dynamicsWarning(const DynamicsCheck& d, const Vec6& noise_floor) {
   if (!d.significant) return "";
-  return dynamicsLine(d, noise_floor) +
+  const std::string line = delayAgainstLagLine(d);
+  const std::string lag = line.empty() ? std::string() : "; " + line;
+  return dynamicsLine(d, noise_floor) + lag +
          "; a diagnosis only: identify, ftidd and compensate do not model or invert it (docs/effects.md, "
          "\"Dynamics of the reading\"): stiffen the mount, or change the sensor's filter";
 }

@@ -34,9 +34,34 @@ struct DynamicsCheck {
   double family_p = 1.0;         ///< min(1, grid points x p)
   int grid_points = 0;
   bool significant = false;      ///< family_p < alpha and the held-out error falls beyond the margin
+  /// A filter lags the reading by about its group delay at low frequency (2 zeta / w_n, or 1 / w_c),
+  /// which a model's `sensor_delay` takes first on the path: at the motion's frequencies the two
+  /// trade off. With a significant filter and a last model that fits sensor_delay, the search above
+  /// relinearises the delay at the model's delay minus each trial's lag, the wrench's own delay is
+  /// fitted through the filter found, and the IMU's stream delay (payload-free) is judged against
+  /// it (detail::judgeDelayAgainstLag, docs/effects.md "Dynamics of the reading").
+  struct DelayAgainstLag {
+    bool tested = false;
+    double lag_s = 0.0;           ///< the (joint search's) filter's group delay at low frequency
+    double model_delay_s = 0.0;   ///< the last model's delay (fitted without a filter)
+    /// The wrench's own delay fitted through the filter (no standard error is given: with the
+    /// filter's parameters free, a delay and the lag trade off along a ridge).
+    double delay_s = 0.0;
+    bool imu_compared = false;    ///< the IMU's stream delay was judged against it
+    double imu_delay_s = 0.0;
+    std::string held_effect;      ///< the filter searched again with the delay held at the IMU's
+    double held_f_hz = 0.0, held_zeta = 0.0, held_lag_s = 0.0;
+    /// min(1, m p), p the chi-square(1) tail of the in-sample gain of the free delay over the delay
+    /// held at the IMU's, each with its own best filter (the filter's parameters profiled out)
+    double family_p = 1.0;
+    bool delay_is_lag = false;    ///< the rule does not take it: the model's delay is the IMU's plus the lag
+    std::string reason;           ///< the rule's reason when it does not take it
+  } delay;
 };
 
 /// One line for the text summary ("" when not tested).
 std::string dynamicsLine(const DynamicsCheck& d, const Vec6& noise_floor);
+/// The delay against the filter's lag in words ("" when not tested).
+std::string delayAgainstLagLine(const DynamicsCheck& d);
 
 }  // namespace ftid::lab
