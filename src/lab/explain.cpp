@@ -128,24 +128,36 @@ void recordStep(const PathState& ps, const CandidateResult& judged, bool added, 
   result.steps.push_back(st);
 }
 
+/// Parameters a full fit of `m` estimates: its linear ones and the nonlinear ones (tilt, mounting,
+/// delay), which an effect such as `mounting` or `sensor_delay` adds alone.
+int fittedCount(const Model& m) {
+  return m.numParams() + (m.estimatesTilt() ? 2 : 0) + (m.estimatesMounting() ? 3 : 0) + (m.estimatesDelay() ? 1 : 0);
+}
+
 /// Backward: the effect of the model the rule supports least, if it does not support it. A
 /// removal never raises the held-out error, except of an effect refused on a constraint
 /// (identifiability or physics): a model the rule cannot stand behind is left even at a cost.
-std::optional<Removal> backwardElimination(const RankContext& rc, const PathState& ps) {
+/// `kept`: the effects the rule does not support that stay because their removal would raise it.
+std::optional<Removal> backwardElimination(const RankContext& rc, const PathState& ps,
+                                           std::vector<CandidateResult>* kept) {
   const Fitted& cur = ps.cur;
   std::optional<Removal> drop;
+  kept->clear();
   for (const auto& name : effectNames(cur.model)) {
     // The effect just added was judged against exactly the model without it: skip the repeat.
     if (isPaperEffect(name) || name == ps.just_added) continue;
     std::vector<std::string> rest = effectNames(cur.model);
     rest.erase(std::remove(rest.begin(), rest.end(), name), rest.end());
     Model smaller = canonicalModel(rest);
-    if (smaller.numParams() == cur.model.numParams() || ps.visited.count(smaller.name()) != 0) continue;
+    if (fittedCount(smaller) == fittedCount(cur.model) || ps.visited.count(smaller.name()) != 0) continue;
     say(rc.options, "explain: would " + name + " be taken again against " + smaller.name() + "?");
     Fitted small = fitFrom(rc.eng, smaller, cur);
     CandidateResult c = judgeNested(rc, small, cur, name);
     if (c.verdict == Verdict::kRecommended) continue;
-    if (c.verdict != Verdict::kRefused && small.sol.sse_heldout > cur.sol.sse_heldout) continue;
+    if (c.verdict != Verdict::kRefused && small.sol.sse_heldout > cur.sol.sse_heldout) {
+      kept->push_back(std::move(c));  // not supported, but its removal would raise the held-out error
+      continue;
+    }
     const double rows = 6.0 * std::max(1, cur.sol.n_heldout);
     const double bic = rows * std::log(std::max(1e-300, small.sol.sse_heldout / cur.sol.sse_heldout)) -
                        std::max(0, c.added_params) * std::log(rows);
@@ -273,7 +285,7 @@ Fitted explainPath(const RankContext& rc, const Fitted& start, AnalysisResult& r
   result.steps.push_back(stepOf(start, result.noise_floor));
   PathState ps{start, result.candidates, {}, {start.model.name(), canonicalModel(effectNames(start.model)).name()}, {}};
   for (int step = 0; step < rc.options.max_explain_steps; ++step) {
-    if (std::optional<Removal> drop = backwardElimination(rc, ps)) {
+    if (std::optional<Removal> drop = backwardElimination(rc, ps, &result.kept_unsupported)) {
       takeRemoval(rc, step, *drop, ps, result);
       continue;
     }

@@ -128,6 +128,14 @@ std::string formatJson(const AnalysisResult& r) {
                          {"reason", c.skipped ? c.note : c.reason}});
     }
     o["final_candidates"] = std::move(why);
+    Json kept = Json::array();
+    for (const auto& c : r.kept_unsupported) {
+      kept.push_back(Json{{"effect", c.effect},
+                          {"verdict", verdictWord(c.verdict)},
+                          {"family_p_value", jsonNumber(c.family_p)},
+                          {"reason", c.reason}});
+    }
+    o["kept_unsupported"] = std::move(kept);
   }
   if (!r.steps.empty()) {
     Json steps = Json::array();

@@ -170,9 +170,18 @@ std::string formatText(const AnalysisResult& r) {
               r.noise_floor(0), r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
     const bool more = std::any_of(r.final_candidates.begin(), r.final_candidates.end(),
                                   [](const CandidateResult& c) { return c.significant; });
+    std::string kept;
+    for (const auto& c : r.kept_unsupported) {
+      kept += std::string(kept.empty() ? "" : "; ") + c.effect + " (" + verdictWord(c.verdict) +
+              (c.reason.empty() ? "" : ": " + c.reason) + ")";
+    }
+    const std::string support =
+        kept.empty() ? "the rule supports each of its effects"
+                     : "the rule supports each of its effects except " + kept +
+                           ", kept because removing it would raise the held-out error (no step of the path raises it)";
     s += more ? "  the path stops at " + r.steps.back().model + " at the step limit; the verdicts against it:\n"
               : "  the path ends at " + r.steps.back().model + ": no candidate is recommended against it (or its full " +
-                    "fit is not) and the rule supports each of its effects. Why each remaining candidate was not taken:\n";
+                    "fit is not) and " + support + ". Why each remaining candidate was not taken:\n";
     s += whyNot(r.final_candidates);
   }
   s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);

@@ -388,6 +388,10 @@ void writeExplainSteps(std::ostringstream& o, const AnalysisResult& r) {
       o << "<td>" << f(r.steps[k].total_ratio, 3) << "</td></tr>";
     }
     o << "</table>\n";
+    for (const auto& c : r.kept_unsupported) {
+      o << "<p>" << esc(c.effect) << " is kept though the rule does not support it (" << verdictWord(c.verdict)
+        << (c.reason.empty() ? "" : ": " + esc(c.reason)) << "): removing it would raise the held-out error.</p>";
+    }
     o << "<p>Against <code>" << esc(r.steps.back().model) << "</code>, why each remaining candidate was not taken:</p>"
          "<table><tr><th>effect</th><th>verdict</th><th>family-wise p</th><th>why</th></tr>";
     for (const auto& c : r.final_candidates) {

@@ -218,6 +218,10 @@ struct AnalysisResult {
   std::string writable_alternative;
   /// With explain: the ranking against the last model of the path (why each was not taken).
   std::vector<CandidateResult> final_candidates;
+  /// With explain: effects of the last model the rule does not support (judged against the model
+  /// without them) that the path keeps because removing them would raise the held-out error (a
+  /// step never does); empty when the rule supports each.
+  std::vector<CandidateResult> kept_unsupported;
   // Time series of the evaluated data for the report (starting model).
   std::vector<double> t;
   Eigen::Matrix<double, 6, Eigen::Dynamic> measured;
