@@ -506,7 +506,20 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   result.heldout_margin = options.min_relative_reduction;
 
   // Change in time (change_point_scan.hpp): a step no smooth effect describes; --explain then stops.
-  detail::reportChangePoints(rc, base, result, [&] { return readingDynamics(rc, base, result).second; });
+  // With --explain, the path's end competes with the steps (its own record is dropped: the path
+  // runs again below when no change point stands).
+  std::function<detail::SmoothPath()> smooth_path;
+  if (options.explain) {
+    smooth_path = [&] {
+      AnalyzeOptions quiet = options;
+      quiet.progress = nullptr;
+      const detail::RankContext quiet_rc{rc.eng, rc.menu, quiet, rc.log_cmd, rc.scale_sd, rc.family_size};
+      AnalysisResult scratch = result;
+      const Fitted end = detail::explainPath(quiet_rc, base, scratch);
+      return detail::SmoothPath{end.model.name(), 1.0 - end.sol.sse_heldout / base.sol.sse_heldout};
+    };
+  }
+  detail::reportChangePoints(rc, base, result, [&] { return readingDynamics(rc, base, result).second; }, smooth_path);
   const Fitted last_fit =
       options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
   // Impossible answers are never exported: what is wrong with the last model, in words.

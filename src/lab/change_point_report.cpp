@@ -144,7 +144,8 @@ std::string transientNote(const std::vector<ChangePoint>& cps) {
 }
 
 void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result,
-                        const std::function<DynamicsCheck()>& reading_dynamics) {
+                        const std::function<DynamicsCheck()>& reading_dynamics,
+                        const std::function<SmoothPath()>& smooth_path) {
   // The smooth effects a step must beat: every candidate whose held-out gain the rule finds
   // significant, recommended or refused. A refused fit (not identifiable, not physical) is no
   // model to take, but its gain still shows a residual that follows the motion rather than time.
@@ -170,6 +171,18 @@ void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResul
       say(rc.options, "no change point: the steps would lower the held-out error by " +
                           fmt(100.0 * cps.front().heldout_reduction, 3) + " %, less than the reading's dynamics (" +
                           d.effect + ", " + fmt(100.0 * d.relative_reduction, 3) + " %)");
+      return;
+    }
+  }
+  // ... and so does the smooth model the path reaches (several effects together, none of which
+  // alone beats the steps against base).
+  if (smooth_path) {
+    say(rc.options, "change points: would the smooth model --explain reaches explain more?");
+    const SmoothPath path = smooth_path();
+    if (path.heldout_reduction > cps.front().heldout_reduction) {
+      say(rc.options, "no change point: the steps would lower the held-out error by " +
+                          fmt(100.0 * cps.front().heldout_reduction, 3) + " %, less than " + path.model + " (" +
+                          fmt(100.0 * path.heldout_reduction, 3) + " %), which --explain reaches without them");
       return;
     }
   }

@@ -30,12 +30,22 @@ struct ScanNote {
 std::vector<ChangePoint> findChangePoints(const RankContext& rc, const Fitted& base, double best_smooth_reduction,
                                           ScanNote* note);
 
+/// The smooth model --explain reaches from `base` (its name) and its held-out reduction against base.
+struct SmoothPath {
+  std::string model;
+  double heldout_reduction = 0.0;
+};
+
 /// analyze()'s call: scans against `base` with the ranking's best significant reduction, fills
 /// result.change_points and a warning, and says why none was reported in a progress line. When
 /// steps would be reported, `reading_dynamics` (if set) searches the dynamics of the reading on
-/// `base`; dynamics that lower the held-out error more than the steps win, and none is reported.
+/// `base`, and `smooth_path` (if set: with --explain) walks the path without change points; either
+/// lowering the held-out error more than the steps wins, and none is reported (a compliant mount's
+/// lag beside a temperature drift reads as two offsets steps against `paper`, where rigid_body is
+/// refused until the lag is modelled: no single effect beats the steps, the path's end does).
 void reportChangePoints(const RankContext& rc, const Fitted& base, AnalysisResult& result,
-                        const std::function<DynamicsCheck()>& reading_dynamics = {});
+                        const std::function<DynamicsCheck()>& reading_dynamics = {},
+                        const std::function<SmoothPath()>& smooth_path = {});
 
 /// The report blocks (change_point_report.cpp); "" / nothing when there is no change point.
 std::string changePointText(const AnalysisResult& r);

@@ -140,6 +140,25 @@ TEST(DelayAgainstLag, AWrenchOnlyDelayBeyondTheLagIsASetUpError) {
   EXPECT_TRUE(warnsOnTheDelay(r));
 }
 
+// An 8 Hz, zeta 0.1 mount beside a temperature drift (`ftid simulate --mass 3 --seed 43 --effect
+// temperature_drift --noise-temp 0.05 --effect mount_dynamics:f=8,zeta=0.1`): against `paper`
+// rigid_body is refused (its inertia is impossible while the lag is unmodelled), no single effect
+// beats two offsets steps (15.6 % of the held-out error, at 3.88 s and 4.80 s), and the dynamics
+// found on `paper` (6.1 %) did not either: the log was reported as three set-ups. The smooth model
+// --explain reaches (83 %) competes with the steps now, and the path runs.
+TEST(DelayAgainstLag, ALagBesideATemperatureDriftIsNoChangeInTime) {
+  sim::CellSimConfig c = cellWith(43, {"imu", "temperature_drift", "mount_dynamics:f=8,zeta=0.1"});
+  c.noise.temp_std = 0.05;
+  const AnalysisResult r = analyzeLog(c, "drift_mount");
+  EXPECT_TRUE(r.change_points.empty()) << lab::formatText(r);
+  ASSERT_TRUE(r.final_report.has_value());
+  for (const char* e : {"rigid_body", "temperature_drift", "sensor_delay"}) {
+    EXPECT_NE(r.final_report->model.find(e), std::string::npos) << e << " in " << r.final_report->model;
+  }
+  for (const auto& w : r.warnings) EXPECT_EQ(w.find("set-ups"), std::string::npos) << w;
+  EXPECT_TRUE(r.dynamics.significant);
+}
+
 // Without the IMU columns the trade-off is said, and no verdict on the delay is given.
 TEST(DelayAgainstLag, WithoutAnImuTheTradeOffIsSaid) {
   const sim::CellSimConfig c = cellWith(4, {"mount_dynamics:f=6,zeta=0.05"});
