@@ -536,7 +536,7 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   {
     std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
     detail::judgeDelayAgainstLag(rc, last_fit, result.imu, result.spectrum.motion_band_hz, &result.dynamics);
-    const std::string dynamics = detail::spectrumWarning(result.spectrum);
+    const std::string dynamics = detail::spectrumWarning(result.spectrum, result.dynamics);
     if (!dynamics.empty()) result.warnings.push_back(dynamics);
     const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
     if (!filtered.empty()) result.warnings.push_back(filtered);

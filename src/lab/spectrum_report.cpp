@@ -51,7 +51,7 @@ ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<c
   return residualSpectrum(in);
 }
 
-std::string spectrumWarning(const ResidualSpectrum& s) {
+std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dynamics) {
   if (!s.valid) return "";
   std::string axes;
   for (int a = 0; a < 6; ++a) {
@@ -64,10 +64,17 @@ std::string spectrumWarning(const ResidualSpectrum& s) {
   if (axes.empty()) return "";
   char band[48];
   std::snprintf(band, sizeof band, "0-%.3g Hz", s.motion_band_hz);
-  return "the held-out residual has a peak beyond the motion band (" + std::string(band) + ") on " + axes +
-         ": the reading has dynamics of its own, a resonance (a compliant mount or tool) or the sensor's filter, "
-         "which no effect of the model's menu describes (a sensor_delay taken for it stands in for part of it); "
-         "see the dynamics of the reading and docs/analyze.md, \"The residual's spectrum\"";
+  const std::string head = "the held-out residual has a peak beyond the motion band (" + std::string(band) + ") on " + axes;
+  if (dynamics.tested && !dynamics.significant) {
+    // The search for a filter of the reading found none: the peak is the residual's own, not a
+    // resonance or filter of the reading (the two lines must not contradict each other).
+    return head + ": no filter of the reading explains it (dynamics of the reading: nothing of the kind), so it is a "
+                  "disturbance of its own at those frequencies, e.g. contacts or pushes, vibration from the process "
+                  "or the cell; see where it fails and docs/analyze.md, \"The residual's spectrum\"";
+  }
+  return head + ": the reading has dynamics of its own, a resonance (a compliant mount or tool) or the sensor's filter, "
+                "which no effect of the model's menu describes (a sensor_delay taken for it stands in for part of it); "
+                "see the dynamics of the reading and docs/analyze.md, \"The residual's spectrum\"";
 }
 
 std::string spectrumText(const ResidualSpectrum& s) {

@@ -17,9 +17,11 @@ namespace ftid::lab::detail {
 ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<char>& excluded,
                                     double colour_scale_sd);
 
-/// The warning when some axis has a significant peak beyond the motion band (a resonance or a
-/// filter: dynamics no effect models yet), naming the axes, frequencies and ratios; "" otherwise.
-std::string spectrumWarning(const ResidualSpectrum& s);
+/// The warning when some axis has a significant peak beyond the motion band, naming the axes,
+/// frequencies and ratios; "" otherwise. Its reading follows `dynamics` (the search on the same
+/// model): a resonance or a filter of the reading, unless the search ran and found none, when it is
+/// a disturbance of its own (pushes, contacts, vibration).
+std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dynamics);
 
 /// The text block: the rule, then one line per axis ("" when there is no spectrum).
 std::string spectrumText(const ResidualSpectrum& s);

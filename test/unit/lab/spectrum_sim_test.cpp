@@ -185,6 +185,28 @@ TEST(SpectrumSim, TheCommandLinesCompliantMountIsNoChangeInTime) {
   if (!HasFailure()) std::filesystem::remove_all(dir);
 }
 
+// Pushes on the tool (`ftid simulate --seed 41 --effect pushes:force=8`: sin^2 pushes of 0.4-0.6 s)
+// put a peak beyond the motion band (2.93 Hz, up to 1,300x the noise) that no filter of the reading
+// explains (the search: "nothing of the kind"). The spectrum's warning used to say all the same that
+// "the reading has dynamics of its own, a resonance ... or the sensor's filter": two findings that
+// contradicted each other. It now names a disturbance of its own.
+TEST(SpectrumSim, APeakNoFilterExplainsIsNotCalledTheReadingsDynamics) {
+  const std::string dir = ::testing::TempDir() + "pushes_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  const AnalysisResult r = labtest::analyzeCommandLineRun(dir + "/pushes.csv", 41, "pushes:force=8", true);
+  ASSERT_TRUE(r.dynamics.tested);
+  EXPECT_FALSE(r.dynamics.significant) << dynamicsLine(r.dynamics, r.noise_floor);
+  bool peak = false;
+  for (const auto& w : r.warnings) {
+    if (w.find("peak beyond the motion band") == std::string::npos) continue;
+    peak = true;
+    EXPECT_EQ(w.find("the reading has dynamics of its own"), std::string::npos) << w;
+    EXPECT_NE(w.find("no filter of the reading explains it"), std::string::npos) << w;
+  }
+  EXPECT_TRUE(peak);
+  if (!HasFailure()) std::filesystem::remove_all(dir);
+}
+
 TEST(SpectrumSim, SensorFilterIsNamedWithItsCutOff) {
   // A 1st-order filter at 4 Hz: no peak (nothing rings), but the search names it.
   const AnalysisResult r = analyze(mountRun(4.0, 0.0, 32), nullptr, cheapOptions(), "filter.csv");
