@@ -234,13 +234,20 @@ void noteUnwritable(const Engine& engine, const Fitted& last_fit, const FitView&
 }
 
 /// The spectrum of the held-out residual `result` holds (its last model's) and the search for
-/// dynamics of the reading on `fit`, which the spectrum's motion band and peaks steer.
+/// dynamics of the reading on `fit`, which the spectrum's motion band and peaks steer (not searched
+/// once result holds change points: `fit` is then fitted across them).
 std::pair<ResidualSpectrum, DynamicsCheck> readingDynamics(const detail::RankContext& rc, const Fitted& fit,
                                                            const AnalysisResult& result) {
   const auto& tests = rc.eng.testSamples();
   std::vector<char> excluded(tests.size(), 0);
   for (std::size_t k = 0; k < tests.size(); ++k) excluded[k] = rc.eng.excluded(tests[k]) ? 1 : 0;
   ResidualSpectrum spectrum = detail::spectrumOfAnalysis(result, excluded, rc.scale_sd);
+  if (!result.change_points.empty()) {
+    // A model fitted across a change in time: a filter would only smooth the step.
+    DynamicsCheck none;
+    none.note = "the log holds several set-ups, the change in time above: analyze each segment";
+    return {std::move(spectrum), std::move(none)};
+  }
   bool peak = false;
   for (const auto& ax : spectrum.axes) peak = peak || ax.peak.significant;
   DynamicsCheck dynamics = detail::checkDynamics(rc, fit, spectrum.motion_band_hz, peak);
@@ -536,7 +543,9 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
   {
     std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
     detail::judgeDelayAgainstLag(rc, last_fit, result.imu, result.spectrum.motion_band_hz, &result.dynamics);
-    const std::string dynamics = detail::spectrumWarning(result.spectrum, result.dynamics);
+    // Across a change in time the residual's peaks are the step's (the change's warning says what to do).
+    const std::string dynamics =
+        result.change_points.empty() ? detail::spectrumWarning(result.spectrum, result.dynamics) : std::string();
     if (!dynamics.empty()) result.warnings.push_back(dynamics);
     const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
     if (!filtered.empty()) result.warnings.push_back(filtered);

@@ -91,6 +91,10 @@ void checkImu(const ModelReport& last, AnalysisResult* result) {
     } catch (const ConfigError&) {
       imu.tilt_not_compared.clear();
     }
+    if (!result->change_points.empty()) {
+      imu.tilt_not_compared = "tilt not compared: " + last.model +
+                              " is fitted across the change in time above; compare it on each segment";
+    }
     if (imu.tilt_not_compared.empty()) {
       imu.comparisons.push_back(identify::compareImuTilt(u->value, v->value, u->std, v->std, imu.estimate.acc));
     }
