@@ -7,6 +7,9 @@ here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 root="$(dirname "$here")"
 work="$(mktemp -d /tmp/ftid-pkg.XXXXXX)"
 trap 'rm -rf "$work"' EXIT
+# scripts/test.sh runs this in the background and stops it with SIGTERM when an earlier step fails:
+# exit through the EXIT trap so that the copy and the build are removed.
+trap 'exit 143' TERM INT
 
 echo "== package: copying the tracked tree to $work/ftid"
 mkdir -p "$work/ftid"
@@ -18,10 +21,13 @@ else
   cp -a "$root/." "$work/ftid/"
 fi
 
-# noopt: this step checks the packaging, not the code (built and tested with -O2 above), and -O0
-# halves its compile time on 2 cores.
+# noopt and -g0 (no debug information; dpkg-buildflags appends it after the default -g): this step
+# checks the packaging, not the code (built and tested with -O2 above). -O0 halves the compile
+# time on 2 cores and -g0 takes another sixth off it (docs/testing.md "Time"); a real package
+# build (debian/rules without these) keeps -O2 -g and its dbgsym package.
 echo "== package: dpkg-buildpackage -us -uc -b"
 (cd "$work/ftid" && DEB_BUILD_OPTIONS="parallel=$(nproc) nocheck noopt" \
+   DEB_CFLAGS_APPEND=-g0 DEB_CXXFLAGS_APPEND=-g0 \
    dpkg-buildpackage -us -uc -b > "$work/build.log" 2>&1) || { tail -50 "$work/build.log"; exit 1; }
 deb="$(ls "$work"/ftid_*.deb | head -1)"
 echo "== package: built $(basename "$deb")"
