@@ -95,7 +95,8 @@ std::string delayAgainstLagLine(const DynamicsCheck& d) {
   const std::string held = "held at the IMU's stream delay (" + detail::fmt(1e3 * g.imu_delay_s, 2) +
                            " ms) with the filter searched again (" +
                            filter(g.held_effect, g.held_f_hz, g.held_zeta, g.held_lag_s) + "), the rule " +
-                           (g.delay_is_lag ? "does not take" : "takes") + " a different delay (family-wise p " + p + ")";
+                           (g.delay_is_lag ? "does not take" : "takes") + " a different delay (" +
+                           (g.delay_is_lag && !g.reason.empty() ? g.reason : "family-wise p " + std::string(p)) + ")";
   if (g.delay_is_lag) {
     return head + held + ": the model's delay is consistent with the IMU's stream delay plus the reading's lag (as "
                          "a delay it still approximates the lag in compensation)";
@@ -155,17 +156,18 @@ struct Trial {
 };
 
 /// The model's raw design through a filter, whitened and solved with the folds.
-struct FilteredFit {
-  Design X;  ///< whitened, as solved
-  Solution sol;
-};
-FilteredFit solveFiltered(const Engine& eng, const Design& raw, const std::vector<std::pair<int, int>>& runs,
-                          const Filter& filter) {
+Solution solveFiltered(const Engine& eng, const Design& raw, const std::vector<std::pair<int, int>>& runs,
+                       const Filter& filter) {
   const Design fraw = filteredDesign(eng, raw, runs, filter);
-  FilteredFit f{fraw, {}};
-  eng.core().whiten(f.X, 0, static_cast<int>(f.X.cols()));
-  f.sol = eng.solve(f.X, true, &fraw);
-  return f;
+  Design X = fraw;
+  eng.core().whiten(X, 0, static_cast<int>(X.cols()));
+  return eng.solve(X, true, &fraw);
+}
+
+/// The reading's filter: mount_dynamics (2nd order, f_n and damping) or sensor_filter (1st order).
+Filter makeFilter(bool is_mount, double f_hz, double zeta, double dt) {
+  if (is_mount) return [f_hz, zeta, dt](std::vector<double>& x) { secondOrderFilter(x, f_hz, zeta, dt); };
+  return [f_hz, dt](std::vector<double>& x) { firstOrderFilter(x, f_hz, dt); };
 }
 
 /// In-sample weighted SSE of the last model through the filter.
@@ -372,13 +374,11 @@ DynamicsCheck checkDynamics(const RankContext& rc, const Fitted& last, double mo
   const auto [best_m, best_f] = search.run(seed);
   const bool is_mount = best_m.sse < best_f.sse;
   const Trial& b = is_mount ? best_m : best_f;
-  const Filter filter = is_mount ? Filter([&](std::vector<double>& x) { secondOrderFilter(x, b.f, b.zeta, dt); })
-                                 : Filter([&](std::vector<double>& x) { firstOrderFilter(x, b.f, dt); });
+  const Filter filter = makeFilter(is_mount, b.f, b.zeta, dt);
   const Linearization lin_b = laggedLinearization(eng, last, filterLag(b.f, b.zeta));
-  const Solution sol =
-      last.lin.delay_column
-          ? solveFiltered(eng, eng.rawDesign(last.model, lin_b), filterRuns(eng.data(), lin_b.active), filter).sol
-          : solveFiltered(eng, raw, runs, filter).sol;
+  const Solution sol = last.lin.delay_column
+                           ? solveFiltered(eng, eng.rawDesign(last.model, lin_b), filterRuns(eng.data(), lin_b.active), filter)
+                           : solveFiltered(eng, raw, runs, filter);
   out.tested = true;
   out.effect = is_mount ? "mount_dynamics" : "sensor_filter";
   out.f_hz = b.f;
@@ -399,17 +399,17 @@ namespace {
 /// `last` (which fits sensor_delay) read through `filter`, its delay refined by Gauss-Newton steps
 /// of the filtered solve (the other nonlinear parameters stay linearised at `last`'s: their
 /// columns take their share of each step). Returns the linearisation and the filtered fit.
-std::pair<Linearization, FilteredFit> delayThroughFilter(const Engine& eng, const Fitted& last, const Filter& filter) {
+std::pair<Linearization, Solution> delayThroughFilter(const Engine& eng, const Fitted& last, const Filter& filter) {
   Linearization lin = last.lin;
   const int k = lin.delayColumn(last.model.numParams());
   const double max_delay = eng.core().treatment().max_delay_s;
-  FilteredFit f = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filter);
+  Solution f = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filter);
   for (int it = 0; it < 8; ++it) {
-    const double step = std::clamp(f.sol.theta(k), -max_delay - lin.delay, max_delay - lin.delay);
+    const double step = std::clamp(f.theta(k), -max_delay - lin.delay, max_delay - lin.delay);
     if (!std::isfinite(step) || std::abs(step) < 1e-6) break;
     lin.delay += step;
     eng.core().updateActive(lin);
-    eng.delayColumn(last.model, lin, f.sol.theta);
+    eng.delayColumn(last.model, lin, f.theta);
     f = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filter);
   }
   return {std::move(lin), std::move(f)};
@@ -443,11 +443,7 @@ Fitted delayHeld(const Engine& eng, const Fitted& last, double delay_s, const st
   return held;
 }
 
-Filter filterOf(const DynamicsCheck& d, double dt) {
-  const double f = d.f_hz, zeta = d.zeta;
-  if (d.effect == "mount_dynamics") return [f, zeta, dt](std::vector<double>& x) { secondOrderFilter(x, f, zeta, dt); };
-  return [f, dt](std::vector<double>& x) { firstOrderFilter(x, f, dt); };
-}
+Filter filterOf(const DynamicsCheck& d, double dt) { return makeFilter(d.effect == "mount_dynamics", d.f_hz, d.zeta, dt); }
 
 }  // namespace
 
@@ -465,7 +461,7 @@ void judgeDelayAgainstLag(const RankContext& rc, const Fitted& last, const ident
   const Fitted start{last.model, laggedLinearization(eng, last, g.lag_s), last.sol};
   auto [lin, rich] = delayThroughFilter(eng, start, filterOf(*d, dt));
   const std::vector<std::string> names = fittedNames(last.model, lin);
-  const FitView rich_view = fitView(last.model, lin, rich.sol, &names, eng.data().ctx);
+  const FitView rich_view = fitView(last.model, lin, rich, &names, eng.data().ctx);
   g.delay_s = rich_view.theta(lin.delayColumn(last.model.numParams()));
   if (!imu.used || !imu.estimate.gyro.delay_estimated) return;
   // The delay held at the IMU's, the filter searched again: the profile of the filter's parameters
@@ -476,19 +472,19 @@ void judgeDelayAgainstLag(const RankContext& rc, const Fitted& last, const ident
   if (!found.tested) return;
   lin.active = held.lin.active;  // both on the same samples
   rich = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filterOf(*d, dt));
-  const FilteredFit simple =
+  const Solution simple =
       solveFiltered(eng, eng.rawDesign(held.model, held.lin), filterRuns(eng.data(), held.lin.active), filterOf(found, dt));
   g.imu_compared = true;
   g.held_effect = found.effect;
   g.held_f_hz = found.f_hz;
   g.held_zeta = found.zeta;
   g.held_lag_s = filterLag(found.f_hz, found.effect == "mount_dynamics" ? found.zeta : 0.0);
-  const double sigma2 = rich.sol.sse_fit / std::max(1, rich.sol.rows_fit - rich.sol.rank);
-  const double gain = std::max(0.0, simple.sol.sse_fit - rich.sol.sse_fit);
+  const double sigma2 = rich.sse_fit / std::max(1, rich.rows_fit - rich.rank);
+  const double gain = std::max(0.0, simple.sse_fit - rich.sse_fit);
   RuleInputs in;
   in.family_size = rc.family_size;
   in.family_alpha = rc.options.family_alpha;
-  in.heldout_reduction = 1.0 - rich.sol.sse_heldout / simple.sol.sse_heldout;
+  in.heldout_reduction = 1.0 - rich.sse_heldout / simple.sse_heldout;
   in.min_heldout_reduction = std::max(rc.options.min_relative_reduction, 0.0);
   in.added_params = 1;
   in.p_value = chiSquareSurvivalUncertainScale(gain / std::max(sigma2, 1e-300), 1, rc.scale_sd);

@@ -138,6 +138,7 @@ Json dynamicsJson(const DynamicsCheck& d) {
                          {"lag_s", jsonNumber(g.held_lag_s)}};
       lag["family_p_value"] = jsonNumber(g.family_p);
       lag["delay_is_lag"] = g.delay_is_lag;
+      lag["reason"] = g.reason;  // the rule's reason for not taking the free delay ("" when it takes it)
     }
     o["delay_against_lag"] = std::move(lag);
   }

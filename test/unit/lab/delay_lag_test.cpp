@@ -106,8 +106,11 @@ TEST(DelayAgainstLag, ACompliantMountsLagIsNotAStreamDelay) {
     ASSERT_NE(c, nullptr);
     EXPECT_FALSE(c->disagrees) << c->message;
     EXPECT_FALSE(warnsOnTheDelay(r));
-    EXPECT_NE(lab::delayAgainstLagLine(r.dynamics).find("consistent with the IMU's stream delay plus the reading's lag"),
-              std::string::npos);
+    const std::string line = lab::delayAgainstLagLine(r.dynamics);
+    EXPECT_NE(line.find("consistent with the IMU's stream delay plus the reading's lag"), std::string::npos);
+    // The rule's own reason is printed, so no p-value stands beside "does not take" unexplained.
+    EXPECT_FALSE(g.reason.empty());
+    EXPECT_NE(line.find("does not take a different delay (" + g.reason + ")"), std::string::npos) << line;
   }
 }
 
