@@ -231,16 +231,22 @@ double filterLag(double f_hz, double zeta) {
   return zeta > 0.0 ? 2.0 * zeta / w : 1.0 / w;
 }
 
-/// `last` (which fits sensor_delay) relinearised at its delay minus `lag_s`: read through a filter
-/// of that lag, the filter takes that share of the delay and the delay column corrects what is left.
-Linearization laggedLinearization(const Engine& eng, const Fitted& last, double lag_s) {
+/// `last` (which fits sensor_delay) relinearised at the delay `delay_s` (within the treatment's
+/// range), its delay column rebuilt there.
+Linearization linearizationAt(const Engine& eng, const Fitted& last, double delay_s) {
   Linearization lin = last.lin;
   if (!lin.delay_column) return lin;
   const double max_delay = eng.core().treatment().max_delay_s;
-  lin.delay = std::clamp(last.lin.delay - lag_s, -max_delay, max_delay);
+  lin.delay = std::clamp(delay_s, -max_delay, max_delay);
   eng.core().updateActive(lin);
   eng.delayColumn(last.model, lin, last.sol.theta);
   return lin;
+}
+
+/// `last` relinearised at its delay minus `lag_s`: read through a filter of that lag, the filter
+/// takes that share of the delay and the delay column corrects what is left.
+Linearization laggedLinearization(const Engine& eng, const Fitted& last, double lag_s) {
+  return linearizationAt(eng, last, last.lin.delay - lag_s);
 }
 
 /// The search over filters of checkDynamics: a grid of 12 frequencies (1.5x apart over 0.5 .. 50 Hz
@@ -398,12 +404,15 @@ namespace {
 
 /// `last` (which fits sensor_delay) read through `filter`, its delay refined by Gauss-Newton steps
 /// of the filtered solve (the other nonlinear parameters stay linearised at `last`'s: their
-/// columns take their share of each step). Returns the linearisation and the filtered fit.
+/// columns take their share of each step). Returns the linearisation and the filtered fit with the
+/// lowest in-sample error seen: a step that raises it is not kept, so the result fits at least as
+/// well as `last`'s own linearisation through the filter.
 std::pair<Linearization, Solution> delayThroughFilter(const Engine& eng, const Fitted& last, const Filter& filter) {
   Linearization lin = last.lin;
   const int k = lin.delayColumn(last.model.numParams());
   const double max_delay = eng.core().treatment().max_delay_s;
   Solution f = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filter);
+  std::pair<Linearization, Solution> best{lin, f};
   for (int it = 0; it < 8; ++it) {
     const double step = std::clamp(f.theta(k), -max_delay - lin.delay, max_delay - lin.delay);
     if (!std::isfinite(step) || std::abs(step) < 1e-6) break;
@@ -411,8 +420,10 @@ std::pair<Linearization, Solution> delayThroughFilter(const Engine& eng, const F
     eng.core().updateActive(lin);
     eng.delayColumn(last.model, lin, f.theta);
     f = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filter);
+    if (!(f.sse_fit < best.second.sse_fit)) break;
+    best = {lin, f};
   }
-  return {std::move(lin), std::move(f)};
+  return best;
 }
 
 }  // namespace
@@ -445,6 +456,35 @@ Fitted delayHeld(const Engine& eng, const Fitted& last, double delay_s, const st
 
 Filter filterOf(const DynamicsCheck& d, double dt) { return makeFilter(d.effect == "mount_dynamics", d.f_hz, d.zeta, dt); }
 
+struct FreeDelay {
+  Solution sol;
+  double delay_s = 0.0;
+};
+
+/// The delay set free, solved on the samples `active`, at the lowest in-sample error of: `lin_d`
+/// through `filter_d` (the joint search's filter, the delay refined from the model's minus the
+/// lag), and through `filter_held` (the search's with the delay held at the IMU's) at the IMU's
+/// delay and refined from there. The second nests the held model (the same filter and samples, one
+/// column more), so the free delay never fits worse than the held one: its gain is a profile
+/// likelihood ratio with 1 dof, not a comparison with a fit that stopped on another ridge.
+FreeDelay freeDelay(const Engine& eng, const Fitted& last, const Linearization& lin_d, const Filter& filter_d,
+                    double imu_delay_s, const Filter& filter_held, const std::vector<char>& active) {
+  const int k = lin_d.delayColumn(last.model.numParams());
+  auto solveOn = [&](Linearization lin, const Filter& filter) {
+    lin.active = active;
+    Solution sol = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filter);
+    const double delay_s = lin.delay + sol.theta(k);
+    return FreeDelay{std::move(sol), delay_s};
+  };
+  const Fitted at_imu{last.model, linearizationAt(eng, last, imu_delay_s), last.sol};
+  FreeDelay best = solveOn(lin_d, filter_d);
+  for (const Linearization& lin : {at_imu.lin, delayThroughFilter(eng, at_imu, filter_held).first}) {
+    FreeDelay f = solveOn(lin, filter_held);
+    if (f.sol.sse_fit < best.sol.sse_fit) best = std::move(f);
+  }
+  return best;
+}
+
 }  // namespace
 
 void judgeDelayAgainstLag(const RankContext& rc, const Fitted& last, const identify::ImuReport& imu,
@@ -470,8 +510,9 @@ void judgeDelayAgainstLag(const RankContext& rc, const Fitted& last, const ident
   const Fitted held = delayHeld(eng, last, g.imu_delay_s, lin.active);
   const DynamicsCheck found = checkDynamics(rc, held, motion_band_hz, true, d);
   if (!found.tested) return;
-  lin.active = held.lin.active;  // both on the same samples
-  rich = solveFiltered(eng, eng.rawDesign(last.model, lin), filterRuns(eng.data(), lin.active), filterOf(*d, dt));
+  const FreeDelay free = freeDelay(eng, last, lin, filterOf(*d, dt), g.imu_delay_s, filterOf(found, dt), held.lin.active);
+  rich = free.sol;
+  g.delay_s = free.delay_s;
   const Solution simple =
       solveFiltered(eng, eng.rawDesign(held.model, held.lin), filterRuns(eng.data(), held.lin.active), filterOf(found, dt));
   g.imu_compared = true;
