@@ -51,9 +51,10 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
   }
   Vec6 ss = Vec6::Zero();
   int counted = 0, failed = 0;
+  const std::vector<int> bounds = foldBoundaries(ctx, folds);
   for (int f = 0; f < folds; ++f) {
-    const int b0 = static_cast<int>(static_cast<long long>(n) * f / folds);
-    const int b1 = static_cast<int>(static_cast<long long>(n) * (f + 1) / folds);
+    const int b0 = bounds[static_cast<std::size_t>(f)];
+    const int b1 = bounds[static_cast<std::size_t>(f) + 1];
     std::vector<SampleContext> train;
     train.reserve(static_cast<std::size_t>(n - (b1 - b0)));
     std::vector<int> test;

@@ -306,6 +306,26 @@ std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ct
   return groups;
 }
 
+std::vector<int> foldBoundaries(const std::vector<SampleContext>& ctx, int folds) {
+  const int n = static_cast<int>(ctx.size());
+  std::vector<int> moving;  // indices of the moving samples
+  for (int i = 0; i < n; ++i) {
+    const SampleContext& c = ctx[static_cast<std::size_t>(i)];
+    if (c.has_joints && c.qd.cwiseAbs().maxCoeff() >= 1e-3) moving.push_back(i);
+  }
+  const int m = static_cast<int>(moving.size());
+  const bool by_motion = m < n && m >= 20 * folds;
+  std::vector<int> b;
+  b.reserve(static_cast<std::size_t>(folds) + 1);
+  b.push_back(0);
+  for (int f = 1; f < folds; ++f) {
+    const long long share = static_cast<long long>(by_motion ? m : n) * f / folds;
+    b.push_back(by_motion ? moving[static_cast<std::size_t>(share)] : static_cast<int>(share));
+  }
+  b.push_back(n);
+  return b;
+}
+
 NoiseFloor dataSheetNoiseFloor(const Vec6& std) {
   NoiseFloor f;
   f.method = NoiseMethod::kDataSheet;

@@ -309,9 +309,10 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
       throw DataError(validate_name + ": the validation log must have the same columns (temp) as " + log_name);
     }
   } else {
+    const std::vector<int> bounds = identify::foldBoundaries(fit, options.folds);
     for (int f = 0; f < options.folds; ++f) {
-      d.blocks.push_back({static_cast<int>(static_cast<long long>(n_fit) * f / options.folds),
-                          static_cast<int>(static_cast<long long>(n_fit) * (f + 1) / options.folds), true});
+      d.blocks.push_back({bounds[static_cast<std::size_t>(f)], bounds[static_cast<std::size_t>(f) + 1], true});
+      if (f > 0) result.fold_start_t.push_back(fit[static_cast<std::size_t>(bounds[static_cast<std::size_t>(f)])].t);
     }
   }
   // The noise floor: data sheet, or detected from the fitting log's readings.

@@ -275,12 +275,7 @@ void writeSummary(std::ostringstream& o, const AnalysisResult& r) {
 void writeTimePlots(std::ostringstream& o, const AnalysisResult& r) {
   const std::size_t n = r.t.size();
   // k-fold: the boundaries between the contiguous held-out blocks (dotted lines in the plots).
-  std::vector<double> folds;
-  if (r.validate_log.empty() && r.folds > 1 && n > 0) {
-    for (int f = 1; f < r.folds; ++f) {
-      folds.push_back(r.t[static_cast<std::size_t>(static_cast<long long>(n) * f / r.folds)]);
-    }
-  }
+  const std::vector<double>& folds = r.fold_start_t;
   std::vector<Shade> shades;
   for (const auto& w : r.windows) shades.push_back({w.t_start, w.t_end});
   o << "<h2>Measured vs model (held-out prediction)</h2><div class=\"grid\">";

@@ -78,6 +78,16 @@ double differenceVarianceFactor(double phi, int stride);
 /// Empty when the data are a moving time series. *is_static tells which.
 std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static);
 
+/// The k-fold held-out blocks of a log (identify's checkFit and `ftid analyze`): `folds` contiguous
+/// blocks, returned as folds + 1 boundaries from 0 to ctx.size(). Each block holds an equal share
+/// of the moving samples (some |qd| at or above poseGroups' 1e-3 rad/s) and a rest lies in the
+/// block it falls in, so that a recording that moves and then rests does not put its whole motion
+/// in one block (whose fold would then be trained on a rest and fail to predict it). Equal numbers
+/// of samples when every sample moves (the same blocks), when fewer than 20 x folds samples move, or
+/// for a pose log (no joint angles). Identity: every block has at least floor(m / folds) moving
+/// samples, m the moving samples of the log.
+std::vector<int> foldBoundaries(const std::vector<SampleContext>& ctx, int folds);
+
 /// Detects the method and estimates the floor of the wrench readings. For dense data this is
 /// preliminary: the colour is only weakly determined by the readings alone (smooth motion hides
 /// the noise's low frequencies); refineNoiseFloor() settles it from a model residual.

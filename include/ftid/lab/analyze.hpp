@@ -180,6 +180,9 @@ struct AnalysisResult {
   int n_samples = 0;                     ///< fitting samples
   int n_eval = 0;                        ///< held-out samples evaluated
   int folds = 0;
+  /// k-fold: the time [s] at which each held-out block after the first begins (folds - 1 values;
+  /// identify::foldBoundaries: equal shares of the moving samples); empty with a validation log.
+  std::vector<double> fold_start_t;
   Vec6 noise_floor = Vec6::Zero();
   std::string noise_method;              ///< white, coloured, static_poses, not_observable, data_sheet
   std::string noise_detail;              ///< how, in words
