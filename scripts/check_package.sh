@@ -21,14 +21,38 @@ else
   cp -a "$root/." "$work/ftid/"
 fi
 
-# noopt and -g0 (no debug information; dpkg-buildflags appends it after the default -g): this step
-# checks the packaging, not the code (built and tested with -O2 above). -O0 halves the compile
-# time on 2 cores and -g0 takes another sixth off it (docs/testing.md "Time"); a real package
-# build (debian/rules without these) keeps -O2 -g and its dbgsym package.
+# The package build compiles every product file. With ccache (scripts/packages.txt) it compiles
+# them exactly as the release build of scripts/setup.sh does, so that they come from the cache
+# that build has just filled (docs/testing.md "Time"); every item below is needed for a hit:
+# - the same flags: -O2 -g1 -DNDEBUG in place of dpkg-buildflags' CFLAGS/CXXFLAGS/CPPFLAGS (its
+#   -ffile-prefix-map holds the absolute path of the copy, -D_FORTIFY_SOURCE and -g differ from the
+#   release build) and -Werror (FTID_WERROR, default OFF in debian/rules); LDFLAGS (relro, now)
+#   stay, linking is not cached;
+# - the same relative paths: CCACHE_BASEDIR is the copy, and debian/rules builds in
+#   obj-<triplet>, one level below it like build/ in the tree; CCACHE_NOHASHDIR=1 as setup.sh;
+# - the same cache: debhelper points HOME at a fresh directory and clears XDG_CACHE_HOME;
+# - the same locale: ccache hashes LANG, LC_ALL, LC_CTYPE and LC_MESSAGES, and debhelper runs
+#   ninja with LC_ALL=C.UTF-8, so the launcher gives the compiler this script's LC_ALL back.
+# A plain `dpkg-buildpackage` (none of this) keeps Debian's flags, hardening and dbgsym.
+# Without ccache: noopt and -g0 (the code itself is built and tested with -O2 above) halve the
+# compile time of the uncached build.
+pkg_env=(DEB_BUILD_OPTIONS="parallel=$(nproc) nocheck noopt" DEB_CFLAGS_APPEND=-g0 DEB_CXXFLAGS_APPEND=-g0)
+if command -v ccache >/dev/null 2>&1; then
+  if [ -n "${LC_ALL+set}" ]; then launcher="env;LC_ALL=$LC_ALL;ccache"; else launcher="env;-u;LC_ALL;ccache"; fi
+  release_flags="-O2 -g1 -DNDEBUG"  # scripts/setup.sh, CMAKE_CXX_FLAGS_RELWITHDEBINFO
+  pkg_env=(DEB_BUILD_OPTIONS="parallel=$(nproc) nocheck"
+           DEB_CFLAGS_SET="$release_flags" DEB_CXXFLAGS_SET="$release_flags" DEB_CPPFLAGS_SET=""
+           FTID_WERROR=ON CMAKE_C_COMPILER_LAUNCHER="$launcher" CMAKE_CXX_COMPILER_LAUNCHER="$launcher"
+           CCACHE_BASEDIR="$work/ftid" CCACHE_NOHASHDIR=1 CCACHE_DIR="$(ccache -k cache_dir)"
+           CCACHE_STATSLOG="$work/ccache-stats.log")
+fi
 echo "== package: dpkg-buildpackage -us -uc -b"
-(cd "$work/ftid" && DEB_BUILD_OPTIONS="parallel=$(nproc) nocheck noopt" \
-   DEB_CFLAGS_APPEND=-g0 DEB_CXXFLAGS_APPEND=-g0 \
-   dpkg-buildpackage -us -uc -b > "$work/build.log" 2>&1) || { tail -50 "$work/build.log"; exit 1; }
+(cd "$work/ftid" && env "${pkg_env[@]}" dpkg-buildpackage -us -uc -b > "$work/build.log" 2>&1) || \
+  { tail -50 "$work/build.log"; exit 1; }
+if [ -f "$work/ccache-stats.log" ]; then
+  echo "package: ccache $(CCACHE_STATSLOG="$work/ccache-stats.log" ccache --show-log-stats | \
+                           sed -n 's/^ *Hits: *\([0-9]* \/ *[0-9]*\).*/\1/p' | head -1 | tr -s ' ') hits"
+fi
 deb="$(ls "$work"/ftid_*.deb | head -1)"
 echo "== package: built $(basename "$deb")"
 

@@ -34,6 +34,8 @@ if command -v ccache >/dev/null 2>&1; then
 fi
 # RelWithDebInfo with line tables only (-g1): same code as -O2 -g, backtraces keep file:line, and
 # the Eigen-heavy sources compile about 40 % faster than with full debug info.
+# scripts/check_package.sh compiles the package with these same flags, so that its objects come
+# from the cache this build fills: change the flags in both places together.
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
       -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DFTID_BUILD_TESTS=ON "${launcher[@]}" >/dev/null
 echo "== setup: building (this takes a few minutes on 2 cores)"

@@ -9,7 +9,8 @@
 #   4. build the Debian package and verify the systemd unit (scripts/check_package.sh). It starts
 #      in the background, at nice 19, when CTest starts: the integration tests leave the two cores
 #      idle more than half of CTest's time (they wait on sockets and timers), and the package
-#      build fills that idle time; its output is printed when step 4 waits for it.
+#      build fills that idle time; its output is printed when step 4 waits for it. Its compiles
+#      come from the compiler cache that step 1's build has just filled (docs/testing.md "Time").
 # Set FTID_TEST_QUICK=1 to skip steps 2 to 4.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
