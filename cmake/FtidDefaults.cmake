@@ -34,9 +34,11 @@ endfunction()
 function(ftid_add_test name)
   cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
-  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
-  target_compile_definitions(${name} PRIVATE
-    FTID_SOURCE_DIR="${PROJECT_SOURCE_DIR}" FTID_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  # The source and build trees' paths come from ftid_test_paths (test/support/test_paths.hpp),
+  # not from compile definitions: an absolute path in a test's command would make every clone
+  # recompile it despite the compiler cache (docs/testing.md, "Time").
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} ftid_test_paths GTest::gtest GTest::gmock
+                        GTest::gtest_main)
   ftid_target_defaults(${name})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)

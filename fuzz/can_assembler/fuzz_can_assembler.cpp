@@ -11,11 +11,12 @@
 #include "ftid/drivers/can/dbc.hpp"
 #include "ftid/drivers/can/sensor_layout.hpp"
 #include "ftid/drivers/can/transport.hpp"
+#include "test_paths.hpp"
 
 namespace {
 const ftid::drivers::can::SensorLayout& layout() {
   static const ftid::drivers::can::SensorLayout l =
-      ftid::drivers::can::SensorLayout::fromDbc(ftid::drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      ftid::drivers::can::SensorLayout::fromDbc(ftid::drivers::can::loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   return l;
 }
 }  // namespace

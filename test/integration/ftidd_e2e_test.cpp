@@ -28,6 +28,7 @@
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
 #include "ftid/transport/lcm_to_csv.hpp"
+#include "test_paths.hpp"
 
 namespace {
 
@@ -63,12 +64,12 @@ void writePaperParams(const std::string& path, double f0_x_extra, double imu_acc
 // `sensor_extra` lines under sensor:) and the script that runs it for 5 s, recording FTID_* with
 // lcm-logger; with `reload`, params_v2.yaml replaces params.yaml after 3 s and ftidd gets SIGHUP.
 void writeCellScript(const std::string& dir, const std::string& sensor_extra, bool reload) {
-  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
-  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  const std::string ftid = ftid::test::binaryPath("/apps/ftid/ftid");
+  const std::string ftidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
   {
     std::ofstream cfg(dir + "/ftidd.yaml");
-    cfg << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
-        << "sensor:\n  socket_path: " << dir << "/ft.sock\n  dbc_path: " FTID_SOURCE_DIR
+    cfg << "robot:\n  urdf_path: " << ftid::test::sourceDir() << "/config/ur10.urdf\n"
+        << "sensor:\n  socket_path: " << dir << "/ft.sock\n  dbc_path: " << ftid::test::sourceDir()
         << "/config/ftsensor.dbc\n" << sensor_extra
         << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
         << "lcm:\n  url: \"udpm://239.255.76.67:7667?ttl=0\"\n  stats_period_s: 0.5\n"
@@ -79,8 +80,9 @@ void writeCellScript(const std::string& dir, const std::string& sensor_extra, bo
   script << "set -u\n"
          << "ip link set lo up && ip route add 224.0.0.0/4 dev lo || exit 90\n"
          << "'" << ftid << "' sim-robot > '" << dir << "/robot.log' 2>&1 & R=$!\n"
-         << "'" << ftid << "' sim-sensor --socket '" << dir << "/ft.sock' --urdf " FTID_SOURCE_DIR
-         << "/config/ur10.urdf --dbc " FTID_SOURCE_DIR "/config/ftsensor.dbc > '" << dir
+         << "'" << ftid << "' sim-sensor --socket '" << dir << "/ft.sock' --urdf "
+         << ftid::test::sourceDir() << "/config/ur10.urdf --dbc " << ftid::test::sourceDir()
+         << "/config/ftsensor.dbc > '" << dir
          << "/sensor.log' 2>&1 & S=$!\n"
          << "lcm-logger --quiet --force --lcm-url='" << url << "' --channel='FTID_.*' '" << dir
          << "/logger.lcm' & L=$!\n"
@@ -102,7 +104,7 @@ void writeCellScript(const std::string& dir, const std::string& sensor_extra, bo
 // Issue 26: with parameters.required, ftidd does not start on an implausible (10^6 kg) or a
 // physically impossible (i_s_xx = -5, standard error 100) parameter file; the reason names the key.
 TEST(FtiddEndToEnd, RefusesToStartOnAnImplausibleRequiredParameterFile) {
-  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  const std::string ftidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
   if (!fileExists(ftidd)) GTEST_SKIP() << "ftidd not built";
   const std::string dir = ::testing::TempDir() + "ftidd_implausible_" + std::to_string(::getpid());
   ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
@@ -124,8 +126,8 @@ TEST(FtiddEndToEnd, RefusesToStartOnAnImplausibleRequiredParameterFile) {
                                   {"negative.yaml", "parameters.i_s_xx': invalid inertia"}}) {
     {
       std::ofstream cfg(dir + "/ftidd.yaml");
-      cfg << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
-          << "sensor:\n  socket_path: " << dir << "/no-sensor.sock\n  dbc_path: " FTID_SOURCE_DIR
+      cfg << "robot:\n  urdf_path: " << ftid::test::sourceDir() << "/config/ur10.urdf\n"
+          << "sensor:\n  socket_path: " << dir << "/no-sensor.sock\n  dbc_path: " << ftid::test::sourceDir()
           << "/config/ftsensor.dbc\n"
           << "parameters:\n  path: " << dir << "/" << file << "\n  required: true\n"
           << "lcm:\n  url: \"memq://\"\n"
@@ -150,8 +152,8 @@ TEST(FtiddEndToEnd, RefusesToStartOnAnImplausibleRequiredParameterFile) {
 }
 
 TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
-  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
-  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  const std::string ftid = ftid::test::binaryPath("/apps/ftid/ftid");
+  const std::string ftidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
   if (!fileExists(ftid) || !fileExists(ftidd)) GTEST_SKIP() << "ftid/ftidd not built";
   if (!commandWorks("command -v lcm-logger")) GTEST_SKIP() << "lcm-logger (liblcm-bin) not installed";
   if (!commandWorks("unshare -rn true")) {
@@ -254,13 +256,13 @@ TEST(FtiddEndToEnd, PublishesEveryCycleAndReloadsWithoutMissingOne) {
 // sensor.motion_source: imu with a sensor whose DBC has no IMU signals could never give a valid
 // cycle: ftidd refuses to start and names the key and the DBC.
 TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbcAtStartAndInCheckConfig) {
-  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  const std::string ftidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
   if (!fileExists(ftidd)) GTEST_SKIP() << "ftidd not built";
   const std::string dir = ::testing::TempDir() + "ftidd_no_imu_" + std::to_string(::getpid());
   ASSERT_EQ(std::system(("rm -rf '" + dir + "' && mkdir -p '" + dir + "'").c_str()), 0);
   writePaperParams(dir + "/params.yaml", 0.0);
   std::stringstream dbc;
-  dbc << std::ifstream(FTID_SOURCE_DIR "/config/ftsensor.dbc").rdbuf();
+  dbc << std::ifstream(ftid::test::sourcePath("/config/ftsensor.dbc")).rdbuf();
   std::string text = dbc.str();
   for (const std::string prefix : {" SG_ Acc", " SG_ Gyro", " SG_ AngAcc"}) {  // the nine IMU signals renamed
     for (std::size_t at = text.find(prefix); at != std::string::npos; at = text.find(prefix, at + 1)) {
@@ -268,7 +270,7 @@ TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbcAtStartAndInCheckCon
     }
   }
   std::ofstream(dir + "/no_imu.dbc") << text;
-  std::ofstream(dir + "/ftidd.yaml") << "robot:\n  urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf\n"
+  std::ofstream(dir + "/ftidd.yaml") << "robot:\n  urdf_path: " << ftid::test::sourceDir() << "/config/ur10.urdf\n"
                                      << "sensor:\n  socket_path: " << dir << "/no-sensor.sock\n  dbc_path: " << dir
                                      << "/no_imu.dbc\n  motion_source: imu\n"
                                      << "parameters:\n  path: " << dir << "/params.yaml\n  required: true\n"
@@ -300,8 +302,8 @@ TEST(FtiddEndToEnd, RefusesTheImusMotionWithoutAnImuInTheDbcAtStartAndInCheckCon
 // exactly what that false bias makes of the payload, -m b on fx and c x (-m b) in the moments, and
 // every cycle is valid. With the kinematics' motion the bias would change nothing.
 TEST(FtiddEndToEnd, CompensatesWithTheMotionFromTheImu) {
-  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
-  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  const std::string ftid = ftid::test::binaryPath("/apps/ftid/ftid");
+  const std::string ftidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
   if (!fileExists(ftid) || !fileExists(ftidd)) GTEST_SKIP() << "ftid/ftidd not built";
   if (!commandWorks("command -v lcm-logger")) GTEST_SKIP() << "lcm-logger (liblcm-bin) not installed";
   if (!commandWorks("unshare -rn true")) GTEST_SKIP() << "unshare -rn not permitted";

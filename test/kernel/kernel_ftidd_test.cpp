@@ -39,6 +39,7 @@
 #include "ftid_lcm/compensated_wrench_t.hpp"
 #include "ftid_lcm/loop_stats_t.hpp"
 #include "kernel_test_support.hpp"
+#include "test_paths.hpp"
 
 namespace ftid {
 namespace {
@@ -126,8 +127,8 @@ class Subscriber {
 TEST(FtiddOnSocketCan, CompensatesFramesFromVcan0AndFlagsTheFaults) {
   requireVcan();
   if (HasFatalFailure()) return;
-  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
-  const std::string ftidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+  const std::string ftid = ftid::test::binaryPath("/apps/ftid/ftid");
+  const std::string ftidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
   ASSERT_EQ(access(ftid.c_str(), X_OK), 0) << ftid;
   ASSERT_EQ(access(ftidd.c_str(), X_OK), 0) << ftidd;
   const std::string dir = "/tmp/ftid_kernel_e2e_" + std::to_string(getpid());
@@ -375,7 +376,7 @@ TEST(UnderSystemd, PackagedUnitRunsRealTimeWithoutCapabilitiesPublishesReloadsAn
       << "runs only in stage 2 of scripts/kernel-rig.sh (systemd as PID 1)";
   requireVcan();
   if (HasFatalFailure()) return;
-  const std::string ftid = FTID_BINARY_DIR "/apps/ftid/ftid";
+  const std::string ftid = ftid::test::binaryPath("/apps/ftid/ftid");
   ASSERT_EQ(access("/usr/sbin/ftidd", X_OK), 0);
   ASSERT_EQ(access("/lib/systemd/system/ftidd.service", R_OK), 0);
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";

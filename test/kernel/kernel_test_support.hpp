@@ -11,10 +11,11 @@
 
 #include "ftid/drivers/can/socketcan.hpp"
 #include "ftid/common/types.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::kerneltest {
 
-inline const std::string kSrc = FTID_SOURCE_DIR;
+inline const std::string kSrc = ftid::test::sourceDir();
 inline const char* const kIface = "vcan0";
 
 inline std::string slurp(const std::string& path) {

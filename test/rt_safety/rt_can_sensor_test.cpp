@@ -9,6 +9,7 @@
 #include "ftid/drivers/can/candump.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::drivers::can {
 namespace {
@@ -23,7 +24,7 @@ static_assert(noexcept(std::declval<CanTransport&>().trySend(std::declval<const 
 
 TEST(RtCanSensor, DrainAssembleAndHealthDoNotAllocate) {
   const SensorLayout layout =
-      SensorLayout::fromDbc(loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      SensorLayout::fromDbc(loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   auto pair = makeSeqpacketPair();
   CanTransport& bus = *pair.a;
   CanFtImuSensor sensor(std::move(pair.b), layout);

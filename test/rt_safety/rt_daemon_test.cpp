@@ -26,6 +26,7 @@
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_outbox.hpp"
 #include "ftid/rt/spsc_queue.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -62,7 +63,7 @@ TEST(RtDaemon, CycleStepWithProductionMathAndSinkDoesNotAllocate) {
     }
   } remove_on_exit{p1, p2};
 
-  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   KinematicsMotionModel motion(kin);
   rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(p1));
   lcm::LCM lc("memq://");
@@ -128,7 +129,7 @@ class TimedArm : public ArmStateSource {
 
 TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
   const drivers::can::SensorLayout layout =
-      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   auto pair = drivers::can::makeSeqpacketPair();
   drivers::can::CanTransport* bus = pair.a.get();
   CanSensorSource sensor(std::make_unique<drivers::can::CanFtImuSensor>(std::move(pair.b), layout),
@@ -185,7 +186,7 @@ TEST(RtDaemon, CanSensorPairingAndWaitDoNotAllocate) {
 // after it run under the counter; opening and offering the transport is the link thread's work.
 TEST(RtDaemon, CanSensorTransportReplacementDoesNotAllocate) {
   const drivers::can::SensorLayout layout =
-      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   auto first = drivers::can::makeSeqpacketPair();
   auto second = drivers::can::makeSeqpacketPair();
   drivers::can::CanTransport* bus2 = second.a.get();

@@ -12,10 +12,12 @@
 #include <string>
 #include <vector>
 
+#include "test_paths.hpp"
+
 namespace {
 
-const std::string kFtid = FTID_BINARY_DIR "/apps/ftid/ftid";
-const std::string kFtidd = FTID_BINARY_DIR "/apps/ftidd/ftidd";
+const std::string kFtid = ftid::test::binaryPath("/apps/ftid/ftid");
+const std::string kFtidd = ftid::test::binaryPath("/apps/ftidd/ftidd");
 
 int run(const std::string& exe, const std::string& args, std::string* output) {
   const std::string cmd = "timeout 30 " + exe + " " + args + " 2>&1 </dev/null";

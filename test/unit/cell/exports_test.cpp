@@ -16,6 +16,7 @@
 #include "ftid/cell/exports.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/params/parameter_set.hpp"
+#include "test_paths.hpp"
 
 namespace {
 
@@ -383,8 +384,9 @@ TEST(Ros2Export, WriteExportsUsesTheConfigsMountNamesAndParts) {
   const std::string dir = ::testing::TempDir() + "ftid_exports_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   const ftid::config::DaemonConfig cfg = ftid::config::parseDaemonConfig(
-      "robot: {urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf}\n"
-      "sensor: {dbc_path: " FTID_SOURCE_DIR "/config/ftsensor.dbc, mount_xyz: [0, 0, 0.05], mount_rpy: [0, 0, 1.5707963267948966]}\n"
+      "robot: {urdf_path: " + ftid::test::sourceDir() + "/config/ur10.urdf}\n"
+      "sensor: {dbc_path: " + ftid::test::sourceDir() +
+          "/config/ftsensor.dbc, mount_xyz: [0, 0, 0.05], mount_rpy: [0, 0, 1.5707963267948966]}\n"
       "export:\n  world_frame: base\n  sensor_frame: fts\n  sensor_name: fts\n"
       "  adapter: {mass: 0.2, com: [0, 0, 0.005], inertia: [0, 0, 0, 0, 0, 0]}\n"
       "  sensor_body: {mass: 0.3, com: [0, 0, 0.02], inertia: [0, 0, 0, 0, 0, 0]}\n",
@@ -410,8 +412,8 @@ TEST(Ros2Export, WriteExportsUsesTheConfigsMountNamesAndParts) {
 TEST(Ros2Export, ConfigRejectsAnUnphysicalPartInertiaNamingTheKey) {
   try {
     ftid::config::parseDaemonConfig(
-        "robot: {urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf}\n"
-        "sensor: {dbc_path: " FTID_SOURCE_DIR "/config/ftsensor.dbc}\n"
+        "robot: {urdf_path: " + ftid::test::sourceDir() + "/config/ur10.urdf}\n"
+        "sensor: {dbc_path: " + ftid::test::sourceDir() + "/config/ftsensor.dbc}\n"
         "export:\n  adapter: {mass: 0.2, inertia: [1e-3, 1e-3, 5e-3, 0, 0, 0]}\n",
         "bad.yaml", "");
     FAIL() << "expected ConfigError";

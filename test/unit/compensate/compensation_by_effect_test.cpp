@@ -19,6 +19,7 @@
 #include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/fit_parameters.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::compensate {
 namespace {
@@ -73,7 +74,7 @@ logio::LogData simulate(const EffectCase& c, sim::CellSimConfig cfg) {
 }
 
 std::string scratchPath(const std::string& name) {
-  return std::string(FTID_BINARY_DIR) + "/compensation_by_effect_" + name + "_" + std::to_string(::getpid()) + ".yaml";
+  return ftid::test::binaryPath("/compensation_by_effect_") + name + "_" + std::to_string(::getpid()) + ".yaml";
 }
 
 class CompensationByEffect : public ::testing::TestWithParam<EffectCase> {};

@@ -16,12 +16,13 @@
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/fit_parameters.hpp"
 #include "ftid/params/parameter_set.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::compensate {
 namespace {
 
 struct Scratch {
-  std::string dir = std::string(FTID_BINARY_DIR) + "/extra_column_test_" + std::to_string(::getpid());
+  std::string dir = ftid::test::binaryPath("/extra_column_test_") + std::to_string(::getpid());
   Scratch() { (void)std::system(("mkdir -p '" + dir + "'").c_str()); }
   ~Scratch() { (void)std::system(("rm -rf '" + dir + "'").c_str()); }
 };
@@ -54,7 +55,7 @@ CompensateSummary compensate(const Scratch& s, const std::string& log_path, cons
   r.log_path = log_path;
   r.params_path = params_path;
   r.out_csv = s.dir + "/contact.csv";
-  r.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  r.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   return compensateLogFile(r);
 }
 
@@ -73,7 +74,7 @@ TEST(ExtraColumnCompensation, APayloadMovingWithALogColumnIsCompensatedFromTheLo
   r.log_path = log_path;
   r.params_path = "(paper+rigid_body)";
   r.out_csv = s.dir + "/contact_without.csv";
-  r.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  r.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   const samples::ContextSet ctx = samples::buildContexts(run.log, *run.cfg.robot);
   const auto without = compensateLogFile(
       r, identify::toParameterSet(identify::fitModel(effects::Model::fromName("paper+rigid_body"), ctx.samples)));

@@ -12,6 +12,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::config {
 namespace {
@@ -246,7 +247,7 @@ TEST_F(DaemonConfigTest, FifoAndDirectoryAreRefusedWithoutBlocking) {
 }
 
 TEST(DaemonConfigFile, ShippedConfigIsValid) {
-  const DaemonConfig c = loadDaemonConfig(FTID_SOURCE_DIR "/config/ftidd.yaml");
+  const DaemonConfig c = loadDaemonConfig(ftid::test::sourcePath("/config/ftidd.yaml"));
   EXPECT_EQ(c.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
   EXPECT_NE(describeDaemonConfig(c).find("lcm.url"), std::string::npos);
   EXPECT_TRUE(c.warnings.empty());

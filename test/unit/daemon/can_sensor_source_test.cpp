@@ -14,13 +14,14 @@
 #include "ftid/daemon/adapters.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/transport/codec.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
 
 struct Bench {
   drivers::can::SensorLayout layout =
-      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   drivers::can::SeqpacketPair pair = drivers::can::makeSeqpacketPair();
   drivers::can::CanTransport* bus = pair.a.get();
   CanSensorSource source;
@@ -281,7 +282,7 @@ TEST(CanSensorSource, DriverHealthFlagsReachThePublishedMessageUnchanged) {
   can::SensorHealthOptions options;
   options.stale_timeout_ns = 10'000'000'000;  // 10 s: a loaded machine never makes a step stale
   const can::SensorLayout layout =
-      can::SensorLayout::fromDbc(can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      can::SensorLayout::fromDbc(can::loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   can::SeqpacketPair pair = can::makeSeqpacketPair();
   can::CanTransport* bus = pair.a.get();
   // The source's monotonic clock can be moved on (the stale step below); its real-time clock is

@@ -19,6 +19,7 @@
 #include "ftid/effects/model.hpp"
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -71,7 +72,7 @@ TEST(DaemonCompensation, ContactWrenchMatchesAnIndependentStaticModel) {
   const Payload p;
   writeParams(p, path);
 
-  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   KinematicsMotionModel motion(kin);
   rt::OwnedSwapSlot<Compensation> slot(std::make_unique<ParameterFileCompensation>(path));
   test::FakeArm arm;
@@ -134,7 +135,7 @@ class DaemonMovingCompensation : public ::testing::TestWithParam<MovingCase> {};
 
 TEST_P(DaemonMovingCompensation, ContactIsTheSimulatorsPushWhileTheArmMoves) {
   const MovingCase mc = GetParam();
-  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   sim::CellSimConfig cfg = sim::paperCellConfig(kin);
   cfg.full_rigid_body = true;
   cfg.contact.enabled = true;

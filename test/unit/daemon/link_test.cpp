@@ -31,6 +31,7 @@
 #include "ftid/daemon/output_stage.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "systemd_notify.hpp"  // src/daemon (private header)
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -337,7 +338,7 @@ TEST(Watchdog, FedOnlyWhileEveryThreadProgressesAndTheSilenceLimitAllows) {
 struct SensorBench {
   std::string path = ::testing::TempDir() + "ftid_link_sensor_" + std::to_string(::getpid()) + ".sock";
   drivers::can::SensorLayout layout =
-      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   std::unique_ptr<drivers::can::SeqpacketCanServer> server = std::make_unique<drivers::can::SeqpacketCanServer>(path);
   CanSensorSource source{
       std::make_unique<drivers::can::CanFtImuSensor>(std::make_unique<drivers::can::SeqpacketCanClient>(path), layout),

@@ -17,6 +17,7 @@
 #include "ftid/model/kinematics.hpp"
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -63,7 +64,7 @@ TEST(OnlineSignals, AnExpressionOfTheKinematicsLoadsAndCompensates) {
 // physics, exact for `paper`) with fz += 2 grip qd6 written into it leaves only the noise; a log
 // without `grip` is refused naming the log, the effect and the signal.
 TEST(OnlineSignals, OfflineCompensationUsesTheLogColumnAndRefusesALogWithoutIt) {
-  sim::CellSimConfig c = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf"));
+  sim::CellSimConfig c = sim::paperCellConfig(model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf")));
   c.full_rigid_body = false;
   c.duration_s = 4.0;
   c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
@@ -98,7 +99,7 @@ TEST(OnlineSignals, OfflineCompensationUsesTheLogColumnAndRefusesALogWithoutIt) 
   compensate::CompensateRequest req;
   req.params_path = dir + "/p.yaml";
   req.out_csv = dir + "/out.csv";
-  req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+  req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   req.log_path = dir + "/with.csv";
   const compensate::CompensateSummary s = compensate::compensateLogFile(req);
   EXPECT_EQ(s.n_samples, static_cast<int>(log.samples.size()));

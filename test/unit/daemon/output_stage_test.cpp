@@ -6,6 +6,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/config/daemon_config.hpp"
 #include "ftid/daemon/output_stage.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -117,8 +118,9 @@ TEST(OutputStage, RejectsACutOffAboveTheLoopsRangeAndUnknownFrames) {
 }
 
 TEST(OutputStage, ConfigNamesTheKeyOfABadOutputSetting) {
-  const std::string base = "robot: {urdf_path: " FTID_SOURCE_DIR "/config/ur10.urdf, rtde_frequency_hz: 125}\n"
-                           "sensor: {dbc_path: " FTID_SOURCE_DIR "/config/ftsensor.dbc}\n";
+  const std::string base = "robot: {urdf_path: " + ftid::test::sourceDir() +
+                           "/config/ur10.urdf, rtde_frequency_hz: 125}\n"
+                           "sensor: {dbc_path: " + ftid::test::sourceDir() + "/config/ftsensor.dbc}\n";
   const config::DaemonConfig ok =
       config::parseDaemonConfig(base + "output: {frame: tool, tool_xyz: [0, 0, 0.2], lowpass_hz: 20}\n", "ok.yaml", "");
   EXPECT_EQ(ok.output.frame, "tool");

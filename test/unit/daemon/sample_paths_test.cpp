@@ -16,6 +16,7 @@
 #include "ftid/samples/context.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_to_csv.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -71,7 +72,7 @@ void expectIdentical(const effects::SampleContext& on, const effects::SampleCont
 }
 
 TEST(SamplePaths, OnlineAndOfflineContextsAreIdenticalBitForBit) {
-  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   samples::ContextOptions options;
   options.R_FS = Eigen::AngleAxisd(0.7, Vec3(0.3, -0.5, 0.8).normalized()).toRotationMatrix();
   options.p_FS_F = Vec3(0.004, -0.002, 0.031);

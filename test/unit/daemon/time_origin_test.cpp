@@ -34,6 +34,7 @@
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_to_csv.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::daemon {
 namespace {
@@ -137,7 +138,7 @@ std::vector<std::array<double, 7>> offline(const test::RecordingSink& sink, int 
   req.log_path = log_path;
   req.params_path = params_path;
   req.out_csv = dir + "/" + name + ".contact.csv";
-  req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+  req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   const compensate::CompensateSummary s = compensate::compensateLogFile(req);
   const params::ParameterSet set = params::readParameterFile(params_path);
   EXPECT_EQ(s.time_note.empty(), std::isfinite(set.time_origin_unix_s)) << s.time_note;
@@ -156,7 +157,7 @@ struct DriftRun {
 /// the cycle's pairing may blend a reading with the previous pose's (the tests then compare with
 /// the paired reading); without it each state is paired with its own reading.
 void runOnline(Compensation* comp, double reading_origin_s, DriftRun* run, int jitter_us = 300) {
-  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   KinematicsMotionModel motion(kin);
   rt::OwnedSwapSlot<Compensation> slot{std::unique_ptr<Compensation>(comp)};
   test::FakeArm arm1, arm2, arm3;
@@ -196,7 +197,7 @@ void runOnline(Compensation* comp, double reading_origin_s, DriftRun* run, int j
 /// Online: every record's contact = its paired reading - the independent model at its state's
 /// receive time (seconds since origin_s), to rounding.
 void expectOnlineModel(const DriftRun& run, double origin_s) {
-  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   for (int k = 0; k < run.sink.count; ++k) {
     const CycleRecord& r = run.sink.records[static_cast<std::size_t>(k)];
     ASSERT_TRUE(r.wrench_valid) << "record " << k;
@@ -287,7 +288,7 @@ TEST(TimeOrigin, IdentificationStoresTheRecordingsFirstHostTime) {
   identify::IdentifyRequest req;
   req.log_path = log_path;
   req.model = "paper+time_drift";
-  req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+  req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   params::ParameterSet fitted = identify::identifyLogFile(req);
   const double host0_s = hostTimeSeconds(first->sink.records[0].robot.recv_utime);
   EXPECT_EQ(fitted.time_origin_unix_s, host0_s);  // exactly the recorded value
@@ -308,7 +309,7 @@ TEST(TimeOrigin, IdentificationStoresTheRecordingsFirstHostTime) {
             later.get(), 0);
   for (int k = 0; k < later->sink.count; ++k) {
     const CycleRecord& r = later->sink.records[static_cast<std::size_t>(k)];
-    const Mat3 R_BS = model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf")
+    const Mat3 R_BS = model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"))
                           .computeSensorMotion(r.robot.q, r.robot.qd, r.robot.qdd)
                           .R_BS;
     const Wrench expected =

@@ -10,13 +10,14 @@
 #include "ftid/common/error.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/model/kinematics.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::design {
 namespace {
 
 const model::RobotKinematics& ur10() {
   static const model::RobotKinematics k =
-      model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   return k;
 }
 
@@ -35,12 +36,12 @@ class DesignConfigFile : public ::testing::Test {
     }
     return "(no error)";
   }
-  std::string path_ = std::string(FTID_BINARY_DIR) + "/design_config_test_" + std::to_string(::getpid()) + ".yaml";
+  std::string path_ = ftid::test::binaryPath("/design_config_test_") + std::to_string(::getpid()) + ".yaml";
 };
 
 TEST_F(DesignConfigFile, ShippedFileEqualsTheBuiltInDefaults) {
   const JointVector q0 = JointVector::Zero();
-  const auto shipped = loadDesignConstraints(std::string(FTID_SOURCE_DIR) + "/config/design.yaml", ur10(), q0);
+  const auto shipped = loadDesignConstraints(ftid::test::sourcePath("/config/design.yaml"), ur10(), q0);
   const auto builtin = loadDesignConstraints("", ur10(), q0);
   EXPECT_EQ(shipped.velocity, builtin.velocity);
   EXPECT_EQ(shipped.acceleration, builtin.acceleration);

@@ -15,13 +15,14 @@
 #include "ftid/model/kinematics.hpp"
 #include "ftid/samples/context.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::design {
 namespace {
 
 const model::RobotKinematics& ur10() {
   static const model::RobotKinematics k =
-      model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   return k;
 }
 
@@ -128,7 +129,7 @@ TEST(DesignLimits, ImuTiltStartAvoidsTheWrongMinimumOnA1sDesign) {
   o.local_max_evals = 2000;
   o.baseline_seeds = 0;
   o.static_baseline = false;
-  o.constraints = loadDesignConstraints(std::string(FTID_SOURCE_DIR) + "/config/design.yaml", ur10(), o.q0);
+  o.constraints = loadDesignConstraints(ftid::test::sourcePath("/config/design.yaml"), ur10(), o.q0);
   const DesignResult d = designExcitation(o, ur10());
   sim::CellSimConfig cfg = sim::paperCellConfig(ur10());
   cfg.trajectory = d.file.toTrajectory();

@@ -14,6 +14,7 @@
 #include "design_problem.hpp"
 #include "ftid/design/designer.hpp"
 #include "ftid/model/kinematics.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::design::internal {
 namespace {
@@ -55,7 +56,7 @@ TEST(DesignSoftMax, EmptyIsFeasibleAndNanOrInfinityIsInfeasible) {
 
 TEST(DesignProblem, MakeFeasibleScalesToTheLargestAmplitudeWithinTheJointLimits) {
   const model::RobotKinematics kin =
-      model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   DesignOptions opt;
   opt.duration_s = 6.0;
   opt.harmonics = 4;

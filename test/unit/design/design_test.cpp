@@ -20,13 +20,14 @@
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::design {
 namespace {
 
 const model::RobotKinematics& ur10() {
   static const model::RobotKinematics k =
-      model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   return k;
 }
 
@@ -252,7 +253,7 @@ TEST_F(DesignRun, CheckDetectsAViolatedLimit) {
 }
 
 TEST_F(DesignRun, CheckTrajectoryCommandExitsNonZeroOnAViolation) {
-  const std::string ftid = std::string(FTID_BINARY_DIR) + "/apps/ftid/ftid";
+  const std::string ftid = ftid::test::binaryPath("/apps/ftid/ftid");
   if (std::FILE* f = std::fopen(ftid.c_str(), "r")) {
     std::fclose(f);
   } else {
@@ -263,7 +264,7 @@ TEST_F(DesignRun, CheckTrajectoryCommandExitsNonZeroOnAViolation) {
                            ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" +
                            std::to_string(::getpid());
   trajectory::TrajectoryFile file = result_->file;
-  file.robot = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  file.robot = ftid::test::sourcePath("/config/ur10.urdf");
   const std::string good = stem + "_good.yaml", bad = stem + "_bad.yaml";
   trajectory::writeTrajectoryFile(good, file);
   double amax = 0.0;

@@ -18,6 +18,7 @@
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
 #include "scratch.hpp"
+#include "test_paths.hpp"
 
 namespace {
 
@@ -33,8 +34,8 @@ struct CliRun {
 
 CliRun ftidRun(const ScratchDir& d, const std::string& args) {
   const std::string err_file = d / "stderr.txt";
-  const std::string cmd = "cd " + std::string(FTID_SOURCE_DIR) + " && timeout 60 " + FTID_BINARY_DIR +
-                          "/apps/ftid/ftid " + args + " 2>" + err_file;
+  const std::string cmd = "cd " + ftid::test::sourceDir() + " && timeout 60 " +
+                          ftid::test::binaryPath("/apps/ftid/ftid ") + args + " 2>" + err_file;
   CliRun r;
   FILE* p = popen(cmd.c_str(), "r");
   if (p == nullptr) return r;

@@ -10,13 +10,15 @@
 #include <string>
 #include <vector>
 
+#include "test_paths.hpp"
+
 namespace ftid::test {
 
 class ScratchDir {
  public:
   explicit ScratchDir(const std::string& suite) {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = std::string(FTID_BINARY_DIR) + "/scratch_" + suite + "_" + info->test_suite_name() + "_" + info->name();
+    path_ = ftid::test::binaryPath("/scratch_") + suite + "_" + info->test_suite_name() + "_" + info->name();
     std::filesystem::remove_all(path_);
     std::filesystem::create_directories(path_);
   }

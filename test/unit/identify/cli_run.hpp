@@ -1,5 +1,5 @@
 #pragma once
-// Test helper: runs the built `ftid` binary (FTID_BINARY_DIR/apps/ftid/ftid) from the source tree
+// Test helper: runs the built `ftid` binary (binaryPath("/apps/ftid/ftid")) from the source tree
 // and captures its exit code, stdout and stderr (the identify CLI tests).
 #include <gtest/gtest.h>
 
@@ -12,6 +12,8 @@
 #include <sstream>
 #include <string>
 
+#include "test_paths.hpp"
+
 namespace ftid::test {
 
 struct CliRun {
@@ -23,14 +25,14 @@ struct CliRun {
 // CTest runs each test of this file as its own process, in parallel: every file a test writes
 // (including the captured stderr) carries the test's name so two tests never share one.
 inline std::string dir() {
-  return std::string(FTID_BINARY_DIR) + "/identify_cli_test_" +
+  return ftid::test::binaryPath("/identify_cli_test_") +
          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_";
 }
 
 inline CliRun ftidRun(const std::string& args) {
   const std::string err_file = dir() + "stderr.txt";
-  const std::string cmd = "cd " + std::string(FTID_SOURCE_DIR) + " && " + FTID_BINARY_DIR + "/apps/ftid/ftid " +
-                          args + " 2>" + err_file;
+  const std::string cmd = "cd " + ftid::test::sourceDir() + " && " +
+                          ftid::test::binaryPath("/apps/ftid/ftid ") + args + " 2>" + err_file;
   CliRun r;
   FILE* p = popen(cmd.c_str(), "r");
   if (p == nullptr) return r;

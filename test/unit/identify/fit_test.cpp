@@ -17,6 +17,7 @@
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::identify {
 namespace {
@@ -218,7 +219,7 @@ TEST(FitModel, CrosstalkRecoversTheSimulatorsMatrix) {
 }
 
 std::string tempPath(const std::string& name) {
-  return std::string(FTID_BINARY_DIR) + "/identify_test_" + name;
+  return ftid::test::binaryPath("/identify_test_") + name;
 }
 
 TEST(IdentifyLogFile, GenericEffectOnAnExtraCsvColumn) {
@@ -241,7 +242,7 @@ TEST(IdentifyLogFile, GenericEffectOnAnExtraCsvColumn) {
   IdentifyRequest request;
   request.log_path = path;
   request.model = "paper+poly(humidity,2,40)";
-  request.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  request.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   const ParameterSet set = identifyLogFile(request);
   std::remove(path.c_str());
   for (int a = 0; a < 6; ++a) {

@@ -8,11 +8,12 @@
 #include "ftid/samples/context.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::test {
 
 inline model::RobotKinematics ur10() {
-  return model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+  return model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
 }
 
 constexpr double kDegToRad = 3.141592653589793 / 180.0;

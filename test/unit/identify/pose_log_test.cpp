@@ -12,6 +12,7 @@
 #include "ftid/identify/offline.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::identify {
 namespace {
@@ -94,7 +95,7 @@ ParameterSet identifyFile(const logio::LogData& log, const std::string& name, co
   IdentifyRequest r;
   r.log_path = path;
   r.model = model;
-  r.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  r.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   r.context.wrench_in_base = wrench_in_base;
   ParameterSet set;
   try {

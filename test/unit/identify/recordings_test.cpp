@@ -16,6 +16,7 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/samples/context.hpp"
 #include "paper_cell.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::identify {
 namespace {
@@ -120,7 +121,7 @@ IdentifyRequest request(const std::string& log, const std::string& model) {
   IdentifyRequest r;
   r.log_path = log;
   r.model = model;
-  r.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  r.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   return r;
 }
 

@@ -11,6 +11,7 @@
 #include "ftid/identify/robust_data.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::identify {
 namespace {
@@ -30,14 +31,14 @@ TEST(RobustData, IdentifyLeavesTheGlitchesOutOfItsFit) {
   for (std::uint64_t seed = 5; seed <= 7; ++seed) {
     const sim::CellSimConfig cfg = glitchyRun(seed);
     const sim::CellSim simulator(cfg);
-    const std::string path = std::string(FTID_BINARY_DIR) + "/robust_data_test_" + std::to_string(seed) + ".csv";
+    const std::string path = ftid::test::binaryPath("/robust_data_test_") + std::to_string(seed) + ".csv";
     logio::writeLog(path, simulator.run());
     std::vector<int> truth;
     for (const auto& g : simulator.glitches()) truth.push_back(static_cast<int>(g.sample));
     IdentifyRequest req;
     req.log_path = path;
     req.model = "paper+rigid_body";
-    req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+    req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
     const CheckedIdentification id = identifyLogFileChecked(req);
     // Every spike is found and nothing else is taken for one (a 20 N spike is 400 sigma).
     EXPECT_EQ(id.glitches, static_cast<int>(truth.size())) << "seed " << seed;

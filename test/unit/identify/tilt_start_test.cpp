@@ -12,6 +12,7 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "paper_cell.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::identify {
 namespace {
@@ -20,8 +21,8 @@ constexpr double kPi = 3.141592653589793;
 
 sim::CellSimConfig shortRun(std::uint64_t seed) {
   sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
-  cfg.trajectory = trajectory::readTrajectoryFile(std::string(FTID_SOURCE_DIR) +
-                                                  "/test/unit/identify/data/excitation_1s_all_joints.yaml")
+  cfg.trajectory = trajectory::readTrajectoryFile(
+                       ftid::test::sourcePath("/test/unit/identify/data/excitation_1s_all_joints.yaml"))
                        .toTrajectory();
   cfg.duration_s = cfg.trajectory.duration();
   cfg.payload.mass_kg = 2.2;
@@ -35,7 +36,7 @@ TEST(TiltMultiStart, ShortDesignedRunFindsTheTrueTiltAndMass) {
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     const sim::CellSimConfig cfg = shortRun(seed);
     // Through a log file, as `ftid simulate` + `ftid identify` see it.
-    const std::string path = std::string(FTID_BINARY_DIR) + "/tilt_start_test_" + std::to_string(seed) + ".csv";
+    const std::string path = ftid::test::binaryPath("/tilt_start_test_") + std::to_string(seed) + ".csv";
     logio::writeLog(path, sim::CellSim(cfg).run());
     const samples::ContextSet ctx = samples::buildContexts(logio::readLog(path), *cfg.robot);
     const MultiStartFit m = fitModelMultiStart(model, ctx.samples);

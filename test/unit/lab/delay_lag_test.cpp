@@ -21,6 +21,7 @@
 #include "ftid/sim/cell_sim.hpp"
 #include "ftid/sim/effect_spec.hpp"
 #include "lab_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid {
 namespace {
@@ -48,7 +49,7 @@ AnalysisResult analyzeLog(const sim::CellSimConfig& c, const std::string& name) 
   logio::writeLog(log, sim::CellSim(c).run());
   lab::AnalyzeFilesRequest req;
   req.log_path = log;
-  req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   req.options.explain = true;
   AnalysisResult r = lab::analyzeRecordings(req);
   std::filesystem::remove(log);

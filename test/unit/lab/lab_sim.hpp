@@ -11,11 +11,12 @@
 #include "ftid/logio/log.hpp"
 #include "ftid/sim/cell_sim.hpp"
 #include "ftid/sim/effect_spec.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::labtest {
 
 inline model::RobotKinematics robot() {
-  return model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+  return model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
 }
 
 /// 10 s, 0.2 Hz base, 3 harmonics on every joint, rest-to-rest.
@@ -88,7 +89,7 @@ inline lab::AnalysisResult analyzeCommandLineRun(const std::string& log, std::ui
   logio::writeLog(log, sim::CellSim(c).run());
   lab::AnalyzeFilesRequest req;
   req.log_path = log;
-  req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   req.options.explain = explain;
   return lab::analyzeRecordings(req);
 }

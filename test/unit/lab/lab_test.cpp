@@ -19,6 +19,7 @@
 #include "ftid/params/parameter_set.hpp"
 #include "ftid/logio/log.hpp"
 #include "lab_sim.hpp"
+#include "test_paths.hpp"
 
 namespace {
 
@@ -453,7 +454,7 @@ TEST(AnalyzeFiles, ValidationLogsModelTimeCountsFromTheFittedLogsOrigin) {
   lab::AnalyzeFilesRequest req;
   req.log_path = fit_path;
   req.validate_path = val_path;
-  req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+  req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
   req.options.model = "paper+time_drift";
   req.context = {cfg.R_FS, cfg.p_FS_F, 0.0, 0.0};
   const lab::AnalysisResult r = lab::analyzeLogFiles(req);

@@ -30,6 +30,7 @@
 #include "ftid/lab/analyze.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
 #include "lab_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::lab {
 namespace {
@@ -135,7 +136,7 @@ TEST(LabNull, CandidatePValuesHoldOnAShortFilteredRun) {
 
 TEST(LabNull, CandidatePValuesHoldOnTheShipped3sTrajectory) {
   sim::CellSimConfig cfg = labtest::baseConfig(1);
-  const trajectory::TrajectoryFile file = trajectory::readTrajectoryFile(FTID_SOURCE_DIR "/config/excitation_ur10.yaml");
+  const trajectory::TrajectoryFile file = trajectory::readTrajectoryFile(ftid::test::sourcePath("/config/excitation_ur10.yaml"));
   cfg.trajectory = file.toTrajectory();
   cfg.duration_s = file.duration_s;
   cfg.noise.wrench_lowpass_hz = 10.0;

@@ -13,6 +13,7 @@
 #include "ftid/lab/analyze.hpp"
 #include "ftid/logio/log.hpp"
 #include "lab_sim.hpp"
+#include "test_paths.hpp"
 
 namespace {
 
@@ -124,7 +125,7 @@ class AnalyzeRecordings : public ::testing::Test {
     lab::AnalyzeFilesRequest req;
     req.log_path = fit;
     req.validate_path = validate;
-    req.robot_urdf = FTID_SOURCE_DIR "/config/ur10.urdf";
+    req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
     req.context = {cfg.R_FS, cfg.p_FS_F, 0.0, 0.0};
     req.options.candidates = {"rigid_body", "poly(t,2)"};
     req.options.progress = [this](const std::string& line) { progress.push_back(line); };

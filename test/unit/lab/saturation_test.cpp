@@ -19,6 +19,7 @@
 #include "../identify/saturation_sim.hpp"
 #include "ftid/identify/offline.hpp"
 #include "lab_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid {
 namespace {
@@ -156,7 +157,7 @@ TEST(LabSaturation, AnAxisClippedOnMostSamplesKeepsItsFloorAndThePathItsPromise)
     logio::writeLog(log, sim::CellSim(c).run());
     lab::AnalyzeFilesRequest req;
     req.log_path = log;
-    req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+    req.robot_urdf = ftid::test::sourcePath("/config/ur10.urdf");
     req.options.explain = true;
     const lab::AnalysisResult r = lab::analyzeRecordings(req);
     ASSERT_GT(r.saturated_samples, r.n_samples / 2) << "seed " << seed << ": the case is an axis clipped on most samples";

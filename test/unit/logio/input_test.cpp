@@ -15,6 +15,7 @@
 #include "ftid/logio/input.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/logio/table.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::logio {
 namespace {
@@ -22,7 +23,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 std::string tempPath(const std::string& name) {
-  return std::string(FTID_BINARY_DIR) + "/logio_input_" + std::to_string(::getpid()) + "_" + name;
+  return ftid::test::binaryPath("/logio_input_") + std::to_string(::getpid()) + "_" + name;
 }
 
 std::string writeText(const std::string& name, const std::string& text) {

@@ -14,11 +14,12 @@
 #include "ftid/common/error.hpp"
 #include "ftid/logio/log.hpp"
 #include "ftid/logio/table.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::logio {
 namespace {
 
-std::string tempPath(const std::string& name) { return std::string(FTID_BINARY_DIR) + "/logio_test_" + name; }
+std::string tempPath(const std::string& name) { return ftid::test::binaryPath("/logio_test_") + name; }
 
 std::string writeText(const std::string& name, const std::string& text) {
   const std::string path = tempPath(name);
@@ -254,7 +255,7 @@ TEST(LogIo, WriteReplacesAtomically) {
   const LogData second = randomLog(7, true, true, false, 2);
   writeLog(path, second);
   expectSame(second, readLog(path, LogKind::kMeasurement, unbounded()));
-  EXPECT_THROW(writeLog(std::string(FTID_BINARY_DIR) + "/no-such-dir/x.csv", second), DataError);
+  EXPECT_THROW(writeLog(ftid::test::binaryPath("/no-such-dir/x.csv"), second), DataError);
 }
 
 TEST(LogIo, ReadsTenThousandRowsQuickly) {
@@ -372,7 +373,7 @@ TEST(LogIo, FifoAndDirectoryAreRefusedNamingTheFile) {
         << e.what();
   }
   std::remove(fifo.c_str());
-  const std::string dir = std::string(FTID_BINARY_DIR);
+  const std::string dir = ftid::test::binaryDir();
   try {
     (void)readLog(dir);
     FAIL();
@@ -398,7 +399,7 @@ TEST(LogIo, WriterRefusesSymlinkAndDirectory) {
   EXPECT_TRUE(S_ISLNK(st.st_mode));
   std::remove(link.c_str());
   std::remove(target.c_str());
-  EXPECT_THROW(writeLog(std::string(FTID_BINARY_DIR), randomLog(3, false, false, false, 5)), DataError);
+  EXPECT_THROW(writeLog(ftid::test::binaryDir(), randomLog(3, false, false, false, 5)), DataError);
 }
 
 }  // namespace

@@ -19,12 +19,13 @@
 #include "ftid/common/error.hpp"
 #include "ftid/logio/cdr.hpp"
 #include "ftid/logio/input.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::logio {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-const std::string kBags = std::string(FTID_SOURCE_DIR) + "/test/unit/logio/rosbag2/";
+const std::string kBags = ftid::test::sourcePath("/test/unit/logio/rosbag2/");
 
 template <typename F>
 std::string errorOf(F f) {
@@ -123,7 +124,7 @@ TEST(Rosbag2, RefusalsNameTheBagTopicAndFix) {
   // A directory that is not a bag.
   EXPECT_NE(errorOf([&] { readInput(kBags); }).find("it is a directory, and not a rosbag2 bag"), std::string::npos);
   // A damaged storage file.
-  const std::string dir = std::string(FTID_BINARY_DIR) + "/rosbag2_damaged_" + std::to_string(::getpid());
+  const std::string dir = ftid::test::binaryPath("/rosbag2_damaged_") + std::to_string(::getpid());
   ASSERT_EQ(::system(("rm -rf " + dir + " && cp -r " + kBags + "ur_ft " + dir).c_str()), 0);
   std::ofstream(dir + "/ur_ft_0.db3", std::ios::trunc) << "this is not a database, just text that is long enough";
   EXPECT_NE(errorOf([&] { readInput(dir); }).find(dir + "/ur_ft_0.db3: not a rosbag2 sqlite3 file"), std::string::npos);
@@ -146,7 +147,7 @@ void execSql(const std::string& db3, const char* sql) {
 }
 
 TEST(Rosbag2, HostileStorageFilesAreRefusedQuickly) {
-  const std::string dir = std::string(FTID_BINARY_DIR) + "/rosbag2_hostile_" + std::to_string(::getpid());
+  const std::string dir = ftid::test::binaryPath("/rosbag2_hostile_") + std::to_string(::getpid());
   const std::string db3 = dir + "/ur_ft_0.db3";
   // `messages` as a recursive view: endless rows from a few bytes.
   ASSERT_EQ(::system(("rm -rf " + dir + " && cp -r " + kBags + "ur_ft " + dir).c_str()), 0);

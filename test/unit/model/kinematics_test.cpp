@@ -15,6 +15,7 @@
 #include "ftid/model/kinematics.hpp"
 #ifdef FTID_HAVE_ALLOC_COUNTER
 #include "alloc_counter.hpp"
+#include "test_paths.hpp"
 #endif
 
 namespace ftid::model {
@@ -46,7 +47,7 @@ Eigen::Matrix4d dhFk(const Dh& dh, const JointVector& q) {
   return T;
 }
 
-std::string urdfPath(const char* name) { return std::string(FTID_SOURCE_DIR) + "/config/" + name; }
+std::string urdfPath(const char* name) { return ftid::test::sourcePath("/config/") + name; }
 
 class KinematicsBothRobots : public ::testing::TestWithParam<int> {};
 
@@ -229,7 +230,7 @@ TEST(Kinematics, ComputeSensorMotionDoesNotAllocate) {
 // --- Bad URDFs --------------------------------------------------------------------------------
 
 std::string writeTemp(const std::string& name, const std::string& text) {
-  const std::string path = std::string(FTID_BINARY_DIR) + "/" + name;
+  const std::string path = ftid::test::binaryPath("/") + name;
   std::ofstream(path) << text;
   return path;
 }
@@ -262,7 +263,7 @@ std::string chainUrdf(int revolute, const char* extra_type = nullptr) {
 }
 
 TEST(Kinematics, BadUrdfGivesConfigErrorNamingTheFile) {
-  expectConfigError(std::string(FTID_BINARY_DIR) + "/does-not-exist.urdf", "cannot open");
+  expectConfigError(ftid::test::binaryPath("/does-not-exist.urdf"), "cannot open");
   expectConfigError(writeTemp("kin_test_empty.urdf", ""), "empty");
   expectConfigError(writeTemp("kin_test_garbage.urdf", "<robot name=\"x\"><link name=\"base\"></robot"), "URDF");
   expectConfigError(writeTemp("kin_test_five.urdf", chainUrdf(5)), "expected 6");
@@ -314,7 +315,7 @@ TEST(Kinematics, XmlNestingDepthScan) {
 }
 
 TEST(Kinematics, FifoAsUrdfIsRefusedWithoutBlocking) {
-  const std::string fifo = std::string(FTID_BINARY_DIR) + "/kin_test_fifo.urdf";
+  const std::string fifo = ftid::test::binaryPath("/kin_test_fifo.urdf");
   std::remove(fifo.c_str());
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
   expectConfigError(fifo, "FIFO");

@@ -11,11 +11,12 @@
 #include "ftid/identify/fit_parameters.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "ftid/sim/scenarios.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::test {
 
 inline model::RobotKinematics monitorRobot() {
-  return model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+  return model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
 }
 
 /// The cell with payload A (the paper's payload), full physics, the noise of `ftid simulate`.

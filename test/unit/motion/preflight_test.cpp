@@ -19,6 +19,7 @@
 #include "../../support/fake_arm.hpp"
 #include "ftid/trajectory/cell_limits.hpp"
 #include "ftid/trajectory/trajectory_io.hpp"
+#include "test_paths.hpp"
 
 using ftid::JointVector;
 using ftid::Status;
@@ -31,11 +32,11 @@ namespace {
 using FakeArm = ftid::test::FakeArm;
 
 ftid::trajectory::TrajectoryFile shipped() {
-  return ftid::trajectory::readTrajectoryFile(FTID_SOURCE_DIR "/config/excitation_ur10.yaml");
+  return ftid::trajectory::readTrajectoryFile(ftid::test::sourcePath("/config/excitation_ur10.yaml"));
 }
 
 ftid::model::RobotKinematics ur10() {
-  return ftid::model::RobotKinematics::fromUrdfFile(FTID_SOURCE_DIR "/config/ur10.urdf");
+  return ftid::model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
 }
 
 std::string joined(const std::vector<std::string>& v) {
@@ -309,7 +310,7 @@ TEST(MotionTracking, AHostStallIsNoTrackingErrorButABlockedJointIs) {
 // file can only tighten them. The edit: floor_z -10 and a widened limit in the
 // trajectory, whose (edited) start pose swings the tool below the floor.
 TEST(CellLimits, ATrajectoryCanOnlyTightenTheCellsLimits) {
-  const ftid::trajectory::CellLimits cell = ftid::trajectory::readCellLimits(FTID_SOURCE_DIR "/config/cell_limits.yaml");
+  const ftid::trajectory::CellLimits cell = ftid::trajectory::readCellLimits(ftid::test::sourcePath("/config/cell_limits.yaml"));
   auto file = shipped();
   file.q0[1] = -0.6;                      // the tool swings ~0.26 m below the floor
   file.constraints.floor_z_B = -10.0;     // the edit: move the floor away

@@ -16,12 +16,13 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/params/parameter_set.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::params {
 namespace {
 
 std::string scratch(const std::string& name) {
-  return std::string(FTID_BINARY_DIR) + "/param_file_test_" +
+  return ftid::test::binaryPath("/param_file_test_") +
          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "_" + name;
 }
 
@@ -238,7 +239,7 @@ TEST(ParameterFile, FifoAndDirectoryAreRefusedWithoutBlocking) {
   EXPECT_NE(errorOf(fifo).find(fifo + ": cannot read the parameter file: it is a FIFO"), std::string::npos)
       << errorOf(fifo);
   std::filesystem::remove(fifo);
-  const std::string dir = std::string(FTID_BINARY_DIR);
+  const std::string dir = ftid::test::binaryDir();
   EXPECT_NE(errorOf(dir).find(dir + ": cannot read the parameter file: it is a directory"), std::string::npos)
       << errorOf(dir);
 }

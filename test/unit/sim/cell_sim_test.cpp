@@ -10,6 +10,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::sim {
 namespace {
@@ -17,7 +18,7 @@ namespace {
 constexpr double kPi = 3.141592653589793;
 
 model::RobotKinematics ur10() {
-  return model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf");
+  return model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
 }
 
 Vec3 gravityB(double u, double v) {
@@ -388,7 +389,7 @@ TEST(CellSim, TruthYamlCarriesTheParameters) {
   EXPECT_TRUE(y["effects"]["sensor_delay"]["enabled"].as<bool>());
   EXPECT_FALSE(y["effects"]["cable"]["enabled"].as<bool>());
   EXPECT_EQ(y["parameters"]["inertia"].size(), 6u);
-  const std::string path = std::string(FTID_BINARY_DIR) + "/sim_test_truth.yaml";
+  const std::string path = ftid::test::binaryPath("/sim_test_truth.yaml");
   writeTruthYaml(path, c);
   EXPECT_DOUBLE_EQ(YAML::LoadFile(path)["effects"]["sensor_delay"]["tau"].as<double>(), 0.012);
 }

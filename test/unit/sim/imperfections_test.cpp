@@ -10,6 +10,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/sim/cell_sim.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::sim {
 namespace {
@@ -17,7 +18,7 @@ namespace {
 constexpr double kPi = 3.141592653589793;
 
 CellSimConfig config() {
-  CellSimConfig c = paperCellConfig(model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf"));
+  CellSimConfig c = paperCellConfig(model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf")));
   c.seed = 17;
   c.duration_s = 20.0;
   return c;

@@ -8,12 +8,13 @@
 #include "ftid/common/error.hpp"
 #include "ftid/sim/cell_sim.hpp"
 #include "ftid/sim/effect_spec.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::sim {
 namespace {
 
 TEST(SaturationSwitch, ClipsTheReadingAtTheRange) {
-  CellSimConfig c = paperCellConfig(model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf"));
+  CellSimConfig c = paperCellConfig(model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf")));
   c.seed = 3;
   c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
   const logio::LogData clean = CellSim(c).run();

@@ -8,6 +8,7 @@
 
 #include "ftid/model/kinematics.hpp"
 #include "ftid/simrobot/ur_model.hpp"
+#include "test_paths.hpp"
 
 namespace sim = ftid::simrobot;
 using ftid::JointVector;
@@ -15,7 +16,7 @@ using ftid::JointVector;
 namespace {
 
 void compareWithKdl(sim::RobotModel model, const std::string& urdf) {
-  const auto kdl = ftid::model::RobotKinematics::fromUrdfFile(std::string(FTID_SOURCE_DIR) + "/config/" + urdf);
+  const auto kdl = ftid::model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/") + urdf);
   std::mt19937_64 rng(20261202);
   std::uniform_real_distribution<double> angle(-6.283185307179586, 6.283185307179586);
   for (int n = 0; n < 500; ++n) {

@@ -11,11 +11,12 @@
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/simrobot/sim_robot.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::simsensor {
 namespace {
 
-const std::string kSrc = FTID_SOURCE_DIR;
+const std::string kSrc = ftid::test::sourceDir();
 
 JointVector homeQ() {
   return (JointVector() << 0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0).finished();

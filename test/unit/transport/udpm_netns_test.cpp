@@ -11,6 +11,7 @@
 
 #include "ftid/transport/codec.hpp"
 #include "ftid/transport/lcm_log.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::transport {
 namespace {
@@ -30,7 +31,7 @@ TEST(UdpmNetns, OutboxToLcmLoggerInAnotherProcess) {
   const std::string script =
       "ip link set lo up && ip route add 224.0.0.0/4 dev lo && "
       "{ lcm-logger --quiet --force --lcm-url='" + url + "' --channel='FTID_.*' '" + log + "' & LOGGER=\\$!; "
-      "sleep 3; '" FTID_UDPM_PUBLISHER "' '" + url + "' 100; RC=\\$?; sleep 0.5; "
+      "sleep 3; '" + ftid::test::binaryPath(FTID_UDPM_PUBLISHER) + "' '" + url + "' 100; RC=\\$?; sleep 0.5; "
       "kill -INT \\$LOGGER; wait \\$LOGGER; exit \\$RC; }";
   const std::string cmd = "unshare -rn sh -c \"" + script + "\"";
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;

@@ -7,12 +7,13 @@
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/sensor_layout.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::drivers::can {
 namespace {
 
 const DbcDatabase& defaultDbc() {
-  static const DbcDatabase db = loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc");
+  static const DbcDatabase db = loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc"));
   return db;
 }
 

@@ -8,6 +8,7 @@
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/candump.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::drivers::can {
 namespace {
@@ -79,7 +80,7 @@ TEST(Candump, FormatParsesBack) {
 TEST(Candump, ReplayThroughTheSensorPacedByTheLogClock) {
   // Write a log of 3 samples (10 ms apart) and a foreign frame, from the encoder.
   const SensorLayout layout =
-      SensorLayout::fromDbc(loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      SensorLayout::fromDbc(loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   const std::string path = "/tmp/ftid-candump-test-" + std::to_string(getpid()) + ".log";
   {
     std::ofstream out(path);

@@ -5,6 +5,7 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/drivers/can/dbc.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::drivers::can {
 namespace {
@@ -21,7 +22,7 @@ void expectDbcError(const std::string& text, std::initializer_list<std::string> 
 }
 
 TEST(Dbc, DefaultSensorFileDescribesSixMessages) {
-  const DbcDatabase db = loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc");
+  const DbcDatabase db = loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc"));
   EXPECT_EQ(db.version, "ftid-ftsensor-1.0");
   ASSERT_EQ(db.messages.size(), 6u);
   const DbcMessage* force = db.findMessage("FT_Force");

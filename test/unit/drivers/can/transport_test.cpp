@@ -14,6 +14,7 @@
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/drivers/can/socketcan.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::drivers::can {
 namespace {
@@ -150,7 +151,7 @@ TEST(Seqpacket, BatchReceiveKeepsOrderTimestampsAndSeesClose) {
 
 TEST(CanFtImuSensor, DrainsToLatestOverTheStandIn) {
   const SensorLayout layout =
-      SensorLayout::fromDbc(loadDbc(std::string(FTID_SOURCE_DIR) + "/config/ftsensor.dbc"));
+      SensorLayout::fromDbc(loadDbc(ftid::test::sourcePath("/config/ftsensor.dbc")));
   auto pair = makeSeqpacketPair();
   CanTransport& bus = *pair.a;
   CanFtImuSensor sensor(std::move(pair.b), layout);
