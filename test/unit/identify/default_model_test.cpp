@@ -17,6 +17,7 @@
 #include "ftid/identify/offline.hpp"
 #include "ftid/logio/log.hpp"
 #include "paper_cell.hpp"
+#include "test_paths.hpp"
 
 namespace ftid::identify {
 namespace {
@@ -29,7 +30,7 @@ CheckedIdentification identifyDefault(const sim::CellSimConfig& cfg, const std::
   req.model = kDefaultModel;
   req.model_is_default = true;
   req.imu = IdentifyRequest::ImuUse::kAuto;  // as `ftid identify` (--imu auto)
-  req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
   const CheckedIdentification id = identifyLogFileChecked(req, false);
   std::remove(path.c_str());
   return id;
@@ -123,7 +124,7 @@ TEST(FoldBoundaries, IdentifysCheckFitsEveryBlockOfAMotionAndARest) {
   IdentifyRequest req;
   req.log_path = path;
   req.model = kDefaultModel;
-  req.robot_urdf = std::string(FTID_SOURCE_DIR) + "/config/ur10.urdf";
+  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
   const CheckedIdentification id = identifyLogFileChecked(req, true);
   std::remove(path.c_str());
   for (const auto& w : id.check.warnings) EXPECT_EQ(w.find("could not be identified"), std::string::npos) << w;
