@@ -172,9 +172,7 @@ void checkNotStatic(const Problem& pb, const Model& model) {
   std::vector<SampleContext> subset;
   subset.reserve(static_cast<std::size_t>(pb.n));
   for (int i = 0; i < pb.n; ++i) subset.push_back(pb.at(i));
-  bool is_static = false;
-  (void)poseGroups(subset, &is_static);
-  if (is_static) {
+  if (holdsStill(subset)) {
     throw IdentificationError("model '" + model.name() +
                               "' estimates a sensor delay, but the log is a static pose set (the robot is at "
                               "rest): a delay shows only while the wrench changes with the motion; fit it on an "

@@ -306,6 +306,14 @@ std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ct
   return groups;
 }
 
+bool holdsStill(const std::vector<SampleContext>& ctx) {
+  bool is_static = false;
+  (void)poseGroups(ctx, &is_static);
+  return is_static && std::all_of(ctx.begin(), ctx.end(), [](const SampleContext& c) {
+           return !c.has_joints || c.qd.cwiseAbs().maxCoeff() < 1e-3;
+         });
+}
+
 std::vector<int> foldBoundaries(const std::vector<SampleContext>& ctx, int folds) {
   const int n = static_cast<int>(ctx.size());
   std::vector<int> moving;  // indices of the moving samples

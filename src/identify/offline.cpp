@@ -37,19 +37,6 @@ void say(const ProgressFn& progress, const std::string& line) {
   if (progress) progress(line);
 }
 
-/// The robot holds still in every sample, so the default model's inertia has no motion to show in:
-/// a static pose set (poseGroups) in which no sample moves either (every |qd| below poseGroups'
-/// 1e-3 rad/s, not only the median: an excitation run followed by a long rest is a time series
-/// whose motion determines the inertia, and `paper` would leave its torques in the tilt). Pose
-/// logs (no joint angles) by poseGroups alone.
-bool holdsStill(const std::vector<SampleContext>& samples) {
-  bool is_static = false;
-  (void)poseGroups(samples, &is_static);
-  return is_static && std::all_of(samples.begin(), samples.end(), [](const SampleContext& c) {
-           return !c.has_joints || c.qd.cwiseAbs().maxCoeff() < 1e-3;
-         });
-}
-
 }  // namespace
 
 ParameterSet identifyContexts(const std::vector<SampleContext>& samples, const IdentifyRequest& request) {

@@ -78,6 +78,13 @@ double differenceVarianceFactor(double phi, int stride);
 /// Empty when the data are a moving time series. *is_static tells which.
 std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static);
 
+/// The robot holds still in every sample: a static pose set (poseGroups) in which no sample moves
+/// either (every |qd| below poseGroups' 1e-3 rad/s, not only the median); pose logs (no joint
+/// angles) by poseGroups alone. What needs motion is refused or left out only then: the default
+/// model's inertia (`ftid identify` fits `paper`), a sensor_delay. A recording that moves and then
+/// rests is a time series, however long the rest.
+bool holdsStill(const std::vector<SampleContext>& ctx);
+
 /// The k-fold held-out blocks of a log (identify's checkFit and `ftid analyze`): `folds` contiguous
 /// blocks, returned as folds + 1 boundaries from 0 to ctx.size(). Each block holds an equal share
 /// of the moving samples (some |qd| at or above poseGroups' 1e-3 rad/s) and a rest lies in the

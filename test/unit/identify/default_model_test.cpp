@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "ftid/common/error.hpp"
+#include "ftid/effects/nonlinear.hpp"
 #include "ftid/identify/noise.hpp"
 #include "ftid/identify/offline.hpp"
 #include "ftid/logio/log.hpp"
@@ -50,6 +52,26 @@ TEST(DefaultModel, AnExcitationFollowedByARestIsATimeSeries) {
   EXPECT_NEAR(id.set.find("mass")->value, cfg.payload.mass_kg, 3.5 * mass_std);
 }
 
+// A delay needs motion, so a log where the robot holds still is refused for sensor_delay; the 10 s
+// motion before the rest is enough (it was refused: "the log is a static pose set").
+TEST(DefaultModel, ASensorDelayIsFittedOnAMotionFollowedByARest) {
+  sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
+  cfg.seed = 3;
+  cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  cfg.duration_s = 40.0;
+  const std::string path = ::testing::TempDir() + "default_model_delay.csv";
+  logio::writeLog(path, sim::CellSim(cfg).run());
+  IdentifyRequest req;
+  req.log_path = path;
+  req.model = "paper+rigid_body+sensor_delay";
+  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
+  const ParameterSet set = identifyLogFileChecked(req, false).set;
+  std::remove(path.c_str());
+  const auto* tau = set.find(effects::kDelayParamName);
+  ASSERT_NE(tau, nullptr);
+  EXPECT_NEAR(tau->value, 0.0, std::max(3.5 * tau->std, 1e-4));
+}
+
 TEST(DefaultModel, AStaticPoseSetIsFittedWithPaper) {
   sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
   cfg.seed = 4;
@@ -58,6 +80,15 @@ TEST(DefaultModel, AStaticPoseSetIsFittedWithPaper) {
   cfg.static_poses.poses = 30;
   const CheckedIdentification id = identifyDefault(cfg, "poses");
   EXPECT_EQ(id.set.model, "paper");
+  // ... and a delay is refused there.
+  const std::string path = ::testing::TempDir() + "default_model_poses_delay.csv";
+  logio::writeLog(path, sim::CellSim(cfg).run());
+  IdentifyRequest req;
+  req.log_path = path;
+  req.model = "paper+sensor_delay";
+  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
+  EXPECT_THROW(identifyLogFileChecked(req, false), IdentificationError);
+  std::remove(path.c_str());
 }
 
 }  // namespace
