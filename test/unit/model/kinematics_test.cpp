@@ -13,9 +13,9 @@
 
 #include "ftid/common/error.hpp"
 #include "ftid/model/kinematics.hpp"
+#include "test_paths.hpp"
 #ifdef FTID_HAVE_ALLOC_COUNTER
 #include "alloc_counter.hpp"
-#include "test_paths.hpp"
 #endif
 
 namespace ftid::model {
