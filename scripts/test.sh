@@ -1,16 +1,18 @@
 #!/usr/bin/env bash
 # Sets everything up and runs the whole test suite:
-#   1. install packages, build (warnings are errors), clang-tidy (scripts/tidy.sh, findings are
-#      errors), run every CTest test, then the kernel rig
-#      (scripts/kernel-rig.sh: SocketCAN and PREEMPT_RT tests inside qemu);
+#   1. install packages, build (warnings are errors), run every CTest test, then the kernel rig
+#      (scripts/kernel-rig.sh: SocketCAN and PREEMPT_RT tests inside qemu); clang-tidy
+#      (scripts/tidy.sh, findings are errors) runs beside CTest as step 4's check does (below) and
+#      is waited for at the end (after the kernel rig with FTID_TEST_QUICK=1);
 #   2. rebuild the unit tests with AddressSanitizer + UndefinedBehaviorSanitizer and run them;
 #   3. fuzz every parser for ~20 s with libFuzzer + ASan + UBSan (scripts/fuzz.sh, docs/fuzzing.md;
 #      FTID_FUZZ_SECONDS sets the time per target);
 #   4. build the Debian package and verify the systemd unit (scripts/check_package.sh). It starts
-#      in the background, at nice 19, when CTest starts: the integration tests leave the two cores
-#      idle more than half of CTest's time (they wait on sockets and timers), and the package
-#      build fills that idle time; its output is printed when step 4 waits for it. Its compiles
-#      come from the compiler cache that step 1's build has just filled (docs/testing.md "Time").
+#      in the background, at nice 19, when CTest starts, as clang-tidy does: the integration tests
+#      leave the two cores idle more than half of CTest's time (they wait on sockets and timers),
+#      and these two fill that idle time; their output is printed when the suite waits for them.
+#      The package's compiles come from the compiler cache that step 1's build has just filled
+#      (docs/testing.md "Time").
 # Set FTID_TEST_QUICK=1 to skip steps 2 to 4.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -39,26 +41,42 @@ fi
 
 step "setup+build"
 "$here/setup.sh" "$build"
-step "clang-tidy"
-# clang-tidy with the repository's .clang-tidy on every source (a few minutes; fails on findings).
-echo "== test: clang-tidy (scripts/tidy.sh)"
-"$here/tidy.sh" "$build"
-# Step 4 in the background from here on (see the top): its own process group (job control on for
-# the one command), so that it can be stopped with everything it started if an earlier step fails.
-# Not setsid: a new session is a new scheduler autogroup, and autogroups share the CPU equally
-# whatever their nice value (measured: CTest's CPU-bound tests took 2.2 times as long beside a
-# setsid'd build at nice 19; in the same session nice 19 leaves them the CPU).
-pkg_pid=""
-pkg_log=""
-stop_package() {
-  if [ -n "$pkg_pid" ] && kill -0 "$pkg_pid" 2>/dev/null; then
-    kill -TERM -- "-$pkg_pid" 2>/dev/null || true
-    wait "$pkg_pid" 2>/dev/null || true
-  fi
-  [ -n "$pkg_log" ] && rm -f "$pkg_log"
+# clang-tidy and step 4 in the background from here on (see the top), each in its own process
+# group (job control on for the one command), so that it can be stopped with everything it
+# started if an earlier step fails. Not setsid: a new session is a new scheduler autogroup, and
+# autogroups share the CPU equally whatever their nice value (measured: CTest's CPU-bound tests
+# took 2.2 times as long beside a setsid'd build at nice 19; in the same session nice 19 leaves
+# them the CPU).
+tidy_pid="" tidy_log="" pkg_pid="" pkg_log=""
+stop_background() {
+  local pid
+  for pid in "$tidy_pid" "$pkg_pid"; do
+    if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then
+      kill -TERM -- "-$pid" 2>/dev/null || true
+      wait "$pid" 2>/dev/null || true
+    fi
+  done
+  rm -f "$tidy_log" "$pkg_log"
   return 0
 }
-trap stop_package EXIT
+trap stop_background EXIT
+# Waits for a background check, prints its output and fails the suite if it failed.
+finish_background() {
+  local what="$1" pid="$2" log="$3" rc=0
+  wait "$pid" || rc=$?
+  cat "$log"
+  if [ "$rc" != 0 ]; then
+    echo "test: $what failed (exit $rc)" >&2
+    exit 1
+  fi
+}
+# clang-tidy with the repository's .clang-tidy on every source (a few minutes; fails on findings).
+tidy_log="$(mktemp)"
+echo "== test: clang-tidy (scripts/tidy.sh) started in the background at nice 19 (its output comes at the end)"
+set -m
+nice -n 19 "$here/tidy.sh" "$build" > "$tidy_log" 2>&1 &
+tidy_pid=$!
+set +m
 if [ "${FTID_TEST_QUICK:-0}" != 1 ] && [ -x "$here/check_package.sh" ]; then
   pkg_log="$(mktemp)"
   echo "== test: Debian package check started in the background at nice 19 (its output comes at the end)"
@@ -76,6 +94,12 @@ summary="$(mktemp)"
 step "kernel rig"
 echo "== test: kernel rig (PREEMPT_RT kernel in qemu: SocketCAN on vcan0, RT set-up, ftidd)"
 "$here/kernel-rig.sh" "$build" | tee -a "$summary"
+if [ "${FTID_TEST_QUICK:-0}" = 1 ]; then
+  step "clang-tidy"
+  echo "== test: clang-tidy (waiting for the background check)"
+  finish_background "clang-tidy" "$tidy_pid" "$tidy_log"
+  tidy_pid=""
+fi
 
 if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   asan="$root/build-asan"
@@ -93,17 +117,15 @@ if [ "${FTID_TEST_QUICK:-0}" != 1 ]; then
   step "fuzzing"
   echo "== test: fuzzing (scripts/fuzz.sh)"
   "$here/fuzz.sh" "${FTID_FUZZ_SECONDS:-20}"
+  step "clang-tidy"
+  echo "== test: clang-tidy (waiting for the background check)"
+  finish_background "clang-tidy" "$tidy_pid" "$tidy_log"
+  tidy_pid=""
   if [ -n "$pkg_pid" ]; then
     step "package"
     echo "== test: Debian package and systemd unit (waiting for the background check)"
-    pkg_rc=0
-    wait "$pkg_pid" || pkg_rc=$?
+    finish_background "the package check" "$pkg_pid" "$pkg_log"
     pkg_pid=""
-    cat "$pkg_log"
-    if [ "$pkg_rc" != 0 ]; then
-      echo "test: the package check failed (exit $pkg_rc)" >&2
-      exit 1
-    fi
   fi
 fi
 step ""
