@@ -49,7 +49,14 @@ step "setup+build"
 # them the CPU).
 tidy_pid="" tidy_log="" pkg_pid="" pkg_log=""
 stop_background() {
-  local pid
+  local pid rc
+  # An earlier step failed: clang-tidy's findings, if it finished with some, are shown too.
+  if [ -n "$tidy_pid" ] && ! kill -0 "$tidy_pid" 2>/dev/null; then
+    rc=0
+    wait "$tidy_pid" 2>/dev/null || rc=$?
+    [ "$rc" != 0 ] && { echo "== test: clang-tidy (finished in the background, exit $rc)"; cat "$tidy_log"; }
+    tidy_pid=""
+  fi
   for pid in "$tidy_pid" "$pkg_pid"; do
     if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then
       kill -TERM -- "-$pid" 2>/dev/null || true

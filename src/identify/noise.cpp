@@ -309,9 +309,10 @@ std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ct
 bool holdsStill(const std::vector<SampleContext>& ctx) {
   bool is_static = false;
   (void)poseGroups(ctx, &is_static);
-  return is_static && std::all_of(ctx.begin(), ctx.end(), [](const SampleContext& c) {
-           return !c.has_joints || c.qd.cwiseAbs().maxCoeff() < 1e-3;
-         });
+  const auto moving = std::count_if(ctx.begin(), ctx.end(), [](const SampleContext& c) {
+    return c.has_joints && c.qd.cwiseAbs().maxCoeff() >= 1e-3;
+  });
+  return is_static && moving < kMinMovingSamples;
 }
 
 std::vector<int> foldBoundaries(const std::vector<SampleContext>& ctx, int folds) {

@@ -78,11 +78,15 @@ double differenceVarianceFactor(double phi, int stride);
 /// Empty when the data are a moving time series. *is_static tells which.
 std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ctx, bool* is_static);
 
-/// The robot holds still in every sample: a static pose set (poseGroups) in which no sample moves
-/// either (every |qd| below poseGroups' 1e-3 rad/s, not only the median); pose logs (no joint
-/// angles) by poseGroups alone. What needs motion is refused or left out only then: the default
-/// model's inertia (`ftid identify` fits `paper`), a sensor_delay. A recording that moves and then
-/// rests is a time series, however long the rest.
+/// Moving samples (some |qd| at or above poseGroups' 1e-3 rad/s) that make a log a motion: the 20
+/// per held-out block that foldBoundaries shares out, for identify's 5 blocks.
+inline constexpr long kMinMovingSamples = 100;
+
+/// The robot holds still: a static pose set (poseGroups: the median |qd|) with fewer than
+/// kMinMovingSamples moving samples, so that neither a long rest after an excitation (a time
+/// series, however long the rest) nor a few noisy velocity readings at rest decide it; pose logs
+/// (no joint angles) by poseGroups alone. What needs motion is refused or left out only then: the
+/// default model's inertia (`ftid identify` fits `paper`), a sensor_delay.
 bool holdsStill(const std::vector<SampleContext>& ctx);
 
 /// The k-fold held-out blocks of a log (identify's checkFit and `ftid analyze`): `folds` contiguous

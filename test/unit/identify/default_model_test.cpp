@@ -80,6 +80,20 @@ TEST(DefaultModel, AStaticPoseSetIsFittedWithPaper) {
   cfg.static_poses.poses = 30;
   const CheckedIdentification id = identifyDefault(cfg, "poses");
   EXPECT_EQ(id.set.model, "paper");
+  // A few noisy velocity readings at rest (an encoder's) do not make it a motion.
+  {
+    logio::LogData log = sim::CellSim(cfg).run();
+    for (std::size_t i = 0; i < log.samples.size(); i += log.samples.size() / 5) log.samples[i].qd(0) = 2e-3;
+    const std::string noisy = ::testing::TempDir() + "default_model_noisy_qd.csv";
+    logio::writeLog(noisy, log);
+    IdentifyRequest req;
+    req.log_path = noisy;
+    req.model = kDefaultModel;
+    req.model_is_default = true;
+    req.robot_urdf = test::sourcePath("/config/ur10.urdf");
+    EXPECT_EQ(identifyLogFileChecked(req, false).set.model, "paper");
+    std::remove(noisy.c_str());
+  }
   // ... and a delay is refused there.
   const std::string path = ::testing::TempDir() + "default_model_poses_delay.csv";
   logio::writeLog(path, sim::CellSim(cfg).run());
