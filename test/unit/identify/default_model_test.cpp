@@ -24,26 +24,39 @@
 namespace ftid::identify {
 namespace {
 
-CheckedIdentification identifyDefault(const sim::CellSimConfig& cfg, const std::string& name) {
-  const std::string path = ::testing::TempDir() + "default_model_" + name + ".csv";
-  logio::writeLog(path, sim::CellSim(cfg).run());
+/// The simulator's run of `cfg` (or `log`) written to a file and identified as `ftid identify
+/// --log FILE [--model M]` does: `model` empty = the default (model_is_default), the IMU on auto.
+CheckedIdentification identifyLog(const logio::LogData& log, const std::string& model, bool check = false) {
+  const std::string path = ::testing::TempDir() + "default_model_test.csv";
+  struct Remove {
+    std::string path;
+    ~Remove() { std::remove(path.c_str()); }
+  } const remove_after{path};
+  logio::writeLog(path, log);
   IdentifyRequest req;
   req.log_path = path;
-  req.model = kDefaultModel;
-  req.model_is_default = true;
+  req.model = model.empty() ? kDefaultModel : model;
+  req.model_is_default = model.empty();
   req.imu = IdentifyRequest::ImuUse::kAuto;  // as `ftid identify` (--imu auto)
   req.robot_urdf = test::sourcePath("/config/ur10.urdf");
-  const CheckedIdentification id = identifyLogFileChecked(req, false);
-  std::remove(path.c_str());
-  return id;
+  return identifyLogFileChecked(req, check);
 }
 
-TEST(DefaultModel, AnExcitationFollowedByARestIsATimeSeries) {
+CheckedIdentification identifyDefault(const sim::CellSimConfig& cfg) { return identifyLog(sim::CellSim(cfg).run(), ""); }
+
+/// The paper's cell (`ftid simulate --seed 3`) with the cell's noise, for `duration_s`: the 10 s
+/// trajectory, then at rest at its end pose.
+sim::CellSimConfig motionThenRest(double duration_s) {
   sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
   cfg.seed = 3;
   cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-  cfg.duration_s = 40.0;  // the 10 s trajectory, then at rest at its end pose
-  const CheckedIdentification id = identifyDefault(cfg, "rest");
+  cfg.duration_s = duration_s;
+  return cfg;
+}
+
+TEST(DefaultModel, AnExcitationFollowedByARestIsATimeSeries) {
+  const sim::CellSimConfig cfg = motionThenRest(40.0);
+  const CheckedIdentification id = identifyDefault(cfg);
   EXPECT_EQ(id.set.model, "paper+rigid_body");
   ASSERT_TRUE(id.imu.used) << id.imu.not_used_reason;
   for (const auto& c : id.imu.comparisons) EXPECT_FALSE(c.disagrees) << c.message;
@@ -55,18 +68,7 @@ TEST(DefaultModel, AnExcitationFollowedByARestIsATimeSeries) {
 // A delay needs motion, so a log where the robot holds still is refused for sensor_delay; the 10 s
 // motion before the rest is enough (it was refused: "the log is a static pose set").
 TEST(DefaultModel, ASensorDelayIsFittedOnAMotionFollowedByARest) {
-  sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
-  cfg.seed = 3;
-  cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-  cfg.duration_s = 40.0;
-  const std::string path = ::testing::TempDir() + "default_model_delay.csv";
-  logio::writeLog(path, sim::CellSim(cfg).run());
-  IdentifyRequest req;
-  req.log_path = path;
-  req.model = "paper+rigid_body+sensor_delay";
-  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
-  const ParameterSet set = identifyLogFileChecked(req, false).set;
-  std::remove(path.c_str());
+  const ParameterSet set = identifyLog(sim::CellSim(motionThenRest(40.0)).run(), "paper+rigid_body+sensor_delay").set;
   const auto* tau = set.find(effects::kDelayParamName);
   ASSERT_NE(tau, nullptr);
   EXPECT_NEAR(tau->value, 0.0, std::max(3.5 * tau->std, 1e-4));
@@ -78,31 +80,16 @@ TEST(DefaultModel, AStaticPoseSetIsFittedWithPaper) {
   cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
   cfg.static_poses.enabled = true;
   cfg.static_poses.poses = 30;
-  const CheckedIdentification id = identifyDefault(cfg, "poses");
+  const CheckedIdentification id = identifyDefault(cfg);
   EXPECT_EQ(id.set.model, "paper");
   // A few noisy velocity readings at rest (an encoder's) do not make it a motion.
   {
     logio::LogData log = sim::CellSim(cfg).run();
     for (std::size_t i = 0; i < log.samples.size(); i += log.samples.size() / 5) log.samples[i].qd(0) = 2e-3;
-    const std::string noisy = ::testing::TempDir() + "default_model_noisy_qd.csv";
-    logio::writeLog(noisy, log);
-    IdentifyRequest req;
-    req.log_path = noisy;
-    req.model = kDefaultModel;
-    req.model_is_default = true;
-    req.robot_urdf = test::sourcePath("/config/ur10.urdf");
-    EXPECT_EQ(identifyLogFileChecked(req, false).set.model, "paper");
-    std::remove(noisy.c_str());
+    EXPECT_EQ(identifyLog(log, "").set.model, "paper");
   }
   // ... and a delay is refused there.
-  const std::string path = ::testing::TempDir() + "default_model_poses_delay.csv";
-  logio::writeLog(path, sim::CellSim(cfg).run());
-  IdentifyRequest req;
-  req.log_path = path;
-  req.model = "paper+sensor_delay";
-  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
-  EXPECT_THROW(identifyLogFileChecked(req, false), IdentificationError);
-  std::remove(path.c_str());
+  EXPECT_THROW(identifyLog(sim::CellSim(cfg).run(), "paper+sensor_delay"), IdentificationError);
 }
 
 }  // namespace
@@ -160,18 +147,7 @@ TEST(FoldBoundaries, EqualCountsWhenTheMotionCannotBeShared) {
 // (with equal numbers of samples the first block held the whole motion, its fold was trained on the
 // rest and failed: "1 of 5 held-out blocks could not be identified without them").
 TEST(FoldBoundaries, IdentifysCheckFitsEveryBlockOfAMotionAndARest) {
-  sim::CellSimConfig cfg = sim::paperCellConfig(test::ur10());
-  cfg.seed = 3;
-  cfg.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
-  cfg.duration_s = 100.0;
-  const std::string path = ::testing::TempDir() + "default_model_check.csv";
-  logio::writeLog(path, sim::CellSim(cfg).run());
-  IdentifyRequest req;
-  req.log_path = path;
-  req.model = kDefaultModel;
-  req.robot_urdf = test::sourcePath("/config/ur10.urdf");
-  const CheckedIdentification id = identifyLogFileChecked(req, true);
-  std::remove(path.c_str());
+  const CheckedIdentification id = identifyLog(sim::CellSim(motionThenRest(100.0)).run(), kDefaultModel, true);
   for (const auto& w : id.check.warnings) EXPECT_EQ(w.find("could not be identified"), std::string::npos) << w;
   for (int a = 0; a < 6; ++a) EXPECT_LT(id.check.residual_to_noise(a), 1.15) << "axis " << a;
 }
