@@ -254,6 +254,301 @@ std::pair<ResidualSpectrum, DynamicsCheck> readingDynamics(const detail::RankCon
   return {std::move(spectrum), std::move(dynamics)};
 }
 
+// Bounds on the arguments: 20 samples per held-out block, or 20 to fit and 8 to validate on.
+void checkSampleCounts(const std::vector<SampleContext>& fit, const std::vector<SampleContext>* validate,
+                       const AnalyzeOptions& options, const std::string& log_name, const std::string& validate_name) {
+  const int n_fit = static_cast<int>(fit.size());
+  if (validate == nullptr && options.folds < 2) throw ConfigError("--folds must be at least 2");
+  const int min_samples = validate != nullptr ? 20 : 20 * options.folds;
+  if (n_fit < min_samples) {
+    throw DataError(log_name + ": " + std::to_string(n_fit) + " samples are too few for the analysis (need " +
+                    std::to_string(min_samples) + ")");
+  }
+  if (validate != nullptr && validate->size() < 8) throw DataError(validate_name + ": too few samples to validate on");
+}
+
+// The data the engines fit: the fitting log followed by the validation log as the one test block,
+// or the fitting log cut into held-out blocks holding equal shares of its moving samples
+// (identify::foldBoundaries), whose start times the report marks. Weights are set later.
+Dataset makeDataset(const std::vector<SampleContext>& fit, const std::vector<SampleContext>* validate,
+                    const AnalyzeOptions& options, const std::string& log_name, const std::string& validate_name,
+                    AnalysisResult& result) {
+  const int n_fit = static_cast<int>(fit.size());
+  Dataset d;
+  d.ctx = fit;
+  d.n_fit = n_fit;
+  d.max_delay_s = options.max_delay_s;
+  d.segment_start = {0};
+  if (validate != nullptr) {
+    d.external = true;
+    d.ctx.insert(d.ctx.end(), validate->begin(), validate->end());
+    d.blocks = {{0, n_fit, true}, {n_fit, static_cast<int>(d.ctx.size()), false}};
+    d.segment_start.push_back(n_fit);
+    if (validate->front().has_temp != fit.front().has_temp) {
+      throw DataError(validate_name + ": the validation log must have the same columns (temp) as " + log_name);
+    }
+  } else {
+    const std::vector<int> bounds = identify::foldBoundaries(fit, options.folds);
+    for (int f = 0; f < options.folds; ++f) {
+      d.blocks.push_back({bounds[static_cast<std::size_t>(f)], bounds[static_cast<std::size_t>(f) + 1], true});
+      if (f > 0) result.fold_start_t.push_back(fit[static_cast<std::size_t>(bounds[static_cast<std::size_t>(f)])].t);
+    }
+  }
+  (void)identify::poseGroups(fit, &d.static_data);
+  // Held poses with moves between them: the moves show what a static pose set cannot (a delay).
+  d.static_data = d.static_data && !hasMoves(fit);
+  return d;
+}
+
+// Guards noise-free data: a floor far below the signal would make the weights meaningless.
+constexpr double kTinyStd = 1e-9;
+
+// A noise floor adopted: the report prints it and the fits use its colour and the weights
+// 1 / innovation std of each axis.
+void adoptNoiseFloor(const identify::NoiseFloor& nf, AnalysisResult& result, Dataset& d) {
+  result.noise_method = identify::toString(nf.method);
+  result.noise_detail = nf.detail;
+  result.noise_ar1 = nf.ar1;
+  result.noise_ar1_std = nf.ar1_std;
+  result.noise_floor = nf.std;
+  d.ar1 = nf.ar1;
+  const Vec6 innovation = nf.innovationStd();
+  for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(innovation(a), kTinyStd);
+}
+
+// The starting model can be fitted on d: its signals are logged, and no delay is asked of a
+// static pose set (as for the candidates, and as identify::fitModel refuses).
+void checkModelFits(const Model& model, const Dataset& d) {
+  const std::string miss = detail::missingSignal(model, d.ctx);
+  if (!miss.empty()) throw DataError("model '" + model.name() + "' cannot be fitted: " + miss);
+  if (d.static_data && model.estimatesDelay()) {
+    throw DataError("model '" + model.name() +
+                    "' cannot be fitted: static pose set: a delay shows only while the wrench changes (the time "
+                    "between poses is not motion); leave sensor_delay out");
+  }
+}
+
+// The starting model's fit on an engine's data; refused when the data determine only some of its
+// parameters.
+std::pair<Linearization, Solution> fitStart(const Engine& e, const Model& model) {
+  auto fitted = e.fitFully(model, e.initial(model));
+  if (fitted.second.rank < fitted.second.p) {
+    throw IdentificationError("model '" + model.name() + "': the data determine only " +
+                              std::to_string(fitted.second.rank) + " of its " + std::to_string(fitted.second.p) +
+                              " parameters (too little excitation for this model; see docs/analyze.md)");
+  }
+  return fitted;
+}
+
+// One reading per pose (no noise floor observable): the scale is the cross-validated residual of
+// the starting model, fitted with provisional weights (the spread of each axis' readings).
+void scaleFromHeldoutResidual(const std::vector<SampleContext>& fit, const Model& model, Dataset& d,
+                              AnalysisResult& result) {
+  const int n_fit = static_cast<int>(fit.size());
+  for (int a = 0; a < 6; ++a) {
+    double m = 0.0, ss = 0.0;
+    for (int i = 0; i < n_fit; ++i) m += fit[static_cast<std::size_t>(i)].wrench_S(a) / n_fit;
+    for (int i = 0; i < n_fit; ++i) ss += std::pow(fit[static_cast<std::size_t>(i)].wrench_S(a) - m, 2);
+    d.weights(a) = 1.0 / std::max(std::sqrt(ss / n_fit), kTinyStd);
+  }
+  const Engine provisional(d);
+  const auto fitted = fitStart(provisional, model);
+  const Vec6 cv = (fitted.second.sse_heldout_axis / std::max(1, fitted.second.n_heldout)).cwiseSqrt();
+  result.noise_floor = cv;
+  for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(cv(a), kTinyStd);
+  result.warnings.push_back("the noise floor is not observable (one reading per pose): the scale is the "
+                            "cross-validated residual of " + model.name() +
+                            ", so residual/noise ratios near 1 say nothing about the model; give the "
+                            "sensor's noise with --noise fx=..,..,tz=..");
+}
+
+// The noise floor re-estimated on the first fit's residual of the fitting log (its colour, and its
+// level where the readings hid it). Adopted when white or coloured; true when the fits' colour or
+// weights changed (a reading clipped flat on most samples reads as a zero floor at first, and its
+// weight of 1e9 made one axis the whole criterion).
+bool refineNoise(const Mat6X& res_fit, const std::vector<SampleContext>& fit, identify::NoiseFloor& nf, Dataset& d,
+                 AnalysisResult& result) {
+  const Vec6 ar1_before = nf.ar1;
+  const Vec6 weights_before = d.weights;
+  const identify::KeptSeries kept_fit = identify::keptSeries(res_fit, fit, d.excluded);
+  identify::refineNoiseFloor(nf, kept_fit.residual, kept_fit.ctx, kept_fit.segment_starts);
+  if (!nf.observable() ||
+      (nf.method != identify::NoiseMethod::kWhite && nf.method != identify::NoiseMethod::kColoured)) {
+    return false;
+  }
+  adoptNoiseFloor(nf, result, d);
+  return ar1_before != nf.ar1 || d.weights != weights_before;
+}
+
+// Glitches: isolated samples of the kept series far outside its robust spread
+// (identify::detectOutliers), marked excluded in d and listed with their times and axes; true when
+// any was found.
+bool excludeGlitches(const identify::KeptSeries& kept, const std::vector<SampleContext>& fit,
+                     const AnalyzeOptions& options, Dataset& d, AnalysisResult& result) {
+  bool is_static = false;
+  (void)identify::poseGroups(fit, &is_static);
+  const auto flagged =
+      identify::detectOutliers(kept.residual, !is_static, options.glitch_threshold, kept.segment_starts);
+  if (flagged.samples.empty()) return false;
+  if (d.excluded.empty()) d.excluded.assign(static_cast<std::size_t>(d.size()), 0);
+  for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
+    const int i = kept.index[static_cast<std::size_t>(flagged.samples[k])];
+    d.excluded[static_cast<std::size_t>(i)] = 1;
+    result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
+    result.outliers.axes.push_back(flagged.axes[k]);
+  }
+  result.outliers.count = static_cast<int>(result.outliers.times.size());
+  say(options, std::to_string(result.outliers.count) + " glitch" + (result.outliers.count == 1 ? "" : "es") +
+                   " (isolated samples beyond " + fmt(options.glitch_threshold, 3) +
+                   " robust standard deviations) left out");
+  return true;
+}
+
+// The residual of the first fit settles the noise colour (dense data, no data-sheet floor) and
+// shows the glitches; both change the weights. d becomes the engine's data with those changes;
+// true when the model must be re-fitted on it. Saturated samples are neither noise nor glitches:
+// both are judged on the kept series.
+bool refineAfterFirstFit(const Engine& eng, const Model& model, const Linearization& lin, const Solution& sol,
+                         const std::vector<SampleContext>& fit, const AnalyzeOptions& options, identify::NoiseFloor& nf,
+                         Dataset& d, AnalysisResult& result) {
+  const int n_all = eng.data().size();
+  const Mat6X pred = eng.predict(model, lin, sol.theta, false);
+  Mat6X res(6, n_all);
+  for (int i = 0; i < n_all; ++i) res.col(i) = eng.data().ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
+  const identify::KeptSeries kept =
+      identify::keptSeries(res, eng.data().ctx, eng.data().excluded, eng.data().segment_start);
+  d = eng.data();
+  bool changed = false;
+  if (!options.noise_std) changed = refineNoise(res.leftCols(d.n_fit), fit, nf, d, result);
+  if (options.glitch_threshold > 0.0) changed = excludeGlitches(kept, fit, options, d, result) || changed;
+  return changed;
+}
+
+// The evaluated (held-out) samples' times and measured and predicted wrenches, into result;
+// returns the held-out residual with the glitches zeroed, on which the statistics are taken (the
+// plots keep them).
+Mat6X heldoutSeries(const Engine& engine, const Solution& sol, AnalysisResult& result) {
+  const auto& tests = engine.testSamples();
+  result.measured.resize(6, static_cast<Eigen::Index>(tests.size()));
+  for (std::size_t k = 0; k < tests.size(); ++k) {
+    const auto& c = engine.data().ctx[static_cast<std::size_t>(tests[k])];
+    result.t.push_back(c.t);
+    result.measured.col(static_cast<Eigen::Index>(k)) = c.wrench_S;
+  }
+  result.predicted = result.measured - sol.heldout_residual;
+  Mat6X stat_res = sol.heldout_residual;
+  for (std::size_t k = 0; k < tests.size(); ++k) {
+    if (engine.excluded(tests[k])) stat_res.col(static_cast<Eigen::Index>(k)).setZero();
+  }
+  return stat_res;
+}
+
+// Where it fails: the held-out residual in windows of equal sample counts, each as the rms of its
+// residual over the noise floor (all axes); the worst options.top_windows first.
+void failWindows(const Mat6X& stat_res, const AnalyzeOptions& options, AnalysisResult& result) {
+  Vec6 w;
+  for (int a = 0; a < 6; ++a) w(a) = 1.0 / std::max(result.noise_floor(a), 1e-9);
+  const int n_eval = result.n_eval;
+  const int nw = std::max(1, std::min(options.window_count, n_eval / 4));
+  std::vector<FailWindow> windows;
+  for (int k = 0; k < nw; ++k) {
+    const int a = static_cast<int>(static_cast<long long>(n_eval) * k / nw);
+    const int b = static_cast<int>(static_cast<long long>(n_eval) * (k + 1) / nw);
+    Vec6 ss = Vec6::Zero();
+    for (int i = a; i < b; ++i) ss += stat_res.col(i).cwiseProduct(w).cwiseAbs2();
+    ss /= std::max(1, b - a);
+    FailWindow fw;
+    fw.t_start = result.t[static_cast<std::size_t>(a)];
+    fw.t_end = result.t[static_cast<std::size_t>(b - 1)];
+    fw.ratio = std::sqrt(ss.mean());
+    ss.maxCoeff(&fw.worst_axis);
+    result.window_ratio.push_back(fw.ratio);
+    windows.push_back(fw);
+  }
+  result.window_length_s = n_eval > 1 ? (result.t.back() - result.t.front()) / nw : 0.0;
+  std::sort(windows.begin(), windows.end(), [](const FailWindow& x, const FailWindow& y) { return x.ratio > y.ratio; });
+  windows.resize(std::min<std::size_t>(windows.size(), static_cast<std::size_t>(std::max(0, options.top_windows))));
+  result.windows = windows;
+}
+
+// ... and with what: the held-out residual's Pearson correlations with measured signals, the
+// largest options.top_correlations first, each marked beyond 5 / sqrt(n); the top one's series.
+void correlateResidual(const Engine& engine, const Linearization& lin, const Mat6X& stat_res,
+                       const AnalyzeOptions& options, AnalysisResult& result) {
+  const auto signals = diagnosticSignals(engine, lin);
+  result.extra_signals = detail::extraSignals(engine.data().ctx).names;  // extra columns (extra_signals.hpp)
+  std::vector<SignalCorrelation> corr;
+  const double thresh = 5.0 / std::sqrt(std::max(1.0, static_cast<double>(result.n_eval)));
+  for (const auto& s : signals) {
+    for (int a = 0; a < 6; ++a) {
+      const double r = pearson(s.values, stat_res.row(a));
+      corr.push_back({s.name, a, r, std::abs(r) > thresh});
+    }
+  }
+  std::sort(corr.begin(), corr.end(), [](const auto& x, const auto& y) { return std::abs(x.r) > std::abs(y.r); });
+  corr.resize(std::min<std::size_t>(corr.size(), static_cast<std::size_t>(std::max(1, options.top_correlations))));
+  result.correlations = corr;
+  if (!corr.empty()) {
+    for (const auto& s : signals) {
+      if (s.name == corr.front().signal) result.top_signal = s.values;
+    }
+  }
+}
+
+// Which effect is missing: the menu ranked against the start, then a change in time
+// (change_point_scan.hpp: a step no smooth effect describes; --explain then stops), else with
+// --explain the path of added and removed effects. Returns the model the analysis ends at.
+Fitted searchEffects(const detail::RankContext& rc, const Fitted& base, AnalysisResult& result) {
+  const AnalyzeOptions& options = rc.options;
+  result.candidates = detail::rankCandidates(rc, base);
+  result.family_alpha = options.family_alpha;
+  result.heldout_margin = options.min_relative_reduction;
+  // With --explain, the path's end competes with the steps (its own record is dropped: the path
+  // runs again below when no change point stands).
+  std::function<detail::SmoothPath()> smooth_path;
+  if (options.explain) {
+    smooth_path = [&] {
+      AnalyzeOptions quiet = options;
+      quiet.progress = nullptr;
+      const detail::RankContext quiet_rc{rc.eng, rc.menu, quiet, rc.log_cmd, rc.scale_sd, rc.family_size};
+      AnalysisResult scratch = result;
+      const Fitted end = detail::explainPath(quiet_rc, base, scratch);
+      return detail::SmoothPath{end.model.name(), 1.0 - end.sol.sse_heldout / base.sol.sse_heldout};
+    };
+  }
+  detail::reportChangePoints(rc, base, result, [&] { return readingDynamics(rc, base, result).second; }, smooth_path);
+  return options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
+}
+
+// Impossible answers are never exported: what is wrong with the last model, in words; else what
+// `ftid identify --out` would still refuse of it.
+void noteRefusals(const Engine& engine, const Fitted& last_fit, AnalysisResult& result) {
+  const FitView last_view = detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr, engine.data().ctx);
+  for (const auto& r : physicsRefusals(last_view)) {
+    result.unphysical.push_back(r.reason);
+    result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
+                              "; do not write or export its parameters");
+  }
+  if (result.unphysical.empty()) noteUnwritable(engine, last_fit, last_view, result);
+}
+
+// The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics), a delay
+// judged against the IMU's (payload-free: estimated first), and the IMU against the last model
+// (imu_check.hpp).
+void judgeDynamicsAndImu(const detail::RankContext& rc, const std::vector<SampleContext>& fit, const Fitted& last_fit,
+                         AnalysisResult& result) {
+  detail::estimateImu(fit, &result);
+  std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
+  detail::judgeDelayAgainstLag(rc, last_fit, result.imu, result.spectrum.motion_band_hz, &result.dynamics);
+  // Across a change in time the residual's peaks are the step's (the change's warning says what to do).
+  const std::string dynamics =
+      result.change_points.empty() ? detail::spectrumWarning(result.spectrum, result.dynamics) : std::string();
+  if (!dynamics.empty()) result.warnings.push_back(dynamics);
+  const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
+  if (!filtered.empty()) result.warnings.push_back(filtered);
+  detail::checkImu(result.final_report ? *result.final_report : result.report, &result);
+}
+
 }  // namespace
 
 /// With --explain: the candidates refused against the starting model that the path did not take,
@@ -280,299 +575,31 @@ std::vector<std::string> defaultGenericMenu() {
   return {"harmonic(q4,1)", "harmonic(q5,1)", "harmonic(q6,1)", "poly(t,2)", "poly(temp,2)"};
 }
 
-AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<SampleContext>* validate,
-                       const AnalyzeOptions& options, const std::string& log_name, const std::string& validate_name) {
-  const auto t_start = std::chrono::steady_clock::now();
-  AnalysisResult result;
-  result.log = log_name;
-  result.validate_log = validate != nullptr ? validate_name : "";
-  const int n_fit = static_cast<int>(fit.size());
-  if (validate == nullptr && options.folds < 2) throw ConfigError("--folds must be at least 2");
-  const int min_samples = validate != nullptr ? 20 : 20 * options.folds;
-  if (n_fit < min_samples) {
-    throw DataError(log_name + ": " + std::to_string(n_fit) + " samples are too few for the analysis (need " +
-                    std::to_string(min_samples) + ")");
-  }
-  if (validate != nullptr && validate->size() < 8) throw DataError(validate_name + ": too few samples to validate on");
+namespace {
 
-  Dataset d;
-  d.ctx = fit;
-  d.n_fit = n_fit;
-  d.max_delay_s = options.max_delay_s;
-  d.segment_start = {0};
-  if (validate != nullptr) {
-    d.external = true;
-    d.ctx.insert(d.ctx.end(), validate->begin(), validate->end());
-    d.blocks = {{0, n_fit, true}, {n_fit, static_cast<int>(d.ctx.size()), false}};
-    d.segment_start.push_back(n_fit);
-    if (validate->front().has_temp != fit.front().has_temp) {
-      throw DataError(validate_name + ": the validation log must have the same columns (temp) as " + log_name);
-    }
-  } else {
-    const std::vector<int> bounds = identify::foldBoundaries(fit, options.folds);
-    for (int f = 0; f < options.folds; ++f) {
-      d.blocks.push_back({bounds[static_cast<std::size_t>(f)], bounds[static_cast<std::size_t>(f) + 1], true});
-      if (f > 0) result.fold_start_t.push_back(fit[static_cast<std::size_t>(bounds[static_cast<std::size_t>(f)])].t);
-    }
+// What is left: the last model's held-out residual against the noise floor (when observable),
+// axes above identify::kAboveFloorMark named.
+void aboveFloorWarning(const AnalyzeOptions& options, AnalysisResult& result) {
+  const ModelReport& last = result.final_report ? *result.final_report : result.report;
+  std::string above;
+  for (int a = 0; a < 6; ++a) {
+    const double ratio = last.residual_rms(a) / std::max(result.noise_floor(a), 1e-12);
+    if (!(ratio > identify::kAboveFloorMark)) continue;  // (a NaN ratio is not above)
+    above += std::string(above.empty() ? "" : ", ") + kWrenchAxisNames[a] + " " + fmt(ratio, 3) + "x";
   }
-  // The noise floor: data sheet, or detected from the fitting log's readings.
-  identify::NoiseFloor nf =
-      options.noise_std ? identify::dataSheetNoiseFloor(*options.noise_std) : identify::estimateNoiseFloor(fit);
-  result.noise_method = identify::toString(nf.method);
-  result.noise_detail = nf.detail;
-  result.noise_ar1 = nf.ar1;
-  result.noise_ar1_std = nf.ar1_std;
-  result.noise_floor = nf.std;
-  d.ar1 = nf.ar1;
-  (void)identify::poseGroups(fit, &d.static_data);
-  // Held poses with moves between them: the moves show what a static pose set cannot (a delay).
-  d.static_data = d.static_data && !hasMoves(fit);
-  // Guard noise-free data: a floor far below the signal would make the weights meaningless.
-  const double tiny = 1e-9;
-  const Vec6 innovation = nf.innovationStd();
-  for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(innovation(a), tiny);
-  result.n_samples = n_fit;
-  result.folds = validate != nullptr ? 1 : options.folds;
+  if (above.empty()) return;
+  result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +
+                            "): the model misses something" +
+                            (!result.change_points.empty() ? ": the change in time (analyze each segment)"
+                             : options.explain              ? " that no candidate explains" + refusedAtTheStart(result)
+                                                            : "; try --explain"));
+}
 
-  Model model = Model::fromName(options.model);
-  const std::string miss = detail::missingSignal(model, d.ctx);
-  if (!miss.empty()) throw DataError("model '" + model.name() + "' cannot be fitted: " + miss);
-  if (d.static_data && model.estimatesDelay()) {
-    // As for the candidates below, and as identify::fitModel refuses: no number for a delay.
-    throw DataError("model '" + model.name() +
-                    "' cannot be fitted: static pose set: a delay shows only while the wrench changes (the time "
-                    "between poses is not motion); leave sensor_delay out");
-  }
-  const std::string log_cmd =
-      shellQuote(log_name) + (validate != nullptr ? " --validate " + shellQuote(validate_name) : "");
-
-  say(options, "noise floor: " + nf.detail);
-  say(options, "fitting " + model.name() + " (" + std::to_string(model.numParams()) + " parameters) on " +
-                   std::to_string(n_fit) + " samples, " +
-                   (validate != nullptr ? "validating on " + validate_name
-                                        : std::to_string(options.folds) + "-fold held-out blocks"));
-  auto fitStart = [&](const Engine& e) {
-    auto fitted = e.fitFully(model, e.initial(model));
-    if (fitted.second.rank < fitted.second.p) {
-      throw IdentificationError("model '" + model.name() + "': the data determine only " +
-                                std::to_string(fitted.second.rank) + " of its " + std::to_string(fitted.second.p) +
-                                " parameters (too little excitation for this model; see docs/analyze.md)");
-    }
-    return fitted;
-  };
-  if (!nf.observable()) {
-    // One reading per pose: the cross-validated residual of the starting model is the scale
-    // (provisional weights: the spread of each axis' readings).
-    for (int a = 0; a < 6; ++a) {
-      double m = 0.0, ss = 0.0;
-      for (int i = 0; i < n_fit; ++i) m += fit[static_cast<std::size_t>(i)].wrench_S(a) / n_fit;
-      for (int i = 0; i < n_fit; ++i) ss += std::pow(fit[static_cast<std::size_t>(i)].wrench_S(a) - m, 2);
-      d.weights(a) = 1.0 / std::max(std::sqrt(ss / n_fit), tiny);
-    }
-    const Engine provisional(d);
-    const auto fitted = fitStart(provisional);
-    const Vec6 cv = (fitted.second.sse_heldout_axis / std::max(1, fitted.second.n_heldout)).cwiseSqrt();
-    result.noise_floor = cv;
-    for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(cv(a), tiny);
-    result.warnings.push_back("the noise floor is not observable (one reading per pose): the scale is the "
-                              "cross-validated residual of " + model.name() +
-                              ", so residual/noise ratios near 1 say nothing about the model; give the "
-                              "sensor's noise with --noise fx=..,..,tz=..");
-  }
-  detail::excludeSaturation(d, options, result);  // saturation (issue 22)
-  auto eng = std::make_unique<Engine>(d);
-  result.n_eval = static_cast<int>(eng->testSamples().size());
-  auto [lin, sol] = fitStart(*eng);
-
-  // The residual of the first fit settles the noise colour (dense data) and shows the glitches
-  // (isolated samples far outside its robust spread); both change the weights: re-fit.
-  {
-    const int n_all = eng->data().size();
-    const Mat6X pred = eng->predict(model, lin, sol.theta, false);
-    Mat6X res(6, n_all);
-    for (int i = 0; i < n_all; ++i) res.col(i) = eng->data().ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
-    // Saturated samples are neither noise nor glitches: both are judged on the kept series.
-    const identify::KeptSeries kept = identify::keptSeries(res, eng->data().ctx, eng->data().excluded, eng->data().segment_start);
-    bool changed = false;
-    d = eng->data();
-    if (!options.noise_std) {
-      const Vec6 before = nf.ar1;
-      const identify::KeptSeries kept_fit = identify::keptSeries(res.leftCols(n_fit), fit, d.excluded);
-      identify::refineNoiseFloor(nf, kept_fit.residual, kept_fit.ctx, kept_fit.segment_starts);
-      if (nf.observable() && (nf.method == identify::NoiseMethod::kWhite || nf.method == identify::NoiseMethod::kColoured)) {
-        result.noise_method = identify::toString(nf.method);
-        result.noise_detail = nf.detail;
-        result.noise_ar1 = nf.ar1;
-        result.noise_ar1_std = nf.ar1_std;
-        result.noise_floor = nf.std;
-        d.ar1 = nf.ar1;
-        const Vec6 inn = nf.innovationStd();
-        for (int a = 0; a < 6; ++a) d.weights(a) = 1.0 / std::max(inn(a), tiny);
-        // The fits are weighted by the floor the report prints: a changed level re-fits as a changed
-        // colour does (a reading clipped flat on most samples reads as a zero floor at first, and
-        // its weight of 1e9 made one axis the whole criterion).
-        changed = changed || before != nf.ar1 || d.weights != eng->data().weights;
-      }
-    }
-    if (options.glitch_threshold > 0.0) {
-      bool is_static = false;
-      (void)identify::poseGroups(fit, &is_static);
-      const auto flagged = identify::detectOutliers(kept.residual, !is_static, options.glitch_threshold, kept.segment_starts);
-      if (!flagged.samples.empty()) {
-        if (d.excluded.empty()) d.excluded.assign(static_cast<std::size_t>(n_all), 0);
-        for (std::size_t k = 0; k < flagged.samples.size(); ++k) {
-          const int i = kept.index[static_cast<std::size_t>(flagged.samples[k])];
-          d.excluded[static_cast<std::size_t>(i)] = 1;
-          result.outliers.times.push_back(d.ctx[static_cast<std::size_t>(i)].t);
-          result.outliers.axes.push_back(flagged.axes[k]);
-        }
-        result.outliers.count = static_cast<int>(result.outliers.times.size());
-        say(options, std::to_string(result.outliers.count) + " glitch" + (result.outliers.count == 1 ? "" : "es") +
-                         " (isolated samples beyond " + fmt(options.glitch_threshold, 3) +
-                         " robust standard deviations) left out");
-        changed = true;
-      }
-    }
-    if (changed) {
-      say(options, "re-fitting " + model.name() + " (" + nf.detail + ")");
-      eng = std::make_unique<Engine>(d);
-      std::tie(lin, sol) = fitStart(*eng);
-    }
-  }
-  const Engine& engine = *eng;
-  Fitted base{model, lin, sol};
-  result.report = detail::makeReport(engine, model, lin, sol);
-
-  // Time series of the evaluated data.
-  const auto& tests = engine.testSamples();
-  result.measured.resize(6, static_cast<Eigen::Index>(tests.size()));
-  for (std::size_t k = 0; k < tests.size(); ++k) {
-    const auto& c = engine.data().ctx[static_cast<std::size_t>(tests[k])];
-    result.t.push_back(c.t);
-    result.measured.col(static_cast<Eigen::Index>(k)) = c.wrench_S;
-  }
-  result.predicted = result.measured - sol.heldout_residual;
-  // Statistics of the residual without the glitches (the plots keep them).
-  Mat6X stat_res = sol.heldout_residual;
-  for (std::size_t k = 0; k < tests.size(); ++k) {
-    if (engine.excluded(tests[k])) stat_res.col(static_cast<Eigen::Index>(k)).setZero();
-  }
-
-  // Where it fails: windows.
-  Vec6 w;
-  for (int a = 0; a < 6; ++a) w(a) = 1.0 / std::max(result.noise_floor(a), 1e-9);
-  const int n_eval = result.n_eval;
-  const int nw = std::max(1, std::min(options.window_count, n_eval / 4));
-  std::vector<FailWindow> windows;
-  for (int k = 0; k < nw; ++k) {
-    const int a = static_cast<int>(static_cast<long long>(n_eval) * k / nw);
-    const int b = static_cast<int>(static_cast<long long>(n_eval) * (k + 1) / nw);
-    Vec6 ss = Vec6::Zero();
-    for (int i = a; i < b; ++i) ss += stat_res.col(i).cwiseProduct(w).cwiseAbs2();
-    ss /= std::max(1, b - a);
-    FailWindow fw;
-    fw.t_start = result.t[static_cast<std::size_t>(a)];
-    fw.t_end = result.t[static_cast<std::size_t>(b - 1)];
-    fw.ratio = std::sqrt(ss.mean());
-    ss.maxCoeff(&fw.worst_axis);
-    result.window_ratio.push_back(fw.ratio);
-    windows.push_back(fw);
-  }
-  result.window_length_s = n_eval > 1 ? (result.t.back() - result.t.front()) / nw : 0.0;
-  std::sort(windows.begin(), windows.end(), [](const FailWindow& x, const FailWindow& y) { return x.ratio > y.ratio; });
-  windows.resize(std::min<std::size_t>(windows.size(), static_cast<std::size_t>(std::max(0, options.top_windows))));
-  result.windows = windows;
-
-  // ... and with what: correlations of the held-out residual with measured signals.
-  const auto signals = diagnosticSignals(engine, lin);
-  result.extra_signals = detail::extraSignals(engine.data().ctx).names;  // extra columns (extra_signals.hpp)
-  std::vector<SignalCorrelation> corr;
-  const double thresh = 5.0 / std::sqrt(std::max(1.0, static_cast<double>(n_eval)));
-  for (const auto& s : signals) {
-    for (int a = 0; a < 6; ++a) {
-      const double r = pearson(s.values, stat_res.row(a));
-      corr.push_back({s.name, a, r, std::abs(r) > thresh});
-    }
-  }
-  std::sort(corr.begin(), corr.end(), [](const auto& x, const auto& y) { return std::abs(x.r) > std::abs(y.r); });
-  corr.resize(std::min<std::size_t>(corr.size(), static_cast<std::size_t>(std::max(1, options.top_correlations))));
-  result.correlations = corr;
-  if (!corr.empty()) {
-    for (const auto& s : signals) {
-      if (s.name == corr.front().signal) result.top_signal = s.values;
-    }
-  }
-
-  // Which effect is missing.
-  const auto menu =  // the named effects, the generic menu and the extra columns' candidates
-      detail::withExtraSignals(detail::candidateMenu(options), options, engine.data().ctx, &result.warnings);
-  result.family_size = detail::familySize(engine, menu);
-  const detail::RankContext rc{engine, menu, options, log_cmd,
-                               detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};
-  result.candidates = detail::rankCandidates(rc, base);
-  result.family_alpha = options.family_alpha;
-  result.heldout_margin = options.min_relative_reduction;
-
-  // Change in time (change_point_scan.hpp): a step no smooth effect describes; --explain then stops.
-  // With --explain, the path's end competes with the steps (its own record is dropped: the path
-  // runs again below when no change point stands).
-  std::function<detail::SmoothPath()> smooth_path;
-  if (options.explain) {
-    smooth_path = [&] {
-      AnalyzeOptions quiet = options;
-      quiet.progress = nullptr;
-      const detail::RankContext quiet_rc{rc.eng, rc.menu, quiet, rc.log_cmd, rc.scale_sd, rc.family_size};
-      AnalysisResult scratch = result;
-      const Fitted end = detail::explainPath(quiet_rc, base, scratch);
-      return detail::SmoothPath{end.model.name(), 1.0 - end.sol.sse_heldout / base.sol.sse_heldout};
-    };
-  }
-  detail::reportChangePoints(rc, base, result, [&] { return readingDynamics(rc, base, result).second; }, smooth_path);
-  const Fitted last_fit =
-      options.explain && result.change_points.empty() ? detail::explainPath(rc, base, result) : base;
-  // Impossible answers are never exported: what is wrong with the last model, in words.
-  const FitView last_view = detail::fitView(last_fit.model, last_fit.lin, last_fit.sol, nullptr, engine.data().ctx);
-  for (const auto& r : physicsRefusals(last_view)) {
-    result.unphysical.push_back(r.reason);
-    result.warnings.push_back(last_fit.model.name() + " is not physically possible: " + r.reason +
-                              "; do not write or export its parameters");
-  }
-  if (result.unphysical.empty()) noteUnwritable(engine, last_fit, last_view, result);
-  // The residual's spectrum and autocorrelation (issue 22, sensor and mount dynamics), a delay
-  // judged against the IMU's (payload-free: estimated first).
-  detail::estimateImu(fit, &result);
-  {
-    std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
-    detail::judgeDelayAgainstLag(rc, last_fit, result.imu, result.spectrum.motion_band_hz, &result.dynamics);
-    // Across a change in time the residual's peaks are the step's (the change's warning says what to do).
-    const std::string dynamics =
-        result.change_points.empty() ? detail::spectrumWarning(result.spectrum, result.dynamics) : std::string();
-    if (!dynamics.empty()) result.warnings.push_back(dynamics);
-    const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
-    if (!filtered.empty()) result.warnings.push_back(filtered);
-  }
-  // The sensor's IMU against the last model (imu_check.hpp).
-  detail::checkImu(result.final_report ? *result.final_report : result.report, &result);
-  // What is left: the last model's held-out residual against the noise floor.
-  if (nf.observable()) {
-    const ModelReport& last = result.final_report ? *result.final_report : result.report;
-    std::string above;
-    double worst = 0.0;
-    for (int a = 0; a < 6; ++a) {
-      const double ratio = last.residual_rms(a) / std::max(result.noise_floor(a), 1e-12);
-      worst = std::max(worst, ratio);
-      if (ratio > identify::kAboveFloorMark) above += std::string(above.empty() ? "" : ", ") + kWrenchAxisNames[a] + " " + fmt(ratio, 3) + "x";
-    }
-    if (!above.empty()) {
-      result.warnings.push_back("the held-out residual of " + last.model + " is above the noise floor (" + above +
-                                "): the model misses something" +
-                                (!result.change_points.empty() ? ": the change in time (analyze each segment)"
-                                 : options.explain              ? " that no candidate explains" + refusedAtTheStart(result)
-                                                                : "; try --explain"));
-    }
-  }
-  // Refusals against the model the analysis ends at: after --explain, the final ranking's (an
-  // effect refused against the start, e.g. rigid_body before sensor_delay, may be in the final model).
+// The closing warnings: the residual above the floor; the effects not recommended (confounded)
+// against the model the analysis ends at (after --explain, the final ranking's: an effect refused
+// against the start, e.g. rigid_body before sensor_delay, may be in the final model); the glitches.
+void closingWarnings(bool floor_observable, const AnalyzeOptions& options, AnalysisResult& result) {
+  if (floor_observable) aboveFloorWarning(options, result);
   const bool explained = result.final_report.has_value();
   for (const auto& c : explained ? result.final_candidates : result.candidates) {
     if (c.confounded) {
@@ -586,6 +613,59 @@ AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<
                               (result.outliers.count == 1 ? " was" : "es were") +
                               " left out of every fit (isolated spikes; see outliers)");
   }
+}
+
+}  // namespace
+
+AnalysisResult analyze(const std::vector<SampleContext>& fit, const std::vector<SampleContext>* validate,
+                       const AnalyzeOptions& options, const std::string& log_name, const std::string& validate_name) {
+  const auto t_start = std::chrono::steady_clock::now();
+  AnalysisResult result;
+  result.log = log_name;
+  result.validate_log = validate != nullptr ? validate_name : "";
+  checkSampleCounts(fit, validate, options, log_name, validate_name);
+  const int n_fit = static_cast<int>(fit.size());
+  Dataset d = makeDataset(fit, validate, options, log_name, validate_name, result);
+  // The noise floor: data sheet, or detected from the fitting log's readings.
+  identify::NoiseFloor nf =
+      options.noise_std ? identify::dataSheetNoiseFloor(*options.noise_std) : identify::estimateNoiseFloor(fit);
+  adoptNoiseFloor(nf, result, d);
+  result.n_samples = n_fit;
+  result.folds = validate != nullptr ? 1 : options.folds;
+  const Model model = Model::fromName(options.model);
+  checkModelFits(model, d);
+  const std::string log_cmd =
+      shellQuote(log_name) + (validate != nullptr ? " --validate " + shellQuote(validate_name) : "");
+  say(options, "noise floor: " + nf.detail);
+  say(options, "fitting " + model.name() + " (" + std::to_string(model.numParams()) + " parameters) on " +
+                   std::to_string(n_fit) + " samples, " +
+                   (validate != nullptr ? "validating on " + validate_name
+                                        : std::to_string(options.folds) + "-fold held-out blocks"));
+  if (!nf.observable()) scaleFromHeldoutResidual(fit, model, d, result);
+  detail::excludeSaturation(d, options, result);  // saturation (issue 22)
+  auto eng = std::make_unique<Engine>(d);
+  result.n_eval = static_cast<int>(eng->testSamples().size());
+  auto [lin, sol] = fitStart(*eng, model);
+  if (refineAfterFirstFit(*eng, model, lin, sol, fit, options, nf, d, result)) {
+    say(options, "re-fitting " + model.name() + " (" + nf.detail + ")");
+    eng = std::make_unique<Engine>(d);
+    std::tie(lin, sol) = fitStart(*eng, model);
+  }
+  const Engine& engine = *eng;
+  const Fitted base{model, lin, sol};
+  result.report = detail::makeReport(engine, model, lin, sol);
+  const Mat6X stat_res = heldoutSeries(engine, sol, result);
+  failWindows(stat_res, options, result);
+  correlateResidual(engine, lin, stat_res, options, result);
+  const auto menu =  // the named effects, the generic menu and the extra columns' candidates
+      detail::withExtraSignals(detail::candidateMenu(options), options, engine.data().ctx, &result.warnings);
+  result.family_size = detail::familySize(engine, menu);
+  const detail::RankContext rc{engine, menu, options, log_cmd,
+                               detail::colourScaleSd(result.noise_ar1, result.noise_ar1_std), result.family_size};
+  const Fitted last_fit = searchEffects(rc, base, result);
+  noteRefusals(engine, last_fit, result);
+  judgeDynamicsAndImu(rc, fit, last_fit, result);
+  closingWarnings(nf.observable(), options, result);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
   return result;
 }
