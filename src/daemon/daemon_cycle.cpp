@@ -150,19 +150,40 @@ void DaemonCycle::step(const RobotStateRecord& robot,
   // Ages and the controller clock's check are on the host's monotonic clock, read once here: a
   // step of the real-time clock (NTP, an operator) never makes an old sample fresh (issue 26).
   const std::int64_t mono_now = options_.mono_now_us();
+  Compensation* comp = acquireParameters();
+  beginRecord(robot, now);
+  const bool robot_ok = checkRobotState(robot);
+  const bool clock_sane = checkControllerClock(robot, robot_ok, mono_now);
+  pairSensorSample(robot, now);
+  const bool sample_fresh = checkSensorSample(mono_now);
+  compensate(robot, comp, robot_ok && clock_sane && record_.sensor.valid && sample_fresh);
+  applyOutputStage();
+  countAndTare();
+  publish(now, out);
+}
+
+// Takes new parameters into use if a reload posted them; returns the set in use (nullptr: none).
+Compensation* DaemonCycle::acquireParameters() noexcept {
   if (params_->tryAcquire() != nullptr) {
     counters_.param_swaps.fetch_add(1, std::memory_order_relaxed);
   }
-  Compensation* comp = params_->current();
+  return params_->current();
+}
 
+// Starts this cycle's record: times, cycle number, the robot state as received, no faults yet.
+void DaemonCycle::beginRecord(const RobotStateRecord& robot, std::int64_t now) noexcept {
   CycleRecord& rec = record_;
   rec.utime = now;
   rec.cycle = cycle_number_++;
   rec.robot = robot;
   rec.fault_bits = 0;
   rec.param_version = static_cast<std::int32_t>(params_->version());
+}
 
-  // Robot state.
+// Robot state: usable (valid, finite) or flagged kFaultRobotStopped, as is an arm that reports
+// itself stopped. Returns whether the state is usable.
+bool DaemonCycle::checkRobotState(const RobotStateRecord& robot) noexcept {
+  CycleRecord& rec = record_;
   const bool robot_ok = robotUsable(robot);
   rec.robot.valid = robot_ok;
   if (!robot_ok) {
@@ -170,8 +191,14 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     counters_.invalid_robot.fetch_add(1, std::memory_order_relaxed);
   }
   if (arm_ != nullptr && arm_->robotStopped()) rec.fault_bits |= kFaultRobotStopped;
-  // The controller's clock against the host's monotonic clock (issue 26): stopped, jumping or
-  // running at a wrong rate, the pairing below would pick samples of the wrong time.
+  return robot_ok;
+}
+
+// The controller's clock against the host's monotonic clock (issue 26): stopped, jumping or
+// running at a wrong rate, the pairing would pick samples of the wrong time. Returns its sanity.
+bool DaemonCycle::checkControllerClock(const RobotStateRecord& robot, bool robot_ok,
+                                       std::int64_t mono_now) noexcept {
+  CycleRecord& rec = record_;
   const bool clock_sane = clock_check_.update(robot.robot_time, mono_now);
   counters_.robot_clock_faults.store(clock_check_.faults(), std::memory_order_relaxed);
   if (robot_ok && !clock_sane) {
@@ -181,10 +208,15 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     rec.fault_bits |= kFaultRobotClock;
     counters_.robot_clock_invalid.fetch_add(1, std::memory_order_relaxed);
   }
+  return clock_sane;
+}
 
-  // Sensor: every new sample into the history; latest_ is the newest with the driver's flags.
+// Sensor: every new sample into the history (latest_ is the newest with the driver's flags),
+// then rec.sensor = the sample at the robot state's time on the host clock (interpolated), else
+// the newest.
+void DaemonCycle::pairSensorSample(const RobotStateRecord& robot, std::int64_t now) noexcept {
+  CycleRecord& rec = record_;
   sensor_->drain(now, &history_, &latest_);
-  // The sample at the robot state's time on the host clock (interpolated), else the newest.
   SensorPairing pairing = SensorPairing::kNone;
   std::int64_t reach_us = 0;
   last_pair_time_us_ = 0;
@@ -208,10 +240,16 @@ void DaemonCycle::step(const RobotStateRecord& robot,
       counters_.sensor_one_sided.fetch_add(1, std::memory_order_relaxed);
     }
   }
+}
+
+// Flags the paired sample stale or invalid (then rec.sensor.valid is false and a sensor fault is
+// raised). Returns whether it is fresh: age on the monotonic clock within stale_timeout_us.
+bool DaemonCycle::checkSensorSample(std::int64_t mono_now) noexcept {
+  CycleRecord& rec = record_;
   // Stale: no sample ever (or its receipt unknown), or the newest one older than the timeout at
   // the start of the cycle on the monotonic clock (the rule before pairing); the pairing itself
-  // (reach_us above) adds the samples' distance from the robot state's time.
-  // A sample completed by the drain above, after mono_now was read, is of age 0.
+  // (reach_us in pairSensorSample) adds the samples' distance from the robot state's time.
+  // A sample completed by the drain, after mono_now was read, is of age 0.
   rec.sensor_age_us = -1;
   if (rec.sensor.recv_mono_us > 0) {
     rec.sensor_age_us = std::max<std::int64_t>(0, mono_now - rec.sensor.recv_mono_us);
@@ -242,61 +280,95 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     rec.fault_bits |= kFaultSensorStale;
     counters_.stale_sensor.fetch_add(1, std::memory_order_relaxed);
   }
+  return sample_fresh;
+}
 
-  // Compensation, only from valid inputs.
+// Compensation, only from valid inputs: rec.contact_S and rec.modelled_S, else zero and
+// wrench_valid = false.
+void DaemonCycle::compensate(const RobotStateRecord& robot, Compensation* comp,
+                             bool inputs_valid) noexcept {
+  CycleRecord& rec = record_;
   rec.wrench_valid = false;
   rec.modelled_S.setZero();
   rec.contact_S.setZero();
   if (comp == nullptr) {
     counters_.no_parameters.fetch_add(1, std::memory_order_relaxed);
-  } else if (robot_ok && clock_sane && rec.sensor.valid && sample_fresh) {
-    // Sample time t: the robot clock since the session's anchor, re-anchored when the controller
-    // clock goes back (a controller reboot; a repeated time keeps the anchor) so it never runs
-    // negative (the compensator restarts its delay line when t does not advance).
-    if (!have_first_time_ || !(robot.robot_time >= last_robot_time_)) {
-      first_robot_time_ = robot.robot_time;
-      have_first_time_ = true;
-    }
-    last_robot_time_ = robot.robot_time;
-    // The model's time (docs/conventions.md, "Time and logs"): the host's UTC receive time of the
-    // state minus the parameter set's time origin, else minus the first valid cycle's (kept over
-    // reconnects and controller reboots: the host clock does not reset with the controller).
-    const double host_time_s = hostTimeSeconds(robot.recv_utime);
-    if (!have_first_host_time_) {
-      first_host_time_s_ = host_time_s;
-      have_first_host_time_ = true;
-    }
-    const double origin_s = comp->timeOriginUnixS();
-    const double t_model = host_time_s - (std::isfinite(origin_s) ? origin_s : first_host_time_s_);
-    const model::SensorMotion m = motion_->computeSensorMotion(robot.q, robot.qd, robot.qdd);
-    samples::SensorReading reading;
-    reading.wrench_S = rec.sensor.wrench_S;
-    reading.has_imu = rec.sensor.has_imu;
-    reading.imu_acc_S = rec.sensor.imu_acc_S;
-    reading.imu_w_S = rec.sensor.imu_w_S;
-    reading.imu_alpha_S = rec.sensor.imu_alpha_S;
-    reading.has_temp = rec.sensor.has_temp;
-    reading.temp_degC = rec.sensor.temp_degC;
-    samples::makeSampleContext(robot.robot_time - first_robot_time_, t_model, robot.q, robot.qd, m, reading,
-                               model::gravityInBase(comp->tiltU(), comp->tiltV()), &ctx_);
-    Wrench contact;
-    Wrench modelled;
-    const bool ok = comp->compute(ctx_, &contact, &modelled) && contact.allFinite() &&
-                    modelled.allFinite();
-    if (ok) {
-      rec.contact_S = contact;
-      rec.modelled_S = modelled;
-      rec.wrench_valid = true;
-      if (monitor_link_ != nullptr) {
-        monitor_link_->handOver(MonitorInput{compensate::monitorSample(ctx_, contact), rec.param_version});
-      }
-    } else {
-      counters_.model_failures.fetch_add(1, std::memory_order_relaxed);
-      rec.fault_bits |= kFaultSensorInvalid;
-    }
+  } else if (inputs_valid) {
+    const double t_s = sampleTimeS(robot);
+    const double t_model_s = modelTimeS(robot, *comp);
+    makeContext(robot, *comp, t_s, t_model_s);
+    computeContact(comp);
   }
+}
 
-  // Output stage: the contact wrench in the configured frame, filtered (docs/daemon.md).
+// Sample time t [s]: the robot clock since the session's anchor, re-anchored when the controller
+// clock goes back (a controller reboot; a repeated time keeps the anchor) so it never runs
+// negative (the compensator restarts its delay line when t does not advance).
+double DaemonCycle::sampleTimeS(const RobotStateRecord& robot) noexcept {
+  if (!have_first_time_ || !(robot.robot_time >= last_robot_time_)) {
+    first_robot_time_ = robot.robot_time;
+    have_first_time_ = true;
+  }
+  last_robot_time_ = robot.robot_time;
+  return robot.robot_time - first_robot_time_;
+}
+
+// The model's time [s] (docs/conventions.md, "Time and logs"): the host's UTC receive time of the
+// state minus the parameter set's time origin, else minus the first valid cycle's (kept over
+// reconnects and controller reboots: the host clock does not reset with the controller).
+double DaemonCycle::modelTimeS(const RobotStateRecord& robot, const Compensation& comp) noexcept {
+  const double host_time_s = hostTimeSeconds(robot.recv_utime);
+  if (!have_first_host_time_) {
+    first_host_time_s_ = host_time_s;
+    have_first_host_time_ = true;
+  }
+  const double origin_s = comp.timeOriginUnixS();
+  return host_time_s - (std::isfinite(origin_s) ? origin_s : first_host_time_s_);
+}
+
+// ctx_ from the joint state (sensor motion by kinematics), the paired sensor reading and gravity
+// in the base frame for the parameters' tilt.
+void DaemonCycle::makeContext(const RobotStateRecord& robot, const Compensation& comp, double t_s,
+                              double t_model_s) noexcept {
+  const CycleRecord& rec = record_;
+  const model::SensorMotion m = motion_->computeSensorMotion(robot.q, robot.qd, robot.qdd);
+  samples::SensorReading reading;
+  reading.wrench_S = rec.sensor.wrench_S;
+  reading.has_imu = rec.sensor.has_imu;
+  reading.imu_acc_S = rec.sensor.imu_acc_S;
+  reading.imu_w_S = rec.sensor.imu_w_S;
+  reading.imu_alpha_S = rec.sensor.imu_alpha_S;
+  reading.has_temp = rec.sensor.has_temp;
+  reading.temp_degC = rec.sensor.temp_degC;
+  samples::makeSampleContext(t_s, t_model_s, robot.q, robot.qd, m, reading,
+                             model::gravityInBase(comp.tiltU(), comp.tiltV()), &ctx_);
+}
+
+// The compensation of ctx_: contact_S = measured - modelled_S, both finite, into the record (and
+// to the payload monitor); a failure counts as a model failure and an invalid sensor.
+void DaemonCycle::computeContact(Compensation* comp) noexcept {
+  CycleRecord& rec = record_;
+  Wrench contact;
+  Wrench modelled;
+  const bool ok = comp->compute(ctx_, &contact, &modelled) && contact.allFinite() &&
+                  modelled.allFinite();
+  if (ok) {
+    rec.contact_S = contact;
+    rec.modelled_S = modelled;
+    rec.wrench_valid = true;
+    if (monitor_link_ != nullptr) {
+      monitor_link_->handOver(MonitorInput{compensate::monitorSample(ctx_, contact), rec.param_version});
+    }
+  } else {
+    counters_.model_failures.fetch_add(1, std::memory_order_relaxed);
+    rec.fault_bits |= kFaultSensorInvalid;
+  }
+}
+
+// Output stage: the contact wrench in the configured frame, filtered (docs/daemon.md); without
+// one, the contact wrench in S.
+void DaemonCycle::applyOutputStage() noexcept {
+  CycleRecord& rec = record_;
   if (output_stage_ != nullptr) {
     rec.output = output_stage_->process(rec.contact_S, ctx_.R_BS, rec.wrench_valid);
     rec.output_frame = static_cast<std::int8_t>(output_stage_->frame());
@@ -304,18 +376,27 @@ void DaemonCycle::step(const RobotStateRecord& robot,
     rec.output = rec.contact_S;
     rec.output_frame = 0;
   }
+}
 
+// Counts the cycle valid or invalid and feeds the tare window (docs/daemon.md, "Tare"): a new
+// request starts it; the result goes back off the loop.
+void DaemonCycle::countAndTare() noexcept {
+  const CycleRecord& rec = record_;
   if (rec.wrench_valid) {
     counters_.valid.fetch_add(1, std::memory_order_relaxed);
   } else {
     counters_.invalid.fetch_add(1, std::memory_order_relaxed);
   }
-  // Tare window (docs/daemon.md, "Tare"): a new request starts it; the result goes back off the loop.
   if (tare_requests_ != nullptr) {
     if (tare_requests_->tryPop(&tare_request_)) tare_.start(tare_request_);
     if (tare_.add(rec, &tare_result_)) tare_results_->tryPush(tare_result_);
   }
+}
 
+// Hands the record to the sink (a refusal is kFaultPublishDropped), raises its faults, and
+// updates the heartbeat counters; *out gets a copy.
+void DaemonCycle::publish(std::int64_t now, CycleRecord* out) noexcept {
+  CycleRecord& rec = record_;
   // The payload monitor's flags ride on every wrench; they are no faults (docs/daemon.md).
   if (monitor_link_ != nullptr) rec.fault_bits |= monitor_link_->flags();
   if (sink_ != nullptr && !sink_->tryPush(rec)) {

@@ -174,6 +174,21 @@ struct RunCycle {
   }
 
   rt::CycleAction onTick() noexcept {
+    RecordedTick tick = beginTick();
+    const ArmState& s = state;
+    rt::CycleAction action = checkArmState(s);
+    if (action == rt::CycleAction::kStop) return finishTick(tick, action);
+    if (!advanceArming(s, &action)) return finishTick(tick, action);
+    JointVector target = q_a1;
+    action = stepPhase(s, &target);
+    progress.phase.store(static_cast<int>(phase), std::memory_order_relaxed);
+    if (phase != Phase::kStopping) action = sendTarget(target, action, &tick);
+    return finishTick(tick, action);
+  }
+
+  /// Counts the tick (with the packages the controller skipped) and starts its record: the state,
+  /// the phase, no command yet, and the trajectory time once the excitation has started.
+  RecordedTick beginTick() noexcept {
     // The gap between the last state read before the loop (readiness) and the loop's first state
     // is set-up time on the calling thread, not a loss: nothing is streamed and the arm rests.
     if (ticks_seen == 0) state.packages_skipped = 0;
@@ -184,7 +199,19 @@ struct RunCycle {
     tick.phase = phase;
     tick.q_command.setConstant(std::numeric_limits<double>::quiet_NaN());
     if (phase == Phase::kExcite || phase == Phase::kFinish) tick.t_traj = s.timestamp - excite_t0;
+    return tick;
+  }
 
+  /// Records the tick, hands it to the hook and returns the cycle's action.
+  rt::CycleAction finishTick(const RecordedTick& tick, rt::CycleAction action) noexcept {
+    record(tick);
+    if (hook) hook(hook_context, tick);
+    return action;
+  }
+
+  /// Stops (fail) on an operator abort, a safety stop, a robot mode or program change, too many
+  /// lost packages or (if configured) speed scaling; else kContinue.
+  rt::CycleAction checkArmState(const ArmState& s) noexcept {
     rt::CycleAction action = rt::CycleAction::kContinue;
     if (abort && abort->load(std::memory_order_relaxed)) {
       action = fail(RunStatus::kAborted);
@@ -204,118 +231,135 @@ struct RunCycle {
     } else if (cfg.abort_on_speed_scaling && s.speed_scaling < 0.99) {
       action = fail(RunStatus::kSpeedScaled, -1, s.speed_scaling, 1.0);
     }
-    if (action == rt::CycleAction::kStop) {
-      record(tick);
-      if (hook) hook(hook_context, tick);
-      return action;
-    }
-
-    if (arming != Arming::kArmed) {
-      // No servo target before the program confirmed its watchdog (the arm rests meanwhile).
-      if (arming == Arming::kRequest && s.script_state == drivers::ur::kScriptDone) arming = Arming::kClear;
-      if (arming == Arming::kClear && s.script_state == drivers::ur::kScriptReady) arming = Arming::kArmed;
-      if (arming != Arming::kArmed) {
-        if (ticks_seen > arm_timeout_ticks) {
-          action = fail(RunStatus::kWatchdogNotArmed, -1, 0.0, 0.0, s.script_state);
-        } else if (sendArmingStep() != Status::kOk) {
-          action = fail(RunStatus::kConnectionLost);
-        }
-        record(tick);
-        if (hook) hook(hook_context, tick);
-        return action;
-      }
-    }
-
-    JointVector target = q_a1;
-    switch (phase) {
-      case Phase::kApproach: {
-        if (approach_t0 < 0) approach_t0 = s.timestamp;
-        const double tau = s.timestamp + period - approach_t0;
-        if (tau >= approach_T) {
-          target = q_a1;
-          phase = Phase::kSettle;
-          settle_start = s.timestamp;
-        } else {
-          target = q_a0 + (q_a1 - q_a0) * quintic(tau / approach_T);
-        }
-        break;
-      }
-      case Phase::kSettle: {
-        target = q_a1;
-        const double err = (s.q - q_a1).cwiseAbs().maxCoeff();
-        if (err < cfg.start_tolerance) {
-          phase = Phase::kExcite;
-          excite_t0 = s.timestamp + period;  // the target sent now is applied at the next tick
-          traj.sample(0.0, &target);
-          sent_tn = 0.0;
-        } else if (s.timestamp - settle_start > cfg.settle_timeout) {
-          int j = 0;
-          (s.q - q_a1).cwiseAbs().maxCoeff(&j);
-          action = fail(RunStatus::kTrackingError, j, err, cfg.start_tolerance, 1);
-        }
-        break;
-      }
-      case Phase::kExcite: {
-        const double tt = s.timestamp - excite_t0;
-        if (tt >= 0.0) {
-          // The tracking error is measured against what the arm was commanded: the trajectory at
-          // the time of the last target sent, not beyond it. After a host stall (no target for a
-          // few ticks, the controller holding the last one) the trajectory's time ran on while
-          // the arm rightly stayed at the last target; that lag, |qd| x stall, is the host's and
-          // aborted the demo's identification on a loaded machine (issue 26). An arm that does
-          // not follow its commands (blocked, collided, too slow) deviates from them and still
-          // aborts at once, on the first tick beyond the limit.
-          JointVector q_ref;
-          traj.sample(sent_tn >= 0.0 ? std::min(tt, sent_tn) : tt, &q_ref);
-          int j = 0;
-          const double err = (s.q - q_ref).cwiseAbs().maxCoeff(&j);
-          if (err > max_tracking) max_tracking = err;
-          if (err > cfg.tracking_error_limit) {
-            action = fail(RunStatus::kTrackingError, j, err, cfg.tracking_error_limit, 0);
-            break;
-          }
-        }
-        const double tn = s.timestamp + period - excite_t0;
-        if (tn >= traj.duration()) {
-          traj.sample(traj.duration(), &target);
-          q_end = target;
-          phase = Phase::kFinish;
-          finish_start = s.timestamp;
-        } else {
-          traj.sample(tn, &target);
-          sent_tn = tn;
-        }
-        progress.elapsed.store(tn < traj.duration() ? tn : traj.duration(), std::memory_order_relaxed);
-        break;
-      }
-      case Phase::kFinish:
-        target = q_end;
-        if (s.timestamp - finish_start >= cfg.settle_time) action = rt::CycleAction::kStop;
-        break;
-      case Phase::kStopping:
-        action = rt::CycleAction::kStop;
-        break;
-    }
-    progress.phase.store(static_cast<int>(phase), std::memory_order_relaxed);
-    if (phase != Phase::kStopping) {
-      const Status st = arm.sendServoTarget(target);
-      if (st == Status::kRejected) {
-        int j = -1;
-        for (int i = 0; i < kNumJoints; ++i) {
-          if (!std::isfinite(target[i])) j = i;
-        }
-        action = fail(RunStatus::kTargetRejected, j, 0.0, 0.0, 0);
-      } else if (st != Status::kOk) {
-        action = fail(RunStatus::kConnectionLost);
-      } else {
-        tick.q_command = target;
-      }
-    }
-    record(tick);
-    if (hook) hook(hook_context, tick);
     return action;
   }
 
+  /// Advances the watchdog arming by the program's script register. Returns true once armed;
+  /// until then no servo target is sent (the arm rests): the current arming step is, or *action
+  /// fails after arm_timeout_ticks or on a lost connection.
+  bool advanceArming(const ArmState& s, rt::CycleAction* action) noexcept {
+    if (arming == Arming::kArmed) return true;
+    if (arming == Arming::kRequest && s.script_state == drivers::ur::kScriptDone) arming = Arming::kClear;
+    if (arming == Arming::kClear && s.script_state == drivers::ur::kScriptReady) arming = Arming::kArmed;
+    if (arming == Arming::kArmed) return true;
+    if (ticks_seen > arm_timeout_ticks) {
+      *action = fail(RunStatus::kWatchdogNotArmed, -1, 0.0, 0.0, s.script_state);
+    } else if (sendArmingStep() != Status::kOk) {
+      *action = fail(RunStatus::kConnectionLost);
+    }
+    return false;
+  }
+
+  /// The target of the current phase for the next tick (*target, q_a1 unless the phase sets it),
+  /// moving on to the next phase when this one is done. Returns kStop when the run ends.
+  rt::CycleAction stepPhase(const ArmState& s, JointVector* target) noexcept {
+    switch (phase) {
+      case Phase::kApproach:
+        approachTarget(s, target);
+        return rt::CycleAction::kContinue;
+      case Phase::kSettle:
+        return settleTarget(s, target);
+      case Phase::kExcite:
+        return exciteTarget(s, target);
+      case Phase::kFinish:
+        *target = q_end;
+        return s.timestamp - finish_start >= cfg.settle_time ? rt::CycleAction::kStop
+                                                              : rt::CycleAction::kContinue;
+      case Phase::kStopping:
+        return rt::CycleAction::kStop;
+    }
+    return rt::CycleAction::kContinue;
+  }
+
+  /// Approach: q_a0 + (q_a1 - q_a0) * quintic(tau / approach_T) at tau = t + period since the
+  /// first tick; at tau >= approach_T the target is q_a1 and the arm settles.
+  void approachTarget(const ArmState& s, JointVector* target) noexcept {
+    if (approach_t0 < 0) approach_t0 = s.timestamp;
+    const double tau = s.timestamp + period - approach_t0;
+    if (tau >= approach_T) {
+      *target = q_a1;
+      phase = Phase::kSettle;
+      settle_start = s.timestamp;
+    } else {
+      *target = q_a0 + (q_a1 - q_a0) * quintic(tau / approach_T);
+    }
+  }
+
+  /// Settle: holds q_a1 until every joint is within start_tolerance, then sends the trajectory's
+  /// t = 0 (the excitation starts); fails after settle_timeout.
+  rt::CycleAction settleTarget(const ArmState& s, JointVector* target) noexcept {
+    *target = q_a1;
+    const double err = (s.q - q_a1).cwiseAbs().maxCoeff();
+    if (err < cfg.start_tolerance) {
+      phase = Phase::kExcite;
+      excite_t0 = s.timestamp + period;  // the target sent now is applied at the next tick
+      traj.sample(0.0, target);
+      sent_tn = 0.0;
+    } else if (s.timestamp - settle_start > cfg.settle_timeout) {
+      int j = 0;
+      (s.q - q_a1).cwiseAbs().maxCoeff(&j);
+      return fail(RunStatus::kTrackingError, j, err, cfg.start_tolerance, 1);
+    }
+    return rt::CycleAction::kContinue;
+  }
+
+  /// The tracking error max_j |q_j - q_ref_j| at trajectory time tt (kept in max_tracking); fails
+  /// (kStop) beyond tracking_error_limit.
+  rt::CycleAction checkTracking(const ArmState& s, double tt) noexcept {
+    // The tracking error is measured against what the arm was commanded: the trajectory at
+    // the time of the last target sent, not beyond it. After a host stall (no target for a
+    // few ticks, the controller holding the last one) the trajectory's time ran on while
+    // the arm rightly stayed at the last target; that lag, |qd| x stall, is the host's and
+    // aborted the demo's identification on a loaded machine (issue 26). An arm that does
+    // not follow its commands (blocked, collided, too slow) deviates from them and still
+    // aborts at once, on the first tick beyond the limit.
+    JointVector q_ref;
+    traj.sample(sent_tn >= 0.0 ? std::min(tt, sent_tn) : tt, &q_ref);
+    int j = 0;
+    const double err = (s.q - q_ref).cwiseAbs().maxCoeff(&j);
+    if (err > max_tracking) max_tracking = err;
+    if (err > cfg.tracking_error_limit) {
+      return fail(RunStatus::kTrackingError, j, err, cfg.tracking_error_limit, 0);
+    }
+    return rt::CycleAction::kContinue;
+  }
+
+  /// Sends the target; a rejected one (the joint of a non-finite value, if any) or a lost
+  /// connection fails the run, else the tick records it as its command. Returns the action.
+  rt::CycleAction sendTarget(const JointVector& target, rt::CycleAction action, RecordedTick* tick) noexcept {
+    const Status st = arm.sendServoTarget(target);
+    if (st == Status::kRejected) {
+      int j = -1;
+      for (int i = 0; i < kNumJoints; ++i) {
+        if (!std::isfinite(target[i])) j = i;
+      }
+      action = fail(RunStatus::kTargetRejected, j, 0.0, 0.0, 0);
+    } else if (st != Status::kOk) {
+      action = fail(RunStatus::kConnectionLost);
+    } else {
+      tick->q_command = target;
+    }
+    return action;
+  }
+
+  /// Excitation: checks the tracking, then targets the trajectory at tn = t + period - excite_t0
+  /// (its end pose, and the finish, at tn >= duration); publishes the elapsed trajectory time.
+  rt::CycleAction exciteTarget(const ArmState& s, JointVector* target) noexcept {
+    const double tt = s.timestamp - excite_t0;
+    if (tt >= 0.0 && checkTracking(s, tt) == rt::CycleAction::kStop) return rt::CycleAction::kStop;
+    const double tn = s.timestamp + period - excite_t0;
+    if (tn >= traj.duration()) {
+      traj.sample(traj.duration(), target);
+      q_end = *target;
+      phase = Phase::kFinish;
+      finish_start = s.timestamp;
+    } else {
+      traj.sample(tn, target);
+      sent_tn = tn;
+    }
+    progress.elapsed.store(tn < traj.duration() ? tn : traj.duration(), std::memory_order_relaxed);
+    return rt::CycleAction::kContinue;
+  }
   /// After the loop: keep reading until the arm rests (bounded), recording the stop.
   void drainStop() noexcept {
     const std::int64_t deadline = rt::monotonicNs() + static_cast<std::int64_t>(cfg.stop_timeout * 1e9);

@@ -212,6 +212,24 @@ class DaemonCycle {
 
  private:
   void awaitBracketingSample() noexcept;
+  // The steps of step(), in order (daemon_cycle.cpp); each works on record_.
+  Compensation* acquireParameters() noexcept;
+  void beginRecord(const RobotStateRecord& robot, std::int64_t now) noexcept;
+  bool checkRobotState(const RobotStateRecord& robot) noexcept;
+  bool checkControllerClock(const RobotStateRecord& robot, bool robot_ok,
+                            std::int64_t mono_now) noexcept;
+  void pairSensorSample(const RobotStateRecord& robot, std::int64_t now) noexcept;
+  bool checkSensorSample(std::int64_t mono_now) noexcept;
+  void compensate(const RobotStateRecord& robot, Compensation* comp, bool inputs_valid) noexcept;
+  double sampleTimeS(const RobotStateRecord& robot) noexcept;
+  double modelTimeS(const RobotStateRecord& robot, const Compensation& comp) noexcept;
+  void makeContext(const RobotStateRecord& robot, const Compensation& comp, double t_s,
+                   double t_model_s) noexcept;
+  void computeContact(Compensation* comp) noexcept;
+  void applyOutputStage() noexcept;
+  void countAndTare() noexcept;
+  void publish(std::int64_t now, CycleRecord* out) noexcept;
+
   MonitorLink* monitor_link_ = nullptr;
 
   ArmStateSource* arm_;
