@@ -65,58 +65,75 @@ bool CommandQueue::pop(ftid_lcm::command_t* c) {
 
 DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOptions& options)
     : cfg(config) {
-  // Real-time set-up of the process.
+  setUpRealtime();
+  setUpCompensation();
+  loadFirstParameters();
+  setUpOutbox(options);
+  setUpCommands();
+  if (!out_opt.record_path.empty()) logLine("recording to " + out_opt.record_path);
+  openSensor(options.connect_timeout_s);
+  setUpCycle();
+  setUpMonitor();
+  setUpLoopTiming();
+}
+
+void DaemonSetup::setUpRealtime() {
   rt_cfg.enable = true;
   rt_cfg.require = cfg.rt.require_rt;
   rt_cfg.priority = cfg.rt.priority;
   rt_cfg.cpu = cfg.rt.cpu;
   rt_cfg.lock_memory = cfg.rt.lock_memory;
   if (cfg.rt.lock_memory) rt::lockProcessMemory(rt_cfg, &rt_report);
+}
 
-  // Math: kinematics with the sensor mount; the compensation from the parameter file.
+void DaemonSetup::setUpCompensation() {
   model::RobotKinematics kinematics = model::RobotKinematics::fromUrdfFile(
       cfg.robot.urdf_path, cfg.robot.base_link, cfg.robot.tip_link);
   kinematics.setSensorMount(cfg.sensor.R_FS(), cfg.sensor.p_FS_F());
   motion = std::make_unique<KinematicsMotionModel>(std::move(kinematics));
   limits = plausibilityLimits(cfg);
-  const CompensationFactory factory = [this](const std::string& path) -> std::unique_ptr<Compensation> {
-    LoadedParameters lp = loadParameters(path, apply_tare);
-    requirePlausible(lp.set, limits, path);
-    auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path, motionSource(cfg));
-    if ((effects::Model::fromName(lp.set.model).signals() & effects::kSignalTime) != 0 &&
-        !std::isfinite(lp.set.time_origin_unix_s)) {
-      logLine(path + ": model '" + lp.set.model + "' reads time but the file has no time_origin (written "
-              "before time origins, or identified from a log without host_time): its time runs from ftidd's "
-              "first valid cycle (docs/conventions.md, \"Time and logs\")");
-    }
-    built = std::move(lp);
-    return comp;
-  };
+  const CompensationFactory factory = [this](const std::string& path) { return buildCompensation(path); };
   reloader = std::make_unique<ParameterReloader>(&params, factory);
   checkSensorDescription(cfg);  // a sensor without the IMU that motion_source needs: a set-up error
   if (motionSource(cfg) == compensate::MotionSource::kImu) {
     logLine("compensating with the motion of the sensor from its IMU (sensor.motion_source: imu): a cycle "
             "without an IMU sample is invalid");
   }
-  {
-    const ReloadResult first = reloader->reload(cfg.parameters.path, std::chrono::milliseconds(0));
-    if (!first.ok) {
-      if (cfg.parameters.required) throw ConfigError(first.message);
-      ++reloads_failed;
-      logLine("no payload parameters (" + first.message +
-              "): publishing the raw wrench with valid = false until a reload succeeds");
-    } else {
-      params.tryAcquire();  // the loop is not running yet: take it into use here
-      params.collectRetired();
-      active = built;
-      have_active = true;
-      logLine("payload parameters loaded from " + cfg.parameters.path +
-              (active.tared ? " with the tared offsets of " + tareStatePath(cfg.parameters.path) : ""));
-      if (!active.note.empty()) logLine(active.note);
-    }
-  }
+}
 
-  // Publishing.
+std::unique_ptr<Compensation> DaemonSetup::buildCompensation(const std::string& path) {
+  LoadedParameters lp = loadParameters(path, apply_tare);
+  requirePlausible(lp.set, limits, path);
+  auto comp = std::make_unique<ParameterFileCompensation>(lp.set, path, motionSource(cfg));
+  if ((effects::Model::fromName(lp.set.model).signals() & effects::kSignalTime) != 0 &&
+      !std::isfinite(lp.set.time_origin_unix_s)) {
+    logLine(path + ": model '" + lp.set.model + "' reads time but the file has no time_origin (written "
+            "before time origins, or identified from a log without host_time): its time runs from ftidd's "
+            "first valid cycle (docs/conventions.md, \"Time and logs\")");
+  }
+  built = std::move(lp);
+  return comp;
+}
+
+void DaemonSetup::loadFirstParameters() {
+  const ReloadResult first = reloader->reload(cfg.parameters.path, std::chrono::milliseconds(0));
+  if (!first.ok) {
+    if (cfg.parameters.required) throw ConfigError(first.message);
+    ++reloads_failed;
+    logLine("no payload parameters (" + first.message +
+            "): publishing the raw wrench with valid = false until a reload succeeds");
+    return;
+  }
+  params.tryAcquire();  // the loop is not running yet: take it into use here
+  params.collectRetired();
+  active = built;
+  have_active = true;
+  logLine("payload parameters loaded from " + cfg.parameters.path +
+          (active.tared ? " with the tared offsets of " + tareStatePath(cfg.parameters.path) : ""));
+  if (!active.note.empty()) logLine(active.note);
+}
+
+void DaemonSetup::setUpOutbox(const DaemonRunOptions& options) {
   out_opt.url = cfg.lcm.url;
   out_opt.channels.cycle = cfg.lcm.channels.cycle;
   out_opt.channels.wrench = cfg.lcm.channels.wrench;
@@ -138,7 +155,10 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
     }
   }
   outbox = std::make_unique<transport::LcmOutbox>(out_opt);
-  // Commands: authenticated with the shared key (docs/operations.md, "Network and commands").
+}
+
+// Commands: authenticated with the shared key (docs/operations.md, "Network and commands").
+void DaemonSetup::setUpCommands() {
   transport::CommandKey command_key;
   try {
     command_key = transport::loadCommandKey(cfg.lcm.command_key_path);
@@ -148,25 +168,27 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   }
   verifier = std::make_unique<transport::CommandVerifier>(std::move(command_key), transport::realtimeUs());
   outbox->setCommandHandler(&CommandQueue::push, &commands);
-  if (!out_opt.record_path.empty()) logLine("recording to " + out_opt.record_path);
+}
 
-  // Devices. The sensor (a local device or socket) is retried for --connect-timeout with the
-  // reconnect backoff and is required at start. The robot is not: the loop owner's link thread
-  // connects to it (the same checks and backoff as for a reconnect), so a cell PC that boots
-  // before the controller runs ftidd, publishing valid = false until the robot answers.
+// The sensor (a local device or socket) is retried for --connect-timeout with the reconnect
+// backoff and is required at start. The robot is not: the loop owner's link thread connects to it
+// (the same checks and backoff as for a reconnect), so a cell PC that boots before the controller
+// runs ftidd, publishing valid = false until the robot answers.
+void DaemonSetup::openSensor(double connect_timeout_s) {
   const BackoffPolicy backoff{cfg.robot.reconnect_backoff_min_s, cfg.robot.reconnect_backoff_max_s, 2.0};
   can_cfg.endpoint = cfg.sensor.transport == "socketcan" ? "socketcan:" + cfg.sensor.can_interface
                                                           : "seqpacket:" + cfg.sensor.socket_path;
   can_cfg.dbc_path = cfg.sensor.dbc_path;
   can_cfg.health.stale_timeout_ns = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1e6);
   sensor = std::make_unique<CanSensorSource>(
-      retryUntil(options.connect_timeout_s, backoff, "the sensor at " + can_cfg.endpoint,
+      retryUntil(connect_timeout_s, backoff, "the sensor at " + can_cfg.endpoint,
                  [&] { return drivers::can::openCanSensor(can_cfg); }),
       can_cfg.health);
   logLine("sensor " + can_cfg.endpoint + " open, LCM " + cfg.lcm.url + "; the robot " + cfg.robot.host +
           ":" + std::to_string(cfg.robot.rtde_port) + " is connected by the link thread");
+}
 
-  // The loop.
+void DaemonSetup::setUpCycle() {
   sink = std::make_unique<OutboxSink>(outbox.get());
   CycleOptions cycle_opt;
   cycle_opt.stale_timeout_us = static_cast<std::int64_t>(cfg.sensor.stale_timeout_ms * 1000.0);
@@ -183,16 +205,21 @@ DaemonSetup::DaemonSetup(const config::DaemonConfig& config, const DaemonRunOpti
   tare_requests = std::make_unique<rt::Mailbox<TareRequest>>();
   tare_results = std::make_unique<rt::Mailbox<TareResult>>();
   cycle->attachTare(tare_requests.get(), tare_results.get());
-  if (cfg.monitor.enabled) {
-    monitor_link = std::make_unique<MonitorLink>();
-    cycle->attachMonitor(monitor_link.get());
-    transport::LcmOutbox* box = outbox.get();
-    const std::string channel = cfg.monitor.channel;
-    payload_watch = std::make_unique<PayloadWatch>(
-        monitorSettings(cfg.monitor), cfg.monitor.publish_hz, monitor_link.get(),
-        [box, channel](const MonitorReport& report) { publishMonitorReport(box, channel, report); },
-        static_cast<std::size_t>(cfg.monitor.reidentify_window_s * cfg.robot.rtde_frequency_hz * 1.25) + 16);
-  }
+}
+
+void DaemonSetup::setUpMonitor() {
+  if (!cfg.monitor.enabled) return;
+  monitor_link = std::make_unique<MonitorLink>();
+  cycle->attachMonitor(monitor_link.get());
+  transport::LcmOutbox* box = outbox.get();
+  const std::string channel = cfg.monitor.channel;
+  payload_watch = std::make_unique<PayloadWatch>(
+      monitorSettings(cfg.monitor), cfg.monitor.publish_hz, monitor_link.get(),
+      [box, channel](const MonitorReport& report) { publishMonitorReport(box, channel, report); },
+      static_cast<std::size_t>(cfg.monitor.reidentify_window_s * cfg.robot.rtde_frequency_hz * 1.25) + 16);
+}
+
+void DaemonSetup::setUpLoopTiming() {
   loop_stats = std::make_unique<rt::LoopStats>();
   stats_box = std::make_unique<rt::Mailbox<rt::LoopStats>>();
   period_s = 1.0 / cfg.robot.rtde_frequency_hz;

@@ -102,6 +102,30 @@ struct DaemonSetup {
   rt::ExecutorConfig exec;
   double period_s = 0.008;
   double budget_us = 4000.0;  ///< computation time counted as an overrun [us]
+
+ private:
+  // The constructor's steps, in this order (each needs those before it).
+  /// rt_cfg from the rt section; locks the process memory if rt.lock_memory.
+  void setUpRealtime();
+  /// The kinematics with the sensor mount, the plausibility limits and the parameter reloader.
+  void setUpCompensation();
+  /// The reloader's factory: the compensation from a parameter file (with its tare), remembered in
+  /// `built`. Throws on a file that cannot be read or is not plausible.
+  std::unique_ptr<Compensation> buildCompensation(const std::string& path);
+  /// The first parameter load: active on success; a failure throws if parameters.required.
+  void loadFirstParameters();
+  /// out_opt (channels, source filter, recording path, checked writable) and the outbox.
+  void setUpOutbox(const DaemonRunOptions& options);
+  /// The command key (commands refused without one), the verifier and the command queue.
+  void setUpCommands();
+  /// can_cfg and the sensor, retried with the reconnect backoff for connect_timeout_s.
+  void openSensor(double connect_timeout_s);
+  /// The cycle with its sink, output stage and tare mailboxes.
+  void setUpCycle();
+  /// The payload monitor's link and watch, if monitor.enabled.
+  void setUpMonitor();
+  /// Loop statistics, the executor's period and miss limits, and the overrun budget.
+  void setUpLoopTiming();
 };
 
 }  // namespace ftid::daemon
