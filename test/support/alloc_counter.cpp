@@ -222,7 +222,9 @@ ScopedAllocationCounter::ScopedAllocationCounter() noexcept : start_(), start_to
   for (int k = 0; k < kKinds; ++k) start_[k] = t_count[k];
   ++t_active;
 }
-ScopedAllocationCounter::~ScopedAllocationCounter() { --t_active; }
+ScopedAllocationCounter::~ScopedAllocationCounter() {
+  if (std::this_thread::get_id() == owner_) --t_active;
+}
 std::size_t ScopedAllocationCounter::count() const noexcept { return t_total - start_total_; }
 std::size_t ScopedAllocationCounter::count(AllocKind kind) const noexcept {
   const int k = static_cast<int>(kind);

@@ -15,6 +15,7 @@
 // binary, one positive control per kind below (a deliberate allocation the counter must see, by the
 // entry point it went through).
 #include <cstddef>
+#include <thread>
 #include <vector>
 
 namespace ftid::test {
@@ -61,6 +62,11 @@ class ScopedAllocationCounter {
   std::size_t start_[static_cast<int>(AllocKind::kCount)];
   std::size_t start_total_;
   std::size_t start_frees_;
+  /// The thread it counts on. Destroyed on another thread (a fake's counter that outlives its
+  /// loop thread), it leaves that thread's counting alone: decrementing there used to switch off
+  /// every later counter of the destroying thread (the positive controls then failed when a
+  /// binary ran all its cases in one process).
+  std::thread::id owner_ = std::this_thread::get_id();
 };
 
 /// Total allocations counted on this thread while any counter was active.
