@@ -69,9 +69,9 @@ std::string whyNot(const std::vector<CandidateResult>& ranking) {
   return s;
 }
 
-}  // namespace
-
-std::string formatText(const AnalysisResult& r) {
+/// The summary: the model and its validation, led by any change in time, then how the noise floor
+/// was found, the glitches left out and any saturation.
+std::string summaryText(const AnalysisResult& r) {
   std::string s;
   s += line("model %s: %d fitting samples, %s", r.report.model.c_str(), r.n_samples,
             r.validate_log.empty() ? (std::to_string(r.folds) + "-fold held-out validation (contiguous time blocks)").c_str()
@@ -89,19 +89,37 @@ std::string formatText(const AnalysisResult& r) {
     s += line("glitches: %d isolated samples left out of every fit, at t = %s s", r.outliers.count, times.c_str());
   }
   s += detail::saturationText(r);  // saturation (issue 22)
-  s += "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
+  return s;
+}
+
+/// The held-out residual per axis against the noise floor, its spectrum and the reading's dynamics.
+std::string residualText(const AnalysisResult& r) {
+  std::string s = "\n" + axisTable(r.report.raw_rms, r.report.residual_rms, r.noise_floor);
   s += line("  (all residuals are held out: each block predicted by a fit that did not see it)");
   s += detail::spectrumText(r.spectrum);  // issue 22: sensor and mount dynamics
   if (r.dynamics.tested || !r.dynamics.note.empty()) s += dynamicsLine(r.dynamics, r.noise_floor) + "\n";
   if (!delayAgainstLagLine(r.dynamics).empty()) s += "  " + delayAgainstLagLine(r.dynamics) + "\n";
-  if (r.imu.used || !r.imu.not_used_reason.empty()) {  // issue 23: the IMU against the kinematics
-    s += "\nthe sensor's IMU against the kinematics" +
-         std::string(r.imu.used ? " and " + (r.final_report ? r.final_report->model : r.report.model) : "") + ":\n";
-    if (!r.imu.used) s += "  not checked: " + r.imu.not_used_reason + "\n";
-    if (r.imu.used) s += identify::formatImuEstimate(r.imu.estimate);
-    for (const auto& c : r.imu.comparisons) s += std::string(c.disagrees ? "  DISAGREE " : "  agree    ") + c.message + "\n";
-    if (!r.imu.tilt_not_compared.empty()) s += "  " + r.imu.tilt_not_compared + "\n";
-  }
+  return s;
+}
+
+/// The sensor's IMU against the kinematics (and the last model), or why it was not checked
+/// (issue 23); empty when there is neither.
+std::string imuText(const AnalysisResult& r) {
+  if (!r.imu.used && r.imu.not_used_reason.empty()) return {};
+  std::string s = "\nthe sensor's IMU against the kinematics" +
+                  std::string(r.imu.used ? " and " + (r.final_report ? r.final_report->model : r.report.model) : "") +
+                  ":\n";
+  if (!r.imu.used) s += "  not checked: " + r.imu.not_used_reason + "\n";
+  if (r.imu.used) s += identify::formatImuEstimate(r.imu.estimate);
+  for (const auto& c : r.imu.comparisons) s += std::string(c.disagrees ? "  DISAGREE " : "  agree    ") + c.message + "\n";
+  if (!r.imu.tilt_not_compared.empty()) s += "  " + r.imu.tilt_not_compared + "\n";
+  return s;
+}
+
+/// Where the model fails: the worst time windows, the signals the residual moves with and the
+/// extra log columns taken as signals.
+std::string whereItFailsText(const AnalysisResult& r) {
+  std::string s;
   if (!r.windows.empty()) {
     s += "\nwhere it fails (time windows with the largest held-out residual, x noise floor):\n";
     for (const auto& w : r.windows) {
@@ -121,6 +139,13 @@ std::string formatText(const AnalysisResult& r) {
     for (const auto& c : r.extra_signals) cols += (cols.empty() ? "" : ", ") + c;
     s += "extra log columns taken as signals (correlations; candidates payload(C), poly(C,1)): " + cols + "\n";
   }
+  return s;
+}
+
+/// The candidate effects under the one rule: the table of those tried, then the skipped ones and
+/// the refused (confounded) ones.
+std::string candidateTable(const AnalysisResult& r) {
+  std::string s;
   const int family = r.family_size;
   std::ostringstream margin;
   margin << 100.0 * r.heldout_margin;
@@ -131,12 +156,10 @@ std::string formatText(const AnalysisResult& r) {
             "large a gain from noise alone):",
             family, r.family_alpha, falls.c_str());
   s += line("  %-20s %9s  %-14s %s", "effect", "held-out", "family-wise p", "verdict");
-  int shown = 0;
   for (const auto& c : r.candidates) {
     if (c.skipped) continue;
     s += line("  %-20s %7.1f %%  %-14s %-16s %s", c.effect.c_str(), 100.0 * c.relative_reduction,
               pText(c.family_p).c_str(), verdictWord(c.verdict), c.description.c_str());
-    ++shown;
   }
   for (const auto& c : r.candidates) {
     if (c.skipped) s += line("  %-20s skipped: %s", c.effect.c_str(), c.note.c_str());
@@ -146,46 +169,66 @@ std::string formatText(const AnalysisResult& r) {
     s += "  " + c.effect + " is NOT recommended (refused): " + c.confound + ".\n";
     if (!c.separating_motion.empty()) s += "    what would resolve it: " + c.separating_motion + ".\n";
   }
+  return s;
+}
+
+/// The ranking's conclusion: a change in time, the missing effect (the best candidate when it is
+/// in the table and recommended) with the next command, or why nothing is missing.
+std::string missingEffectText(const AnalysisResult& r) {
+  const bool shown = std::any_of(r.candidates.begin(), r.candidates.end(),
+                                 [](const CandidateResult& c) { return !c.skipped; });
+  std::string s;
   if (!r.change_points.empty()) {
     s += "\nmissing effect: a change in time (see the top); the candidates above would only imitate the step\n";
-  } else if (shown > 0 && r.candidates.front().significant) {
+  } else if (shown && r.candidates.front().significant) {
     const auto& best = r.candidates.front();
     s += "\nmissing effect: " + best.effect + " - " + best.description + "\n";
     s += "next: " + best.next_command + "\n";
   } else {
     s += "\nnothing is missing: no candidate is recommended. Why each was not taken:\n" + whyNot(r.candidates);
   }
-  if (!r.steps.empty()) {
-    s += "\nexplain (forward selection with backward elimination under the rule; held-out residual RMS per axis):\n";
-    s += line("  %-4s %-22s %-40s %8s %8s %8s %8s %8s %8s %9s", "step", "change", "model", "fx", "fy", "fz", "tx", "ty",
-              "tz", "x noise");
-    for (std::size_t k = 0; k < r.steps.size(); ++k) {
-      const auto& st = r.steps[k];
-      const std::string change = !st.added.empty() ? "+" + st.added : (!st.removed.empty() ? "-" + st.removed : "start");
-      s += line("  %-4zu %-22s %-40s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %9.2f", k, change.c_str(), st.model.c_str(),
-                st.residual_rms(0), st.residual_rms(1), st.residual_rms(2), st.residual_rms(3), st.residual_rms(4),
-                st.residual_rms(5), st.total_ratio);
-    }
-    s += line("  noise floor                                                          %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f",
-              r.noise_floor(0), r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
-    const bool more = std::any_of(r.final_candidates.begin(), r.final_candidates.end(),
-                                  [](const CandidateResult& c) { return c.significant; });
-    std::string kept;
-    for (const auto& c : r.kept_unsupported) {
-      kept += std::string(kept.empty() ? "" : "; ") + c.effect + " (" + verdictWord(c.verdict) +
-              (c.reason.empty() ? "" : ": " + c.reason) + ")";
-    }
-    const std::string support =
-        kept.empty() ? "the rule supports each of its effects"
-                     : "the rule supports each of its effects except " + kept +
-                           ", kept because removing it would raise the held-out error (no step of the path raises it)";
-    s += more ? "  the path stops at " + r.steps.back().model + " at the step limit; the verdicts against it:\n"
-              : "  the path ends at " + r.steps.back().model + ": no candidate is recommended against it (or its full " +
-                    "fit is not) and " + support + ". Why each remaining candidate was not taken:\n";
-    s += whyNot(r.final_candidates);
+  return s;
+}
+
+/// --explain's path: the held-out residual per axis at each step, the noise floor, and where and
+/// why the path ends; empty without steps.
+std::string explainText(const AnalysisResult& r) {
+  if (r.steps.empty()) return {};
+  std::string s;
+  s += "\nexplain (forward selection with backward elimination under the rule; held-out residual RMS per axis):\n";
+  s += line("  %-4s %-22s %-40s %8s %8s %8s %8s %8s %8s %9s", "step", "change", "model", "fx", "fy", "fz", "tx", "ty",
+            "tz", "x noise");
+  for (std::size_t k = 0; k < r.steps.size(); ++k) {
+    const auto& st = r.steps[k];
+    const std::string change = !st.added.empty() ? "+" + st.added : (!st.removed.empty() ? "-" + st.removed : "start");
+    s += line("  %-4zu %-22s %-40s %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f %9.2f", k, change.c_str(), st.model.c_str(),
+              st.residual_rms(0), st.residual_rms(1), st.residual_rms(2), st.residual_rms(3), st.residual_rms(4),
+              st.residual_rms(5), st.total_ratio);
   }
-  s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
-  for (const auto& w : r.warnings) s += "warning: " + w + "\n";
+  s += line("  noise floor                                                          %8.4f %8.4f %8.4f %8.4f %8.4f %8.4f",
+            r.noise_floor(0), r.noise_floor(1), r.noise_floor(2), r.noise_floor(3), r.noise_floor(4), r.noise_floor(5));
+  const bool more = std::any_of(r.final_candidates.begin(), r.final_candidates.end(),
+                                [](const CandidateResult& c) { return c.significant; });
+  std::string kept;
+  for (const auto& c : r.kept_unsupported) {
+    kept += std::string(kept.empty() ? "" : "; ") + c.effect + " (" + verdictWord(c.verdict) +
+            (c.reason.empty() ? "" : ": " + c.reason) + ")";
+  }
+  const std::string support =
+      kept.empty() ? "the rule supports each of its effects"
+                   : "the rule supports each of its effects except " + kept +
+                         ", kept because removing it would raise the held-out error (no step of the path raises it)";
+  s += more ? "  the path stops at " + r.steps.back().model + " at the step limit; the verdicts against it:\n"
+            : "  the path ends at " + r.steps.back().model + ": no candidate is recommended against it (or its full " +
+                  "fit is not) and " + support + ". Why each remaining candidate was not taken:\n";
+  s += whyNot(r.final_candidates);
+  return s;
+}
+
+/// What to do with the result: for the path's last model the commands that write its parameters
+/// (or why identify would not, and what it can write); for an impossible model, what is wrong.
+std::string closingText(const AnalysisResult& r) {
+  std::string s;
   if (!r.steps.empty() && r.unphysical.empty() && !r.unwritable.empty()) {
     // Possible, but identify would refuse to write it: say so, and what it can write.
     const std::string& m = r.steps.back().model;
@@ -209,6 +252,22 @@ std::string formatText(const AnalysisResult& r) {
     for (const auto& u : r.unphysical) s += "  - " + u + "\n";
     s += "  (record a richer excitation, check the set-up, or run --explain to find the missing effect)\n";
   }
+  return s;
+}
+
+}  // namespace
+
+std::string formatText(const AnalysisResult& r) {
+  std::string s = summaryText(r);
+  s += residualText(r);
+  s += imuText(r);
+  s += whereItFailsText(r);
+  s += candidateTable(r);
+  s += missingEffectText(r);
+  s += explainText(r);
+  s += "\n" + paramBlock(r.final_report ? *r.final_report : r.report);
+  for (const auto& w : r.warnings) s += "warning: " + w + "\n";
+  s += closingText(r);
   return s;
 }
 
