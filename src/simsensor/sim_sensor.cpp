@@ -35,6 +35,13 @@ JointVector toJoint(const drivers::ur::Joint6& a) {
   return v;
 }
 
+using Progress = std::function<void(const std::string&)>;
+
+/// Passes s to the caller's progress callback, if there is one.
+void say(const Progress& progress, const std::string& s) {
+  if (progress) progress(s);
+}
+
 }  // namespace
 
 SensorFault parseSensorFault(const std::string& name) {
@@ -311,6 +318,224 @@ struct SimSensor::Impl {
       offset_window = 0;
     }
   }
+
+  // The RTDE reader thread (readRobot) and its steps; it runs until `stop` or `reader_stop`.
+  void readRobot(const SimSensorConfig& config, const std::atomic<bool>& stop,
+                 const std::atomic<bool>& reader_stop, const Progress& progress);
+  void connectRobot(drivers::ur::RtdeClient& client, const SimSensorConfig& config,
+                    const Progress& progress);
+  void streamRobotStates(drivers::ur::RtdeClient& client, const std::atomic<bool>& stop,
+                         const std::atomic<bool>& reader_stop, const Progress& progress);
+  void addRobotState(const drivers::ur::RtdeStatePackage& st, const Progress& progress);
+  struct SampleCycle;
+};
+
+/// RTDE reader: connect (retry every second), stream every state into the history.
+void SimSensor::Impl::readRobot(const SimSensorConfig& config, const std::atomic<bool>& stop,
+                                const std::atomic<bool>& reader_stop, const Progress& progress) {
+  while (!reader_stop.load() && !stop.load()) {
+    try {
+      drivers::ur::RtdeClient client;
+      connectRobot(client, config, progress);
+      streamRobotStates(client, stop, reader_stop, progress);
+    } catch (const std::exception& e) {
+      if (robot_connected.exchange(false) || robot_ticks.load() == 0)
+        say(progress, std::string("waiting for the robot: ") + e.what());
+    }
+    robot_connected = false;
+    for (int i = 0; i < 10 && !reader_stop.load() && !stop.load(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+}
+
+/// Connects `client` to the robot and starts its state stream (the configured rate, else 500 Hz
+/// from controller version 5 on and 125 Hz before); the robot counts as connected from then on.
+void SimSensor::Impl::connectRobot(drivers::ur::RtdeClient& client, const SimSensorConfig& config,
+                                   const Progress& progress) {
+  client.connect(config.robot_host, config.rtde_port, std::chrono::milliseconds(1000));
+  client.negotiateProtocolVersion();
+  const auto version = client.controllerVersion();
+  const double freq = config.rtde_frequency_hz > 0.0 ? config.rtde_frequency_hz
+                      : version.major >= 5           ? 500.0
+                                                     : 125.0;
+  client.setupOutputs(freq, {"timestamp", "actual_q", "actual_qd", "target_qdd"});
+  client.start();
+  robot_connected = true;
+  say(progress, "connected to RTDE " + config.robot_host + ":" + std::to_string(config.rtde_port) +
+                    " (controller " + std::to_string(version.major) + "." +
+                    std::to_string(version.minor) + ", " +
+                    std::to_string(static_cast<int>(freq)) + " Hz)");
+}
+
+/// Takes the robot's states into the history until a stop or the stream is lost (said, for a
+/// reconnect).
+void SimSensor::Impl::streamRobotStates(drivers::ur::RtdeClient& client,
+                                        const std::atomic<bool>& stop,
+                                        const std::atomic<bool>& reader_stop,
+                                        const Progress& progress) {
+  drivers::ur::RtdeStatePackage st;
+  while (!reader_stop.load() && !stop.load()) {
+    const Status s = client.tryReceiveState(std::chrono::milliseconds(100), &st);
+    if (s == Status::kTimeout) continue;
+    if (s != Status::kOk) {
+      say(progress, std::string("RTDE stream lost: ") + client.lastError() + "; reconnecting");
+      break;
+    }
+    addRobotState(st, progress);
+  }
+}
+
+/// One robot state into the history (a restarted controller clock resets it, and the offset) and
+/// its host-minus-controller time into the offset filter.
+void SimSensor::Impl::addRobotState(const drivers::ur::RtdeStatePackage& st,
+                                    const Progress& progress) {
+  RobotHistory::Tick tick;
+  tick.t = st.timestamp;
+  tick.q = toJoint(st.actual_q);
+  tick.qd = toJoint(st.actual_qd);
+  tick.qdd = toJoint(st.target_qdd);
+  const std::uint64_t generation = history.generation();
+  history.add(tick);
+  if (history.generation() != generation) {
+    resetOffset();
+    say(progress, "the controller's clock restarted: robot history reset");
+  }
+  noteOffset(static_cast<double>(st.host_receive_ns) * 1e-9 - st.timestamp);
+  ++robot_ticks;
+}
+
+// The sample clock: rt::runTimerClocked (absolute CLOCK_MONOTONIC deadlines). A stall of up to
+// kCatchUpPeriods is caught up (late samples, sent back to back); after a longer one the clock
+// re-anchors and the lost samples become a counter gap on the bus.
+struct SimSensor::Impl::SampleCycle {
+  SampleCycle(const SimSensor& s, Impl& i, const std::function<void(const std::string&)>& p)
+      : self(s), im(i), progress(p) {}
+  const SimSensor& self;
+  Impl& im;
+  const std::function<void(const std::string&)>& progress;
+  std::int64_t period_ns = 0;
+  double t_robot0 = 0.0;
+  std::uint64_t generation = 0;
+  double t_phys_last = 0.0;
+  std::int64_t last_report_ns = 0;
+  std::int64_t prev_deadline_ns = 0;
+  std::uint64_t samples = 0, sent = 0, late = 0, skipped = 0;
+  std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
+  std::size_t next_fault = 0;
+  std::vector<ScheduledSensorFault> schedule;
+  std::exception_ptr error;
+
+  rt::CycleAction onTimer(std::int64_t deadline_ns) noexcept {
+    try {
+      return sample(deadline_ns);
+    } catch (...) {  // progress or the candump stream threw: end the loop, rethrown by run()
+      error = std::current_exception();
+      return rt::CycleAction::kStop;
+    }
+  }
+
+  void say(const std::string& s) const {
+    if (progress) progress(s);
+  }
+
+  /// One sample at its deadline: its instant in controller and physics time, the faults due,
+  /// the frames on the bus, the statistics and the periodic progress line.
+  rt::CycleAction sample(std::int64_t deadline_ns) {
+    const SimSensorConfig& config = self.config();
+    const std::int64_t now = rt::monotonicNs();
+    if (last_report_ns == 0) last_report_ns = now;
+    countMissedDeadlines(deadline_ns, now);
+    followControllerRestart();
+    // The sample's instant in controller time.
+    const double t_robot = static_cast<double>(deadline_ns) * 1e-9 - im.offset();
+    const double t_phys = t_robot - t_robot0;
+    t_phys_last = t_phys;
+    injectScheduledFaults(t_phys);
+    const int n = im.source->nextSample(im.history, t_robot, t_phys, frames);
+    sendFrames(n);
+    sent += static_cast<std::uint64_t>(n);
+    ++samples;
+    publishStats(t_phys);
+    if (now - last_report_ns >= 5'000'000'000 ||
+        (config.verbose && now - last_report_ns >= 1'000'000'000)) {
+      last_report_ns = now;
+      reportProgress(t_phys);
+    }
+    if (config.duration_s > 0.0 && t_phys >= config.duration_s) return rt::CycleAction::kStop;
+    return rt::CycleAction::kContinue;
+  }
+
+  /// Deadlines the re-anchored clock skipped become skipped samples and a counter gap; a sample
+  /// more than a period behind its deadline counts as late.
+  void countMissedDeadlines(std::int64_t deadline_ns, std::int64_t now) {
+    if (prev_deadline_ns != 0 && deadline_ns - prev_deadline_ns > period_ns) {
+      const std::int64_t missed = (deadline_ns - prev_deadline_ns) / period_ns - 1;
+      skipped += static_cast<std::uint64_t>(missed);
+      im.source->inject(SensorFault::kCounterGap, static_cast<int>(missed));
+    } else if (now - deadline_ns > period_ns) {
+      ++late;
+    }
+    prev_deadline_ns = deadline_ns;
+  }
+
+  /// After a controller restart (a new history generation) t_robot0 moves so that physics time
+  /// goes on from the last sample's: t_phys = t_robot - t_robot0 stays continuous.
+  void followControllerRestart() {
+    if (im.history.generation() != generation) {
+      generation = im.history.generation();
+      t_robot0 = im.history.oldestTime() - t_phys_last;
+    }
+  }
+
+  /// Injects the scheduled faults due at physics time t_phys (the schedule is sorted by time).
+  void injectScheduledFaults(double t_phys) {
+    while (next_fault < schedule.size() && schedule[next_fault].at_s <= t_phys) {
+      im.source->inject(schedule[next_fault].kind, schedule[next_fault].count);
+      say(std::string("injecting fault ") + sensorFaultName(schedule[next_fault].kind) + " x" +
+          std::to_string(schedule[next_fault].count) + " at t=" + std::to_string(t_phys));
+      ++next_fault;
+    }
+  }
+
+  /// The sample's n frames to the socket's clients, the CAN interface and the candump log.
+  void sendFrames(int n) {
+    const std::int64_t rx_ns = drivers::can::realtimeNowNs();
+    for (int i = 0; i < n; ++i) {
+      const can_frame& f = frames[static_cast<std::size_t>(i)];
+      im.server->trySend(f);
+      if (im.socketcan) im.socketcan->trySend(f);
+      if (im.candump) {
+        drivers::can::ReceivedFrame rf;
+        rf.frame = f;
+        rf.rx_time_ns = rx_ns;
+        *im.candump << drivers::can::formatCandumpLine(rf, "can0") << '\n';
+      }
+    }
+  }
+
+  /// The counts so far into the statistics stats() reads.
+  void publishStats(double t_phys) {
+    std::lock_guard<std::mutex> lock(im.stats_mutex);
+    im.stats.samples = samples;
+    im.stats.frames_sent = sent;
+    im.stats.frames_dropped = im.server->framesDropped();
+    im.stats.late_samples = late;
+    im.stats.skipped_samples = skipped;
+    im.stats.clients = im.server->clientCount();
+    im.stats.t_phys = t_phys;
+  }
+
+  /// The progress line: physics time, samples, frames, clients, robot ticks, drops and late samples.
+  void reportProgress(double t_phys) const {
+    std::ostringstream os;
+    os << "t=" << std::fixed;
+    os.precision(1);
+    os << t_phys << " s  samples=" << samples << "  frames=" << sent
+       << "  clients=" << im.server->clientCount() << "  robot_ticks=" << im.robot_ticks.load()
+       << (im.robot_connected.load() ? "" : " (robot disconnected)")
+       << "  dropped=" << im.server->framesDropped() << "  late=" << late;
+    say(os.str());
+  }
 };
 
 SimSensor::SimSensor(SimSensorConfig config) : config_(std::move(config)), impl_(new Impl) {
@@ -350,58 +575,8 @@ SimSensorStats SimSensor::stats() const {
 void SimSensor::run(const std::atomic<bool>& stop,
                     const std::function<void(const std::string&)>& progress) {
   Impl& im = *impl_;
-  const auto say = [&](const std::string& s) {
-    if (progress) progress(s);
-  };
   std::atomic<bool> reader_stop{false};
-  // RTDE reader: connect (retry every second), stream every state into the history.
-  std::thread reader([&] {
-    while (!reader_stop.load() && !stop.load()) {
-      try {
-        drivers::ur::RtdeClient client;
-        client.connect(config_.robot_host, config_.rtde_port, std::chrono::milliseconds(1000));
-        client.negotiateProtocolVersion();
-        const auto version = client.controllerVersion();
-        const double freq = config_.rtde_frequency_hz > 0.0 ? config_.rtde_frequency_hz
-                            : version.major >= 5           ? 500.0
-                                                           : 125.0;
-        client.setupOutputs(freq, {"timestamp", "actual_q", "actual_qd", "target_qdd"});
-        client.start();
-        im.robot_connected = true;
-        say("connected to RTDE " + config_.robot_host + ":" + std::to_string(config_.rtde_port) +
-            " (controller " + std::to_string(version.major) + "." + std::to_string(version.minor) +
-            ", " + std::to_string(static_cast<int>(freq)) + " Hz)");
-        drivers::ur::RtdeStatePackage st;
-        while (!reader_stop.load() && !stop.load()) {
-          const Status s = client.tryReceiveState(std::chrono::milliseconds(100), &st);
-          if (s == Status::kTimeout) continue;
-          if (s != Status::kOk) {
-            say(std::string("RTDE stream lost: ") + client.lastError() + "; reconnecting");
-            break;
-          }
-          RobotHistory::Tick tick;
-          tick.t = st.timestamp;
-          tick.q = toJoint(st.actual_q);
-          tick.qd = toJoint(st.actual_qd);
-          tick.qdd = toJoint(st.target_qdd);
-          const std::uint64_t generation = im.history.generation();
-          im.history.add(tick);
-          if (im.history.generation() != generation) {
-            im.resetOffset();
-            say("the controller's clock restarted: robot history reset");
-          }
-          im.noteOffset(static_cast<double>(st.host_receive_ns) * 1e-9 - st.timestamp);
-          ++im.robot_ticks;
-        }
-      } catch (const std::exception& e) {
-        if (im.robot_connected.exchange(false) || im.robot_ticks.load() == 0)
-          say(std::string("waiting for the robot: ") + e.what());
-      }
-      im.robot_connected = false;
-      for (int i = 0; i < 10 && !reader_stop.load() && !stop.load(); ++i)
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    }
-  });
+  std::thread reader([&] { im.readRobot(config_, stop, reader_stop, progress); });
 
   // Wait for the first robot state.
   while (!stop.load() && im.history.empty())
@@ -414,110 +589,11 @@ void SimSensor::run(const std::atomic<bool>& stop,
   // Physics time = controller time - t_robot0; kept continuous across controller restarts.
   double t_robot0 = im.history.oldestTime();
   std::uint64_t generation = im.history.generation();
-  say("emitting " + std::to_string(static_cast<int>(config_.rate_hz)) + " Hz samples on " +
-      config_.socket_path + (config_.can_interface.empty() ? "" : " and " + config_.can_interface));
+  say(progress, "emitting " + std::to_string(static_cast<int>(config_.rate_hz)) + " Hz samples on " +
+                    config_.socket_path +
+                    (config_.can_interface.empty() ? "" : " and " + config_.can_interface));
 
-  // The sample clock: rt::runTimerClocked (absolute CLOCK_MONOTONIC deadlines). A stall of up to
-  // kCatchUpPeriods is caught up (late samples, sent back to back); after a longer one the clock
-  // re-anchors and the lost samples become a counter gap on the bus.
-  struct SampleCycle {
-    SampleCycle(const SimSensor& s, Impl& i, const std::function<void(const std::string&)>& p)
-        : self(s), im(i), progress(p) {}
-    const SimSensor& self;
-    Impl& im;
-    const std::function<void(const std::string&)>& progress;
-    std::int64_t period_ns = 0;
-    double t_robot0 = 0.0;
-    std::uint64_t generation = 0;
-    double t_phys_last = 0.0;
-    std::int64_t last_report_ns = 0;
-    std::int64_t prev_deadline_ns = 0;
-    std::uint64_t samples = 0, sent = 0, late = 0, skipped = 0;
-    std::array<can_frame, SensorFrameSource::kMaxFrames> frames{};
-    std::size_t next_fault = 0;
-    std::vector<ScheduledSensorFault> schedule;
-    std::exception_ptr error;
-
-    rt::CycleAction onTimer(std::int64_t deadline_ns) noexcept {
-      try {
-        return sample(deadline_ns);
-      } catch (...) {  // progress or the candump stream threw: end the loop, rethrown by run()
-        error = std::current_exception();
-        return rt::CycleAction::kStop;
-      }
-    }
-
-    void say(const std::string& s) const {
-      if (progress) progress(s);
-    }
-
-    rt::CycleAction sample(std::int64_t deadline_ns) {
-      const SimSensorConfig& config = self.config();
-      const std::int64_t now = rt::monotonicNs();
-      if (last_report_ns == 0) last_report_ns = now;
-      if (prev_deadline_ns != 0 && deadline_ns - prev_deadline_ns > period_ns) {
-        const std::int64_t missed = (deadline_ns - prev_deadline_ns) / period_ns - 1;
-        skipped += static_cast<std::uint64_t>(missed);
-        im.source->inject(SensorFault::kCounterGap, static_cast<int>(missed));
-      } else if (now - deadline_ns > period_ns) {
-        ++late;
-      }
-      prev_deadline_ns = deadline_ns;
-      if (im.history.generation() != generation) {
-        generation = im.history.generation();
-        t_robot0 = im.history.oldestTime() - t_phys_last;
-      }
-      // The sample's instant in controller time.
-      const double t_robot = static_cast<double>(deadline_ns) * 1e-9 - im.offset();
-      const double t_phys = t_robot - t_robot0;
-      t_phys_last = t_phys;
-      while (next_fault < schedule.size() && schedule[next_fault].at_s <= t_phys) {
-        im.source->inject(schedule[next_fault].kind, schedule[next_fault].count);
-        say(std::string("injecting fault ") + sensorFaultName(schedule[next_fault].kind) + " x" +
-            std::to_string(schedule[next_fault].count) + " at t=" + std::to_string(t_phys));
-        ++next_fault;
-      }
-      const int n = im.source->nextSample(im.history, t_robot, t_phys, frames);
-      const std::int64_t rx_ns = drivers::can::realtimeNowNs();
-      for (int i = 0; i < n; ++i) {
-        const can_frame& f = frames[static_cast<std::size_t>(i)];
-        im.server->trySend(f);
-        if (im.socketcan) im.socketcan->trySend(f);
-        if (im.candump) {
-          drivers::can::ReceivedFrame rf;
-          rf.frame = f;
-          rf.rx_time_ns = rx_ns;
-          *im.candump << drivers::can::formatCandumpLine(rf, "can0") << '\n';
-        }
-      }
-      sent += static_cast<std::uint64_t>(n);
-      ++samples;
-      {
-        std::lock_guard<std::mutex> lock(im.stats_mutex);
-        im.stats.samples = samples;
-        im.stats.frames_sent = sent;
-        im.stats.frames_dropped = im.server->framesDropped();
-        im.stats.late_samples = late;
-        im.stats.skipped_samples = skipped;
-        im.stats.clients = im.server->clientCount();
-        im.stats.t_phys = t_phys;
-      }
-      if (now - last_report_ns >= 5'000'000'000 || (config.verbose && now - last_report_ns >= 1'000'000'000)) {
-        last_report_ns = now;
-        std::ostringstream os;
-        os << "t=" << std::fixed;
-        os.precision(1);
-        os << t_phys << " s  samples=" << samples << "  frames=" << sent
-           << "  clients=" << im.server->clientCount() << "  robot_ticks=" << im.robot_ticks.load()
-           << (im.robot_connected.load() ? "" : " (robot disconnected)")
-           << "  dropped=" << im.server->framesDropped() << "  late=" << late;
-        say(os.str());
-      }
-      if (config.duration_s > 0.0 && t_phys >= config.duration_s) return rt::CycleAction::kStop;
-      return rt::CycleAction::kContinue;
-    }
-  };
-  SampleCycle cycle(*this, im, progress);
+  Impl::SampleCycle cycle(*this, im, progress);
   cycle.period_ns = static_cast<std::int64_t>(std::llround(1e9 / config_.rate_hz));
   cycle.t_robot0 = t_robot0;
   cycle.generation = generation;
