@@ -191,19 +191,20 @@ std::vector<NamedValue> imuBiasEntriesOf(const std::vector<SampleContext>& sampl
 }
 
 CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, bool check) {
-  const samples::ContextSet contexts = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, request.progress);
-  CheckedIdentification out;
-  if (request.model_is_default) {
-    if (holdsStill(contexts.samples)) {
-      IdentifyRequest at_rest = request;
-      at_rest.model = kDefaultStaticModel;
-      at_rest.model_is_default = false;
-      say(request.progress, std::string("the robot holds still in this log: fitting '") + kDefaultStaticModel +
-                                "' (the default '" + kDefaultModel + "' needs motion)");
-      return identifyContextsChecked(contexts, at_rest, check);
-    }
+  samples::ContextOptions options = request.context;
+  options.drop_held_readings = true;  // a held reading is no measurement (held_readings.hpp)
+  const samples::ContextSet contexts =
+      samples::loadLogContexts(request.log_path, request.robot_urdf, options, request.progress);
+  IdentifyRequest fitted = request;
+  if (request.model_is_default && holdsStill(contexts.samples)) {
+    fitted.model = kDefaultStaticModel;
+    fitted.model_is_default = false;
+    say(request.progress, std::string("the robot holds still in this log: fitting '") + kDefaultStaticModel +
+                              "' (the default '" + kDefaultModel + "' needs motion)");
   }
-  return identifyContextsChecked(contexts, request, check);
+  CheckedIdentification out = identifyContextsChecked(contexts, fitted, check);
+  if (!contexts.held_note.empty()) out.check.warnings.insert(out.check.warnings.begin(), contexts.held_note);
+  return out;
 }
 
 CheckedIdentification identifyContextsChecked(const samples::ContextSet& contexts, const IdentifyRequest& request,

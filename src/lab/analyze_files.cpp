@@ -88,7 +88,9 @@ void checkEnoughSamples(const samples::ContextSet& fit, const AnalyzeFilesReques
 
 AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request) {
   const auto& say = request.options.progress;
-  samples::ContextSet fit = samples::loadLogContexts(request.log_path, request.robot_urdf, request.context, say);
+  samples::ContextOptions options = request.context;
+  options.drop_held_readings = true;  // a held reading is no measurement (held_readings.hpp)
+  samples::ContextSet fit = samples::loadLogContexts(request.log_path, request.robot_urdf, options, say);
   applyTimeWindow(fit, request.t_from, request.t_to, request.log_path);  // --t-from, --t-to (change points)
   checkEnoughSamples(fit, request);
   // The set-up diagnosis (identify's, setup_check.hpp) on the log as it was read.
@@ -98,7 +100,7 @@ AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request) {
   samples::ContextSet val;
   if (!request.validate_path.empty()) {
     // The validation log's model time counts from the fitted log's origin (as analyzeLogFiles).
-    samples::ContextOptions vopt = request.context;
+    samples::ContextOptions vopt = options;
     vopt.input.wrench_log.clear();
     if (std::isfinite(fit.time_origin_unix_s)) vopt.time_origin_unix_s = fit.time_origin_unix_s;
     val = samples::loadLogContexts(request.validate_path, request.robot_urdf, vopt, say);
@@ -109,6 +111,9 @@ AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request) {
   AnalysisResult result = analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples,
                                   request.options, request.log_path, request.validate_path);
   result.robot_urdf = request.robot_urdf.empty() ? defaultRobotUrdf() : request.robot_urdf;
+  for (const std::string* note : {&val.held_note, &fit.held_note}) {
+    if (!note->empty()) result.warnings.insert(result.warnings.begin(), *note);
+  }
   return result;
 }
 

@@ -1,5 +1,6 @@
 // Building SampleContexts from a log and the robot kinematics (include/ftid/samples/context.hpp).
 #include "ftid/samples/context.hpp"
+#include "ftid/samples/held_readings.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -22,7 +23,9 @@ ContextSet::ContextSet(const ContextSet& other)
       extra_names(other.extra_names),
       extra_rows(other.extra_rows),
       has_imu(other.has_imu),
-      has_temp(other.has_temp) {
+      has_temp(other.has_temp),
+      held_rows(other.held_rows),
+      held_note(other.held_note) {
   repoint();
 }
 
@@ -34,7 +37,9 @@ ContextSet::ContextSet(ContextSet&& other) noexcept
       extra_names(std::move(other.extra_names)),
       extra_rows(std::move(other.extra_rows)),
       has_imu(other.has_imu),
-      has_temp(other.has_temp) {
+      has_temp(other.has_temp),
+      held_rows(other.held_rows),
+      held_note(std::move(other.held_note)) {
   repoint();  // extra_names now lives here (the rows' buffer moved with extra_rows)
   other.repoint();
 }
@@ -49,6 +54,8 @@ ContextSet& ContextSet::operator=(ContextSet&& other) noexcept {
     extra_rows = std::move(other.extra_rows);
     has_imu = other.has_imu;
     has_temp = other.has_temp;
+    held_rows = other.held_rows;
+    held_note = std::move(other.held_note);
     repoint();
     other.repoint();
   }
@@ -268,6 +275,26 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
   return set;
 }
 
+namespace {
+
+// Removes the rows marked in `drop` (one per sample) from the set: its samples and extra rows.
+void dropRows(ContextSet& set, const std::vector<char>& drop) {
+  const std::size_t k = set.extra_names.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < set.samples.size(); ++i) {
+    if (drop[i] != 0) continue;
+    set.samples[kept] = set.samples[i];
+    std::copy_n(set.extra_rows.begin() + static_cast<std::ptrdiff_t>(i * k), k,
+                set.extra_rows.begin() + static_cast<std::ptrdiff_t>(kept * k));
+    ++kept;
+  }
+  set.samples.resize(kept);
+  set.extra_rows.resize(kept * k);
+  set.repoint();
+}
+
+}  // namespace
+
 ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
                            const ContextOptions& options,
                            const std::function<void(const std::string& line)>& progress) {
@@ -282,7 +309,17 @@ ContextSet loadLogContexts(const std::string& log_path, const std::string& robot
   const std::string urdf = robot_urdf.empty() ? defaultRobotUrdf() : robot_urdf;
   if (progress) progress("robot " + urdf + ", " + std::to_string(in.log.samples.size()) + " samples");
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
-  return buildContexts(in.log, kin, opt);
+  ContextSet set = buildContexts(in.log, kin, opt);
+  if (options.drop_held_readings) {
+    const HeldReadings held = findHeldReadings(in.log);
+    if (held.count > 0) {
+      dropRows(set, held.held);
+      set.held_rows = held.count;
+      set.held_note = describeHeldReadings(held, log_path);
+      if (progress) progress(set.held_note);
+    }
+  }
+  return set;
 }
 
 void setTilt(std::vector<SampleContext>& contexts, double tilt_u_rad, double tilt_v_rad) {

@@ -49,6 +49,9 @@ struct ContextOptions {
   /// source, the sensor's own recording (`--wrench-log`) and its clock offset, the UR payload.
   /// A UR recording's actual_TCP_force sets wrench_in_base.
   logio::InputOptions input{};
+  /// loadLogContexts: drop the rows that only hold the previous row's reading (held_readings.hpp);
+  /// identification and the laboratory set it, compensation of a log keeps every row.
+  bool drop_held_readings = false;
 };
 
 /// The log column with the host's receive time of each robot state [s, Unix time, UTC]
@@ -72,6 +75,10 @@ struct ContextSet {
   std::vector<double> extra_rows;        ///< extra_rows[i * extra_names.size() + k]
   bool has_imu = false;
   bool has_temp = false;
+  /// Rows loadLogContexts dropped as held readings (ContextOptions::drop_held_readings) and its
+  /// line for the user (describeHeldReadings; "" when none).
+  int held_rows = 0;
+  std::string held_note;
 
   ContextSet() = default;
   ContextSet(const ContextSet& other);
@@ -104,7 +111,8 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
 /// Reads the recording (logio::readInput with options.input: an ftid log, a UR recording, either
 /// with a sensor's own recording) and the robot (`robot_urdf`, "" = defaultRobotUrdf()) and builds
 /// the contexts; `progress` (optional) gets a line for each step and each of the reader's notes
-/// (rows dropped, alignment). Throws as readInput, the URDF
+/// (rows dropped, alignment), and held_note. With options.drop_held_readings the held rows
+/// (findHeldReadings) are dropped after the kinematics are built on every row. Throws as readInput, the URDF
 /// loader and buildContexts do.
 ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
                            const ContextOptions& options = {},
