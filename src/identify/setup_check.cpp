@@ -142,6 +142,40 @@ Mat3 bestAxisAlignedMount(const std::vector<SampleContext>& all) {
   return best;
 }
 
+namespace {
+
+// The unit of the time column against the recorded joint velocities: s, the least-squares factor
+// in qd = s * dq/dt over consecutive samples (qd averaged over the pair), is 1 when t is in
+// seconds, 1000 when it is in milliseconds. The decade nearest to s (the likeliest of the units
+// s, ms, us, ns, ...) is the verdict: "" when it is 1, else a line naming it. Nothing to judge
+// without joints or motion.
+std::string timeUnitLine(const std::vector<SampleContext>& all) {
+  double vd = 0.0, dd = 0.0;
+  for (std::size_t i = 1; i < all.size(); ++i) {
+    const SampleContext& a = all[i - 1];
+    const SampleContext& b = all[i];
+    const double dt = b.t - a.t;
+    if (!a.has_joints || !b.has_joints || !(dt > 0.0)) continue;
+    const JointVector d = (b.q - a.q) / dt;
+    const JointVector v = 0.5 * (a.qd + b.qd);
+    vd += v.dot(d);
+    dd += d.squaredNorm();
+  }
+  if (!(dd > 0.0) || !(vd > 0.0)) return "";
+  const double s = vd / dd;
+  const int decade = static_cast<int>(std::lround(std::log10(s)));
+  if (decade == 0) return "";
+  const char* unit = decade == 3 ? "milliseconds" : decade == 6 ? "microseconds" : decade == 9 ? "nanoseconds" : nullptr;
+  char factor[32];
+  std::snprintf(factor, sizeof factor, "%.4g", s);
+  return std::string("set-up: the joint velocity columns are ") + factor + "x the joint angles' rate of change over the "
+         "time column t: " + (unit != nullptr ? std::string("t looks like ") + unit + "; give t in seconds"
+                                             : std::string("t is not in seconds, or qd is not in rad/s")) +
+         " (docs/log-format.md)";
+}
+
+}  // namespace
+
 SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const samples::ContextOptions& given,
                              bool try_mounts) {
   SetupDiagnosis d;
@@ -156,6 +190,8 @@ SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const sample
                       ", beyond any joint's +-6.28 rad: the angle columns look like degrees; convert q1..q6 (and "
                       "qd, qdd) to rad (docs/log-format.md)");
   }
+  const std::string time_unit = timeUnitLine(all);
+  if (!time_unit.empty()) d.lines.push_back(time_unit);
   std::vector<SampleContext> ctx;
   const std::size_t step = std::max<std::size_t>(1, all.size() / kSetupMaxSamples);
   for (std::size_t i = 0; i < all.size(); i += step) ctx.push_back(all[i]);

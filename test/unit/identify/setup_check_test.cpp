@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "ftid/identify/fit.hpp"
 #include "ftid/identify/setup_check.hpp"
@@ -91,6 +92,21 @@ TEST(SetupCheck, DegreesInTheAngleColumns) {
   EXPECT_TRUE(mentions(d, "look like degrees")) << (d.lines.empty() ? "" : d.lines.front());
   const samples::ContextSet clean = test::contextsOf(run(5));
   EXPECT_FALSE(mentions(diagnoseSetup(clean.samples, {}), "degrees"));
+}
+
+// The time column in milliseconds (or nanoseconds): the joint velocity columns are 1000x (1e9x)
+// the angles' rate of change over t. Nothing is said with t in seconds.
+TEST(SetupCheck, TheTimeColumnsUnitAgainstTheJointVelocities) {
+  const samples::ContextSet clean = test::contextsOf(run(6));
+  EXPECT_FALSE(mentions(diagnoseSetup(clean.samples, {}), "time column")) << clean.samples.size();
+  for (const auto& [scale, unit] : {std::pair<double, const char*>{1e3, "t looks like milliseconds"},
+                                    std::pair<double, const char*>{1e9, "t looks like nanoseconds"},
+                                    std::pair<double, const char*>{1e-2, "t is not in seconds"}}) {
+    samples::ContextSet ctx = clean;
+    for (auto& c : ctx.samples) c.t *= scale;
+    const SetupDiagnosis d = diagnoseSetup(ctx.samples, {});
+    EXPECT_TRUE(mentions(d, unit)) << scale << ": " << (d.lines.empty() ? "" : d.lines.front());
+  }
 }
 
 TEST(SetupCheck, TwentyFourRotations) {
