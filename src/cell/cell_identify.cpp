@@ -33,6 +33,7 @@
 #include "ftid/cell/cycle_recorder.hpp"
 #include "ftid/cell/exports.hpp"
 #include "ftid/cell/run_stream.hpp"
+#include "run_report.hpp"
 #include "ftid/common/error.hpp"
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/config/daemon_config.hpp"
@@ -77,13 +78,6 @@ std::string utcStamp(bool iso) {
   return buf;
 }
 
-/// Fixed-point number with `decimals` digits.
-std::string fmt(int decimals, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
-  return buf;
-}
-
 /// Writes text through the one atomic writer (ftid/fileio/atomic_file.hpp).
 void writeTextAtomic(const std::string& path, const std::string& text) { writeFileAtomically(path, text); }
 
@@ -94,37 +88,6 @@ bool sameFile(const std::string& a, const std::string& b) {
   return fs::weakly_canonical(a, ec) == fs::weakly_canonical(b, ec);
 }
 
-
-/// What the trajectory's design predicts for the accuracy (its predicted standard errors at the
-/// design's noise), printed before the robot moves.
-std::string expectedAccuracy(const trajectory::TrajectoryFile& f, const std::string& model_name) {
-  const auto get = [&](const std::string& k) {
-    const auto it = f.predicted_std.find(k);
-    return it == f.predicted_std.end() ? -1.0 : it->second;
-  };
-  const auto d = f.design.find("model");
-  const std::string designed_for = d == f.design.end() ? std::string("?") : d->second;
-  if (f.predicted_std.empty()) {
-    return "  expected accuracy: unknown (the trajectory file records no predicted standard errors)";
-  }
-  std::string s = "  expected accuracy (1 sigma, predicted by the design for model " + designed_for + "):";
-  const double m = get("mass");
-  if (m >= 0) s += " mass " + fmt(4, m) + " kg";
-  double c = 0.0;
-  for (const char* k : {"com_x", "com_y", "com_z"}) c = std::max(c, get(k));
-  if (c > 0) s += ", centre of mass " + fmt(2, 1000.0 * c) + " mm";
-  const double t = std::max(get("tilt_u"), get("tilt_v"));
-  if (t > 0) s += ", tilt " + fmt(3, t * 180.0 / M_PI) + " deg";
-  double f0 = 0.0;
-  for (const char* k : {"f0_x", "f0_y", "f0_z"}) f0 = std::max(f0, get(k));
-  if (f0 > 0) s += ", F0 " + fmt(3, f0) + " N";
-  double t0 = 0.0;
-  for (const char* k : {"t0_x", "t0_y", "t0_z"}) t0 = std::max(t0, get(k));
-  if (t0 > 0) s += ", T0 " + fmt(4, t0) + " Nm";
-  if (designed_for != model_name) s += "\n  (you fit " + model_name + ": the figures are indicative only)";
-  return s;
-}
-
 /// The violations of a motion check as one line.
 std::string joinViolations(const std::vector<std::string>& v) {
   std::string s;
@@ -132,20 +95,11 @@ std::string joinViolations(const std::vector<std::string>& v) {
   return s;
 }
 
-std::string axisTable(const Vec6& heldout, const Vec6& noise, const Vec6& raw) {
-  std::ostringstream o;
-  o << "  axis   raw RMS   held-out residual   noise floor   ratio\n";
-  for (int i = 0; i < 6; ++i) {
-    const double ratio = noise(i) > 0 ? heldout(i) / noise(i) : 0.0;
-    char line[160];
-    std::snprintf(line, sizeof(line), "  %-4s %9.4f %12.4f %16.4f %10.2f%s\n", kWrenchAxisNames[i], raw(i),
-                  heldout(i), noise(i), ratio, ratio > identify::kAboveFloorMark ? "   <- above noise" : "");
-    o << line;
-  }
-  return o.str();
-}
-
 using internal::HookContext;
+using internal::axesAboveFloor;
+using internal::axisTable;
+using internal::expectedAccuracy;
+using internal::fmt;
 
 /// Model::fromName's model with the kinematics of the config's robot and sensor mount.
 model::RobotKinematics cellKinematics(const config::DaemonConfig& cfg) {
@@ -502,6 +456,10 @@ std::string analyseRun(IdentifyRun& r, const samples::ContextSet& contexts) {
           " %. Add it with:  ftid --identify --model " + lab::shellQuote(model.name() + "+" + top->effect));
     print("  or analyse the recorded data:  ftid analyze " + lab::shellQuote(result.data_csv) + " --model " +
           lab::shellQuote(model.name() + "+" + top->effect) + " --explain");
+  } else if (const std::string above = axesAboveFloor(ar.report.residual_rms, ar.noise_floor); !above.empty()) {
+    print("No candidate effect explains what is left, yet the held-out residual is above the noise floor (" + above +
+          "): the run was disturbed (a contact, a stalled host) or the model misses an effect outside the "
+          "laboratory's menu; see the report, and repeat the run.");
   } else {
     print("No significant effect is missing: the model explains the data down to the sensor noise.");
   }

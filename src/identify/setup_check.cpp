@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "ftid/common/error.hpp"
+#include "ftid/identify/noise.hpp"
+#include "ftid/identify/physical_check.hpp"
 #include "ftid/identify/tilt_start.hpp"
 
 namespace ftid::identify {
@@ -32,8 +34,10 @@ std::string rpyText(const Vec3& rpy) {
   return s;
 }
 
-/// Relative residual energy of the gravity model on ctx (NaN if it cannot be fitted).
-double relativeResidual(const std::vector<SampleContext>& ctx, double* mass_kg) {
+/// Relative residual energy of `model` (default: the gravity model) on ctx: the residual's mean
+/// square over the reading's, forces and torques each (NaN if it cannot be fitted).
+double relativeResidual(const std::vector<SampleContext>& ctx, double* mass_kg, const char* model = "paper",
+                        double* mass_std_kg = nullptr) {
   double ms_f = 0.0, ms_t = 0.0;
   for (const auto& c : ctx) {
     ms_f += c.wrench_S.head<3>().squaredNorm();
@@ -43,9 +47,10 @@ double relativeResidual(const std::vector<SampleContext>& ctx, double* mass_kg) 
   ms_f /= n;
   ms_t /= n;
   try {
-    const MultiStartFit m = fitModelMultiStart(effects::Model::fromName("paper"), ctx);
+    const MultiStartFit m = fitModelMultiStart(effects::Model::fromName(model), ctx);
     const Vec6& r = m.fit.residual_rms;
     if (mass_kg != nullptr) *mass_kg = m.fit.value("mass");
+    if (mass_std_kg != nullptr) *mass_std_kg = m.fit.stddev("mass");
     return r.head<3>().squaredNorm() / std::max(ms_f, 1e-300) + r.tail<3>().squaredNorm() / std::max(ms_t, 1e-300);
   } catch (const Error&) {
     return std::numeric_limits<double>::quiet_NaN();
@@ -176,6 +181,43 @@ std::string timeUnitLine(const std::vector<SampleContext>& all) {
 
 }  // namespace
 
+namespace {
+
+// A negative mass: the gravity model is the same with the reading's sign reversed and the mass's
+// (a reflection, which no mount rotation gives), so only the sign of the mass tells. When the
+// reversed reading fits a positive mass: a hint to negate the six columns (a sensor reporting the
+// wrench on the tool rather than the tool's on the sensor); "" otherwise.
+std::string reversedSignHint(const std::vector<SampleContext>& ctx) {
+  std::vector<SampleContext> reversed = ctx;
+  for (auto& c : reversed) c.wrench_S = -c.wrench_S;
+  double mass_reversed = 0.0, mass_std = 0.0;
+  const double r = relativeResidual(reversed, &mass_reversed, "paper", &mass_std);
+  // A mass the data determine (identify's rule, kMaxMassRelativeStd): not an empty sensor's noise.
+  if (!std::isfinite(r) || !(mass_std <= kMaxMassRelativeStd * mass_reversed)) return "";
+  return "; with its sign reversed the wrench fits a mass of " + num(mass_reversed, 3) + " kg (" + num(100.0 * r, 1) +
+         " % unexplained): if the sensor reports the wrench on the tool, negate fx, fy, fz, tx, ty, tz";
+}
+
+// Torque columns in N mm (an ATI Net F/T set to "N, N-mm"): the gravity model alone cannot tell (a
+// 1000x centre of mass fits as well), but the payload's dynamics tie m c in the forces
+// (m alpha x c) to the torques. `paper+rigid_body` fitted with the torques as given and divided by
+// 1000, judged by the rule of the alternatives above (kSetupMinResidual, kSetupBetterRatio); ""
+// unless the divided torques explain the data. Needs motion: nothing is said when the robot holds
+// still.
+std::string torqueUnitLine(const std::vector<SampleContext>& ctx) {
+  if (holdsStill(ctx)) return "";
+  std::vector<SampleContext> mm = ctx;
+  for (auto& c : mm) c.wrench_S.tail<3>() *= 1e-3;
+  const double given = relativeResidual(ctx, nullptr, "paper+rigid_body");
+  const double divided = relativeResidual(mm, nullptr, "paper+rigid_body");
+  if (!(given > kSetupMinResidual && divided < kSetupBetterRatio * given)) return "";
+  return "set-up: the torque columns divided by 1000 (N mm read as Nm) explain the payload's dynamics (" +
+         num(100.0 * divided, 2) + " % of the signal unexplained instead of " + num(100.0 * given, 1) +
+         " %): convert tx, ty, tz to Nm (docs/log-format.md)";
+}
+
+}  // namespace
+
 SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const samples::ContextOptions& given,
                              bool try_mounts) {
   SetupDiagnosis d;
@@ -196,8 +238,8 @@ SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const sample
   const std::size_t step = std::max<std::size_t>(1, all.size() / kSetupMaxSamples);
   for (std::size_t i = 0; i < all.size(); i += step) ctx.push_back(all[i]);
 
-  double mass_given = 0.0;
-  d.given_residual = relativeResidual(ctx, &mass_given);
+  double mass_given = 0.0, mass_given_std = 0.0;
+  d.given_residual = relativeResidual(ctx, &mass_given, "paper", &mass_given_std);
   if (!std::isfinite(d.given_residual)) return d;
   d.best_residual = std::numeric_limits<double>::infinity();
   auto consider = [&](double r, const std::string& what, const std::string& fix) {
@@ -224,15 +266,21 @@ SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const sample
              "--mount-rpy " + rpyText(rpy));
   }
   d.explains = d.given_residual > kSetupMinResidual && d.best_residual < kSetupBetterRatio * d.given_residual;
+  const std::string torque_unit = torqueUnitLine(ctx);
+  if (!torque_unit.empty()) d.lines.push_back(torque_unit);
   if (d.explains) {
     d.lines.push_back("set-up: " + d.best + " explains the data (the gravity model leaves " +
                       num(100.0 * d.best_residual, 2) + " % of the signal unexplained instead of " +
                       num(100.0 * d.given_residual, 1) + " %, fitted mass " + num(mass_given, 3) +
                       " kg as given): add " + d.fix);
-  } else if (mass_given <= 0.0 && d.given_residual > kSetupMinResidual) {
+  } else if (mass_given <= 0.0 &&
+             (d.given_residual > kSetupMinResidual || mass_given_std <= kMaxMassRelativeStd * -mass_given)) {
+    // The gravity not following the kinematics, or a negative mass the data determine (identify's
+    // rule, kMaxMassRelativeStd), however well it fits.
     d.lines.push_back("set-up: the gravity the wrench sees does not follow the kinematics (the gravity model fits a "
                       "mass of " + num(mass_given, 3) + " kg, " + num(100.0 * d.given_residual, 1) +
-                      " % of the signal unexplained); check the robot description, the mount and the wrench frame");
+                      " % of the signal unexplained); check the robot description, the mount and the wrench frame" +
+                      reversedSignHint(ctx));
   }
   return d;
 }

@@ -109,6 +109,36 @@ TEST(SetupCheck, TheTimeColumnsUnitAgainstTheJointVelocities) {
   }
 }
 
+// Torques in N mm: the gravity model fits a 1000x centre of mass as well, the payload's dynamics
+// do not. Nothing is said on clean runs or on a static pose set.
+TEST(SetupCheck, TorquesInNewtonMillimetres) {
+  sim::CellSimConfig cfg = run(7);
+  cfg.full_rigid_body = true;
+  const samples::ContextSet clean = test::contextsOf(cfg);
+  EXPECT_FALSE(mentions(diagnoseSetup(clean.samples, {}), "N mm")) << clean.samples.size();
+  samples::ContextSet ctx = clean;
+  for (auto& c : ctx.samples) c.wrench_S.tail<3>() *= 1000.0;
+  const SetupDiagnosis d = diagnoseSetup(ctx.samples, {});
+  EXPECT_TRUE(mentions(d, "the torque columns divided by 1000 (N mm read as Nm) explain")) << (d.lines.empty() ? "" : d.lines.front());
+}
+
+// A reading with its sign reversed (a reflection, which no mount rotation gives): the gravity
+// model fits it as well with a negative mass, so the negative mass is said, with the reversed
+// reading's positive mass and what to do.
+TEST(SetupCheck, AWrenchWithItsSignReversed) {
+  samples::ContextSet ctx = test::contextsOf(run(8));
+  EXPECT_FALSE(mentions(diagnoseSetup(ctx.samples, {}), "sign reversed"));
+  for (auto& c : ctx.samples) c.wrench_S = -c.wrench_S;
+  const SetupDiagnosis d = diagnoseSetup(ctx.samples, {});
+  ASSERT_FALSE(d.lines.empty());
+  const std::string& line = d.lines.front();
+  const std::string key = "with its sign reversed the wrench fits a mass of ";
+  const std::size_t at = line.find(key);
+  ASSERT_NE(at, std::string::npos) << line;
+  EXPECT_NEAR(std::stod(line.substr(at + key.size())), 0.9, 0.02) << line;  // the payload's mass
+  EXPECT_NE(line.find("negate fx, fy, fz, tx, ty, tz"), std::string::npos) << line;
+}
+
 TEST(SetupCheck, TwentyFourRotations) {
   const auto r = axisAlignedRotations();
   ASSERT_EQ(r.size(), 24u);
