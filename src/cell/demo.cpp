@@ -397,6 +397,21 @@ CellIdentifyResult identifyOnCell(const DemoCell& c, const std::string& model, c
   return runCellIdentify(o);
 }
 
+/// identifyOnCell, run again (at most three runs in all) when a run is refused and its recording
+/// shows the simulated arm jerking (jerkTicks): that run measured the simulated cell on a busy
+/// host, not the payload. Any other failure, or a third, stands.
+CellIdentifyResult identifyOnCellAgainOnAJerk(const DemoCell& c, const std::string& model, const std::string& step) {
+  CellIdentifyResult r = identifyOnCell(c, model, step);
+  for (int attempt = 2; attempt <= 3 && r.exit_code != 0 && !r.data_csv.empty(); ++attempt) {
+    const std::size_t jerks = jerkTicks(r.data_csv);
+    if (jerks == 0) break;
+    say("   (the simulated arm jerked on " + std::to_string(jerks) + " tick(s) of that run, a servo target late on "
+        "this busy host, which the sensor simulator cannot follow, docs/sensor.md; the run again)");
+    r = identifyOnCell(c, model, step);
+  }
+  return r;
+}
+
 /// The live compensated wrench: 1.5 s with the tool free, then (push) 3 s of the simulator's
 /// contact push. Only cycles that started after the receiver did are counted.
 LiveStats liveStats(DemoCell& c, bool push) {
@@ -520,7 +535,7 @@ int runDemo(const DemoOptions& opt) {
   writeCellFiles(c);
   if (!startProcesses(c)) return 1;
 
-  const CellIdentifyResult first = identifyOnCell(c, kDefaultModel, "[4/7]");
+  const CellIdentifyResult first = identifyOnCellAgainOnAJerk(c, kDefaultModel, "[4/7]");
   if (first.exit_code != 0) {
     say("demo: identification failed: " + first.message);
     say("ftidd log:\n" + tail(c.daemon->log(), 15) + "sensor log:\n" + tail(c.sensor->log(), 8));
@@ -545,7 +560,7 @@ int runDemo(const DemoOptions& opt) {
   const bool found = first.suggested_effect == opt.hidden_effect;
   if (!found) say("demo: the laboratory named " + first.suggested_effect + ", not the hidden " + opt.hidden_effect);
   const std::string model2 = std::string(kDefaultModel) + "+" + first.suggested_effect;
-  const CellIdentifyResult second = identifyOnCell(c, model2, "     ");
+  const CellIdentifyResult second = identifyOnCellAgainOnAJerk(c, model2, "     ");
   if (second.exit_code != 0) {
     say("demo: second identification failed: " + second.message);
     return 1;

@@ -175,4 +175,13 @@ std::string identifiedText(const std::string& params_path, const sim::CellSimCon
 /// |contact| RMS of the simulated noise alone (three independent axes).
 std::string noiseOnlyText(const sim::CellSimConfig& truth);
 
+/// Ticks of a recording (a motion runner's `--out` CSV or a run's run.csv, columns qdd1..qdd6)
+/// where the arm's acceleration exceeded kJerkRadps2 on some joint: the demo's excitations plan at
+/// most 6 rad/s^2 (they peak at 5.9-6.5), the simulated arm's clamp is 40, so such a tick is a
+/// servo target that reached the controller late or not at all (a host stall, with or without a
+/// missed tick), which the sensor simulator, learning the motion over RTDE, cannot follow
+/// (docs/sensor.md, "Between robot ticks"). 0 if the file is unreadable.
+inline constexpr double kJerkRadps2 = 20.0;
+std::size_t jerkTicks(const fs::path& csv);
+
 }  // namespace ftid::cell::demo

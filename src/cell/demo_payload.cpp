@@ -135,31 +135,6 @@ unsigned long long missedTicks(const fs::path& log) {
   return missed + lost;
 }
 
-/// Ticks of a motion runner's recording (`--out` CSV, columns qdd1..qdd6) where the arm's
-/// acceleration exceeded kJerkRadps2 on some joint: the demo's excitation plans at most 6 rad/s^2
-/// (it peaks at 5.9), the simulated arm's clamp is 40, so such a tick is a servo target that reached the controller
-/// late or not at all (a host stall, with or without a missed tick). 0 if the file is unreadable.
-constexpr double kJerkRadps2 = 20.0;
-std::size_t jerkTicks(const fs::path& csv) {
-  logio::Table t;
-  try {
-    t = logio::readTable(csv.string(), logio::TableSeparator::kComma,
-                         [](const std::string& name) { return name.rfind("qdd", 0) == 0; });
-  } catch (const Error&) {
-    return 0;
-  }
-  std::size_t jerks = 0;
-  for (std::size_t i = 0; i < t.rows(); ++i) {
-    bool jerk = false;
-    for (int j = 1; j <= 6; ++j) {
-      const int k = t.find("qdd" + std::to_string(j));
-      if (k >= 0 && std::abs(t.columns[static_cast<std::size_t>(k)][i]) > kJerkRadps2) jerk = true;
-    }
-    if (jerk) ++jerks;
-  }
-  return jerks;
-}
-
 /// Step 6: the same motion again with the re-identified payload: |contact force| RMS, or -1. A
 /// motion in which the host missed servo ticks (missedTicks) or the arm jerked (jerkTicks) is said
 /// and measured again, up to three motions in all: the sensor simulator, which learns the motion
@@ -187,6 +162,28 @@ double moveAgain(DemoCell& c, lcm::LCM& lc) {
 }
 
 }  // namespace
+
+// (demo_cell.hpp)
+std::size_t jerkTicks(const fs::path& csv) {
+  logio::Table t;
+  try {
+    t = logio::readTable(csv.string(), logio::TableSeparator::kComma,
+                         [](const std::string& name) { return name.rfind("qdd", 0) == 0; });
+  } catch (const Error&) {
+    return 0;
+  }
+  std::size_t jerks = 0;
+  for (std::size_t i = 0; i < t.rows(); ++i) {
+    bool jerk = false;
+    for (int j = 1; j <= 6; ++j) {
+      const int k = t.find("qdd" + std::to_string(j));
+      if (k >= 0 && std::abs(t.columns[static_cast<std::size_t>(k)][i]) > kJerkRadps2) jerk = true;
+    }
+    if (jerk) ++jerks;
+  }
+  return jerks;
+}
+
 }  // namespace demo
 
 using namespace demo;  // NOLINT(google-build-using-namespace): the demo's own steps
