@@ -108,24 +108,19 @@ bool undoes(const ChangePoint& first, const ChangePoint& second) {
 void applyTimeWindow(samples::ContextSet& set, double t_from, double t_to, const std::string& log) {
   if (!(t_from < t_to)) throw DataError(log + ": --t-from " + detail::fmt(t_from, 6) + " is not before --t-to " + detail::fmt(t_to, 6));
   if (set.samples.empty() || (std::isinf(t_from) && std::isinf(t_to))) return;
-  const std::size_t k = set.extra_names.size();
   const double first = set.samples.front().t, last = set.samples.back().t;
+  std::vector<char> keep(set.samples.size(), 0);
   std::size_t kept = 0;
   for (std::size_t i = 0; i < set.samples.size(); ++i) {
     const double t = set.samples[i].t;
-    if (!(t >= t_from && t < t_to)) continue;
-    set.samples[kept] = set.samples[i];
-    std::copy_n(set.extra_rows.begin() + static_cast<std::ptrdiff_t>(i * k), k,
-                set.extra_rows.begin() + static_cast<std::ptrdiff_t>(kept * k));
-    ++kept;
+    keep[i] = t >= t_from && t < t_to ? 1 : 0;
+    kept += static_cast<std::size_t>(keep[i]);
   }
   if (kept == 0) {
     throw DataError(log + ": no sample with " + detail::fmt(t_from, 6) + " <= t < " + detail::fmt(t_to, 6) + " s (its samples span t = " +
                     detail::fmt(first, 6) + " .. " + detail::fmt(last, 6) + " s since the first)");
   }
-  set.samples.resize(kept);
-  set.extra_rows.resize(kept * k);
-  set.repoint();
+  set.keepRows(keep);
 }
 
 namespace detail {

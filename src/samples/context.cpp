@@ -70,6 +70,21 @@ ContextSet& ContextSet::operator=(const ContextSet& other) {
   return *this;
 }
 
+void ContextSet::keepRows(const std::vector<char>& keep) {
+  const std::size_t k = extra_names.size();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (keep[i] == 0) continue;
+    samples[kept] = samples[i];
+    std::copy_n(extra_rows.begin() + static_cast<std::ptrdiff_t>(i * k), k,
+                extra_rows.begin() + static_cast<std::ptrdiff_t>(kept * k));
+    ++kept;
+  }
+  samples.resize(kept);
+  extra_rows.resize(kept * k);
+  repoint();
+}
+
 void ContextSet::repoint() {
   const std::size_t k = extra_names.size();
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -275,26 +290,6 @@ ContextSet buildContexts(const logio::LogData& log, const model::RobotKinematics
   return set;
 }
 
-namespace {
-
-// Removes the rows marked in `drop` (one per sample) from the set: its samples and extra rows.
-void dropRows(ContextSet& set, const std::vector<char>& drop) {
-  const std::size_t k = set.extra_names.size();
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < set.samples.size(); ++i) {
-    if (drop[i] != 0) continue;
-    set.samples[kept] = set.samples[i];
-    std::copy_n(set.extra_rows.begin() + static_cast<std::ptrdiff_t>(i * k), k,
-                set.extra_rows.begin() + static_cast<std::ptrdiff_t>(kept * k));
-    ++kept;
-  }
-  set.samples.resize(kept);
-  set.extra_rows.resize(kept * k);
-  set.repoint();
-}
-
-}  // namespace
-
 ContextSet loadLogContexts(const std::string& log_path, const std::string& robot_urdf,
                            const ContextOptions& options,
                            const std::function<void(const std::string& line)>& progress) {
@@ -313,7 +308,9 @@ ContextSet loadLogContexts(const std::string& log_path, const std::string& robot
   if (options.drop_held_readings) {
     const HeldReadings held = findHeldReadings(in.log);
     if (held.count > 0) {
-      dropRows(set, held.held);
+      std::vector<char> keep(held.held.size());
+      for (std::size_t i = 0; i < keep.size(); ++i) keep[i] = held.held[i] != 0 ? 0 : 1;
+      set.keepRows(keep);
       set.held_rows = held.count;
       set.held_note = describeHeldReadings(held, log_path);
       if (progress) progress(set.held_note);

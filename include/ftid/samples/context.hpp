@@ -93,6 +93,9 @@ struct ContextSet {
   /// Points every SampleContext::extra at its row of extra_rows and extra_names at extra_names
   /// (after editing either; nullptr when there are no extra columns).
   void repoint();
+  /// Keeps the samples i with keep[i] != 0 (keep: one entry per sample), in order, with their
+  /// extra rows; repoints. Used for the held readings (loadLogContexts) and a time window.
+  void keepRows(const std::vector<char>& keep);
 };
 
 /// Builds contexts for every sample of the log. Throws DataError (naming the log) if the log has
