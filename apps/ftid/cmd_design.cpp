@@ -42,7 +42,10 @@ const char* kUsage =
     "  --harmonics N        Fourier harmonics per joint, >= 2 (default 5)\n"
     "  --rate HZ            servo rate of the CSV: 125 (CB3) or 500 (e-Series) (default 125)\n"
     "  --q0 a,b,c,d,e,f     start/end pose [rad] (default 0,-1.5708,1.5708,-1.5708,-1.5708,0)\n"
-    "  --objective cond|dopt  condition number (default) or D-optimality\n"
+    "  --objective cond|dopt|limits  what the optimiser minimises: the condition number, D-optimality,\n"
+    "                       or the worst ratio of a predicted standard error to its target (needs\n"
+    "                       --limits or --target-std; with --imu-noise and --limits, the prediction\n"
+    "                       with the IMU). Default: limits when limits or targets are given, else cond\n"
     "  --seed N             random seed (default 1); same seed and budgets -> same trajectory\n"
     "  --time-budget S      wall-clock budget for the optimisation [s] (default 30)\n"
     "  --global multistart|isres|none   global stage (default multistart)\n"
@@ -60,6 +63,8 @@ const char* kUsage =
     "                       case over noise, 3 predicted standard errors, is within each limit\n"
     "                       (keys as --target-std; units %, mm, cm, m, deg, rad, g, kg, N, Nm;\n"
     "                       docs/design.md \"Limits\")\n"
+    "  --fixed-duration     with --limits or --target-std: design at --duration only (no search)\n"
+    "                       and say whether it meets them\n"
     "  --imu-noise acc=A,gyro=W  the sensor's IMU noise [m/s^2, rad/s] (e.g. acc=0.01,gyro=0.002):\n"
     "                       also predict with the IMU's tilt fused (ftid identify --imu on); with\n"
     "                       --limits the search runs for the wrench alone and with the IMU, prints\n"
@@ -85,16 +90,18 @@ std::map<std::string, double> parseNominal(const std::string& text) {
 }
 
 /// The command line that designs the same trajectory again: this run's options, with the evaluation
-/// budgets pinned to the counts used so the result does not depend on the machine's speed.
-std::string reproduceCommand(const ftid::design::DesignOptions& o, const ftid::design::DesignResult& r) {
+/// budgets pinned to the counts used so the result does not depend on the machine's speed, and the
+/// limits or targets it was designed for (target_arguments, from targetArguments).
+std::string reproduceCommand(const ftid::design::DesignOptions& o, const ftid::design::DesignResult& r,
+                             const std::string& target_arguments) {
   std::ostringstream s;
   s << "ftid design --model " << o.model << " --joints ";
   for (std::size_t i = 0; i < o.joints.size(); ++i) s << (i ? "," : "") << o.joints[i];
   s << " --duration " << ftid::yamlNumberText(r.file.duration_s) << " --periods " << o.periods << " --harmonics "
     << o.harmonics << " --rate " << ftid::yamlNumberText(o.servo_rate_hz) << " --objective "
-    << (o.objective == ftid::design::Objective::kCondition ? "cond" : "dopt") << " --seed " << o.seed
+    << ftid::design::objectiveName(o.objective) << " --seed " << o.seed
     << " --global " << o.global_algorithm << " --local " << o.local_algorithm << " --global-evals "
-    << r.global_evals << " --local-evals " << r.local_evals << " (same robot, config and q0)";
+    << r.global_evals << " --local-evals " << r.local_evals << target_arguments << " (same robot, config and q0)";
   return s.str();
 }
 
@@ -126,6 +133,15 @@ void parseImuNoise(const std::string& text, ftid::design::DesignOptions* o) {
     throw ftid::cli::UsageError("--imu-noise: give both acc=A and gyro=W");
   }
 }
+
+/// The command line's values that are not DesignOptions fields (those are bound directly).
+struct DesignArgs {
+  std::string config, joints = "4,5,6", objective, noise, nominal, target, out = "traj.yaml";
+  std::vector<double> q0;
+  std::string limits, imu_noise;
+  bool quiet = false;
+  bool fixed_duration = false;
+};
 
 /// --limits: the shortest duration for the wrench alone and, with --imu-noise, with the IMU.
 ftid::design::DesignResult searchLimits(ftid::design::DesignOptions o, const ftid::model::RobotKinematics& kin,
@@ -163,14 +179,6 @@ ftid::design::DesignResult searchLimits(ftid::design::DesignOptions o, const fti
   return chosen;
 }
 
-/// The command line's values that are not DesignOptions fields (those are bound directly).
-struct DesignArgs {
-  std::string config, joints = "4,5,6", objective = "cond", noise, nominal, target, out = "traj.yaml";
-  std::vector<double> q0;
-  std::string limits, imu_noise;
-  bool quiet = false;
-};
-
 /// Parses the command line into `o` and the returned values, and converts the joints, q0, the
 /// objective, the noise and the nominal payload into `o`.
 DesignArgs parseDesignArgs(const std::vector<std::string>& argv, ftid::design::DesignOptions& o) {
@@ -186,7 +194,7 @@ DesignArgs parseDesignArgs(const std::vector<std::string>& argv, ftid::design::D
   app.add_option("--harmonics", o.harmonics)->transform(cli::integer(2, 1000000));
   app.add_option("--rate", o.servo_rate_hz)->transform(cli::real(cli::positive()));
   cli::addReals(app, "--q0", a.q0, 6);
-  app.add_option("--objective", a.objective)->transform(cli::oneOf({"cond", "dopt"}));
+  app.add_option("--objective", a.objective)->transform(cli::oneOf({"cond", "dopt", "limits"}));
   app.add_option("--seed", o.seed)->transform(cli::count());
   app.add_option("--time-budget", o.time_budget_s)->transform(cli::real(cli::positive()));
   app.add_option("--global", o.global_algorithm);
@@ -202,6 +210,7 @@ DesignArgs parseDesignArgs(const std::vector<std::string>& argv, ftid::design::D
   app.add_option("--baseline-seeds", o.baseline_seeds)->transform(cli::integer(0, 1000000));
   app.add_option("--out", a.out);
   app.add_flag("--quiet", a.quiet);
+  app.add_flag("--fixed-duration", a.fixed_duration);
   cli::parse(app, argv);
 
   if (a.joints == "all") {
@@ -215,13 +224,13 @@ DesignArgs parseDesignArgs(const std::vector<std::string>& argv, ftid::design::D
   if (!a.q0.empty()) {
     for (int i = 0; i < 6; ++i) o.q0[i] = a.q0[static_cast<std::size_t>(i)];
   }
-  if (a.objective == "cond") {
-    o.objective = design::Objective::kCondition;
-  } else if (a.objective == "dopt") {
-    o.objective = design::Objective::kDOptimality;
-  } else {
-    throw cli::UsageError("--objective must be cond or dopt");
-  }
+  const bool has_targets = !a.limits.empty() || !a.target.empty();
+  if (a.objective.empty()) a.objective = has_targets ? "limits" : "cond";
+  if (a.objective == "limits" && !has_targets) throw cli::UsageError("--objective limits needs --limits or --target-std");
+  if (a.fixed_duration && !has_targets) throw cli::UsageError("--fixed-duration needs --limits or --target-std");
+  o.objective = a.objective == "cond"   ? design::Objective::kCondition
+                : a.objective == "dopt" ? design::Objective::kDOptimality
+                                        : design::Objective::kLimits;
   if (!a.noise.empty()) o.noise_sigma = design::parseNoise(a.noise);
   if (!a.imu_noise.empty()) parseImuNoise(a.imu_noise, &o);
   if (!a.nominal.empty()) o.nominal = parseNominal(a.nominal);
@@ -316,6 +325,29 @@ void printDesign(ftid::design::DesignResult& r, const DesignArgs& a,
   std::printf("wrote %s and %s\n", a.out.c_str(), csv.c_str());
 }
 
+/// --fixed-duration: one design at --duration for the limits or targets (the objective, unless
+/// --objective says otherwise); with --imu-noise and --limits, judged with the IMU.
+ftid::design::DesignResult designFixedDuration(ftid::design::DesignOptions o, const ftid::model::RobotKinematics& kin,
+                                               const std::map<std::string, double>& targets, const DesignArgs& a) {
+  using namespace ftid;
+  o.targets_with_imu = !a.limits.empty() && o.imu_acc_std > 0.0;
+  design::DesignResult r = design::designExcitation(o, kin);
+  const auto unmet = design::unmetTargets(o.targets_with_imu ? r.predicted_std_imu : r.predicted_std, targets);
+  std::printf("%.2f s %s the %s%s\n", o.duration_s, unmet.empty() ? "meets" : "misses",
+              a.limits.empty() ? "targets" : "limits", o.targets_with_imu ? " with the IMU" : "");
+  return r;
+}
+
+/// The limits or targets of a design made for them, as arguments of its reproduce command.
+std::string targetArguments(const DesignArgs& a) {
+  std::string s;
+  if (!a.limits.empty()) s += " --limits " + a.limits;
+  if (!a.target.empty()) s += " --target-std " + a.target;
+  if (!a.imu_noise.empty()) s += " --imu-noise " + a.imu_noise;
+  if (!s.empty()) s += " --fixed-duration";
+  return s;
+}
+
 int runDesign(const std::vector<std::string>& argv) {
   using namespace ftid;
   design::DesignOptions o;
@@ -346,15 +378,21 @@ int runDesign(const std::vector<std::string>& argv) {
     } catch (const ConfigError& e) {
       throw cli::UsageError(e.what());
     }
-    r = searchLimits(o, kin, targets, a.limits);
   } else if (!a.target.empty()) {
     targets = design::parseTargets(a.target, o.nominal);
+  }
+  if (o.objective == design::Objective::kLimits) o.limit_targets = targets;
+  if (a.fixed_duration) {
+    r = designFixedDuration(o, kin, targets, a);
+  } else if (!a.limits.empty()) {
+    r = searchLimits(o, kin, targets, a.limits);
+  } else if (!a.target.empty()) {
     r = searchTargets(o, kin, targets, a.target);
   } else {
     r = design::designExcitation(o, kin);
   }
   r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : a.config;
-  r.file.design["reproduce"] = reproduceCommand(o, r);
+  r.file.design["reproduce"] = reproduceCommand(o, r, targetArguments(a));
   if (!a.target.empty()) r.file.design["target_std"] = a.target;
   if (!a.limits.empty()) r.file.design["limits"] = a.limits + " (3 predicted standard errors)";
   if (!a.imu_noise.empty()) r.file.design["imu_noise"] = a.imu_noise;

@@ -1,9 +1,9 @@
 // The designer's optimisation problem (design_problem.hpp): sampling the Fourier coefficients x at
 // the design samples, the joint and workspace constraints aggregated by a Kreisselmeier-Steinhauser
 // soft maximum (max_t g(t) <= KS(g) <= max_t g(t) + ln(K)/kKsRho, so KS <= 0 holds only when every
-// sample satisfies its constraint), the objective (log10 condition number or D-optimality of the
-// information matrix), the scaling of a point into the feasible set, the per-stage budget and the
-// progress line.
+// sample satisfies its constraint), the objective (log10 condition number, D-optimality of the
+// information matrix, or the soft maximum of predicted std / target), the scaling of a point into
+// the feasible set, the per-stage budget and the progress line.
 #include "design_problem.hpp"
 
 #include <algorithm>
@@ -122,6 +122,18 @@ const Evaluation& Problem::evaluate(const double* x) {
   return cache_;
 }
 
+double Problem::progressValue() const {
+  switch (opt_.objective) {
+    case Objective::kCondition:
+      return best_cond_;
+    case Objective::kLimits:
+      return std::pow(10.0, best_f_);
+    case Objective::kDOptimality:
+      break;
+  }
+  return best_f_;
+}
+
 void Problem::printProgress(bool force) {
   if (opt_.progress == nullptr) return;
   const double now = elapsed();
@@ -132,10 +144,9 @@ void Problem::printProgress(bool force) {
   std::snprintf(
       buf, sizeof buf,
       "design [%s] eval %ld | best %s %s | elapsed %.1f s | remaining %.1f s (budget)\n",
-      stage_.c_str(), evals_, opt_.objective == Objective::kCondition ? "cond" : "dopt",
-      std::isfinite(best_f_)
-          ? fmt(opt_.objective == Objective::kCondition ? best_cond_ : best_f_).c_str()
-          : "(none feasible yet)",
+      stage_.c_str(), evals_,
+      opt_.objective == Objective::kLimits ? "predicted std/target" : objectiveName(opt_.objective),
+      std::isfinite(best_f_) ? fmt(progressValue()).c_str() : "(none feasible yet)",
       now, left);
   *opt_.progress << buf << std::flush;
 }
@@ -144,6 +155,26 @@ Eigen::MatrixXd Problem::information(const std::vector<double>& x) const {
   SampledMotion mo;
   param_.sample(x.data(), mo);
   return metric_.information(mo, weight_);
+}
+
+double Problem::limitObjective(const Eigen::MatrixXd& info) const {
+  const Eigen::MatrixXd full =
+      opt_.targets_with_imu ? metric_.informationWithImu(motion_, info, opt_.imu_acc_std, opt_.imu_gyro_std, weight_)
+                            : info;
+  const auto predicted = metric_.predictedStd(full);
+  if (predicted.empty()) return kPenalty;
+  // The worst ratio predicted std / target, as a smooth soft maximum: the p-norm of the ratios
+  // (max <= norm <= K^(1/p) max, so within 2^(1/kLimitNormP) of the max for up to two ties).
+  double worst = 0.0;
+  for (const auto& [key, target] : opt_.limit_targets) {
+    const auto it = predicted.find(key);
+    if (it == predicted.end() || !std::isfinite(it->second)) return kPenalty;
+    worst = std::max(worst, it->second / target);
+  }
+  if (!(worst > 0.0)) return kPenalty;
+  double sum = 0.0;
+  for (const auto& [key, target] : opt_.limit_targets) sum += std::pow(predicted.at(key) / target / worst, kLimitNormP);
+  return std::log10(worst) + std::log10(sum) / kLimitNormP;
 }
 
 Evaluation Problem::compute(const double* x, bool with_objective) {
@@ -198,6 +229,8 @@ Evaluation Problem::compute(const double* x, bool with_objective) {
     e.condition = ExcitationMetric::conditionNumber(info);
     if (opt_.objective == Objective::kCondition) {
       e.objective = std::isfinite(e.condition) ? std::log10(e.condition) : kPenalty;
+    } else if (opt_.objective == Objective::kLimits) {
+      e.objective = limitObjective(info);
     } else {
       const double d = ExcitationMetric::dOptimality(info, represented_);
       e.objective = std::isfinite(d) ? d : kPenalty;

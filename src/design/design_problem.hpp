@@ -8,7 +8,8 @@
 //     samples by a Kreisselmeier-Steinhauser soft maximum, so max_t g(t) <= KS <= max_t g(t) +
 //     ln(K)/kKsRho: KS <= 0 implies every sample satisfies its constraint (conservative);
 //   - the objective minimised: log10 of the column-scaled condition number of the information
-//     matrix, or its D-optimality criterion (excitation_metric.hpp); kPenalty for a singular one.
+//     matrix, its D-optimality criterion (excitation_metric.hpp), or log10 of the 16-norm of the
+//     ratios predicted std / target (Objective::kLimits); kPenalty for a singular one.
 // It also keeps the best feasible point seen, the per-stage time/evaluation budget (BudgetSpent),
 // and prints progress. Implementation: design_problem.cpp.
 #include <chrono>
@@ -28,6 +29,7 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kKsRho = 200.0;         // KS aggregation sharpness (normalised constraint units)
 constexpr double kWorkspaceScale = 0.1;  // [m] normalisation of workspace clearances
 constexpr double kPenalty = 1e3;         // objective value of a degenerate (singular) excitation
+constexpr double kLimitNormP = 16.0;     // p of the p-norm soft maximum of the limit ratios
 
 /// printf "%.6g": the designer's one number format in messages, progress and the design record.
 std::string fmt(double v);
@@ -114,6 +116,11 @@ class Problem {
 
  private:
   Evaluation compute(const double* x, bool with_objective);
+  /// Objective::kLimits: log10 of the soft maximum over DesignOptions::limit_targets of predicted
+  /// std / target (with the IMU's information when targets_with_imu); kPenalty when singular.
+  double limitObjective(const Eigen::MatrixXd& info) const;
+  /// The best objective in the progress line's units (cond; dopt; worst std / target).
+  double progressValue() const;
 
   const DesignOptions& opt_;
   RestToRestParametrization param_;

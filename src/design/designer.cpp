@@ -46,6 +46,10 @@ void checkOptions(const DesignOptions& opt, const model::RobotKinematics& kinema
   if (!(opt.servo_rate_hz > 0.0)) throw ConfigError("--rate must be positive");
   if (!(opt.time_budget_s > 0.0)) throw ConfigError("--time-budget must be positive");
   internal::validateAlgorithms(opt);
+  if (opt.objective == Objective::kLimits && opt.limit_targets.empty())
+    throw ConfigError("the limits objective needs accuracy limits (--limits)");
+  if (opt.targets_with_imu && !(opt.imu_acc_std > 0.0 && opt.imu_gyro_std > 0.0))
+    throw ConfigError("targets with the IMU need the IMU's noise (--imu-noise acc=...,gyro=...)");
 
   // The start pose itself must satisfy every constraint (else no trajectory can).
   Coefficients zero{};
@@ -94,6 +98,28 @@ void recheckAndRepair(const DesignOptions& opt, const model::RobotKinematics& ki
           "the designed trajectory violates its constraints even after scaling back:" + why);
     }
   }
+}
+
+/// A warning when the design moves joint 1, 2 or 3 and keep-out spheres are configured: those
+/// spheres are fixed in B (design.yaml, placed for q0) while these joints move the arm's links, so
+/// the check is only as good as the links' displacement is small against the clearances. Names each
+/// such joint's largest excursion from q0 (from the dense re-check).
+void warnMovingLinks(const DesignOptions& opt, DesignResult& res) {
+  if (opt.constraints.keep_out.empty()) return;
+  std::string moved;
+  for (int j : opt.joints) {
+    if (j > 3) continue;
+    const std::string joint = "joint " + std::to_string(j) + " position ";
+    double excursion = 0.0;
+    for (const auto& m : res.check.margins) {
+      if (m.name.compare(0, joint.size(), joint) == 0) excursion = std::max(excursion, std::abs(m.worst - opt.q0[j - 1]));
+    }
+    moved += (moved.empty() ? "" : ", ") + std::string("joint ") + std::to_string(j) + " by up to " + fmt(excursion) + " rad";
+  }
+  if (moved.empty()) return;
+  res.warnings.push_back("the design moves " + moved +
+                         " from q0; the keep-out spheres are fixed in the base frame (placed for q0) while these "
+                         "joints move the arm's links, so check the clearances on the robot at reduced speed first");
 }
 
 /// The figures at the servo rate (the samples the identification will see): condition number,
@@ -147,7 +173,7 @@ void fillRecord(const DesignOptions& opt, const Problem& p, const std::vector<do
   std::snprintf(seed, sizeof seed, "%llu", static_cast<unsigned long long>(opt.seed));
   f.design = {
       {"model", effects::Model::fromName(opt.model).name()},
-      {"objective", opt.objective == Objective::kCondition ? "cond" : "dopt"},
+      {"objective", objectiveName(opt.objective)},
       {"seed", seed},
       {"global_algorithm", opt.global_algorithm},
       {"local_algorithm", opt.local_algorithm},
@@ -217,6 +243,7 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
 
   // ---- final figures at the servo rate (the samples the identification will see)
   const int Ks = finalFigures(opt, p, x, res);
+  warnMovingLinks(opt, res);
 
   // ---- baselines
   p.param().prepareSampling(std::max(120, 30 * opt.harmonics * opt.periods));
@@ -229,6 +256,18 @@ DesignResult designExcitation(const DesignOptions& opt, const model::RobotKinema
   // ---- output record
   fillRecord(opt, p, x, Ks, res);
   return res;
+}
+
+const char* objectiveName(Objective o) {
+  switch (o) {
+    case Objective::kCondition:
+      return "cond";
+    case Objective::kDOptimality:
+      return "dopt";
+    case Objective::kLimits:
+      return "limits";
+  }
+  return "?";
 }
 
 std::map<std::string, double> parseTargets(const std::string& text,
@@ -308,6 +347,7 @@ DurationSearchResult findShortestDuration(const DesignOptions& options,
       if (std::abs(t.duration_s - d) < 1e-9) return t.met;
     }
     DesignOptions o = options;
+    if (o.objective == Objective::kLimits && o.limit_targets.empty()) o.limit_targets = targets;
     o.duration_s = d;
     o.periods = 1;
     o.time_budget_s = share;

@@ -248,7 +248,7 @@ std::vector<std::string> ExcitationMetric::weakColumns(const Eigen::MatrixXd& in
 }
 
 Eigen::MatrixXd ExcitationMetric::informationWithImu(const SampledMotion& motion, const Eigen::MatrixXd& info,
-                                                     double acc_std, double gyro_std) const {
+                                                     double acc_std, double gyro_std, double weight) const {
   if (!tilt_) return info;
   const auto K = static_cast<std::size_t>(motion.q.cols());
   logio::LogData log;
@@ -270,7 +270,7 @@ Eigen::MatrixXd ExcitationMetric::informationWithImu(const SampledMotion& motion
   Eigen::MatrixXd out = info;
   if (!cov.allFinite()) return out;
   const int P = model_.numParams();
-  out.block(P, P, 2, 2) += cov.inverse();
+  out.block(P, P, 2, 2) += weight * cov.inverse();
   return out;
 }
 

@@ -6,7 +6,8 @@
 //      feasible trajectories refined briefly by COBYLA; then local refinement of the best point
 //      (LN_COBYLA, LD_SLSQP with finite-difference gradients, or LN_AUGLAG + LN_SBPLX)
 //   3. objective: condition number (or D-optimality) of the model's stacked regressor along the
-//      trajectory (excitation_metric.hpp), computed through the identification's context builder
+//      trajectory (excitation_metric.hpp), computed through the identification's context builder;
+//      or, for accuracy limits, the soft maximum of predicted std / target (Objective::kLimits)
 //   4. constraints inside NLopt: joint position/velocity/acceleration limits, floor plane and
 //      keep-out spheres, each aggregated over the design samples with a Kreisselmeier-Steinhauser
 //      soft maximum (smooth, conservative), with a small relative margin
@@ -35,7 +36,12 @@ class DesignError : public Error {
   using Error::Error;
 };
 
-enum class Objective { kCondition, kDOptimality };
+/// What the designer minimises (docs/design.md "Objective"): the column-scaled condition number,
+/// D-optimality, or, for accuracy limits, the worst ratio of a predicted standard error to its
+/// target (DesignOptions::limit_targets; with the IMU's information when targets_with_imu).
+enum class Objective { kCondition, kDOptimality, kLimits };
+/// The objective's name on the command line and in the design record: cond, dopt, limits.
+const char* objectiveName(Objective o);
 
 struct DesignOptions {
   std::string model = "paper";
@@ -65,8 +71,11 @@ struct DesignOptions {
   /// "Limits"); 0: no IMU prediction.
   double imu_acc_std = 0.0;   ///< accelerometer [m/s^2]
   double imu_gyro_std = 0.0;  ///< gyro [rad/s]
-  /// findShortestDuration: judge the targets on the predictions with the IMU (needs the IMU noise).
+  /// findShortestDuration and Objective::kLimits: judge the targets on the predictions with the
+  /// IMU (needs the IMU noise).
   bool targets_with_imu = false;
+  /// Objective::kLimits: predicted standard-error targets by key (parseTargets/parseLimits keys).
+  std::map<std::string, double> limit_targets;
   int baseline_seeds = 50;  ///< random baseline trajectories (0: skip)
   bool static_baseline = true;
   std::ostream* progress = nullptr;  ///< progress lines (stderr in the CLI)

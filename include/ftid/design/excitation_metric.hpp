@@ -56,9 +56,11 @@ class ExcitationMetric {
   /// tilt covariance for this motion (identify::predictImuTiltCovariance: accelerometer noise
   /// acc_std, gyro noise gyro_std, accelerometer bias estimated) added as the information of an
   /// independent measurement of (U, V): info + H^T Cov_imu^-1 H (H picks tilt_u, tilt_v), the fused
-  /// fit's information (identify/imu_fusion.hpp). Models without tilt: info unchanged.
+  /// fit's information (identify/imu_fusion.hpp). Models without tilt: info unchanged. Each sample
+  /// of `motion` stands for `weight` samples, as in information() (the IMU's information grows
+  /// with the samples: Cov_imu / weight).
   Eigen::MatrixXd informationWithImu(const SampledMotion& motion, const Eigen::MatrixXd& info, double acc_std,
-                                     double gyro_std) const;
+                                     double gyro_std, double weight = 1.0) const;
 
   /// Information of the stacked samples of a list of joint states.
   Eigen::MatrixXd information(const std::vector<JointVector>& q, const std::vector<JointVector>& qd,

@@ -1,18 +1,22 @@
 // The designer's optimisation problem (src/design/design_problem.hpp), checked against direct
 // formulations: the Kreisselmeier-Steinhauser soft maximum against the plain maximum (its
 // documented bounds), and Problem::makeFeasible against the joint limits evaluated sample by
-// sample on the parametrisation's own motion (no soft maximum involved).
+// sample on the parametrisation's own motion (no soft maximum involved), and the limits objective
+// against predicted standard errors computed here from the information matrix's plain inverse.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "design_problem.hpp"
+#include "ftid/common/error.hpp"
 #include "ftid/design/designer.hpp"
+#include "ftid/design/excitation_metric.hpp"
 #include "ftid/model/kinematics.hpp"
 #include "test_paths.hpp"
 
@@ -99,6 +103,95 @@ TEST(DesignProblem, MakeFeasibleScalesToTheLargestAmplitudeWithinTheJointLimits)
     }
     EXPECT_TRUE(p.evaluateConstraintsOnly(y)) << "trial " << trial;
   }
+}
+
+/// The limits objective (Objective::kLimits) is log10 of the p-norm (p = kLimitNormP) of the ratios
+/// predicted std / target, the standard errors taken here from the plain inverse of the information
+/// matrix, the CoM's by the delta method written out: var(c) = (var(mc) - 2 c cov(mc, m) +
+/// c^2 var(m)) / m^2 at the nominal payload. The IMU's information only adds, so with it the
+/// objective is never larger.
+TEST(DesignProblem, LimitObjectiveIsThePNormOfPredictedStdOverTarget) {
+  const model::RobotKinematics kin =
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
+  DesignOptions opt;
+  opt.model = "paper+rigid_body";
+  opt.duration_s = 1.5;
+  opt.joints = {2, 3, 4, 5, 6};
+  opt.constraints = loadDesignConstraints("", kin, opt.q0);
+  opt.objective = Objective::kLimits;
+  const auto nominal = defaultNominalParameters();
+  opt.limit_targets = parseLimits("mass=0.5%,com=1mm,tilt=0.1deg", nominal);
+  Problem p(opt, kin);
+  DesignOptions with_imu = opt;
+  with_imu.imu_acc_std = 0.01;
+  with_imu.imu_gyro_std = 0.002;
+  with_imu.targets_with_imu = true;
+  Problem q(with_imu, kin);
+  const auto& names = p.metric().columnNames();
+  auto col = [&](const std::string& n) {
+    return static_cast<Eigen::Index>(std::find(names.begin(), names.end(), n) - names.begin());
+  };
+  std::mt19937_64 rng(11);
+  for (int trial = 0; trial < 5; ++trial) {
+    SCOPED_TRACE(trial);
+    const std::vector<double> x = p.makeFeasible(randomDirection(rng, p.n()));
+    const Eigen::MatrixXd cov = p.information(x).inverse();
+    const double m = nominal.at("mass");
+    std::map<std::string, double> sd;
+    sd["mass"] = std::sqrt(cov(col("mass"), col("mass")));
+    for (const char* a : {"x", "y", "z"}) {
+      const Eigen::Index ic = col(std::string("mass_com_") + a);
+      const Eigen::Index im = col("mass");
+      const double c = nominal.at(std::string("com_") + a);
+      sd[std::string("com_") + a] =
+          std::sqrt((cov(ic, ic) - 2.0 * c * cov(ic, im) + c * c * cov(im, im)) / (m * m));
+    }
+    for (const char* t : {"tilt_u", "tilt_v"}) sd[t] = std::sqrt(cov(col(t), col(t)));
+    double sum = 0.0;
+    for (const auto& [key, target] : opt.limit_targets) sum += std::pow(sd.at(key) / target, kLimitNormP);
+    const double objective = p.evaluate(x.data()).objective;
+    EXPECT_NEAR(objective, std::log10(sum) / kLimitNormP, 1e-9);
+    EXPECT_LE(q.evaluate(x.data()).objective, objective + 1e-12);
+  }
+}
+
+/// The IMU's information of a motion scales with the samples it stands for: 150 design samples each
+/// standing for 188/150 samples give about the information of the 188 samples at the servo rate.
+TEST(DesignProblem, ImuInformationOfFewSamplesWeightedMatchesTheServoRate) {
+  const model::RobotKinematics kin =
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
+  DesignOptions opt;
+  opt.model = "paper+rigid_body";
+  opt.duration_s = 1.5;
+  opt.constraints = loadDesignConstraints("", kin, opt.q0);
+  Problem p(opt, kin);
+  std::mt19937_64 rng(3);
+  const std::vector<double> x = p.makeFeasible(randomDirection(rng, p.n()));
+  const Eigen::Index P = p.metric().numColumns();
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(P, P);
+  auto imuInfo = [&](int samples, double weight) {
+    p.param().prepareSampling(samples);
+    SampledMotion mo;
+    p.param().sample(x.data(), mo);
+    return Eigen::Matrix2d(p.metric().informationWithImu(mo, zero, 0.01, 0.002, weight).bottomRightCorner(2, 2));
+  };
+  const Eigen::Matrix2d servo = imuInfo(188, 1.0);
+  const Eigen::Matrix2d design = imuInfo(150, 188.0 / 150.0);
+  ASSERT_GT(servo.norm(), 0.0);
+  EXPECT_LT((design - servo).norm() / servo.norm(), 0.1) << "servo rate:\n" << servo << "\ndesign samples:\n" << design;
+}
+
+TEST(DesignProblem, TheLimitsObjectiveNeedsLimitsAndTheImuTargetsItsNoise) {
+  const model::RobotKinematics kin =
+      model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
+  DesignOptions opt;
+  opt.constraints = loadDesignConstraints("", kin, opt.q0);
+  opt.objective = Objective::kLimits;
+  EXPECT_THROW((void)designExcitation(opt, kin), ConfigError);
+  opt.limit_targets = {{"mass", 0.001}};
+  opt.targets_with_imu = true;
+  EXPECT_THROW((void)designExcitation(opt, kin), ConfigError);
+  EXPECT_STREQ(objectiveName(Objective::kLimits), "limits");
 }
 
 }  // namespace
