@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
     int failed = 0;
     double worst_mass = 0.0, worst_com = 0.0, worst_tilt = 0.0, worst_z = 0.0;
     double seconds = 0.0;
+    double sum_z2[6] = {0, 0, 0, 0, 0, 0};  // (error / reported std)^2: mass, com_x/y/z, tilt_u/v
     for (int s = 0; s < seeds; ++s) {
       sim::CellSimConfig c = cfg;
       c.seed = 1000 + static_cast<std::uint64_t>(s);
@@ -110,10 +111,17 @@ int main(int argc, char** argv) {
       worst_com = std::max(worst_com, e_com);
       worst_tilt = std::max(worst_tilt, e_tilt);
       meet += (e_mass < 0.005 && e_com < 1e-3 && e_tilt < 0.1 / kDeg) ? 1 : 0;
-      double z = std::abs(m - c.payload.mass_kg) / set.find("mass")->std;
       const char* axes[3] = {"com_x", "com_y", "com_z"};
-      for (int a = 0; a < 3; ++a) z = std::max(z, std::abs(com(a) - c.payload.p_SC_S(a)) / set.find(axes[a])->std);
-      z = std::max({z, std::abs(du) / set.tilt_u_std, std::abs(dv) / set.tilt_v_std});
+      const double zs[6] = {(m - c.payload.mass_kg) / set.find("mass")->std,
+                            (com(0) - c.payload.p_SC_S(0)) / set.find(axes[0])->std,
+                            (com(1) - c.payload.p_SC_S(1)) / set.find(axes[1])->std,
+                            (com(2) - c.payload.p_SC_S(2)) / set.find(axes[2])->std, du / set.tilt_u_std,
+                            dv / set.tilt_v_std};
+      double z = 0.0;
+      for (int i = 0; i < 6; ++i) {
+        z = std::max(z, std::abs(zs[i]));
+        sum_z2[i] += zs[i] * zs[i];
+      }
       worst_z = std::max(worst_z, z);
       if (z > 3.5) {
         std::printf("  seed %d: an error beyond 3.5 reported std (%.2f): mass %.5f (std %.5f), com error %.3f/%.3f/%.3f mm "
@@ -130,6 +138,10 @@ int main(int argc, char** argv) {
                 "%.1f ms per identification\n",
                 with_imu ? "with IMU:" : "wrench alone:", meet, seeds, 100.0 * worst_mass, 1e3 * worst_com,
                 worst_tilt * kDeg, within, seeds, worst_z, fused, failed, 1e3 * seconds / std::max(1, seeds - failed));
+    const int n = std::max(1, seeds - failed);
+    std::printf("  RMS of error / reported std (1 when the std is right): mass %.2f, com %.2f/%.2f/%.2f, tilt %.2f/%.2f\n",
+                std::sqrt(sum_z2[0] / n), std::sqrt(sum_z2[1] / n), std::sqrt(sum_z2[2] / n), std::sqrt(sum_z2[3] / n),
+                std::sqrt(sum_z2[4] / n), std::sqrt(sum_z2[5] / n));
   }
   return 0;
 }
