@@ -180,6 +180,8 @@ struct ColumnMap {
   std::vector<int> field_known;          ///< per field: known column index or -1
   std::vector<int> field_extra;          ///< per field: extra column index or -1
   std::array<int, kNumKnown> known_field{};  ///< per known column: its field or -1
+  /// The header ends with a comma (an empty last field): a row's trailing comma is dropped too.
+  bool trailing_separator = false;
 };
 
 /// Advances `cur` to the header row (the first line that is neither blank nor a comment) and
@@ -216,11 +218,17 @@ ColumnMap mapColumns(std::string_view line, std::size_t header_line, const std::
   map.known_field.fill(-1);
   // Duplicate names are found with a hash map: linear in the header length.
   std::unordered_map<std::string_view, std::size_t> seen;  // name -> its 1-based column
+  if (const char* why = otherSeparator(line); *why != '\0') dataError(path, header_line, 1, why);
   std::size_t start = 0;
   int field = 0;
   while (true) {
     std::size_t comma = line.find(',', start);
-    std::string_view name = trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start));
+    std::string_view name =
+        unquoted(trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start)));
+    if (name.empty() && comma == std::string_view::npos && field > 0) {
+      map.trailing_separator = true;  // "t,q1,...,tz," (a writer that ends every line with a comma)
+      break;
+    }
     if (name.empty()) dataError(path, header_line, start + 1, "empty column name in header");
     if (static_cast<std::size_t>(field) >= kMaxColumns) {
       dataError(path, header_line, start + 1,
@@ -331,9 +339,14 @@ std::size_t parseRow(std::string_view line, std::size_t line_no, const ColumnMap
   std::size_t t_column = 1;
   std::size_t start = 0;
   std::size_t field = 0;
+  if (map.trailing_separator) {
+    while (!line.empty() && (line.back() == ' ' || line.back() == '\t')) line.remove_suffix(1);
+    if (!line.empty() && line.back() == ',') line.remove_suffix(1);
+  }
   while (true) {
     const std::size_t comma = line.find(',', start);
-    const std::string_view f = line.substr(start, comma == std::string_view::npos ? line.npos : comma - start);
+    const std::string_view f =
+        unquoted(trim(line.substr(start, comma == std::string_view::npos ? line.npos : comma - start)));
     if (field >= n_fields) {
       dataError(path, line_no, start + 1,
                 "too many fields: expected " + std::to_string(n_fields) + " (as in the header on line " +

@@ -62,6 +62,8 @@ std::string readLogText(const std::string& path) {
   } catch (const FileError& e) {
     throw DataError(e.what());
   }
+  // A UTF-8 byte-order mark (a spreadsheet's "CSV UTF-8") is not part of the first column's name.
+  if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
   const HeaderRow header = headerRow(text);
   if (header.length > kMaxHeaderBytes) {
     throw DataError(path + ":" + std::to_string(header.line_no) + ":1: header row is " +

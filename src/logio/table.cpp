@@ -133,6 +133,11 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
                      (separator == TableSeparator::kAuto && line.find(',') != std::string_view::npos);
   std::vector<Field> fields;
   splitFields(line, comma, fields);
+  // "a,b,c," (a writer that ends every line with a comma): the empty last field is no column, and a
+  // row's empty last field is dropped too.
+  const bool trailing_separator = comma && fields.size() > 1 && fields.back().text.empty();
+  if (trailing_separator) fields.pop_back();
+  for (Field& f : fields) f.text = unquoted(f.text);
   if (fields.size() > kMaxColumns) {
     tableError(path, table.header_line, fields[kMaxColumns].position,
                "too many columns in the header (at most " + std::to_string(kMaxColumns) + ")");
@@ -158,6 +163,8 @@ Table parseTable(std::string_view text, const std::string& path, TableSeparator 
   while (lines.next(line)) {
     if (blankOrComment(line)) continue;
     splitFields(line, comma, fields);
+    if (trailing_separator && fields.size() == n + 1 && fields.back().text.empty()) fields.pop_back();
+    for (Field& f : fields) f.text = unquoted(f.text);
     if (fields.size() != n) {
       const bool few = fields.size() < n;
       const std::size_t at = few ? trimmed(line).size() + 1 : fields[n].position;

@@ -115,6 +115,10 @@ TEST(Table, ReadsSpaceAndCommaSeparatedAndNamesBadFields) {
   EXPECT_EQ(errorOf([] { parseTable("a a\n1 2\n", "c.txt"); }), "c.txt:1:3: duplicate column 'a' (first at column 1)");
   EXPECT_EQ(errorOf([] { parseTable("a b\n", "c.txt"); }), "c.txt:1:1: the file has a header but no data rows");
   EXPECT_EQ(errorOf([] { parseTable("a,,b\n1,2,3\n", "c.txt"); }), "c.txt:1:3: empty column name in header");
+  // A csv writer's quoted fields and a comma at the end of every line read as the plain table.
+  const Table q = parseTable("\"x\",\"y\",\n\"1\",\"-2e-3\",\n3,4\n", "q.csv");
+  ASSERT_EQ(q.names, (std::vector<std::string>{"x", "y"}));
+  EXPECT_EQ(q.columns[1], (std::vector<double>{-2e-3, 4.0}));
   EXPECT_EQ(errorOf([] { parseTable("a,b\n1,++2\n", "c.txt"); }), "c.txt:2:3: column 'b': not a number: '++2'");
 }
 

@@ -2,9 +2,12 @@
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <random>
 #include <sstream>
 #include <string>
@@ -207,6 +210,46 @@ TEST(LogIo, MalformedInputsNameFileLineColumn) {
               "duplicate column 'q2'");
   expectError("empty.csv", "", 1, 1, "no header");
   expectError("headeronly.csv", h, 1, 1, "no data rows");
+}
+
+/// Files from spreadsheets and csv writers (docs/log-format.md "Files from other tools"): a UTF-8
+/// byte-order mark, Windows line ends, every field in double quotes, and a comma at the end of every
+/// line read as the plain file does, bit for bit; ';' or tab between the header's fields is refused
+/// with the reason.
+TEST(LogIo, SpreadsheetAndCsvWriterVariantsReadAsThePlainFile) {
+  const LogData log = randomLog(50, true, true, true, 21u);
+  const std::string plain_path = tempPath("plain.csv");
+  writeLog(plain_path, log);
+  std::ostringstream whole;
+  whole << std::ifstream(plain_path, std::ios::binary).rdbuf();
+  const std::string plain = whole.str();
+  auto perLine = [&](const std::function<std::string(const std::string&)>& f, const std::string& end) {
+    std::istringstream lines(plain);
+    std::string line, out;
+    while (std::getline(lines, line)) out += (line.empty() || line[0] == '#' ? line : f(line)) + end;
+    return out;
+  };
+  auto quoteAll = [](const std::string& line) {
+    std::string out = "\"";
+    for (char c : line) out += c == ',' ? std::string("\",\"") : std::string(1, c);
+    return out + "\"";
+  };
+  const std::map<std::string, std::string> variants{
+      {"bom", "\xEF\xBB\xBF" + plain},
+      {"crlf_bom", "\xEF\xBB\xBF" + perLine([](const std::string& l) { return l; }, "\r\n")},
+      {"quoted", perLine(quoteAll, "\n")},
+      {"trailing_comma", perLine([](const std::string& l) { return l + ","; }, "\n")},
+      {"all", "\xEF\xBB\xBF" + perLine([&](const std::string& l) { return quoteAll(l) + ","; }, "\r\n")}};
+  for (const auto& [name, text] : variants) {
+    SCOPED_TRACE(name);
+    expectSame(log, readLog(writeText(name + ".csv", text), LogKind::kMeasurement, unbounded()));
+  }
+  std::string semicolons = kHeader;
+  std::replace(semicolons.begin(), semicolons.end(), ',', ';');
+  expectError("semicolons.csv", semicolons + "\n" + row(0.0) + "\n", 1, 1, "separated by ';'");
+  std::string tabs = kHeader;
+  std::replace(tabs.begin(), tabs.end(), ',', '\t');
+  expectError("tabs.csv", tabs + "\n" + row(0.0) + "\n", 1, 1, "separated by tabs");
 }
 
 TEST(LogIo, TrajectoryKindNeedsNoWrench) {
