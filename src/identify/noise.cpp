@@ -18,6 +18,10 @@ namespace {
 
 constexpr double kMadToStd = 1.482602218505602;
 constexpr int kMaxStride = 3;
+/// The longest run of a held pose's readings taken around one mean (estimateNoiseFloor): 0.26 s at
+/// 125 Hz, short against a zero's drift (temperature, creep) and long enough that removing the
+/// mean costs 1/32 of the readings.
+constexpr int kPoseWindow = 32;
 
 double median(std::vector<double>& v) {
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
@@ -203,11 +207,16 @@ std::vector<std::pair<int, int>> poseGroups(const std::vector<SampleContext>& ct
   } else if (n > 0) {
     std::vector<double> qd(static_cast<std::size_t>(n));
     for (int i = 0; i < n; ++i) qd[static_cast<std::size_t>(i)] = ctx[static_cast<std::size_t>(i)].qd.cwiseAbs().maxCoeff();
-    stat = median(qd) < 1e-3;
+    std::vector<double> sorted = qd;  // median() reorders its argument
+    stat = median(sorted) < 1e-3;
     if (stat) {
+      // A held pose is a run of still readings (|qd| below 1e-3 rad/s, the rule's own measure) whose
+      // q moves by at most 1e-4 rad per sample: a moving reading is a group of its own, so the slow
+      // ends of a motion (q changing less than 1e-4 per sample) are no pose (their reading moves).
+      auto moving = [&](int i) { return !(qd[static_cast<std::size_t>(i)] < 1e-3); };
       int begin = 0;
       for (int i = 1; i <= n; ++i) {
-        if (i == n ||
+        if (i == n || moving(i) || moving(i - 1) ||
             (ctx[static_cast<std::size_t>(i)].q - ctx[static_cast<std::size_t>(i - 1)].q).cwiseAbs().maxCoeff() > 1e-4) {
           groups.emplace_back(begin, i);
           begin = i;
@@ -256,6 +265,23 @@ NoiseFloor dataSheetNoiseFloor(const Vec6& std) {
   return f;
 }
 
+namespace {
+
+/// The pose groups with at least two readings, each split into ceil(n / kPoseWindow) windows of
+/// as equal sizes as possible (a group of up to kPoseWindow readings is one window).
+std::vector<std::pair<int, int>> holdWindows(const std::vector<std::pair<int, int>>& groups) {
+  std::vector<std::pair<int, int>> out;
+  for (const auto& [begin, end] : groups) {
+    const int n = end - begin;
+    if (n < 2) continue;
+    const int k = (n + kPoseWindow - 1) / kPoseWindow;
+    for (int w = 0; w < k; ++w) out.emplace_back(begin + n * w / k, begin + n * (w + 1) / k);
+  }
+  return out;
+}
+
+}  // namespace
+
 NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
   NoiseFloor f;
   const int n = static_cast<int>(ctx.size());
@@ -286,11 +312,13 @@ NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
     // Within each pose the reading is the noise around a constant: its lag-1 correlation from the
     // first differences, its variance from the spread around the pose means (corrected for the
     // mean removal: E sum (x - mean)^2 = sigma^2 (m - sum_{i,j} phi^|i-j| / m)).
+    // A long hold is taken as consecutive windows of at most kPoseWindow readings (as equal as
+    // possible), each around its own mean: a slow drift of the zero over the hold (temperature,
+    // creep; a recording that rests for 20 s after its motion) is no noise.
+    const auto windows = holdWindows(groups);
     for (int a = 0; a < 6; ++a) {
       std::vector<std::vector<double>> segs;
-      for (const auto& g : groups) {
-        if (g.second - g.first >= 2) segs.push_back(channel(a, g.first, g.second));
-      }
+      for (const auto& g : windows) segs.push_back(channel(a, g.first, g.second));
       double phi = ar1FromDifferences(segs);
       if (phi < kColouredPhi) phi = 0.0;
       double ss = 0.0, expected = 0.0;

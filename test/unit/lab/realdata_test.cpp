@@ -89,6 +89,25 @@ TEST(NoiseFloor, DetectsWhiteColouredStaticAndNotObservable) {
   }
 }
 
+// A recording that rests for 20 s after its 10 s motion is a held pose for two thirds of its rows.
+// The temperature drifts over the rest (the simulator's 24 + 6 (1 - exp(-t/4 s)) ... degC and
+// 0.05-0.08 N/degC: about 0.5 N over the rest), which the spread around one mean of the whole rest
+// took as noise (fx 0.073 N for 0.05 N). The floor of the data with the drift equals the floor
+// of the same data without it, and the truth.
+TEST(NoiseFloor, ALongRestWithADriftingZeroGivesTheNoiseNotTheDrift) {
+  auto c = baseConfig(261);
+  c.duration_s = 30.0;
+  c.noise.wrench_lowpass_hz = 20.0;
+  const auto still = identify::estimateNoiseFloor(labtest::contexts(c).samples);
+  c.temperature_drift.enabled = true;
+  const auto drifting = identify::estimateNoiseFloor(labtest::contexts(c).samples);
+  EXPECT_EQ(drifting.method, identify::NoiseMethod::kStaticPoses) << drifting.detail;
+  for (int a = 0; a < 6; ++a) {
+    EXPECT_NEAR(drifting.std(a), still.std(a), 0.03 * still.std(a)) << "axis " << a;
+    EXPECT_NEAR(drifting.std(a), c.noise.wrench_std(a), 0.1 * c.noise.wrench_std(a)) << "axis " << a;
+  }
+}
+
 TEST(NoiseFloor, PoseColumnGroupsReadingsWhenTheJointAnglesJitter) {
   // Held poses whose logged q jitters (encoder noise, 2e-3 rad): by q alone every reading looks
   // like its own pose (not observable); a `pose` column says which readings belong together.
