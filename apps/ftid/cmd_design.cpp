@@ -64,7 +64,7 @@ const char* kUsage =
     "                       (keys as --target-std; units %, mm, cm, m, deg, rad, g, kg, N, Nm;\n"
     "                       docs/design.md \"Limits\")\n"
     "  --fixed-duration     with --limits or --target-std: design at --duration only (no search)\n"
-    "                       and say whether it meets them\n"
+    "                       and say whether it meets them (written either way, exit 0)\n"
     "  --imu-noise acc=A,gyro=W  the sensor's IMU noise [m/s^2, rad/s] (e.g. acc=0.01,gyro=0.002):\n"
     "                       also predict with the IMU's tilt fused (ftid identify --imu on); with\n"
     "                       --limits the search runs for the wrench alone and with the IMU, prints\n"
@@ -91,13 +91,16 @@ std::map<std::string, double> parseNominal(const std::string& text) {
 
 /// The command line that designs the same trajectory again: this run's options, with the evaluation
 /// budgets pinned to the counts used so the result does not depend on the machine's speed, and the
-/// limits or targets it was designed for (target_arguments, from targetArguments).
+/// noise, nominal payload and limits or targets it was designed for (target_arguments, from
+/// targetArguments).
 std::string reproduceCommand(const ftid::design::DesignOptions& o, const ftid::design::DesignResult& r,
                              const std::string& target_arguments) {
   std::ostringstream s;
   s << "ftid design --model " << o.model << " --joints ";
   for (std::size_t i = 0; i < o.joints.size(); ++i) s << (i ? "," : "") << o.joints[i];
-  s << " --duration " << ftid::yamlNumberText(r.file.duration_s) << " --periods " << o.periods << " --harmonics "
+  // The design's own periods: the duration search designs one base period whatever --periods says.
+  const long periods = std::lround(r.file.base_frequency_hz * r.file.duration_s);
+  s << " --duration " << ftid::yamlNumberText(r.file.duration_s) << " --periods " << periods << " --harmonics "
     << o.harmonics << " --rate " << ftid::yamlNumberText(o.servo_rate_hz) << " --objective "
     << ftid::design::objectiveName(o.objective) << " --seed " << o.seed
     << " --global " << o.global_algorithm << " --local " << o.local_algorithm << " --global-evals "
@@ -338,13 +341,17 @@ ftid::design::DesignResult designFixedDuration(ftid::design::DesignOptions o, co
   return r;
 }
 
-/// The limits or targets of a design made for them, as arguments of its reproduce command.
+/// The arguments of the reproduce command that are not DesignOptions fields it pins: the noise and
+/// the nominal payload when given (the metric and the relative limits depend on them), and the
+/// limits or targets of a design made for them.
 std::string targetArguments(const DesignArgs& a) {
   std::string s;
+  if (!a.noise.empty()) s += " --noise " + a.noise;
+  if (!a.nominal.empty()) s += " --nominal " + a.nominal;
   if (!a.limits.empty()) s += " --limits " + a.limits;
   if (!a.target.empty()) s += " --target-std " + a.target;
   if (!a.imu_noise.empty()) s += " --imu-noise " + a.imu_noise;
-  if (!s.empty()) s += " --fixed-duration";
+  if (!a.limits.empty() || !a.target.empty()) s += " --fixed-duration";  // not for --imu-noise alone
   return s;
 }
 
@@ -380,6 +387,13 @@ int runDesign(const std::vector<std::string>& argv) {
     }
   } else if (!a.target.empty()) {
     targets = design::parseTargets(a.target, o.nominal);
+  }
+  if (!targets.empty()) {
+    try {
+      design::checkTargetNames(o, kin, targets);
+    } catch (const ConfigError& e) {
+      throw cli::UsageError(std::string(a.limits.empty() ? "--target-std: " : "--limits: ") + e.what());
+    }
   }
   if (o.objective == design::Objective::kLimits) o.limit_targets = targets;
   if (a.fixed_duration) {

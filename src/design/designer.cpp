@@ -48,6 +48,7 @@ void checkOptions(const DesignOptions& opt, const model::RobotKinematics& kinema
   internal::validateAlgorithms(opt);
   if (opt.objective == Objective::kLimits && opt.limit_targets.empty())
     throw ConfigError("the limits objective needs accuracy limits (--limits)");
+  if (opt.objective == Objective::kLimits) checkTargetNames(opt, kinematics, opt.limit_targets);
   if (opt.targets_with_imu && !(opt.imu_acc_std > 0.0 && opt.imu_gyro_std > 0.0))
     throw ConfigError("targets with the IMU need the IMU's noise (--imu-noise acc=...,gyro=...)");
 
@@ -318,6 +319,24 @@ std::map<std::string, double> parseTargets(const std::string& text,
   return out;
 }
 
+void checkTargetNames(const DesignOptions& options, const model::RobotKinematics& kinematics,
+                      const std::map<std::string, double>& targets) {
+  const ExcitationMetric metric(effects::Model::fromName(options.model), kinematics, options.constraints,
+                                options.nominal.empty() ? defaultNominalParameters() : options.nominal,
+                                options.noise_sigma);
+  // The keys predictedStd gives for this model (the identity stands for any regular information).
+  const auto known = metric.predictedStd(Eigen::MatrixXd::Identity(metric.numColumns(), metric.numColumns()));
+  std::string unknown;
+  for (const auto& target : targets) {
+    if (known.count(target.first) == 0) unknown += (unknown.empty() ? "" : ", ") + target.first;
+  }
+  if (unknown.empty()) return;
+  std::string names;
+  for (const auto& k : known) names += (names.empty() ? "" : ", ") + k.first;
+  throw ConfigError("model '" + options.model + "' has no predicted standard error for " + unknown +
+                    " (it predicts: " + names + ")");
+}
+
 std::vector<std::string> unmetTargets(const std::map<std::string, double>& predicted,
                                       const std::map<std::string, double>& targets) {
   std::vector<std::string> out;
@@ -339,6 +358,7 @@ DurationSearchResult findShortestDuration(const DesignOptions& options,
                                           double max_duration_s) {
   DurationSearchResult out;
   if (!(step_s > 0.0)) throw ConfigError("duration search step must be positive");
+  checkTargetNames(options, kinematics, targets);
   auto snap = [&](double d) { return std::max(min_duration_s, std::round(d / step_s) * step_s); };
   // Each design gets an equal share; about 8 designs are typical (doubling + bisection).
   const double share = options.time_budget_s / 8.0;

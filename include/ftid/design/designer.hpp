@@ -120,6 +120,11 @@ std::map<std::string, double> parseTargets(const std::string& text,
 /// Names of the targets that a predicted-std map misses (empty: all met). Lists unknown keys too.
 std::vector<std::string> unmetTargets(const std::map<std::string, double>& predicted,
                                       const std::map<std::string, double>& targets);
+/// Throws ConfigError naming each target key that the model options.model does not predict (a
+/// typo such as "mas", or a parameter of another model): no design could meet such a target, and
+/// the limits objective would be flat. The message lists the keys the model predicts.
+void checkTargetNames(const DesignOptions& options, const model::RobotKinematics& kinematics,
+                      const std::map<std::string, double>& targets);
 
 struct DurationTrial {
   double duration_s = 0.0;

@@ -1,8 +1,9 @@
 // `ftid design` for accuracy limits at one duration (docs/design.md "Limits"): the limits objective
 // is the default with --limits, --fixed-duration designs at --duration only and says whether the
 // limits are met, the design record names the objective and a reproduce command that gives the
-// same trajectory, a design moving joints 1-3 warns that the keep-out spheres stay in the base
-// frame, and the option combinations that make no sense are usage errors.
+// same trajectory (also after a duration search, and with the IMU noise alone), a design moving
+// joints 1-3 warns that the keep-out spheres stay in the base frame, and the option combinations
+// that make no sense, or limits the model does not predict, are usage errors.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -44,6 +45,24 @@ std::string stem() {
          "_" + std::to_string(::getpid());
 }
 
+/// Runs the reproduce command of the trajectory file `out` as written (up to its note) and expects
+/// the same coefficients; removes both designs' files.
+void expectReproduceGivesTheSameTrajectory(const std::string& out, const std::string& again) {
+  const ftid::trajectory::TrajectoryFile file = ftid::trajectory::readTrajectoryFile(out);
+  const std::string reproduce = file.design.at("reproduce");
+  const std::string command = reproduce.substr(0, reproduce.find(" (same robot"));
+  ASSERT_EQ(command.compare(0, 12, "ftid design "), 0) << command;
+  const CommandResult second = run(ftidPath() + command.substr(4) + " --baseline-seeds 0 --quiet --out " + again);
+  ASSERT_EQ(second.status, 0) << command << "\n" << second.out;
+  const ftid::trajectory::TrajectoryFile file2 = ftid::trajectory::readTrajectoryFile(again);
+  EXPECT_EQ(file2.a, file.a) << command;
+  EXPECT_EQ(file2.b, file.b) << command;
+  for (const std::string& f : {out, again}) {
+    std::remove(f.c_str());
+    std::remove(ftid::trajectory::csvPathFor(f).c_str());
+  }
+}
+
 TEST(DesignCli, LimitsAtAFixedDurationAreTheObjectiveAndTheReproduceCommandGivesTheSameTrajectory) {
   if (!haveFtid()) GTEST_SKIP() << "ftid executable not built: " << ftidPath();
   const std::string out = stem() + ".yaml";
@@ -66,18 +85,33 @@ TEST(DesignCli, LimitsAtAFixedDurationAreTheObjectiveAndTheReproduceCommandGives
             std::string::npos)
       << reproduce;
   // The reproduce command, run as written (up to its note), designs the same trajectory.
-  const std::string again = stem() + "_again.yaml";
-  const std::string command = reproduce.substr(0, reproduce.find(" (same robot"));
-  ASSERT_EQ(command.compare(0, 12, "ftid design "), 0) << command;
-  const CommandResult second = run(ftidPath() + command.substr(4) + " --baseline-seeds 0 --quiet --out " + again);
-  ASSERT_EQ(second.status, 0) << second.out;
-  const ftid::trajectory::TrajectoryFile file2 = ftid::trajectory::readTrajectoryFile(again);
-  EXPECT_EQ(file2.a, file.a);
-  EXPECT_EQ(file2.b, file.b);
-  for (const std::string& f : {out, again}) {
-    std::remove(f.c_str());
-    std::remove(ftid::trajectory::csvPathFor(f).c_str());
-  }
+  expectReproduceGivesTheSameTrajectory(out, stem() + "_again.yaml");
+}
+
+/// The reproduce command carries what the design depends on: after a duration search (which designs
+/// one base period whatever --periods says) it names the design's periods, and it carries a
+/// non-default noise and nominal payload (the metric and the relative limits depend on them);
+/// with --imu-noise but no limits it is not a --fixed-duration command (that would be refused).
+TEST(DesignCli, TheReproduceCommandOfASearchOrOfTheImuNoiseAloneGivesTheSameTrajectory) {
+  if (!haveFtid()) GTEST_SKIP() << "ftid executable not built: " << ftidPath();
+  const std::string budgets = " --global-evals 200 --local-evals 200 --baseline-seeds 0 --quiet --out ";
+  const std::string searched = stem() + "_search.yaml";
+  const CommandResult search =
+      run(ftidPath() + " design --limits mass=1%,com=3mm --periods 2 --duration 2 --nominal mass=2"
+                       " --noise fx=0.2,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01" + budgets + searched);
+  ASSERT_EQ(search.status, 0) << search.out;
+  const std::string reproduce = ftid::trajectory::readTrajectoryFile(searched).design.at("reproduce");
+  EXPECT_NE(reproduce.find("--periods 1 "), std::string::npos) << reproduce;
+  EXPECT_NE(reproduce.find("--noise fx=0.2,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01"), std::string::npos) << reproduce;
+  EXPECT_NE(reproduce.find("--nominal mass=2"), std::string::npos) << reproduce;
+  expectReproduceGivesTheSameTrajectory(searched, stem() + "_search_again.yaml");
+
+  const std::string imu = stem() + "_imu.yaml";
+  const CommandResult first = run(ftidPath() + " design --imu-noise acc=0.01,gyro=0.002 --duration 2" + budgets + imu);
+  ASSERT_EQ(first.status, 0) << first.out;
+  const std::string imu_reproduce = ftid::trajectory::readTrajectoryFile(imu).design.at("reproduce");
+  EXPECT_EQ(imu_reproduce.find("--fixed-duration"), std::string::npos) << imu_reproduce;
+  expectReproduceGivesTheSameTrajectory(imu, stem() + "_imu_again.yaml");
 }
 
 TEST(DesignCli, MeaninglessCombinationsAreUsageErrors) {
@@ -90,6 +124,14 @@ TEST(DesignCli, MeaninglessCombinationsAreUsageErrors) {
   const CommandResult fixed = run(ftidPath() + " design --fixed-duration --duration 2" + out);
   EXPECT_EQ(fixed.status, 2) << fixed.out;
   EXPECT_NE(fixed.out.find("--fixed-duration needs --limits or --target-std"), std::string::npos) << fixed.out;
+  // A limit the model does not predict (a typo) is refused before any design, naming it.
+  const CommandResult typo = run(ftidPath() + " design --limits mas=5g --fixed-duration --duration 2" + out);
+  EXPECT_EQ(typo.status, 2) << typo.out;
+  EXPECT_NE(typo.out.find("--limits: model 'paper' has no predicted standard error for mas ("), std::string::npos)
+      << typo.out;
+  const CommandResult other = run(ftidPath() + " design --target-std i_s_xx=1e-4 --model paper --duration 2" + out);
+  EXPECT_EQ(other.status, 2) << other.out;
+  EXPECT_NE(other.out.find("no predicted standard error for i_s_xx"), std::string::npos) << other.out;
 }
 
 }  // namespace

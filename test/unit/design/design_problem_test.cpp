@@ -181,7 +181,7 @@ TEST(DesignProblem, ImuInformationOfFewSamplesWeightedMatchesTheServoRate) {
   EXPECT_LT((design - servo).norm() / servo.norm(), 0.1) << "servo rate:\n" << servo << "\ndesign samples:\n" << design;
 }
 
-TEST(DesignProblem, TheLimitsObjectiveNeedsLimitsAndTheImuTargetsItsNoise) {
+TEST(DesignProblem, TheLimitsObjectiveNeedsLimitsTheModelPredictsAndTheImuTargetsItsNoise) {
   const model::RobotKinematics kin =
       model::RobotKinematics::fromUrdfFile(ftid::test::sourcePath("/config/ur10.urdf"));
   DesignOptions opt;
@@ -191,6 +191,14 @@ TEST(DesignProblem, TheLimitsObjectiveNeedsLimitsAndTheImuTargetsItsNoise) {
   opt.limit_targets = {{"mass", 0.001}};
   opt.targets_with_imu = true;
   EXPECT_THROW((void)designExcitation(opt, kin), ConfigError);
+  // A target the model does not predict (a typo) is refused before any design, by the limits
+  // objective and by the duration search whatever the objective.
+  opt.targets_with_imu = false;
+  opt.limit_targets = {{"mass", 0.001}, {"mas", 0.001}};
+  EXPECT_THROW((void)designExcitation(opt, kin), ConfigError);
+  DesignOptions cond;
+  cond.constraints = opt.constraints;
+  EXPECT_THROW((void)findShortestDuration(cond, kin, {{"i_s_xx", 1e-4}}), ConfigError);
   EXPECT_STREQ(objectiveName(Objective::kLimits), "limits");
 }
 
