@@ -23,14 +23,13 @@
 #include "ftid/samples/context.hpp"
 #include "ftid/sim/cell_sim.hpp"
 
-int main(int argc, char** argv) {
+namespace {
+
+/// The benchmark's design: paper+rigid_body, 5 harmonics, the excited joints (digits), the limits
+/// objective with the IMU's information or the condition number, EVALS + EVALS evaluations.
+ftid::design::DesignResult designFor(const ftid::model::RobotKinematics& kin, double duration, const std::string& joints,
+                                     const std::string& objective, long evals) {
   using namespace ftid;
-  const double duration = argc > 1 ? std::atof(argv[1]) : 1.5;
-  const int seeds = argc > 2 ? std::atoi(argv[2]) : 50;
-  const std::string joints = argc > 3 ? argv[3] : "23456";
-  const std::string objective = argc > 4 ? argv[4] : "limits";
-  const long evals = argc > 5 ? std::atol(argv[5]) : 20000;
-  const auto kin = model::RobotKinematics::fromUrdfFile(findDefaultFile("ur10.urdf"));
   design::DesignOptions o;
   o.model = "paper+rigid_body";
   o.duration_s = duration;
@@ -51,19 +50,31 @@ int main(int argc, char** argv) {
   }
   o.constraints = design::loadDesignConstraints(findDefaultFile("design.yaml"), kin, o.q0);
   const design::DesignResult d = design::designExcitation(o, kin);
+  const double deg = 180.0 / 3.141592653589793;
   std::printf("designed %.2f s trajectory (paper+rigid_body, joints %s, objective %s, cond %.3g, %ld + %ld "
               "evaluations)\n",
               d.file.duration_s, joints.c_str(), objective.c_str(), d.condition_number, d.global_evals, d.local_evals);
   std::printf("predicted std: mass %.3g kg, com %.3g/%.3g/%.3g mm, tilt %.3g/%.3g deg; with IMU: mass %.3g, "
               "com %.3g/%.3g/%.3g mm, tilt %.3g/%.3g deg\n",
               d.predicted_std.at("mass"), 1e3 * d.predicted_std.at("com_x"), 1e3 * d.predicted_std.at("com_y"),
-              1e3 * d.predicted_std.at("com_z"), d.predicted_std.at("tilt_u") * 180 / 3.141592653589793,
-              d.predicted_std.at("tilt_v") * 180 / 3.141592653589793, d.predicted_std_imu.at("mass"),
-              1e3 * d.predicted_std_imu.at("com_x"), 1e3 * d.predicted_std_imu.at("com_y"),
-              1e3 * d.predicted_std_imu.at("com_z"),
-              d.predicted_std_imu.at("tilt_u") * 180 / 3.141592653589793,
-              d.predicted_std_imu.at("tilt_v") * 180 / 3.141592653589793);
+              1e3 * d.predicted_std.at("com_z"), d.predicted_std.at("tilt_u") * deg, d.predicted_std.at("tilt_v") * deg,
+              d.predicted_std_imu.at("mass"), 1e3 * d.predicted_std_imu.at("com_x"),
+              1e3 * d.predicted_std_imu.at("com_y"), 1e3 * d.predicted_std_imu.at("com_z"),
+              d.predicted_std_imu.at("tilt_u") * deg, d.predicted_std_imu.at("tilt_v") * deg);
+  return d;
+}
 
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace ftid;
+  const double duration = argc > 1 ? std::atof(argv[1]) : 1.5;
+  const int seeds = argc > 2 ? std::atoi(argv[2]) : 50;
+  const std::string joints = argc > 3 ? argv[3] : "23456";
+  const std::string objective = argc > 4 ? argv[4] : "limits";
+  const long evals = argc > 5 ? std::atol(argv[5]) : 20000;
+  const auto kin = model::RobotKinematics::fromUrdfFile(findDefaultFile("ur10.urdf"));
+  const design::DesignResult d = designFor(kin, duration, joints, objective, evals);
   sim::CellSimConfig cfg = sim::paperCellConfig(kin);
   cfg.trajectory = d.file.toTrajectory();
   cfg.duration_s = cfg.trajectory.duration();
@@ -86,7 +97,7 @@ int main(int argc, char** argv) {
       c.seed = 1000 + static_cast<std::uint64_t>(s);
       const auto ctx = samples::buildContexts(sim::CellSim(c).run(), kin);
       identify::IdentifyRequest req;
-      req.model = o.model;
+      req.model = "paper+rigid_body";
       req.imu = with_imu ? identify::IdentifyRequest::ImuUse::kOn : identify::IdentifyRequest::ImuUse::kOff;
       identify::ImuReport report;
       params::ParameterSet set;

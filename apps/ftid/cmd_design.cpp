@@ -68,7 +68,8 @@ const char* kUsage =
     "  --imu-noise acc=A,gyro=W  the sensor's IMU noise [m/s^2, rad/s] (e.g. acc=0.01,gyro=0.002):\n"
     "                       also predict with the IMU's tilt fused (ftid identify --imu on); with\n"
     "                       --limits the search runs for the wrench alone and with the IMU, prints\n"
-    "                       both shortest durations and writes the one with the IMU\n"
+    "                       both shortest durations and writes the one with the IMU (the\n"
+    "                       wrench-alone one if only that meets the limits)\n"
     "  --max-cond X         reject designs whose condition number exceeds X (default 1e4)\n"
     "  --baseline-seeds N   random trajectories for the baseline (default 50; 0 to skip)\n"
     "  --out FILE           output YAML (default traj.yaml)\n"
@@ -148,7 +149,8 @@ struct DesignArgs {
 
 /// --limits: the shortest duration for the wrench alone and, with --imu-noise, with the IMU.
 ftid::design::DesignResult searchLimits(ftid::design::DesignOptions o, const ftid::model::RobotKinematics& kin,
-                                        const std::map<std::string, double>& targets, const std::string& limits) {
+                                        const std::map<std::string, double>& targets, const std::string& limits,
+                                        bool* written_with_imu) {
   using namespace ftid;
   const bool imu = o.imu_acc_std > 0.0;
   std::cerr << "design: searching the shortest duration whose predicted worst case (3 standard errors) meets "
@@ -169,6 +171,7 @@ ftid::design::DesignResult searchLimits(ftid::design::DesignOptions o, const fti
                   s.best.file.duration_s);
       chosen = std::move(s.best);
       found_any = true;
+      *written_with_imu = with_imu;
     } else {
       std::printf("no duration up to 60 s meets the limits %s\n", with_imu ? "with the IMU" : "with the wrench alone");
       if (with_imu || !imu) {
@@ -344,13 +347,15 @@ ftid::design::DesignResult designFixedDuration(ftid::design::DesignOptions o, co
 /// The arguments of the reproduce command that are not DesignOptions fields it pins: the noise and
 /// the nominal payload when given (the metric and the relative limits depend on them), and the
 /// limits or targets of a design made for them.
-std::string targetArguments(const DesignArgs& a) {
+std::string targetArguments(const DesignArgs& a, bool written_with_imu) {
   std::string s;
   if (!a.noise.empty()) s += " --noise " + a.noise;
   if (!a.nominal.empty()) s += " --nominal " + a.nominal;
   if (!a.limits.empty()) s += " --limits " + a.limits;
   if (!a.target.empty()) s += " --target-std " + a.target;
-  if (!a.imu_noise.empty()) s += " --imu-noise " + a.imu_noise;
+  // The IMU noise, unless the IMU search met nothing and the wrench-alone design was written: with
+  // --fixed-duration it would design for the prediction with the IMU.
+  if (!a.imu_noise.empty() && (written_with_imu || a.limits.empty())) s += " --imu-noise " + a.imu_noise;
   if (!a.limits.empty() || !a.target.empty()) s += " --fixed-duration";  // not for --imu-noise alone
   return s;
 }
@@ -396,17 +401,18 @@ int runDesign(const std::vector<std::string>& argv) {
     }
   }
   if (o.objective == design::Objective::kLimits) o.limit_targets = targets;
+  bool written_with_imu = o.imu_acc_std > 0.0;  // searchLimits says which search's design it returns
   if (a.fixed_duration) {
     r = designFixedDuration(o, kin, targets, a);
   } else if (!a.limits.empty()) {
-    r = searchLimits(o, kin, targets, a.limits);
+    r = searchLimits(o, kin, targets, a.limits, &written_with_imu);
   } else if (!a.target.empty()) {
     r = searchTargets(o, kin, targets, a.target);
   } else {
     r = design::designExcitation(o, kin);
   }
   r.file.design["config"] = shipped_config ? "design.yaml (shipped default)" : a.config;
-  r.file.design["reproduce"] = reproduceCommand(o, r, targetArguments(a));
+  r.file.design["reproduce"] = reproduceCommand(o, r, targetArguments(a, written_with_imu));
   if (!a.target.empty()) r.file.design["target_std"] = a.target;
   if (!a.limits.empty()) r.file.design["limits"] = a.limits + " (3 predicted standard errors)";
   if (!a.imu_noise.empty()) r.file.design["imu_noise"] = a.imu_noise;
