@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "ftid/common/error.hpp"
 #include "ftid/identify/noise.hpp"
@@ -37,7 +38,7 @@ std::string rpyText(const Vec3& rpy) {
 /// Relative residual energy of `model` (default: the gravity model) on ctx: the residual's mean
 /// square over the reading's, forces and torques each (NaN if it cannot be fitted).
 double relativeResidual(const std::vector<SampleContext>& ctx, double* mass_kg, const char* model = "paper",
-                        double* mass_std_kg = nullptr) {
+                        double* mass_std_kg = nullptr, bool* upright = nullptr) {
   double ms_f = 0.0, ms_t = 0.0;
   for (const auto& c : ctx) {
     ms_f += c.wrench_S.head<3>().squaredNorm();
@@ -51,6 +52,8 @@ double relativeResidual(const std::vector<SampleContext>& ctx, double* mass_kg, 
     const Vec6& r = m.fit.residual_rms;
     if (mass_kg != nullptr) *mass_kg = m.fit.value("mass");
     if (mass_std_kg != nullptr) *mass_std_kg = m.fit.stddev("mass");
+    // The fitted base's z axis against the configured one: cos = cos(U) cos(V).
+    if (upright != nullptr) *upright = std::cos(m.fit.tilt_u_rad) * std::cos(m.fit.tilt_v_rad) > 0.0;
     return r.head<3>().squaredNorm() / std::max(ms_f, 1e-300) + r.tail<3>().squaredNorm() / std::max(ms_t, 1e-300);
   } catch (const Error&) {
     return std::numeric_limits<double>::quiet_NaN();
@@ -216,6 +219,50 @@ std::string torqueUnitLine(const std::vector<SampleContext>& ctx) {
          " %): convert tx, ty, tz to Nm (docs/log-format.md)";
 }
 
+/// A column-level set-up error: its words, its fix, and the reading as it would be without it.
+struct ChannelError {
+  std::string what;
+  std::string fix;
+  int negate = -1;              ///< the channel (0..5: fx..tz) whose sign is reversed, or -1
+  int swap_a = -1, swap_b = -1;  ///< the two axes (0..2) whose force and torque columns are swapped, or -1
+  std::vector<SampleContext> apply(const std::vector<SampleContext>& ctx) const {
+    std::vector<SampleContext> out = ctx;
+    for (auto& c : out) {
+      if (negate >= 0) c.wrench_S(negate) = -c.wrench_S(negate);
+      if (swap_a >= 0) {
+        std::swap(c.wrench_S(swap_a), c.wrench_S(swap_b));
+        std::swap(c.wrench_S(3 + swap_a), c.wrench_S(3 + swap_b));
+      }
+    }
+    return out;
+  }
+};
+
+/// The six single reversed signs and the three swapped axis pairs.
+std::vector<ChannelError> channelErrors() {
+  static const char* kNames[6] = {"fx", "fy", "fz", "tx", "ty", "tz"};
+  std::vector<ChannelError> out;
+  for (int k = 0; k < 6; ++k) {
+    ChannelError e;
+    e.negate = k;
+    e.what = std::string("the ") + kNames[k] + " column has its sign reversed";
+    e.fix = std::string("negate the ") + kNames[k] + " column (or the sensor's sign for that channel)";
+    out.push_back(e);
+  }
+  const int pairs[3][2] = {{0, 1}, {1, 2}, {0, 2}};
+  for (const auto& p : pairs) {
+    ChannelError e;
+    e.swap_a = p[0];
+    e.swap_b = p[1];
+    e.what = std::string("the ") + kNames[p[0]] + " and " + kNames[p[1]] + " columns (and " + kNames[3 + p[0]] + ", " +
+             kNames[3 + p[1]] + ") are swapped";
+    e.fix = std::string("swap the ") + kNames[p[0]] + " and " + kNames[p[1]] + " columns and the " +
+            kNames[3 + p[0]] + " and " + kNames[3 + p[1]] + " columns";
+    out.push_back(e);
+  }
+  return out;
+}
+
 }  // namespace
 
 SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const samples::ContextOptions& given,
@@ -242,17 +289,28 @@ SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const sample
   d.given_residual = relativeResidual(ctx, &mass_given, "paper", &mass_given_std);
   if (!std::isfinite(d.given_residual)) return d;
   d.best_residual = std::numeric_limits<double>::infinity();
-  auto consider = [&](double r, const std::string& what, const std::string& fix) {
-    if (std::isfinite(r) && r < d.best_residual) {
-      d.best_residual = r;
-      d.best = what;
-      d.fix = fix;
+  // A reading with every sign reversed fits as well as the reading itself, with the mass negative or
+  // the base turned upside down (the tilt absorbs it), so an alternative and its reversed twin tie:
+  // of the alternatives that explain the data (the rule below), one that fits a positive mass with
+  // the base upright as configured is preferred.
+  SetupDiagnosis upright_best;
+  upright_best.best_residual = std::numeric_limits<double>::infinity();
+  auto consider = [&](const std::vector<SampleContext>& alt, const std::string& what, const std::string& fix) {
+    bool upright = true;
+    double mass = 0.0;
+    const double r = relativeResidual(alt, &mass, "paper", nullptr, &upright);
+    for (SetupDiagnosis* slot : {&d, upright && mass > 0.0 ? &upright_best : nullptr}) {
+      if (slot != nullptr && std::isfinite(r) && r < slot->best_residual) {
+        slot->best_residual = r;
+        slot->best = what;
+        slot->fix = fix;
+      }
     }
   };
   // The other wrench frame.
   {
     const auto alt = rotatedWrench(ctx, Mat3::Identity(), !given.wrench_in_base, given.wrench_in_base);
-    consider(relativeResidual(alt, nullptr),
+    consider(alt,
              given.wrench_in_base ? "the wrench columns are in the sensor frame" : "the wrench columns are in the base frame",
              given.wrench_in_base ? "--wrench-frame sensor" : "--wrench-frame base");
   }
@@ -262,17 +320,29 @@ SetupDiagnosis diagnoseSetup(const std::vector<SampleContext>& all, const sample
     const Mat3& R = rotations[k];
     const auto alt = rotatedWrench(ctx, R, false, false);
     const Vec3 rpy = canonicalRpy(rpyOf(given.R_FS * R));
-    consider(relativeResidual(alt, nullptr), "the sensor is mounted rotated (R_FS rpy " + rpyText(rpy) + " rad)",
+    consider(alt, "the sensor is mounted rotated (R_FS rpy " + rpyText(rpy) + " rad)",
              "--mount-rpy " + rpyText(rpy));
   }
-  d.explains = d.given_residual > kSetupMinResidual && d.best_residual < kSetupBetterRatio * d.given_residual;
+  // A column-level error in the log or the sensor's configuration: one channel with its sign
+  // reversed, or two axes' columns swapped (forces and torques alike). Neither is a rotation (both
+  // reflect), so no mount explains them, though a rotation with the tilt turned over may nearly.
+  for (const ChannelError& e : channelErrors()) {
+    consider(e.apply(ctx), e.what, e.fix);
+  }
+  const auto explains = [&](double r) { return d.given_residual > kSetupMinResidual && r < kSetupBetterRatio * d.given_residual; };
+  if (explains(upright_best.best_residual)) {
+    d.best_residual = upright_best.best_residual;
+    d.best = upright_best.best;
+    d.fix = upright_best.fix;
+  }
+  d.explains = explains(d.best_residual);
   const std::string torque_unit = torqueUnitLine(ctx);
   if (!torque_unit.empty()) d.lines.push_back(torque_unit);
   if (d.explains) {
     d.lines.push_back("set-up: " + d.best + " explains the data (the gravity model leaves " +
                       num(100.0 * d.best_residual, 2) + " % of the signal unexplained instead of " +
                       num(100.0 * d.given_residual, 1) + " %, fitted mass " + num(mass_given, 3) +
-                      " kg as given): add " + d.fix);
+                      " kg as given): " + (d.fix.compare(0, 2, "--") == 0 ? "add " : "") + d.fix);
   } else if (mass_given <= 0.0 &&
              (d.given_residual > kSetupMinResidual || mass_given_std <= kMaxMassRelativeStd * -mass_given)) {
     // The gravity not following the kinematics, or a negative mass the data determine (identify's

@@ -6,6 +6,8 @@
 // given and under each alternative:
 //   - the wrench columns in the other frame (`--wrench-frame base` / `sensor`),
 //   - the sensor mounted rotated by each of the 23 other axis-aligned rotations (`--mount-rpy`),
+//   - a column-level error: one of fx..tz with its sign reversed, or two axes' force and torque
+//     columns swapped (reflections, which no mount gives: the fix is to the log or the sensor),
 // and compared by the residual energy relative to the signal's (|f|^2 and |t|^2, unchanged by any
 // rotation of the wrench). An alternative that leaves less than kSetupBetterRatio of the given
 // set-up's residual explains the data: one line says so, with the fix. Joint angles beyond 2 pi
@@ -31,7 +33,8 @@ struct SetupDiagnosis {
   double given_residual = 0.0;   ///< relative residual energy of `paper` under the set-up as given
   double best_residual = 0.0;    ///< the best alternative's
   std::string best;              ///< the best alternative, in words ("" if none was tried)
-  std::string fix;               ///< its command-line fix, e.g. "--wrench-frame base", "--mount-rpy 0,0,1.5708"
+  std::string fix;               ///< its fix: a command-line option ("--wrench-frame base", "--mount-rpy 0,0,1.5708")
+                                 ///< or what to change in the log ("negate the fz column ...")
   bool explains = false;         ///< the best alternative explains the data (the rule above)
   std::vector<std::string> lines;  ///< one line each: "set-up: ..." (empty when nothing is found)
 };
