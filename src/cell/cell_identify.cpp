@@ -503,6 +503,7 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     };
     const identify::RobustIdentification robust = identify::leaveOutBadSamples(contexts.samples, {}, fitOn);
     set = robust.set;
+    const std::vector<identify::SampleContext>& fitted = robust.fittedOn(contexts.samples);
     for (const auto& s : robust.saturation.axes) print("  WARNING: " + identify::saturationLine(s));
     if (!robust.glitches.samples.empty()) {
       print("  " + std::to_string(robust.glitches.samples.size()) +
@@ -514,15 +515,15 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     set.time_origin_unix_s = contexts.time_origin_unix_s;  // the recording's first host_time
     set.provenance.method = "fit";
     set.provenance.trajectory = r.traj_path;
-    set.provenance.n_samples = static_cast<int>(robust.samples.size());
+    set.provenance.n_samples = static_cast<int>(fitted.size());
     std::string imu_note;  // the IMU's biases, for ftidd's sensor.motion_source: imu
-    set.imu = identify::imuBiasEntriesOf(robust.samples, &imu_note);
+    set.imu = identify::imuBiasEntriesOf(fitted, &imu_note);
     if (!imu_note.empty()) print("  " + imu_note);
     print("");
     print(identify::formatParameterTable(set));
     // A mass that moves with a signal (payload(t)) must be positive at every sample too.
     const identify::PhysicalValidity validity =
-        identify::checkPhysicalValidity(set, identify::varyingMass(set, robust.samples));
+        identify::checkPhysicalValidity(set, identify::varyingMass(set, fitted));
     print(validity.line);
     // A run of two set-ups (a contact, a grasp) is the cause to name, even when its fit is also
     // impossible: the laboratory looks first.
@@ -539,7 +540,7 @@ bool identifyAndAnalyse(IdentifyRun& r) {
     }
     // Does the model fit? Held-out residual against the noise floor, warning above 1.2x.
     print(identify::formatFitCheck(identify::checkFit(
-        robust.samples,
+        fitted,
         [&](const std::vector<identify::SampleContext>& train) {
           return identify::toParameterSet(identify::fitModelMultiStart(model, train).fit);
         },

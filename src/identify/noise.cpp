@@ -271,11 +271,13 @@ namespace {
 /// as equal sizes as possible (a group of up to kPoseWindow readings is one window).
 std::vector<std::pair<int, int>> holdWindows(const std::vector<std::pair<int, int>>& groups) {
   std::vector<std::pair<int, int>> out;
-  for (const auto& [begin, end] : groups) {
-    const int n = end - begin;
+  for (const auto& group : groups) {
+    const int begin = group.first;
+    const int n = group.second - begin;
     if (n < 2) continue;
     const int k = (n + kPoseWindow - 1) / kPoseWindow;
-    for (int w = 0; w < k; ++w) out.emplace_back(begin + n * w / k, begin + n * (w + 1) / k);
+    const auto at = [&](int w) { return begin + static_cast<int>(static_cast<long long>(n) * w / k); };
+    for (int w = 0; w < k; ++w) out.emplace_back(at(w), at(w + 1));
   }
   return out;
 }

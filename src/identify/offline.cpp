@@ -241,7 +241,8 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
                               " robust standard deviations) left out; re-fitted");
   }
   out.set = robust.set;
-  out.varying_mass = varyingMass(out.set, robust.samples);
+  const std::vector<SampleContext>& fitted = robust.fittedOn(contexts.samples);
+  out.varying_mass = varyingMass(out.set, fitted);
   out.set.provenance.data_file = request.log_path;
   out.set.time_origin_unix_s = contexts.time_origin_unix_s;  // NaN without a host_time column
   if (out.imu.used) {
@@ -253,7 +254,7 @@ CheckedIdentification identifyContextsChecked(const samples::ContextSet& context
     say(request.progress, "checking the fit on 5 held-out blocks against the noise floor");
     const std::string model = request.model.empty() ? out.set.model : request.model;
     out.check = checkFit(
-        robust.samples, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request, nullptr); },
+        fitted, [&](const std::vector<SampleContext>& train) { return identifyContexts(train, request, nullptr); },
         "ftid analyze " + shellQuote(request.log_path) + " --model " + shellQuote(model) + " --explain", request.noise_std);
   }
   if (out.glitches > 0) {

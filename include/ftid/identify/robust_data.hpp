@@ -4,6 +4,7 @@
 // left out of the fit that follows. `ftid identify`, the cell (`ftid --identify`) and `ftid analyze`
 // judge a glitch by the same rule (detectOutliers, ftid/identify/noise.hpp: the residual minus its
 // running median beyond kGlitchThreshold robust standard deviations; pose sets against the median).
+#include <utility>
 #include <vector>
 
 #include "ftid/identify/fit_parameters.hpp"
@@ -52,9 +53,17 @@ KeptSeries keptSeries(const Eigen::Matrix<double, 6, Eigen::Dynamic>& residual, 
 /// residual are removed and `identify` runs again on the rest (only if there were any).
 struct RobustIdentification {
   ParameterSet set;                   ///< the fit without the glitches (or `first` if none)
-  std::vector<SampleContext> samples; ///< the contexts it was fitted on
+  /// The contexts it was fitted on when samples were left out; empty (and kept_all) when it was
+  /// fitted on all of the input: no copy of a long log's contexts (fittedOn gives either).
+  std::vector<SampleContext> samples;
+  bool kept_all = false;
   Outliers glitches;                  ///< indices into the original contexts
   Saturation saturation;              ///< saturated samples left out first (leaveOutBadSamples)
+  /// The contexts the fit used: `samples`, or `input` (the contexts given to leaveOutBadSamples or
+  /// leaveOutGlitches) when nothing was left out.
+  const std::vector<SampleContext>& fittedOn(const std::vector<SampleContext>& input) const {
+    return kept_all ? input : samples;
+  }
 };
 template <typename IdentifyFn>
 RobustIdentification leaveOutGlitches(const std::vector<SampleContext>& ctx, const ParameterSet& first,
@@ -63,7 +72,7 @@ RobustIdentification leaveOutGlitches(const std::vector<SampleContext>& ctx, con
   out.glitches = findGlitches(ctx, residualOf(first, ctx), threshold);
   if (out.glitches.samples.empty()) {
     out.set = first;
-    out.samples = ctx;
+    out.kept_all = true;
     return out;
   }
   out.samples = withoutSamples(ctx, out.glitches.samples);
@@ -83,8 +92,12 @@ RobustIdentification leaveOutBadSamples(const std::vector<SampleContext>& ctx, c
     out.saturation = std::move(sat);
     return out;
   }
-  const std::vector<SampleContext> kept = withoutSamples(ctx, sat.samples);
+  std::vector<SampleContext> kept = withoutSamples(ctx, sat.samples);
   RobustIdentification out = leaveOutGlitches(kept, identify(kept), identify, threshold);
+  if (out.kept_all) {  // all of `kept`, which is not the caller's input
+    out.samples = std::move(kept);
+    out.kept_all = false;
+  }
   out.glitches.samples = originalIndices(sat.samples, out.glitches.samples);
   out.saturation = std::move(sat);
   return out;

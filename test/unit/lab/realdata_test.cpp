@@ -108,6 +108,22 @@ TEST(NoiseFloor, ALongRestWithADriftingZeroGivesTheNoiseNotTheDrift) {
   }
 }
 
+// A hold of 300,000 readings (40 min at 125 Hz): its windows' bounds n w / k overflowed an int
+// beyond about 262,000 readings (vector::reserve threw on a 500,000-row rest log).
+TEST(NoiseFloor, AVeryLongHoldIsWindowedWithoutOverflow) {
+  std::vector<effects::SampleContext> ctx(300000);
+  std::mt19937_64 gen(17);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (std::size_t i = 0; i < ctx.size(); ++i) {
+    ctx[i].t = 0.008 * static_cast<double>(i);
+    ctx[i].q << 0.0, -1.57, 1.57, -1.57, -1.57, 0.0;
+    for (int a = 0; a < 6; ++a) ctx[i].wrench_S(a) = (a < 3 ? 0.05 : 0.01) * noise(gen);
+  }
+  const auto nf = identify::estimateNoiseFloor(ctx);
+  EXPECT_EQ(nf.method, identify::NoiseMethod::kStaticPoses) << nf.detail;
+  for (int a = 0; a < 6; ++a) EXPECT_NEAR(nf.std(a), a < 3 ? 0.05 : 0.01, 0.01 * (a < 3 ? 0.05 : 0.01)) << a;
+}
+
 TEST(NoiseFloor, PoseColumnGroupsReadingsWhenTheJointAnglesJitter) {
   // Held poses whose logged q jitters (encoder noise, 2e-3 rad): by q alone every reading looks
   // like its own pose (not observable); a `pose` column says which readings belong together.
