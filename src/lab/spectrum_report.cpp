@@ -51,7 +51,7 @@ ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<c
   return residualSpectrum(in);
 }
 
-std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dynamics) {
+std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dynamics, const std::string& missing) {
   if (!s.valid) return "";
   std::string axes;
   for (int a = 0; a < 6; ++a) {
@@ -65,6 +65,13 @@ std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dyna
   char band[48];
   std::snprintf(band, sizeof band, "0-%.3g Hz", s.motion_band_hz);
   const std::string head = "the held-out residual has a peak beyond the motion band (" + std::string(band) + ") on " + axes;
+  if (!missing.empty()) {
+    // The residual of a model without the recommended effect: its terms (products of the motion's
+    // frequencies, for rigid_body) may be the peak; judging it before adding the effect would
+    // contradict the verdict.
+    return head + ": the model lacks " + missing + " (the missing effect this analysis names), which may account for it; judge the "
+                  "spectrum of the model with it (--explain does)";
+  }
   if (dynamics.tested && !dynamics.significant) {
     // The search for a filter of the reading found none: the peak is the residual's own, not a
     // resonance or filter of the reading (the two lines must not contradict each other).

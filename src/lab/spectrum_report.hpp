@@ -21,7 +21,10 @@ ResidualSpectrum spectrumOfAnalysis(const AnalysisResult& r, const std::vector<c
 /// frequencies and ratios; "" otherwise. Its reading follows `dynamics` (the search on the same
 /// model): a resonance or a filter of the reading, unless the search ran and found none, when it is
 /// a disturbance of its own (pushes, contacts, vibration).
-std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dynamics);
+/// `missing`: the effect the analysis recommends adding to the model whose residual this is ("" when
+/// none, or when the spectrum is of the path's last model): a peak is then first that effect's to
+/// explain, and the warning says so instead of calling it a disturbance or the reading's dynamics.
+std::string spectrumWarning(const ResidualSpectrum& s, const DynamicsCheck& dynamics, const std::string& missing = "");
 
 /// The text block: the rule, then one line per axis ("" when there is no spectrum).
 std::string spectrumText(const ResidualSpectrum& s);
