@@ -42,9 +42,7 @@ FitCheck checkFit(const std::vector<SampleContext>& ctx, const IdentifyFn& ident
     Eigen::Matrix<double, 6, Eigen::Dynamic> res(6, n);
     for (int i = 0; i < n; ++i) res.col(i) = ctx[static_cast<std::size_t>(i)].wrench_S - pred.col(i);
     if (!noise_std) refineNoiseFloor(out.noise, res, ctx);
-    bool is_static = false;
-    (void)poseGroups(ctx, &is_static);
-    for (int i : detectOutliers(res, !is_static, 6.0).samples) {
+    for (int i : detectOutliers(res, !holdsStill(ctx), 6.0).samples) {  // findGlitches' rule
       glitch[static_cast<std::size_t>(i)] = 1;
       ++out.glitches;
     }

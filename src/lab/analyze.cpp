@@ -385,10 +385,8 @@ bool refineNoise(const Mat6X& res_fit, const std::vector<SampleContext>& fit, id
 // any was found.
 bool excludeGlitches(const identify::KeptSeries& kept, const std::vector<SampleContext>& fit,
                      const AnalyzeOptions& options, Dataset& d, AnalysisResult& result) {
-  bool is_static = false;
-  (void)identify::poseGroups(fit, &is_static);
-  const auto flagged =
-      identify::detectOutliers(kept.residual, !is_static, options.glitch_threshold, kept.segment_starts);
+  const auto flagged =  // identify::findGlitches' rule: a log that moves is a time series
+      identify::detectOutliers(kept.residual, !identify::holdsStill(fit), options.glitch_threshold, kept.segment_starts);
   if (flagged.samples.empty()) return false;
   if (d.excluded.empty()) d.excluded.assign(static_cast<std::size_t>(d.size()), 0);
   for (std::size_t k = 0; k < flagged.samples.size(); ++k) {

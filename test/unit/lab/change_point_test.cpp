@@ -67,6 +67,25 @@ TEST(ChangePoint, GraspFoundWithTimeAndMass) {
   }
 }
 
+/// A run that moves for 10 s and then rests for 10 s (more still samples than moving ones, so the
+/// median |qd| calls it static), with a 0.6 kg grasp at 5 s. The glitch rule judged it as a pose
+/// set, against the median: the motion's model error became 972 "glitches" of 2,501 samples, and
+/// the scan then found a 0.05 N offset step at the end of the motion instead of the grasp. A log
+/// that moves is a time series for the glitch rule (identify::holdsStill).
+TEST(ChangePoint, AGraspInARunThatRestsAsLongAsItMoves) {
+  sim::CellSimConfig c = graspRun(11, 5.0, 0.6);
+  c.duration_s = 20.0;
+  const auto r = analyzeRun(c);
+  EXPECT_LT(r.outliers.count, 10);
+  ASSERT_EQ(r.change_points.size(), 1u);
+  const auto& cp = r.change_points.front();
+  EXPECT_EQ(cp.kind, "payload");
+  EXPECT_NEAR(cp.t, 5.0, 0.2);
+  const auto* dm = deltaOf(cp, "mass");
+  ASSERT_NE(dm, nullptr);
+  EXPECT_NEAR(dm->value, 0.6, 0.06);
+}
+
 /// A release: the sensor holds the object from the start and lets it go at t (the simulator's
 /// `release` switch): the same scan finds a payload step of minus the object's mass.
 TEST(ChangePoint, ReleaseFoundWithTimeAndMass) {
