@@ -48,6 +48,71 @@ double correlationSum(double phi, std::size_t m) {
   return s;
 }
 
+/// Expected sums of one window of m readings of unit-variance AR(1) noise (lag-1 correlation phi)
+/// around the window's own mean: e0 = E sum_i (x_i - mean)^2, e1 = E sum_i (x_i - mean)(x_{i+1} -
+/// mean). With C = phi^|i-k|, a_i = mean_k C(i,k), b = mean_i a_i: E (x_i - mean)(x_k - mean) =
+/// C(i,k) - a_i - a_k + b.
+void windowMoments(double phi, std::size_t m, double* e0, double* e1) {
+  std::vector<double> a(m, 0.0);
+  for (std::size_t i = 0; i < m; ++i) {
+    for (std::size_t k = 0; k < m; ++k) a[i] += std::pow(phi, static_cast<double>(i > k ? i - k : k - i));
+    a[i] /= static_cast<double>(m);
+  }
+  double b = 0.0;
+  for (double v : a) b += v / static_cast<double>(m);
+  *e0 = 0.0;
+  *e1 = 0.0;
+  for (std::size_t i = 0; i < m; ++i) {
+    *e0 += 1.0 - 2.0 * a[i] + b;
+    if (i + 1 < m) *e1 += phi - a[i] - a[i + 1] + b;
+  }
+}
+
+/// The lag-1 correlation of AR(1) noise from windows of readings around their own means, by the
+/// method of moments with the mean removal's bias taken exactly: phi where sum E e1 / sum E e0 over
+/// the windows (windowMoments) equals the observed sum of lag-1 products over the sum of squares
+/// (the ratio grows with phi; 50 bisections of [0, 0.995]). Efficient where the robust
+/// ar1FromDifferences scattered by about 0.1 on 1,250 readings (a 15 Hz filter's 0.47 read as 0.77).
+/// -1 when the windows hold fewer than 16 lag-1 pairs.
+double ar1FromWindows(const std::vector<std::vector<double>>& segments) {
+  double s0 = 0.0, s1 = 0.0;
+  std::vector<int> count_by_size;
+  int pairs = 0;
+  for (const auto& seg : segments) {
+    if (seg.size() < 2) continue;
+    double mean = 0.0;
+    for (double v : seg) mean += v / static_cast<double>(seg.size());
+    for (std::size_t i = 0; i < seg.size(); ++i) {
+      s0 += (seg[i] - mean) * (seg[i] - mean);
+      if (i + 1 < seg.size()) s1 += (seg[i] - mean) * (seg[i + 1] - mean);
+    }
+    if (count_by_size.size() <= seg.size()) count_by_size.resize(seg.size() + 1, 0);
+    ++count_by_size[seg.size()];
+    pairs += static_cast<int>(seg.size()) - 1;
+  }
+  if (pairs < 16 || !(s0 > 0.0)) return -1.0;
+  const double observed = s1 / s0;
+  auto expected = [&](double phi) {
+    double e0 = 0.0, e1 = 0.0;
+    for (std::size_t m = 2; m < count_by_size.size(); ++m) {
+      if (count_by_size[m] == 0) continue;
+      double w0 = 0.0, w1 = 0.0;
+      windowMoments(phi, m, &w0, &w1);
+      e0 += count_by_size[m] * w0;
+      e1 += count_by_size[m] * w1;
+    }
+    return e1 / e0;
+  };
+  double lo = 0.0, hi = 0.995;
+  if (observed <= expected(lo)) return 0.0;
+  if (observed >= expected(hi)) return hi;
+  for (int it = 0; it < 50; ++it) {
+    const double mid = 0.5 * (lo + hi);
+    (expected(mid) < observed ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 }  // namespace
 
 namespace internal {
@@ -311,9 +376,10 @@ NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
       return f;
     }
     f.method = NoiseMethod::kStaticPoses;
-    // Within each pose the reading is the noise around a constant: its lag-1 correlation from the
-    // first differences, its variance from the spread around the pose means (corrected for the
-    // mean removal: E sum (x - mean)^2 = sigma^2 (m - sum_{i,j} phi^|i-j| / m)).
+    // Within each pose the reading is the noise around a constant: its lag-1 correlation by the
+    // moments of the windows around their means (ar1FromWindows), its variance from the spread
+    // around the means (corrected for the mean removal: E sum (x - mean)^2 = sigma^2 (m - sum_{i,j}
+    // phi^|i-j| / m)).
     // A long hold is taken as consecutive windows of at most kPoseWindow readings (as equal as
     // possible), each around its own mean: a slow drift of the zero over the hold (temperature,
     // creep; a recording that rests for 20 s after its motion) is no noise.
@@ -321,7 +387,7 @@ NoiseFloor estimateNoiseFloor(const std::vector<SampleContext>& ctx) {
     for (int a = 0; a < 6; ++a) {
       std::vector<std::vector<double>> segs;
       for (const auto& g : windows) segs.push_back(channel(a, g.first, g.second));
-      double phi = ar1FromDifferences(segs);
+      double phi = ar1FromWindows(segs);
       if (phi < kColouredPhi) phi = 0.0;
       double ss = 0.0, expected = 0.0;
       for (const auto& seg : segs) {
