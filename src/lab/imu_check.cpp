@@ -99,12 +99,20 @@ void checkImu(const ModelReport& last, AnalysisResult* result) {
       imu.comparisons.push_back(identify::compareImuTilt(u->value, v->value, u->std, v->std, imu.estimate.acc));
     }
   }
+  // Without --explain `last` is the starting model: an effect the ranking recommends comes first.
+  const bool recommends =
+      !result->final_report && !result->candidates.empty() && result->candidates.front().significant;
   for (const auto& c : imu.comparisons) {
     if (!c.disagrees) continue;
     imu.warnings.push_back("the IMU and " + last.model + " disagree on the " + c.quantity + ": " + c.message);
-    result->warnings.push_back(imu.warnings.back() +
-                               " (a set-up error: the sensor's mount or the robot model; an effect the model lacks "
-                               "that its " + c.quantity + " absorbs; a contact; or a bad IMU)");
+    const std::string others = "a set-up error: the sensor's mount or the robot model; a contact; or a bad IMU";
+    result->warnings.push_back(
+        imu.warnings.back() +
+        (recommends ? " (first " + last.model + " lacks " + result->candidates.front().effect +
+                          ", the missing effect this analysis names, which its " + c.quantity +
+                          " may absorb: compare the model with it, as --explain does; else " + others + ")"
+                    : " (" + others.substr(0, others.find("; a contact")) + "; an effect the model lacks that its " +
+                          c.quantity + " absorbs; a contact; or a bad IMU)"));
   }
 }
 

@@ -211,13 +211,17 @@ TEST(SpectrumSim, APeakNoFilterExplainsIsNotCalledTheReadingsDynamics) {
 // paper's 10 s motion, then the arm at rest; full rigid-body physics) analysed from `paper`, the
 // missing effect is rigid_body, and the residual's peak beyond the motion band (0.61 Hz, 11x on fy:
 // the inertia terms' products of the motion's frequencies) was called "a disturbance of its own,
-// e.g. contacts or pushes", contradicting the verdict. It now names the missing effect.
+// e.g. contacts or pushes", contradicting the verdict. It now names the missing effect, and so does
+// the IMU's disagreement with paper's tilt (chi2 40), which rigid_body's terms pull.
 TEST(SpectrumSim, APeakOfTheStartingModelIsFirstTheMissingEffects) {
   sim::CellSimConfig c = sim::paperCellConfig(labtest::robot());
   c.full_rigid_body = true;
   c.duration_s = 200.0;
   c.seed = 2;
   c.noise.wrench_std << 0.05, 0.05, 0.05, 0.01, 0.01, 0.01;
+  c.imu.enabled = true;
+  c.noise.acc_std = 0.01;
+  c.noise.gyro_std = 0.002;
   const AnalysisResult r = labtest::analyzeRun(c, "paper", false);
   ASSERT_FALSE(r.candidates.empty());
   ASSERT_TRUE(r.candidates.front().significant);
@@ -230,6 +234,13 @@ TEST(SpectrumSim, APeakOfTheStartingModelIsFirstTheMissingEffects) {
     EXPECT_NE(w.find("the model lacks rigid_body"), std::string::npos) << w;
   }
   EXPECT_TRUE(peak);
+  bool imu = false;
+  for (const auto& w : r.warnings) {
+    if (w.find("the IMU and paper disagree on the tilt") == std::string::npos) continue;
+    imu = true;
+    EXPECT_NE(w.find("first paper lacks rigid_body"), std::string::npos) << w;
+  }
+  EXPECT_TRUE(imu);
 }
 
 TEST(SpectrumSim, SensorFilterIsNamedWithItsCutOff) {
