@@ -402,8 +402,44 @@ AccTiltEstimate estimateAccTilt(const std::vector<SampleContext>& contexts, cons
   return est;
 }
 
-ImuEstimate estimateImu(const std::vector<SampleContext>& contexts, const ImuOptions& options) {
+std::vector<SampleContext> freshImuRows(const std::vector<SampleContext>& contexts, int* held, int* typical) {
+  *held = 0;
+  *typical = 1;
+  std::vector<char> stale(contexts.size(), 0);
+  std::vector<int> spans;
+  std::size_t start = 0;  // the row the current reading arrived with
+  for (std::size_t i = 1; i <= contexts.size(); ++i) {
+    if (i < contexts.size()) {
+      const SampleContext& a = contexts[i - 1];
+      const SampleContext& b = contexts[i];
+      const bool same = a.imu_acc_S == b.imu_acc_S && a.imu_w_S == b.imu_w_S && a.imu_alpha_S == b.imu_alpha_S;
+      const bool moved = a.q != b.q || a.qd != b.qd || a.R_BS != b.R_BS;
+      if (same && moved) {
+        stale[i] = 1;
+        ++*held;
+        continue;
+      }
+      if (same) continue;  // at rest a repeated reading is a reading
+    }
+    if (i - start >= 2) spans.push_back(static_cast<int>(i - start));
+    start = i;
+  }
+  if (*held == 0) return {};
+  std::nth_element(spans.begin(), spans.begin() + static_cast<std::ptrdiff_t>(spans.size() / 2), spans.end());
+  *typical = spans.empty() ? 1 : spans[spans.size() / 2];
+  std::vector<SampleContext> out;
+  out.reserve(contexts.size() - static_cast<std::size_t>(*held));
+  for (std::size_t i = 0; i < contexts.size(); ++i) {
+    if (stale[i] == 0) out.push_back(contexts[i]);
+  }
+  return out;
+}
+
+ImuEstimate estimateImu(const std::vector<SampleContext>& all, const ImuOptions& options) {
   ImuEstimate e;
+  // Only the rows each IMU reading arrived with (a held reading is no new measurement).
+  const std::vector<SampleContext> fresh = freshImuRows(all, &e.held_rows, &e.typical_hold_rows);
+  const std::vector<SampleContext>& contexts = e.held_rows > 0 ? fresh : all;
   e.gyro = estimateGyroMount(contexts, options);
   e.acc = estimateAccTilt(contexts, e.gyro.R_SM, e.gyro.delay_s, options);
   // The accelerometer's answer depends on the gyro's frame and delay: propagate their uncertainty
@@ -493,6 +529,13 @@ std::string formatImuEstimate(const ImuEstimate& e) {
                 e.acc.tilt_u_rad * kRadToDeg, e.acc.tilt_u_std * kRadToDeg, e.acc.tilt_v_rad * kRadToDeg,
                 e.acc.tilt_v_std * kRadToDeg, e.acc.n_used);
   os << line;
+  if (e.held_rows > 0) {
+    std::snprintf(line, sizeof(line),
+                  "  %d rows hold the previous row's IMU reading while the robot moved (each reading spans %d rows: "
+                  "an IMU at 1/%d of the log's rate); only the row each reading arrived with is used\n",
+                  e.held_rows, e.typical_hold_rows, e.typical_hold_rows);
+    os << line;
+  }
   if (e.acc.bias_estimated) {
     std::snprintf(line, sizeof(line), "  accelerometer bias %.4f %.4f %.4f m/s^2 (std %.2g %.2g %.2g), noise %.3g m/s^2\n",
                   e.acc.bias_mps2.x(), e.acc.bias_mps2.y(), e.acc.bias_mps2.z(), e.acc.bias_std_mps2.x(),

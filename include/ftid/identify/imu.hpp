@@ -77,7 +77,20 @@ struct AccTiltEstimate {
 struct ImuEstimate {
   GyroMountEstimate gyro;
   AccTiltEstimate acc;
+  /// Rows left out because they hold the previous row's IMU reading (freshImuRows: an IMU slower
+  /// than the log, sample-and-hold); 0 when every row has a new one.
+  int held_rows = 0;
+  int typical_hold_rows = 1;  ///< median rows each held reading spans (the log's rate over the IMU's)
 };
+
+/// The rows whose IMU reading is new: a row whose nine IMU values (ax..alz) equal the previous
+/// row's bit for bit while the robot moved (q, qd or R_BS changed) holds that reading (an IMU
+/// slower than the log, sample-and-hold: docs/log-format.md "Held readings"). A held reading
+/// paired with a newer robot state reads as a lag of about half the IMU's period (a 100 Hz IMU in
+/// a 500 Hz log: 3.9 ms, a "disagreement" with the configured delay). *held: rows left out;
+/// *typical: the median rows each reading spans. Empty result when none is held (use `contexts`).
+std::vector<effects::SampleContext> freshImuRows(const std::vector<effects::SampleContext>& contexts, int* held,
+                                                 int* typical);
 
 /// Kinematic motion of S at time s, interpolated between the contexts around it (R_BS by slerp,
 /// w_S by cubic Hermite with alpha_S as its derivative, a_S and alpha_S linearly). False when s

@@ -59,6 +59,41 @@ TEST(ImuEstimate, WithoutDelayEstimateTheDelayIsZeroAndTheFitWorse) {
   EXPECT_GT(g.sigma_radps, 1e-4);
 }
 
+/// An IMU at 1/5 of the log's rate (sample-and-hold: each reading repeated over 5 rows while the
+/// arm moves): the estimate is that of the rows each reading arrived with, bit for bit, and finds
+/// the true delay. Kept, the held rows read as a lag of about half the IMU's period (3.9 ms on a
+/// 500 Hz log, a "disagreement" with the configured delay).
+TEST(ImuEstimate, HeldImuReadingsAreLeftOut) {
+  sim::CellSimConfig cfg = test::imuCellConfig(4.0);
+  cfg.rate_hz = 500.0;
+  samples::ContextSet cs = test::contextsOf(cfg);
+  sim::CellSimConfig noisy = cfg;  // a MEMS IMU's noise: no two readings are equal by chance
+  noisy.noise.acc_std = 0.01;
+  noisy.noise.gyro_std = 0.002;
+  std::mt19937_64 rng(31);
+  test::simulatorImuNoise(noisy)(cs.samples, rng);
+  std::vector<effects::SampleContext> held = cs.samples, fresh;
+  for (std::size_t i = 0; i < held.size(); ++i) {
+    if (i % 5 == 0) {
+      fresh.push_back(held[i]);
+      continue;
+    }
+    held[i].imu_acc_S = held[i - 1].imu_acc_S;
+    held[i].imu_w_S = held[i - 1].imu_w_S;
+    held[i].imu_alpha_S = held[i - 1].imu_alpha_S;
+  }
+  const ImuEstimate h = estimateImu(held);
+  const ImuEstimate f = estimateImu(fresh);
+  EXPECT_EQ(h.held_rows, static_cast<int>(held.size() - fresh.size()));
+  EXPECT_EQ(h.typical_hold_rows, 5);
+  EXPECT_EQ(f.held_rows, 0);
+  EXPECT_EQ(h.gyro.delay_s, f.gyro.delay_s);
+  EXPECT_EQ(h.acc.tilt_u_rad, f.acc.tilt_u_rad);
+  EXPECT_EQ(h.acc.bias_mps2, f.acc.bias_mps2);
+  EXPECT_NEAR(h.gyro.delay_s, cfg.imu.delay_s, 4.0 * h.gyro.delay_std_s);
+  EXPECT_NE(identify::formatImuEstimate(h).find("an IMU at 1/5 of the log's rate"), std::string::npos);
+}
+
 TEST(ImuEstimate, NoImuIsAClearError) {
   sim::CellSimConfig cfg = test::imuCellConfig(2.0);
   samples::ContextSet cs = test::contextsOf(cfg);
