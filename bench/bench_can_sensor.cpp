@@ -4,7 +4,7 @@
 //     stand-in, as a 125 Hz daemon cycle does with a 1 kHz sensor: p50 / p99 / max;
 //  3. stand-in frame latency: kernel receive timestamp minus the time just before send();
 //  4. sim-sensor cost per sample: physics (CellSim::readingAt) + encoding.
-// Run from the source tree (reads config/): build/bench/bench_can_sensor [iterations]
+// Run from anywhere (the default-file lookup finds ftsensor.dbc and ur10.urdf): build/bench/bench_can_sensor [iterations]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "ftid/common/default_files.hpp"
 #include "ftid/drivers/can/ft_imu_sensor.hpp"
 #include "ftid/drivers/can/seqpacket.hpp"
 #include "ftid/simsensor/sim_sensor.hpp"
@@ -25,13 +26,6 @@ double percentile(std::vector<double> v, double p) {
   return v[static_cast<std::size_t>(p * static_cast<double>(v.size() - 1))];
 }
 
-std::string sourceDir() {
-#ifdef FTID_SOURCE_DIR
-  return FTID_SOURCE_DIR;
-#else
-  return ".";
-#endif
-}
 
 }  // namespace
 
@@ -39,7 +33,7 @@ int main(int argc, char** argv) {
   using namespace ftid;
   const int iterations = argc > 1 ? std::atoi(argv[1]) : 20000;
   const drivers::can::SensorLayout layout =
-      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(sourceDir() + "/config/ftsensor.dbc"));
+      drivers::can::SensorLayout::fromDbc(drivers::can::loadDbc(findDefaultFile("ftsensor.dbc")));
 
   // 1. decode + group
   {
@@ -110,7 +104,7 @@ int main(int argc, char** argv) {
     simsensor::SimSensorConfig cfg = simsensor::defaultSimSensorConfig();
     simsensor::enableEffect("noise", cfg);
     simsensor::SensorFrameSource src(
-        cfg, layout, model::RobotKinematics::fromUrdfFile(sourceDir() + "/config/ur10.urdf"));
+        cfg, layout, model::RobotKinematics::fromUrdfFile(findDefaultFile("ur10.urdf")));
     simsensor::RobotHistory h;
     for (int k = 0; k < 200; ++k) {
       simsensor::RobotHistory::Tick t;
