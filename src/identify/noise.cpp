@@ -53,9 +53,11 @@ double correlationSum(double phi, std::size_t m) {
 /// mean). With C = phi^|i-k|, a_i = mean_k C(i,k), b = mean_i a_i: E (x_i - mean)(x_k - mean) =
 /// C(i,k) - a_i - a_k + b.
 void windowMoments(double phi, std::size_t m, double* e0, double* e1) {
+  std::vector<double> power(m, 1.0);  // phi^d
+  for (std::size_t d = 1; d < m; ++d) power[d] = power[d - 1] * phi;
   std::vector<double> a(m, 0.0);
   for (std::size_t i = 0; i < m; ++i) {
-    for (std::size_t k = 0; k < m; ++k) a[i] += std::pow(phi, static_cast<double>(i > k ? i - k : k - i));
+    for (std::size_t k = 0; k < m; ++k) a[i] += power[i > k ? i - k : k - i];
     a[i] /= static_cast<double>(m);
   }
   double b = 0.0;

@@ -539,16 +539,16 @@ void judgeDynamicsAndImu(const detail::RankContext& rc, const std::vector<Sample
   std::tie(result.spectrum, result.dynamics) = readingDynamics(rc, last_fit, result);
   detail::judgeDelayAgainstLag(rc, last_fit, result.imu, result.spectrum.motion_band_hz, &result.dynamics);
   // Across a change in time the residual's peaks are the step's (the change's warning says what to do).
-  // Without --explain the spectrum is the starting model's: a recommended effect comes first.
+  // Without --explain the spectrum and the IMU are judged on the starting model: the effect the
+  // ranking recommends comes first in both warnings.
   const bool recommends = !result.final_report && !result.candidates.empty() && result.candidates.front().significant;
+  const std::string missing = recommends ? result.candidates.front().effect : "";
   const std::string dynamics =
-      result.change_points.empty()
-          ? detail::spectrumWarning(result.spectrum, result.dynamics, recommends ? result.candidates.front().effect : "")
-          : std::string();
+      result.change_points.empty() ? detail::spectrumWarning(result.spectrum, result.dynamics, missing) : std::string();
   if (!dynamics.empty()) result.warnings.push_back(dynamics);
   const std::string filtered = detail::dynamicsWarning(result.dynamics, result.noise_floor);
   if (!filtered.empty()) result.warnings.push_back(filtered);
-  detail::checkImu(result.final_report ? *result.final_report : result.report, &result);
+  detail::checkImu(result.final_report ? *result.final_report : result.report, missing, &result);
 }
 
 }  // namespace

@@ -73,7 +73,7 @@ void estimateImu(const std::vector<SampleContext>& fit, AnalysisResult* result) 
   imu.used = true;
 }
 
-void checkImu(const ModelReport& last, AnalysisResult* result) {
+void checkImu(const ModelReport& last, const std::string& missing, AnalysisResult* result) {
   identify::ImuReport& imu = result->imu;
   if (!imu.used) return;
   const DynamicsCheck::DelayAgainstLag& lag = result->dynamics.delay;
@@ -99,20 +99,17 @@ void checkImu(const ModelReport& last, AnalysisResult* result) {
       imu.comparisons.push_back(identify::compareImuTilt(u->value, v->value, u->std, v->std, imu.estimate.acc));
     }
   }
-  // Without --explain `last` is the starting model: an effect the ranking recommends comes first.
-  const bool recommends =
-      !result->final_report && !result->candidates.empty() && result->candidates.front().significant;
   for (const auto& c : imu.comparisons) {
     if (!c.disagrees) continue;
     imu.warnings.push_back("the IMU and " + last.model + " disagree on the " + c.quantity + ": " + c.message);
-    const std::string others = "a set-up error: the sensor's mount or the robot model; a contact; or a bad IMU";
-    result->warnings.push_back(
-        imu.warnings.back() +
-        (recommends ? " (first " + last.model + " lacks " + result->candidates.front().effect +
-                          ", the missing effect this analysis names, which its " + c.quantity +
-                          " may absorb: compare the model with it, as --explain does; else " + others + ")"
-                    : " (" + others.substr(0, others.find("; a contact")) + "; an effect the model lacks that its " +
-                          c.quantity + " absorbs; a contact; or a bad IMU)"));
+    const std::string causes =
+        missing.empty()
+            ? "a set-up error: the sensor's mount or the robot model; an effect the model lacks that its " +
+                  c.quantity + " absorbs; a contact; or a bad IMU"
+            : "first " + last.model + " lacks " + missing + ", the missing effect this analysis names, which its " +
+                  c.quantity + " may absorb: compare the model with it, as --explain does; else a set-up error: the "
+                  "sensor's mount or the robot model; a contact; or a bad IMU";
+    result->warnings.push_back(imu.warnings.back() + " (" + causes + ")");
   }
 }
 

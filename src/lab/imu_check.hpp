@@ -1,5 +1,6 @@
 #pragma once
 // The laboratory's look at the sensor's IMU (issue 23; docs/analyze.md "The IMU"). Private to ftid_lab.
+#include <string>
 #include <vector>
 
 #include "ftid/lab/analyze.hpp"
@@ -16,7 +17,8 @@ void estimateImu(const std::vector<SampleContext>& fit, AnalysisResult* result);
 /// without them, the configured frame and no delay) and its tilt when it estimates one
 /// (identify::compareImuMountAndDelay, compareImuTilt: the 0.999 chi-square quantile of each).
 /// A delay the dynamics check judged against the IMU (result->dynamics.delay) is that judgement's
-/// verdict instead: one rule, no second test. Each disagreement is also a warning.
-void checkImu(const ModelReport& last, AnalysisResult* result);
+/// verdict instead: one rule, no second test. Each disagreement is also a warning; `missing`, the
+/// effect the analysis recommends adding to `last` ("" when none), is named in it as the first cause.
+void checkImu(const ModelReport& last, const std::string& missing, AnalysisResult* result);
 
 }  // namespace ftid::lab::detail
