@@ -18,7 +18,7 @@ const char* const kUsage =
     "                        [--candidates E1,E2,...] [--report report.html] [--json] [--robot URDF]\n"
     "                        [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--config ftidd.yaml]\n"
     "                        [--wrench-log FILE] [--qdd-source diff|target] [--rated-range fz=L,..]\n"
-    "                        [--t-from S] [--t-to S]\n"
+    "                        [--t-from S] [--t-to S] [--max-rows N]\n"
     "\n"
     "Compares a model of the sensor reading with the measurements, shows where it fails and which\n"
     "physical effect is missing (docs/analyze.md; the effects: docs/effects.md).\n"
@@ -66,6 +66,7 @@ const char* const kUsage =
     "                    or released, a sensor re-bias) is reported first with the two commands that\n"
     "                    split the log there (docs/analyze.md, \"Change points\")\n"
     "%INPUT%"
+    "%MAX_ROWS%"
     "  (--wrench-log applies to LOG; a --validate log is read on its own)\n"
     "\n"
     "The noise floor is detected from the data (white, coloured, static pose set, or not observable)\n"
@@ -104,7 +105,8 @@ std::vector<std::string> splitList(const std::string& s) {
 }
 
 const std::string& usage() {
-  static const std::string text = ftid::cli::withInputFlagsHelp(kUsage);
+  static const std::string text =
+      ftid::cli::withMaxRowsHelp(ftid::cli::withInputFlagsHelp(kUsage), ftid::lab::kDefaultAnalyzeMaxRows);
   return text;
 }
 
@@ -142,8 +144,11 @@ int runAnalyze(const std::vector<std::string>& argv) {
   app.add_option("LOG", req.log_path);
   cli::InputFlags input;
   cli::addInputFlags(app, input);
+  std::size_t max_rows = ftid::lab::kDefaultAnalyzeMaxRows;
+  cli::addMaxRows(app, max_rows);
   cli::parse(app, argv);
   cli::applyInputFlags(input, req.context.input);
+  req.context.input.max_rows = max_rows;
   if (req.log_path.empty()) throw cli::UsageError("exactly one LOG is required");
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   ftid::cli::applyMount(req.context, mount_rpy, config);

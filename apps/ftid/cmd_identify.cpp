@@ -21,6 +21,7 @@ const char* const kUsage =
     "                     [--wrench-frame sensor|base] [--mount-rpy R,P,Y] [--noise fx=S,..,tz=S]\n"
     "                     [--wrench-log FILE [--wrench-time-offset S]] [--qdd-source diff|target]\n"
     "                     [--ur-payload M,CX,CY,CZ] [--imu on|off] [--rated-range fz=L,..]\n"
+    "                     [--max-rows N]\n"
     "                     [--out PARAMS.yaml [--config ftidd.yaml]] [--json]\n"
     "\n"
     "Identifies the payload on the wrist force/torque sensor from a CSV log (docs/log-format.md).\n"
@@ -65,6 +66,7 @@ const char* const kUsage =
     "                    or a bad IMU). 'off': the wrench alone, exactly as without an IMU.\n"
     "                    docs/identification.md \"The IMU as a measurement\"\n"
     "%INPUT%"
+    "%MAX_ROWS%"
     "  --json            print one JSON object instead of the table (keys: docs/identification.md)\n"
     "  --noise SPEC      the sensor's noise std per axis from its data sheet, e.g.\n"
     "                    fx=0.05,fy=0.05,fz=0.05,tx=0.01,ty=0.01,tz=0.01 [N, Nm] (default: estimated\n"
@@ -100,7 +102,8 @@ const char* const kUsage =
 
 /// The usage with the shared recording options inserted.
 const std::string& usage() {
-  static const std::string text = ftid::cli::withInputFlagsHelp(kUsage);
+  static const std::string text =
+      ftid::cli::withMaxRowsHelp(ftid::cli::withInputFlagsHelp(kUsage), ftid::identify::kDefaultIdentifyMaxRows);
   return text;
 }
 
@@ -127,6 +130,8 @@ int runIdentify(const std::vector<std::string>& argv) {
   app.add_option("--max-delay", req.max_delay_s)->transform(ftid::cli::real({0.0, 10.0, true, false}));
   ftid::cli::InputFlags input;
   ftid::cli::addInputFlags(app, input);
+  std::size_t max_rows = ftid::identify::kDefaultIdentifyMaxRows;
+  ftid::cli::addMaxRows(app, max_rows);
   ftid::cli::parse(app, argv);
   if (!req.method.empty() && !req.model.empty()) {
     throw ftid::cli::UsageError("give --model (a model fit) or --method (the paper's method), not both");
@@ -136,6 +141,7 @@ int runIdentify(const std::vector<std::string>& argv) {
     req.model_is_default = true;
   }
   ftid::cli::applyInputFlags(input, req.context.input);
+  req.context.input.max_rows = max_rows;
   req.context.wrench_in_base = ftid::samples::parseWrenchFrame(wrench_frame);
   ftid::cli::applyMount(req.context, mount_rpy, config);
   if (!noise.empty()) {

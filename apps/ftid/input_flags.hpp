@@ -2,6 +2,7 @@
 // The recording options shared by identify, analyze, compensate and convert (docs/log-format.md):
 // --wrench-log, --wrench-time-offset, --qdd-source, --ur-payload, --joint-topic, --wrench-topic. Header-only (the CMake glob
 // takes only cmd_*.cpp).
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,29 @@ inline std::string withInputFlagsHelp(std::string usage) {
   const auto at = usage.find(marker);
   if (at != std::string::npos) usage.replace(at, marker.size(), kInputFlagsHelp);
   return usage;
+}
+
+/// Help text of --max-rows for a command whose default is `default_rows`.
+inline std::string maxRowsHelp(std::size_t default_rows) {
+  return "  --max-rows N      rows of an ftid log held in memory (default " + std::to_string(default_rows) +
+         ", about 2 KB\n"
+         "                    each, less with extra columns): a longer log is read in one pass, every row\n"
+         "                    checked, and thinned to N in blocks of consecutive rows, the motion last;\n"
+         "                    a warning says so (docs/log-format.md \"Limits\"). 0 reads the whole log\n"
+         "                    (refused beyond FTID_MAX_LOG_ROWS rows, 2,000,000 by default)\n";
+}
+
+/// `usage` with its "%MAX_ROWS%" marker replaced by maxRowsHelp(default_rows).
+inline std::string withMaxRowsHelp(std::string usage, std::size_t default_rows) {
+  const std::string marker = "%MAX_ROWS%";
+  const auto at = usage.find(marker);
+  if (at != std::string::npos) usage.replace(at, marker.size(), maxRowsHelp(default_rows));
+  return usage;
+}
+
+/// --max-rows into `rows` (logio::InputOptions::max_rows).
+inline void addMaxRows(CLI::App& app, std::size_t& rows) {
+  app.add_option("--max-rows", rows)->transform(integer(0, 1000000000));
 }
 
 struct InputFlags {

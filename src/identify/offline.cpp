@@ -203,7 +203,9 @@ CheckedIdentification identifyLogFileChecked(const IdentifyRequest& request, boo
                               "' (the default '" + kDefaultModel + "' needs motion)");
   }
   CheckedIdentification out = identifyContextsChecked(contexts, fitted, check);
-  if (!contexts.held_note.empty()) out.check.warnings.insert(out.check.warnings.begin(), contexts.held_note);
+  for (const std::string* note : {&contexts.held_note, &contexts.thinned_note}) {
+    if (!note->empty()) out.check.warnings.insert(out.check.warnings.begin(), *note);
+  }
   return out;
 }
 

@@ -111,7 +111,7 @@ AnalysisResult analyzeRecordings(const AnalyzeFilesRequest& request) {
   AnalysisResult result = analyze(fit.samples, request.validate_path.empty() ? nullptr : &val.samples,
                                   request.options, request.log_path, request.validate_path);
   result.robot_urdf = request.robot_urdf.empty() ? defaultRobotUrdf() : request.robot_urdf;
-  for (const std::string* note : {&val.held_note, &fit.held_note}) {
+  for (const std::string* note : {&val.held_note, &fit.held_note, &val.thinned_note, &fit.thinned_note}) {
     if (!note->empty()) result.warnings.insert(result.warnings.begin(), *note);
   }
   return result;

@@ -60,28 +60,79 @@ std::size_t dropRepeatedPoses(LogData& log) {
   return n - kept;
 }
 
+namespace {
+
+std::string ordinal(std::size_t n) {
+  const std::size_t tens = n % 100;
+  const char* suffix = (tens >= 11 && tens <= 13) ? "th" : n % 10 == 1 ? "st" : n % 10 == 2 ? "nd" : n % 10 == 3 ? "rd" : "th";
+  return std::to_string(n) + suffix;
+}
+
+/// "every row of the motion" / "every 8th block of 256 rows of the motion".
+std::string keptOf(std::size_t stride, std::size_t block, const char* what) {
+  if (stride == 1) return std::string("every row of ") + what;
+  return "every " + ordinal(stride) + " block of " + std::to_string(block) + " rows of " + what;
+}
+
+/// The note of dropRepeatedPoses, or "" if it dropped none.
+std::string repeatedPosesNote(std::size_t dropped, std::size_t rows) {
+  if (dropped == 0) return "";
+  return "dropped " + std::to_string(dropped) + " of " + std::to_string(rows) +
+         " rows whose pose repeats the previous row exactly, in runs of at most " + std::to_string(kMaxStairRun) +
+         " (stair steps: the recorder sampled faster than the robot's state updated; differences across them would "
+         "be wrong)";
+}
+
+/// An ftid log: read whole, or with options.max_rows in one pass within that budget.
+InputLog readFtidLog(const std::string& path, const InputOptions& options, const std::string* text) {
+  InputLog in;
+  in.format = "ftid log";
+  const LogKind kind = options.wrench_log.empty() ? LogKind::kMeasurement : LogKind::kTrajectory;
+  if (text != nullptr) {
+    in.log = parseLogText(*text, path, kind, options.read);
+  } else {
+    ThinnedLog thinned = readLogThinned(path, kind, options.read, options.max_rows);
+    if (thinned.thinned()) {
+      in.thinned_note = describeThinnedLog(path, thinned, options.max_rows);
+      in.notes.push_back(in.thinned_note);
+    }
+    in.log = std::move(thinned.log);
+  }
+  const std::size_t n = in.log.samples.size();
+  const std::string note = repeatedPosesNote(dropRepeatedPoses(in.log), n);
+  if (!note.empty()) in.notes.push_back(note);
+  return in;
+}
+
+}  // namespace
+
+std::string describeThinnedLog(const std::string& path, const ThinnedLog& log, std::size_t max_rows) {
+  const std::size_t extras = log.log.extra_names.size();
+  return path + ": " + std::to_string(log.rows) + " data rows (" + std::to_string(log.moving_rows) + " moving, " +
+         std::to_string(log.still_rows) + " holding still); " + keptOf(log.moving_stride, log.block_rows, "the motion") +
+         " and " + keptOf(log.still_stride, log.block_rows, "the rest") + " are used (" +
+         std::to_string(log.log.samples.size()) + " rows) to stay within --max-rows " + std::to_string(max_rows) +
+         (extras > 0 ? " (" + std::to_string(log.budget_rows) + " rows with its " + std::to_string(extras) +
+                           " extra column" + (extras == 1 ? "" : "s") + ")"
+                     : std::string()) +
+         " (memory; docs/log-format.md \"Limits\"). Every row was checked; the statistics are those of the rows "
+         "used";
+}
+
 InputLog readInput(const std::string& path, const InputOptions& options) {
   InputLog in;
   if (isDirectory(path)) {
     in = readRosbag2(path, options);
     if (options.wrench_log.empty()) return in;  // aligned with the bag's wrench topic
+  } else if (options.max_rows > 0 && options.wrench_log.empty() && !isUrRecordFile(path)) {
+    in = readFtidLog(path, options, nullptr);
   } else {
     const std::string text = readLogText(path);
     if (isUrRecordHeader(headerRow(text))) {
       const Table table = parseTable(text, path);
       in = urRecordToLog(table, options);
     } else {
-      const LogKind kind = options.wrench_log.empty() ? LogKind::kMeasurement : LogKind::kTrajectory;
-      in.log = parseLogText(text, path, kind, options.read);
-      in.format = "ftid log";
-      const std::size_t n = in.log.samples.size();
-      const std::size_t dropped = dropRepeatedPoses(in.log);
-      if (dropped > 0) {
-        in.notes.push_back("dropped " + std::to_string(dropped) + " of " + std::to_string(n) +
-                           " rows whose pose repeats the previous row exactly, in runs of at most " +
-                           std::to_string(kMaxStairRun) + " (stair steps: the recorder sampled faster than the "
-                           "robot's state updated; differences across them would be wrong)");
-      }
+      in = readFtidLog(path, options, &text);
     }
   }
   if (!options.wrench_log.empty()) {

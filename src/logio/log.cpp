@@ -7,6 +7,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <charconv>
@@ -24,7 +25,9 @@
 #include "ftid/fileio/atomic_file.hpp"
 #include "ftid/fileio/input_file.hpp"
 #include "ftid/logio/input.hpp"
+#include "file_lines.hpp"
 #include "line_cursor.hpp"
+#include "row_thinner.hpp"
 
 namespace ftid::logio {
 
@@ -186,7 +189,8 @@ struct ColumnMap {
 
 /// Advances `cur` to the header row (the first line that is neither blank nor a comment) and
 /// returns it; refuses an empty log, a UR recording's header and an overlong header row.
-std::string_view readHeaderRow(LineCursor& cur, const std::string& path) {
+template <class Cursor>
+std::string_view readHeaderRow(Cursor& cur, const std::string& path) {
   std::string_view line;
   bool have_header = false;
   while (cur.next(line)) {
@@ -327,12 +331,12 @@ void checkColumnGroups(const ColumnMap& map, const std::string& path, LogKind ki
 }
 
 /// Parses the fields of the data row `line` (line `line_no`) into `sample` (known columns,
-/// each within its plausible range `limits`) and the extra columns of `log`; returns the
+/// each within its plausible range `limits`) and `extras` (the extra columns, in order); returns the
 /// 1-based character position of the t field. Refuses a field that is not a number and a row
 /// with more or fewer fields than the header.
 std::size_t parseRow(std::string_view line, std::size_t line_no, const ColumnMap& map,
                      const std::array<double, kNumKnown>& limits, const std::string& path, LogSample& sample,
-                     LogData& log) {
+                     const LogData& log, std::vector<double>& extras) {
   const auto& known = knownColumns();
   const std::size_t n_fields = map.field_known.size();
   std::string why;
@@ -370,7 +374,7 @@ std::size_t parseRow(std::string_view line, std::size_t line_no, const ColumnMap
       }
       *slotOf(sample, k) = v;
     } else {
-      log.extra_columns[static_cast<std::size_t>(map.field_extra[field])].push_back(v);
+      extras[static_cast<std::size_t>(map.field_extra[field])] = v;
     }
     ++field;
     if (comma == std::string_view::npos) break;
@@ -384,33 +388,51 @@ std::size_t parseRow(std::string_view line, std::size_t line_no, const ColumnMap
   return t_column;
 }
 
-/// Parses every data row after the header into log.samples and log.extra_columns; t must
-/// increase strictly from row to row.
-void parseRows(LineCursor& cur, const ColumnMap& map, const std::string& path, const LogReadOptions& options,
-               LogData& log) {
-  log.extra_columns.assign(log.extra_names.size(), {});
+/// Parses and checks every data row after the header (t must increase strictly from row to
+/// row) and hands each to store(sample, extras).
+template <class Cursor, class Store>
+void parseRows(Cursor& cur, const ColumnMap& map, const std::string& path, const LogReadOptions& options,
+               const LogData& log, Store&& store) {
   const std::array<double, kNumKnown> limits = plausibleLimits(options);
-  const std::size_t n_fields = map.field_known.size();
-  const std::size_t rows_estimate = cur.text.size() / (n_fields * 8 + 1) + 1;
-  log.samples.reserve(rows_estimate);
-  for (auto& c : log.extra_columns) c.reserve(rows_estimate);
+  std::vector<double> extras(log.extra_names.size(), 0.0);
   double previous_t = 0.0;
   std::size_t previous_t_line = 0;
+  bool first = true;
   std::string_view line;
   while (cur.next(line)) {
     if (isBlankOrComment(line)) continue;
     LogSample sample;
-    const std::size_t t_column = parseRow(line, cur.line_no, map, limits, path, sample, log);
-    if (!log.samples.empty() && !(sample.t > previous_t)) {
+    const std::size_t t_column = parseRow(line, cur.line_no, map, limits, path, sample, log, extras);
+    if (!first && !(sample.t > previous_t)) {
       char buf[160];
       std::snprintf(buf, sizeof buf, "column 't': time %.17g is not greater than %.17g on line %zu (t must be strictly increasing)",
                     sample.t, previous_t, previous_t_line);
       dataError(path, cur.line_no, t_column, buf);
     }
+    first = false;
     previous_t = sample.t;
     previous_t_line = cur.line_no;
-    log.samples.push_back(sample);
+    store(sample, extras);
   }
+}
+
+/// Appends a row to the log.
+void appendRow(LogData& log, const LogSample& sample, const std::vector<double>& extras) {
+  log.samples.push_back(sample);
+  for (std::size_t k = 0; k < extras.size(); ++k) log.extra_columns[k].push_back(extras[k]);
+}
+
+/// Keeps the rows i of the log with keep[i] != 0, in order.
+void keepLogRows(LogData& log, const std::vector<char>& keep) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    if (keep[i] == 0) continue;
+    log.samples[n] = log.samples[i];
+    for (auto& c : log.extra_columns) c[n] = c[i];
+    ++n;
+  }
+  log.samples.resize(n);
+  for (auto& c : log.extra_columns) c.resize(n);
 }
 
 }  // namespace
@@ -422,9 +444,88 @@ LogData parseLogText(std::string_view text, const std::string& path, LogKind kin
   const std::string_view header = readHeaderRow(cur, path);
   const ColumnMap map = mapColumns(header, cur.line_no, path, log);
   checkColumnGroups(map, path, kind, log);
-  parseRows(cur, map, path, options, log);
+  log.extra_columns.assign(log.extra_names.size(), {});
+  const std::size_t rows_estimate = text.size() / (map.field_known.size() * 8 + 1) + 1;
+  log.samples.reserve(rows_estimate);
+  for (auto& c : log.extra_columns) c.reserve(rows_estimate);
+  parseRows(cur, map, path, options, log,
+            [&log](const LogSample& sample, const std::vector<double>& extras) { appendRow(log, sample, extras); });
   if (log.samples.empty()) dataError(path, map.header_line, 1, "log has a header but no data rows");
   return log;
+}
+
+std::size_t rowBudget(std::size_t max_rows, std::size_t extra_columns) {
+  const double rows = static_cast<double>(max_rows) * static_cast<double>(kWorkingBytesPerRow) /
+                      static_cast<double>(kWorkingBytesPerRow + kExtraColumnBytesPerRow * extra_columns);
+  // At least 2: one row of each class in its first block, which no stride leaves out.
+  return std::max<std::size_t>(2, static_cast<std::size_t>(rows));
+}
+
+std::size_t thinBlockRows(std::size_t budget_rows) { return std::clamp<std::size_t>(budget_rows / 16, 1, 256); }
+
+bool isUrRecordFile(const std::string& path) {
+  FileLineCursor cur(path, kMaxStreamedLogBytes);
+  std::string_view line;
+  while (cur.next(line)) {
+    if (!isBlankOrComment(line)) return isUrRecordHeader(line);
+  }
+  return false;
+}
+
+namespace {
+
+[[noreturn]] void refusePoseLog(const std::string& path, std::size_t rows, std::size_t max_rows, std::size_t budget,
+                                std::size_t extras) {
+  const double bytes = static_cast<double>(rows) * static_cast<double>(kWorkingBytesPerRow + kExtraColumnBytesPerRow * extras);
+  char need[32];
+  std::snprintf(need, sizeof need, bytes >= 1e9 ? "%.1f GB" : "%.0f MB", bytes >= 1e9 ? bytes / 1e9 : bytes / 1e6);
+  throw DataError(path + ": " + std::to_string(rows) + " data rows, more than --max-rows " + std::to_string(max_rows) +
+                  " (" + std::to_string(budget) + " rows with its extra columns) allows: a pose log is used whole, "
+                  "because its poses are differenced and rows left out would falsify the velocities (it would need "
+                  "about " + need + " of memory). Cut it into parts by time, or raise --max-rows if the machine has "
+                  "the memory (docs/log-format.md \"Limits\")");
+}
+
+}  // namespace
+
+ThinnedLog readLogThinned(const std::string& path, LogKind kind, const LogReadOptions& options, std::size_t max_rows) {
+  ThinnedLog out;
+  LogData& log = out.log;
+  log.source = path;
+  FileLineCursor cur(path, kMaxStreamedLogBytes);
+  const std::string_view header = readHeaderRow(cur, path);
+  const ColumnMap map = mapColumns(header, cur.line_no, path, log);
+  checkColumnGroups(map, path, kind, log);
+  log.extra_columns.assign(log.extra_names.size(), {});
+  out.budget_rows = rowBudget(max_rows, log.extra_names.size());
+  out.block_rows = thinBlockRows(out.budget_rows);
+  const std::size_t reserve = std::min(out.budget_rows + 1, cur.fileSize() / (map.field_known.size() * 8 + 1) + 1);
+  log.samples.reserve(reserve);
+  for (auto& c : log.extra_columns) c.reserve(reserve);
+  RowThinner thinner(out.budget_rows, out.block_rows);
+  std::size_t rows = 0;
+  bool refused = false;
+  parseRows(cur, map, path, options, log, [&](const LogSample& sample, const std::vector<double>& extras) {
+    ++rows;
+    if (refused || !thinner.offer(sample.qd.cwiseAbs().maxCoeff() < kStillSpeedRadS)) return;
+    appendRow(log, sample, extras);
+    if (!thinner.over()) return;
+    if (!log.has_joints) {
+      refused = true;  // every row is still checked, so the message gives the whole count
+      log.samples = {};
+      for (auto& c : log.extra_columns) c = {};
+      return;
+    }
+    keepLogRows(log, thinner.thin());
+  });
+  if (rows == 0) dataError(path, map.header_line, 1, "log has a header but no data rows");
+  if (refused) refusePoseLog(path, rows, max_rows, out.budget_rows, log.extra_names.size());
+  out.rows = rows;
+  out.still_rows = thinner.rows(true);
+  out.moving_rows = thinner.rows(false);
+  out.still_stride = thinner.stride(true);
+  out.moving_stride = thinner.stride(false);
+  return out;
 }
 
 namespace {

@@ -77,7 +77,8 @@ std::string readLogText(const std::string& path) {
     throw DataError(path + ": " + std::to_string(rows) + " data rows; ftid reads at most " +
                     std::to_string(max_rows) + " (it would need about " + gigabytes(static_cast<double>(rows) * kWorkingBytesPerRow) +
                     " of memory, about 2 KB per row). Cut it into parts by time, or resample it, or "
-                    "raise the limit with FTID_MAX_LOG_ROWS if the machine has the memory");
+                    "raise the limit with FTID_MAX_LOG_ROWS if the machine has the memory (ftid identify and "
+                    "ftid analyze read an ftid log of any length within --max-rows)");
   }
   return text;
 }

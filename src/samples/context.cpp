@@ -25,7 +25,8 @@ ContextSet::ContextSet(const ContextSet& other)
       has_imu(other.has_imu),
       has_temp(other.has_temp),
       held_rows(other.held_rows),
-      held_note(other.held_note) {
+      held_note(other.held_note),
+      thinned_note(other.thinned_note) {
   repoint();
 }
 
@@ -39,7 +40,8 @@ ContextSet::ContextSet(ContextSet&& other) noexcept
       has_imu(other.has_imu),
       has_temp(other.has_temp),
       held_rows(other.held_rows),
-      held_note(std::move(other.held_note)) {
+      held_note(std::move(other.held_note)),
+      thinned_note(std::move(other.thinned_note)) {
   repoint();  // extra_names now lives here (the rows' buffer moved with extra_rows)
   other.repoint();
 }
@@ -56,6 +58,7 @@ ContextSet& ContextSet::operator=(ContextSet&& other) noexcept {
     has_temp = other.has_temp;
     held_rows = other.held_rows;
     held_note = std::move(other.held_note);
+    thinned_note = std::move(other.thinned_note);
     repoint();
     other.repoint();
   }
@@ -305,6 +308,7 @@ ContextSet loadLogContexts(const std::string& log_path, const std::string& robot
   if (progress) progress("robot " + urdf + ", " + std::to_string(in.log.samples.size()) + " samples");
   const model::RobotKinematics kin = model::RobotKinematics::fromUrdfFile(urdf);
   ContextSet set = buildContexts(in.log, kin, opt);
+  set.thinned_note = in.thinned_note;
   if (options.drop_held_readings) {
     const HeldReadings held = findHeldReadings(in.log);
     if (held.count > 0) {

@@ -2,6 +2,7 @@
 // Offline pipelines behind `ftid identify` and `ftid compensate`: log file in, parameters or a
 // compensated CSV out. The CLI only parses arguments and calls these.
 #include <functional>
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,8 @@ using ProgressFn = std::function<void(const std::string& line)>;
 inline constexpr const char* kDefaultModel = "paper+rigid_body";
 /// The default on a static log (no motion: the rotational terms cannot be seen).
 inline constexpr const char* kDefaultStaticModel = "paper";
+/// `ftid identify --max-rows` default: an ftid log's rows held (about 1 GB; docs/log-format.md "Limits").
+inline constexpr std::size_t kDefaultIdentifyMaxRows = 500000;
 
 struct IdentifyRequest {
   std::string log_path;

@@ -274,6 +274,10 @@ std::string renderHtml(const AnalysisResult& result);
 
 namespace ftid::lab {
 
+/// `ftid analyze --max-rows` default: an ftid log's rows held (analyze keeps several fits and
+/// their residuals per row; docs/log-format.md "Limits").
+inline constexpr std::size_t kDefaultAnalyzeMaxRows = 150000;
+
 /// `ftid analyze` on files: reads the log(s) (docs/log-format.md), builds the contexts with the
 /// robot kinematics (default robot: defaultRobotUrdf()), and runs analyze().
 struct AnalyzeFilesRequest {

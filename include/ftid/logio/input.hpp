@@ -45,6 +45,10 @@ struct InputOptions {
   std::string joint_topic = "/joint_states";
   std::string wrench_topic{};
   LogReadOptions read{};
+  /// An ftid log's rows held in memory (`--max-rows`; readLogThinned; docs/log-format.md
+  /// "Limits"): a longer log is read in one pass and thinned to this budget. 0: read whole (up to
+  /// maxLogRows(), refused beyond). UR recordings, bags and --wrench-log pairs are read whole.
+  std::size_t max_rows = 0;
 };
 
 /// One recording (or a pair of them) read as a native log.
@@ -53,7 +57,14 @@ struct InputLog {
   std::string format;            ///< what was read, e.g. "UR RTDE recording (record.py, space-separated)"
   bool wrench_in_base = false;   ///< the wrench columns are in base axes (UR actual_TCP_force)
   std::vector<std::string> notes;  ///< what the reader did: rows dropped, alignment, sources
+  /// The note saying how a log beyond InputOptions::max_rows was thinned ("" if it was not; also
+  /// in `notes`), for the result's warnings.
+  std::string thinned_note;
 };
+
+/// The note for a log readLogThinned thinned: how many rows, of which class, which blocks of
+/// each class were kept, and why.
+std::string describeThinnedLog(const std::string& path, const ThinnedLog& log, std::size_t max_rows);
 
 /// Reads `path` in whichever supported format it is (recognised from its header) and, with
 /// `options.wrench_log`, pairs it with the sensor's recording. Throws DataError naming the file,

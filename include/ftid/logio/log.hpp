@@ -102,6 +102,43 @@ LogData readLog(const std::string& path, LogKind kind = LogKind::kMeasurement,
 LogData parseLogText(std::string_view text, const std::string& path, LogKind kind = LogKind::kMeasurement,
                      const LogReadOptions& options = {});
 
+/// Memory an extra column costs per row held [bytes]: its value in the log and in the contexts.
+inline constexpr std::size_t kExtraColumnBytesPerRow = 16;
+/// A row is "holding still" when every |qd| is below this [rad/s] (readLogThinned's classes).
+inline constexpr double kStillSpeedRadS = 1e-3;
+
+/// The rows a log may hold within `max_rows` (each kWorkingBytesPerRow) when it has
+/// `extra_columns` extra columns: max_rows * 2000 / (2000 + 16 * extra_columns), at least 2 (the
+/// first row of each class, which the thinning always keeps).
+std::size_t rowBudget(std::size_t max_rows, std::size_t extra_columns);
+/// Rows per block the thinning keeps or leaves out together: budget_rows / 16 within [1, 256].
+std::size_t thinBlockRows(std::size_t budget_rows);
+
+/// A log read in one pass within a row budget (readLogThinned).
+struct ThinnedLog {
+  LogData log;                     ///< the rows kept
+  std::size_t rows = 0;            ///< data rows in the file (every one checked)
+  std::size_t budget_rows = 0;     ///< rowBudget(max_rows, extra columns)
+  std::size_t block_rows = 0;      ///< thinBlockRows(budget_rows)
+  std::size_t still_rows = 0;      ///< rows holding still (every |qd| < kStillSpeedRadS)
+  std::size_t moving_rows = 0;
+  std::size_t still_stride = 1;    ///< every still_stride-th block of still rows is kept
+  std::size_t moving_stride = 1;   ///< every moving_stride-th block of moving rows is kept
+  bool thinned() const { return log.samples.size() < rows; }
+};
+
+/// Reads a CSV log of at most kMaxStreamedLogBytes in pieces, with readLog's checks on every
+/// row, holding at most rowBudget(max_rows, extras) rows: the rows holding still and the moving
+/// rows are each cut into blocks of thinBlockRows rows, and each class keeps every stride-th of
+/// its blocks, the stride (a power of two) doubled for the class holding more rows whenever the
+/// budget is passed (so the motion is thinned last). Within the budget the result equals
+/// readLog's. A pose log (no joint columns) over the budget is refused with the rows it has
+/// (its poses are differenced, so rows cannot be left out). Throws DataError naming file and line.
+ThinnedLog readLogThinned(const std::string& path, LogKind kind, const LogReadOptions& options, std::size_t max_rows);
+
+/// True if the first row of `path` that is neither blank nor a comment is a UR recording's header.
+bool isUrRecordFile(const std::string& path);
+
 /// Writes a CSV log atomically (temporary file + rename). Writes the IMU and temp columns only if
 /// the corresponding has_* flag is set, and the extra columns after them.
 void writeLog(const std::string& path, const LogData& log);

@@ -79,6 +79,9 @@ struct ContextSet {
   /// line for the user (describeHeldReadings; "" when none).
   int held_rows = 0;
   std::string held_note;
+  /// How readInput thinned a log beyond ContextOptions::input.max_rows (logio::InputLog::
+  /// thinned_note; "" when every row is used).
+  std::string thinned_note;
 
   ContextSet() = default;
   ContextSet(const ContextSet& other);

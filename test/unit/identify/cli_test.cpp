@@ -382,3 +382,38 @@ TEST(RecordingsCli, ATooSmallStaticSetSaysWhatWouldDo) {
 }
 
 }  // namespace recordings
+
+namespace {
+
+TEST(IdentifyCli, ALogBeyondMaxRowsIsThinnedKeepingTheMotionAndSaysSo) {
+  // 20 s holding still, then the paper's 10 s excitation (125 Hz: 2500 + 1251 rows). With
+  // --max-rows 2000 (blocks of 125 rows) the still rows are the larger class: every 2nd of their
+  // 20 blocks would leave 1250 + 1251 > 2000 rows, every 4th leaves 625 + 1251.
+  ftid::sim::CellSimConfig cfg = ftid::test::paperConfig(true, 11);
+  const ftid::trajectory::FourierTrajectory excitation = cfg.trajectory;
+  const double still_s = 20.0;
+  cfg.motion = [excitation, still_s](double t) {
+    if (t >= still_s) return excitation.evaluate(t - still_s);
+    ftid::trajectory::TrajectoryPoint p;
+    p.q = excitation.evaluate(0.0).q;
+    return p;
+  };
+  cfg.duration_s = still_s + 10.0;
+  const std::string log_path = dir() + "long_still.csv";
+  ftid::logio::writeLog(log_path, ftid::sim::CellSim(cfg).run());
+  const CliRun whole = ftidRun("identify --log " + log_path + " --method dynamic --json --max-rows 0");
+  ASSERT_EQ(whole.code, 0) << whole.err;
+  EXPECT_EQ(whole.out.find("--max-rows"), std::string::npos) << whole.out;
+  const CliRun r = ftidRun("identify --log " + log_path + " --method dynamic --json --max-rows 2000");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("every row of the motion and every 4th block of 125 rows of the rest are used"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NEAR(jsonValue(r.out, "weight"), 8.862, 0.05) << r.out;
+  EXPECT_NEAR(jsonValue(r.out, "com_z"), 0.051, 0.002) << r.out;
+  // A negative budget is a usage error (exit 2).
+  const CliRun bad = ftidRun("identify --log " + log_path + " --max-rows -3");
+  EXPECT_EQ(bad.code, 2) << bad.err;
+}
+
+}  // namespace

@@ -1,0 +1,89 @@
+// Statistical claims on thinned logs (issue 26, docs/log-format.md "Limits"): a log beyond
+// --max-rows is read with blocks of consecutive rows left out. The standard errors printed are
+// those of the rows used, and the claim is that they still hold on coloured noise: over 100 seeded
+// draws of the simulator's own 10 Hz filtered noise, added to the whole run before the rows are
+// chosen (as a real sensor's noise is), the estimates on the rows kept scatter as the reported
+// standard errors say (seed_study.hpp: ratio within +-30 %, bias within 4 spread/sqrt(n), and
+// 1.7x too large or too small standard errors rejected). The rows kept come from readLogThinned
+// on the run's own file; they depend on the joint velocities only, not on the noise.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "ftid/identify/paper_method.hpp"
+#include "ftid/logio/log.hpp"
+#include "paper_cell.hpp"
+#include "seed_study.hpp"
+#include "test_paths.hpp"
+
+namespace ftid::identify {
+namespace {
+
+using stats_test::Estimates;
+using test::Table2;
+
+/// The indices of the run's rows that readLogThinned keeps within `max_rows`, and the log's note.
+std::vector<std::size_t> keptRows(const sim::CellSimConfig& clean, std::size_t max_rows, const std::string& name,
+                                  logio::ThinnedLog* thinned) {
+  const logio::LogData run = sim::CellSim(clean).run();
+  const std::string path = test::binaryPath("/thinned_stats_") + name + ".csv";
+  logio::writeLog(path, run);
+  *thinned = logio::readLogThinned(path, logio::LogKind::kMeasurement, {}, max_rows);
+  std::vector<std::size_t> kept;
+  std::size_t i = 0;
+  for (const logio::LogSample& s : thinned->log.samples) {
+    while (i < run.samples.size() && run.samples[i].t != s.t) ++i;
+    kept.push_back(i);
+  }
+  return kept;
+}
+
+/// The paper's dynamic method on the kept rows of 100 draws of the filtered noise.
+void expectThinnedClaims(const sim::CellSimConfig& noisy, std::size_t max_rows, const std::string& name,
+                         std::uint64_t first_seed, logio::ThinnedLog* thinned) {
+  sim::CellSimConfig clean = noisy;
+  clean.noise = sim::NoiseConfig{};
+  const std::vector<std::size_t> kept = keptRows(clean, max_rows, name, thinned);
+  ASSERT_TRUE(thinned->thinned());
+  PaperOptions o;
+  o.method = PaperMethod::kDynamic;
+  const auto estimator = [&kept, &o](const std::vector<effects::SampleContext>& ctx) {
+    std::vector<effects::SampleContext> used;
+    for (std::size_t i : kept) used.push_back(ctx[i]);
+    Estimates e;
+    for (const auto& p : identifyPaper(used, o).params) e[p.name] = {p.value, p.std};
+    return e;
+  };
+  const auto study = stats_test::runSeedStudy(test::contextsOf(clean).samples, stats_test::simulatorNoise(noisy),
+                                              estimator, 100, first_seed);
+  for (const char* p : {"mass", "com_z", "com_x", "f0_x", "t0_y", "tilt_u", "tilt_v"}) {
+    stats_test::expectClaim(study, p, Table2::value(p));
+  }
+}
+
+sim::CellSimConfig filtered(double duration_s) {
+  sim::CellSimConfig cfg = test::paperConfig(true, 1);
+  cfg.noise.wrench_lowpass_hz = 10.0;  // lag-1 correlation 0.6 at 125 Hz
+  cfg.duration_s = duration_s;
+  return cfg;
+}
+
+TEST(ThinnedStats, TheRestThinnedInBlocksBesideTheWholeMotion) {
+  // 10 s of excitation, then 50 s holding the last pose (7501 rows); --max-rows 2600: the motion
+  // whole, every 8th block of 162 rows of the rest.
+  logio::ThinnedLog thinned;
+  expectThinnedClaims(filtered(60.0), 2600, "rest", 31000, &thinned);
+  EXPECT_EQ(thinned.moving_stride, 1u);
+  EXPECT_EQ(thinned.still_stride, 8u);
+}
+
+TEST(ThinnedStats, TheMotionItselfThinnedInBlocks) {
+  // The 10 s excitation alone (1251 rows); --max-rows 600: every 4th block of 37 rows of it.
+  logio::ThinnedLog thinned;
+  expectThinnedClaims(filtered(10.0), 600, "motion", 32000, &thinned);
+  EXPECT_EQ(thinned.moving_stride, 4u);
+}
+
+}  // namespace
+}  // namespace ftid::identify
