@@ -106,7 +106,7 @@ std::vector<std::string> splitList(const std::string& s) {
 
 const std::string& usage() {
   static const std::string text =
-      ftid::cli::withMaxRowsHelp(ftid::cli::withInputFlagsHelp(kUsage), ftid::lab::kDefaultAnalyzeMaxRows);
+      ftid::cli::withMaxRowsHelp(ftid::cli::withInputFlagsHelp(kUsage), ftid::lab::kDefaultAnalyzeMaxRows, "2 GB");
   return text;
 }
 

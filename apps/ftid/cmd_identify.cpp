@@ -103,7 +103,7 @@ const char* const kUsage =
 /// The usage with the shared recording options inserted.
 const std::string& usage() {
   static const std::string text =
-      ftid::cli::withMaxRowsHelp(ftid::cli::withInputFlagsHelp(kUsage), ftid::identify::kDefaultIdentifyMaxRows);
+      ftid::cli::withMaxRowsHelp(ftid::cli::withInputFlagsHelp(kUsage), ftid::identify::kDefaultIdentifyMaxRows, "1 GB");
   return text;
 }
 

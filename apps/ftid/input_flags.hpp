@@ -36,21 +36,22 @@ inline std::string withInputFlagsHelp(std::string usage) {
   return usage;
 }
 
-/// Help text of --max-rows for a command whose default is `default_rows`.
-inline std::string maxRowsHelp(std::size_t default_rows) {
-  return "  --max-rows N      rows of an ftid log held in memory (default " + std::to_string(default_rows) +
-         ", about 2 KB\n"
-         "                    each, less with extra columns): a longer log is read in one pass, every row\n"
-         "                    checked, and thinned to N in blocks of consecutive rows, the motion last;\n"
-         "                    a warning says so (docs/log-format.md \"Limits\"). 0 reads the whole log\n"
-         "                    (refused beyond FTID_MAX_LOG_ROWS rows, 2,000,000 by default)\n";
+/// Help text of --max-rows for a command whose default is `default_rows`, which take about `memory`.
+inline std::string maxRowsHelp(std::size_t default_rows, const std::string& memory) {
+  return "  --max-rows N      at most N rows of an ftid log are held (default " + std::to_string(default_rows) +
+         ", about " + memory + ";\n"
+         "                    extra columns lower N by their size): a longer log is read in one pass,\n"
+         "                    every row checked, and thinned in blocks of consecutive rows, the larger of\n"
+         "                    the still and the moving rows first (a short motion among long rests stays\n"
+         "                    whole); a warning says how (docs/log-format.md \"Limits\"). 0: the whole\n"
+         "                    log (refused beyond FTID_MAX_LOG_ROWS rows, 2,000,000 by default)\n";
 }
 
-/// `usage` with its "%MAX_ROWS%" marker replaced by maxRowsHelp(default_rows).
-inline std::string withMaxRowsHelp(std::string usage, std::size_t default_rows) {
+/// `usage` with its "%MAX_ROWS%" marker replaced by maxRowsHelp(default_rows, memory).
+inline std::string withMaxRowsHelp(std::string usage, std::size_t default_rows, const std::string& memory) {
   const std::string marker = "%MAX_ROWS%";
   const auto at = usage.find(marker);
-  if (at != std::string::npos) usage.replace(at, marker.size(), maxRowsHelp(default_rows));
+  if (at != std::string::npos) usage.replace(at, marker.size(), maxRowsHelp(default_rows, memory));
   return usage;
 }
 

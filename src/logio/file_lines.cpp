@@ -33,15 +33,25 @@ bool FileLineCursor::refill() {
   return got > 0;
 }
 
+void FileLineCursor::dropByteOrderMark() {
+  first_ = false;
+  while (end_ - begin_ < 3 && refill()) {
+  }
+  if (end_ - begin_ >= 3 && std::memcmp(&buf_[begin_], "\xEF\xBB\xBF", 3) == 0) begin_ += 3;
+}
+
+[[noreturn]] void FileLineCursor::tooLong() const {
+  throw DataError(path_ + ":" + std::to_string(line_no + 1) + ":1: line is longer than " + std::to_string(max_line_) +
+                  " characters");
+}
+
 bool FileLineCursor::next(std::string_view& line) {
+  if (first_) dropByteOrderMark();  // as readLogText drops it from the whole text
   std::size_t scanned = begin_;  // bytes before it hold no '\n'
   while (true) {
     const void* nl = std::memchr(&buf_[scanned], '\n', end_ - scanned);
     const std::size_t stop = nl != nullptr ? static_cast<std::size_t>(static_cast<const char*>(nl) - buf_.data()) : end_;
-    if (stop - begin_ > max_line_ + 1) {  // +1: a '\r' before the '\n' is not part of the line
-      throw DataError(path_ + ":" + std::to_string(line_no + 1) + ":1: line is longer than " +
-                      std::to_string(max_line_) + " characters");
-    }
+    if (stop - begin_ > max_line_ + 1) tooLong();  // +1: a '\r' before the '\n' (checked below)
     if (nl != nullptr || (eof_ && stop > begin_)) {
       line = std::string_view(&buf_[begin_], stop - begin_);
       begin_ = nl != nullptr ? stop + 1 : stop;
@@ -53,10 +63,7 @@ bool FileLineCursor::next(std::string_view& line) {
     if (eof_ && begin_ == end_) return false;
   }
   if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-  if (first_) {
-    first_ = false;
-    if (line.substr(0, 3) == "\xEF\xBB\xBF") line.remove_prefix(3);
-  }
+  if (line.size() > max_line_) tooLong();
   ++line_no;
   return true;
 }

@@ -34,6 +34,9 @@ class FileLineCursor {
  private:
   /// Moves the unread bytes to the front and reads more; false if the file had no more.
   bool refill();
+  /// Skips a UTF-8 byte-order mark at the start of the file (reading up to 3 bytes for it).
+  void dropByteOrderMark();
+  [[noreturn]] void tooLong() const;
 
   std::string path_;
   InputFileReader reader_;

@@ -482,8 +482,8 @@ namespace {
   throw DataError(path + ": " + std::to_string(rows) + " data rows, more than --max-rows " + std::to_string(max_rows) +
                   " (" + std::to_string(budget) + " rows with its extra columns) allows: a pose log is used whole, "
                   "because its poses are differenced and rows left out would falsify the velocities (it would need "
-                  "about " + need + " of memory). Cut it into parts by time, or raise --max-rows if the machine has "
-                  "the memory (docs/log-format.md \"Limits\")");
+                  "about " + need + " of memory). Cut it into parts by time, or raise --max-rows (0: no limit but "
+                  "FTID_MAX_LOG_ROWS) if the machine has the memory (docs/log-format.md \"Limits\")");
 }
 
 }  // namespace
@@ -499,15 +499,20 @@ ThinnedLog readLogThinned(const std::string& path, LogKind kind, const LogReadOp
   log.extra_columns.assign(log.extra_names.size(), {});
   out.budget_rows = rowBudget(max_rows, log.extra_names.size());
   out.block_rows = thinBlockRows(out.budget_rows);
-  const std::size_t reserve = std::min(out.budget_rows + 1, cur.fileSize() / (map.field_known.size() * 8 + 1) + 1);
-  log.samples.reserve(reserve);
-  for (auto& c : log.extra_columns) c.reserve(reserve);
+  // The vectors grow to at most budget + 1 rows (not by doubling beyond it).
+  const std::size_t cap = out.budget_rows + 1;
+  const auto reserveRows = [&log](std::size_t n) {
+    log.samples.reserve(n);
+    for (auto& c : log.extra_columns) c.reserve(n);
+  };
+  reserveRows(std::min(cap, cur.fileSize() / (map.field_known.size() * 8 + 1) + 1));
   RowThinner thinner(out.budget_rows, out.block_rows);
   std::size_t rows = 0;
   bool refused = false;
   parseRows(cur, map, path, options, log, [&](const LogSample& sample, const std::vector<double>& extras) {
     ++rows;
     if (refused || !thinner.offer(sample.qd.cwiseAbs().maxCoeff() < kStillSpeedRadS)) return;
+    if (log.samples.size() == log.samples.capacity()) reserveRows(std::min(cap, 2 * log.samples.size() + 1024));
     appendRow(log, sample, extras);
     if (!thinner.over()) return;
     if (!log.has_joints) {

@@ -9,13 +9,22 @@
 // result does not depend on when the strides grew.
 #include <array>
 #include <cstddef>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace ftid::logio {
 
 class RowThinner {
  public:
-  RowThinner(std::size_t budget_rows, std::size_t block_rows) : budget_(budget_rows), block_(block_rows) {}
+  /// Needs 1 <= block_rows and 2 * block_rows <= budget_rows (thinBlockRows gives that): the first
+  /// block of each class, which no stride leaves out, must fit within the budget together.
+  RowThinner(std::size_t budget_rows, std::size_t block_rows) : budget_(budget_rows), block_(block_rows) {
+    if (block_rows == 0 || 2 * block_rows > budget_rows) {
+      throw std::invalid_argument("RowThinner: blocks of " + std::to_string(block_rows) + " rows do not fit twice in " +
+                                  std::to_string(budget_rows));
+    }
+  }
 
   /// The next row, of class `still` (else moving): true if it is to be stored now.
   bool offer(bool still) {

@@ -131,9 +131,11 @@ struct ThinnedLog {
 /// row, holding at most rowBudget(max_rows, extras) rows: the rows holding still and the moving
 /// rows are each cut into blocks of thinBlockRows rows, and each class keeps every stride-th of
 /// its blocks, the stride (a power of two) doubled for the class holding more rows whenever the
-/// budget is passed (so the motion is thinned last). Within the budget the result equals
-/// readLog's. A pose log (no joint columns) over the budget is refused with the rows it has
-/// (its poses are differenced, so rows cannot be left out). Throws DataError naming file and line.
+/// budget is passed (a short motion among long rests stays whole). Within the budget the rows
+/// equal readLog's; unlike readLog, any line longer than kMaxLineBytes (file_lines.hpp, 1 MiB) is
+/// refused and FTID_MAX_LOG_ROWS plays no part. A pose log (no joint columns) over the budget is
+/// refused with the rows it has (its poses are differenced, so rows cannot be left out). Throws
+/// DataError naming file and line.
 ThinnedLog readLogThinned(const std::string& path, LogKind kind, const LogReadOptions& options, std::size_t max_rows);
 
 /// True if the first row of `path` that is neither blank nor a comment is a UR recording's header.

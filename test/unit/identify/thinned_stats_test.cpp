@@ -8,6 +8,7 @@
 // on the run's own file; they depend on the joint velocities only, not on the noise.
 #include <gtest/gtest.h>
 
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -34,6 +35,7 @@ std::vector<std::size_t> keptRows(const sim::CellSimConfig& clean, std::size_t m
   std::size_t i = 0;
   for (const logio::LogSample& s : thinned->log.samples) {
     while (i < run.samples.size() && run.samples[i].t != s.t) ++i;
+    if (i == run.samples.size()) throw std::logic_error("a kept row's time is not in the run");
     kept.push_back(i);
   }
   return kept;

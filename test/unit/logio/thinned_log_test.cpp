@@ -8,6 +8,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,7 @@
 #include "ftid/logio/input.hpp"
 #include "ftid/logio/log.hpp"
 #include "line_cursor.hpp"
+#include "row_thinner.hpp"
 #include "test_paths.hpp"
 
 namespace ftid::logio {
@@ -113,12 +115,29 @@ TEST(StreamedLines, ALineBeyondTheLimitIsRefusedNamingItsLine) {
   } catch (const DataError& e) {
     EXPECT_EQ(std::string(e.what()), path + ":2:1: line is longer than 1024 characters");
   }
-  // A line of exactly the limit, with a '\r' before its '\n', passes.
-  const std::string ok = writeText("limit_line.csv", std::string(1024, '7') + "\r\n");
-  FileLineCursor at_limit(ok, 1 << 20, 1024, 100);
-  ASSERT_TRUE(at_limit.next(line));
-  EXPECT_EQ(line.size(), 1024u);
-  EXPECT_FALSE(at_limit.next(line));
+  // A line of exactly the limit passes, with '\r\n', '\n' or no end; one character more does not.
+  for (const char* end : {"\r\n", "\n", ""}) {
+    const std::string ok = writeText("limit_line.csv", std::string(1024, '7') + end);
+    FileLineCursor at_limit(ok, 1 << 20, 1024, 100);
+    ASSERT_TRUE(at_limit.next(line));
+    EXPECT_EQ(line.size(), 1024u);
+    EXPECT_FALSE(at_limit.next(line));
+    const std::string over = writeText("over_line.csv", "t\n" + std::string(1025, '7') + end);
+    FileLineCursor past(over, 1 << 20, 1024, 100);
+    ASSERT_TRUE(past.next(line));
+    EXPECT_THROW(past.next(line), DataError) << "1025 characters ending in '" << end << "'";
+  }
+}
+
+TEST(StreamedLines, AFileOfOnlyAByteOrderMarkHasNoLines) {
+  for (const char* text : {"\xEF\xBB\xBF", "\xEF\xBB", ""}) {
+    const std::string body(text);
+    const std::string stripped = body.rfind("\xEF\xBB\xBF", 0) == 0 ? body.substr(3) : body;
+    FileLineCursor cur(writeText("bom.csv", body), 1 << 20, 64, 1);
+    LineCursor whole{stripped};
+    std::string_view a, b;
+    EXPECT_EQ(cur.next(a), whole.next(b)) << body.size() << " bytes";
+  }
 }
 
 TEST(ThinnedLog, WithinTheBudgetItIsReadLogBitForBit) {
@@ -244,6 +263,9 @@ TEST(ThinnedLog, TheSmallestBudgetKeepsTheFirstRowOfEachClass) {
   const ThinnedLog t = readLogThinned(writeText("smallest.csv", segmentedLog(segments, moving)), LogKind::kMeasurement, {}, 1);
   EXPECT_EQ(t.budget_rows, 2u);
   EXPECT_EQ(rowsOf(t.log), (std::vector<std::size_t>{0, 1}));
+  // Blocks that do not fit twice in the budget could never be thinned enough: refused up front.
+  EXPECT_THROW(RowThinner(2, 5), std::invalid_argument);
+  EXPECT_NO_THROW(RowThinner(10, 5));
 }
 
 TEST(ThinnedLog, APoseLogBeyondTheBudgetIsRefusedWithItsRows) {
