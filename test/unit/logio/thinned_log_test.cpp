@@ -77,6 +77,20 @@ std::vector<std::size_t> rowsOf(const LogData& log) {
   return rows;
 }
 
+/// The blocks and strides worked out by hand in a test, and the rows they keep.
+struct Thinning {
+  std::size_t block, moving_stride, still_stride, kept;
+};
+
+/// `t` has the hand-worked thinning, and its rows are those keptByTheRule gives for it.
+void expectThinnedAs(const ThinnedLog& t, const std::vector<bool>& moving, const Thinning& expected) {
+  EXPECT_EQ(t.block_rows, expected.block);
+  EXPECT_EQ(t.moving_stride, expected.moving_stride);
+  EXPECT_EQ(t.still_stride, expected.still_stride);
+  EXPECT_EQ(t.log.samples.size(), expected.kept);
+  EXPECT_EQ(rowsOf(t.log), keptByTheRule(moving, expected.block, expected.moving_stride, expected.still_stride));
+}
+
 TEST(StreamedLines, AreTheInMemoryCursorsLinesAtEveryChunkBoundary) {
   std::mt19937 rng(7);
   std::string text = "\xEF\xBB\xBF";  // a byte-order mark, dropped from the first line as readLogText drops it
@@ -171,13 +185,9 @@ TEST(ThinnedLog, KeepsTheMotionWholeAndThinsTheRestInBlocksByItsOwnStride) {
   const ThinnedLog t = readLogThinned(path, LogKind::kMeasurement, {}, 2000);
   EXPECT_EQ(t.rows, 10800u);
   EXPECT_EQ(t.budget_rows, 2000u);
-  EXPECT_EQ(t.block_rows, 125u);
   EXPECT_EQ(t.moving_rows, 800u);
   EXPECT_EQ(t.still_rows, 10000u);
-  EXPECT_EQ(t.moving_stride, 1u);
-  EXPECT_EQ(t.still_stride, 16u);
-  EXPECT_EQ(t.log.samples.size(), 1425u);
-  EXPECT_EQ(rowsOf(t.log), keptByTheRule(moving, 125, 1, 16));
+  expectThinnedAs(t, moving, {125, 1, 16, 1425});
 }
 
 TEST(ThinnedLog, AMotionLongerThanTheBudgetIsThinnedToo) {
@@ -186,12 +196,7 @@ TEST(ThinnedLog, AMotionLongerThanTheBudgetIsThinnedToo) {
   // keeps 0, 8, .., 80: 10 * 62 + 40 = 660.
   std::vector<bool> moving;
   const std::string path = writeText("motion.csv", segmentedLog({{5000, true}}, moving));
-  const ThinnedLog t = readLogThinned(path, LogKind::kMeasurement, {}, 1000);
-  EXPECT_EQ(t.block_rows, 62u);
-  EXPECT_EQ(t.moving_stride, 8u);
-  EXPECT_EQ(t.still_stride, 1u);
-  EXPECT_EQ(t.log.samples.size(), 660u);
-  EXPECT_EQ(rowsOf(t.log), keptByTheRule(moving, 62, 8, 1));
+  expectThinnedAs(readLogThinned(path, LogKind::kMeasurement, {}, 1000), moving, {62, 8, 1, 660});
 }
 
 TEST(ThinnedLog, EveryRowIsCheckedAndItsStorageIsBoundedByTheBudget) {
