@@ -48,16 +48,10 @@ std::size_t dropRepeatedPoses(LogData& log) {
                           [&](std::size_t c) { return log.extra_columns[c][i] == log.extra_columns[c][i - 1]; });
   }
   const std::vector<bool> drop = stairSteps(same, std::vector<int>(n, -1));
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (drop[i]) continue;
-    log.samples[kept] = log.samples[i];
-    for (auto& c : log.extra_columns) c[kept] = c[i];
-    ++kept;
-  }
-  log.samples.resize(kept);
-  for (auto& c : log.extra_columns) c.resize(kept);
-  return n - kept;
+  std::vector<char> keep(n);
+  for (std::size_t i = 0; i < n; ++i) keep[i] = drop[i] ? 0 : 1;
+  log.keepRows(keep);
+  return n - log.samples.size();
 }
 
 namespace {
@@ -83,6 +77,21 @@ std::string repeatedPosesNote(std::size_t dropped, std::size_t rows) {
          "be wrong)";
 }
 
+/// The note for a log readLogThinned thinned: how many rows, of which class, which blocks of each
+/// class were kept, and why.
+std::string describeThinnedLog(const std::string& path, const ThinnedLog& log, std::size_t max_rows) {
+  const std::size_t extras = log.log.extra_names.size();
+  return path + ": " + std::to_string(log.rows) + " data rows (" + std::to_string(log.moving_rows) + " moving, " +
+         std::to_string(log.still_rows) + " holding still); " + keptOf(log.moving_stride, log.block_rows, "the motion") +
+         " and " + keptOf(log.still_stride, log.block_rows, "the rest") + " are used (" +
+         std::to_string(log.log.samples.size()) + " rows) to stay within --max-rows " + std::to_string(max_rows) +
+         (extras > 0 ? " (" + std::to_string(log.budget_rows) + " rows with its " + std::to_string(extras) +
+                           " extra column" + (extras == 1 ? "" : "s") + ")"
+                     : std::string()) +
+         " (memory; docs/log-format.md \"Limits\"). Every row was checked; the statistics are those of the rows "
+         "used";
+}
+
 /// An ftid log: read whole, or with options.max_rows in one pass within that budget.
 InputLog readFtidLog(const std::string& path, const InputOptions& options, const std::string* text) {
   InputLog in;
@@ -105,19 +114,6 @@ InputLog readFtidLog(const std::string& path, const InputOptions& options, const
 }
 
 }  // namespace
-
-std::string describeThinnedLog(const std::string& path, const ThinnedLog& log, std::size_t max_rows) {
-  const std::size_t extras = log.log.extra_names.size();
-  return path + ": " + std::to_string(log.rows) + " data rows (" + std::to_string(log.moving_rows) + " moving, " +
-         std::to_string(log.still_rows) + " holding still); " + keptOf(log.moving_stride, log.block_rows, "the motion") +
-         " and " + keptOf(log.still_stride, log.block_rows, "the rest") + " are used (" +
-         std::to_string(log.log.samples.size()) + " rows) to stay within --max-rows " + std::to_string(max_rows) +
-         (extras > 0 ? " (" + std::to_string(log.budget_rows) + " rows with its " + std::to_string(extras) +
-                           " extra column" + (extras == 1 ? "" : "s") + ")"
-                     : std::string()) +
-         " (memory; docs/log-format.md \"Limits\"). Every row was checked; the statistics are those of the rows "
-         "used";
-}
 
 InputLog readInput(const std::string& path, const InputOptions& options) {
   InputLog in;

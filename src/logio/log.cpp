@@ -38,6 +38,18 @@ int LogData::extraIndex(const std::string& name) const {
   return -1;
 }
 
+void LogData::keepRows(const std::vector<char>& keep) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < keep.size(); ++i) {
+    if (keep[i] == 0) continue;
+    samples[n] = samples[i];
+    for (auto& c : extra_columns) c[n] = c[i];
+    ++n;
+  }
+  samples.resize(n);
+  for (auto& c : extra_columns) c.resize(n);
+}
+
 namespace {
 
 // Slot of every known column in the sample.
@@ -422,19 +434,6 @@ void appendRow(LogData& log, const LogSample& sample, const std::vector<double>&
   for (std::size_t k = 0; k < extras.size(); ++k) log.extra_columns[k].push_back(extras[k]);
 }
 
-/// Keeps the rows i of the log with keep[i] != 0, in order.
-void keepLogRows(LogData& log, const std::vector<char>& keep) {
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < keep.size(); ++i) {
-    if (keep[i] == 0) continue;
-    log.samples[n] = log.samples[i];
-    for (auto& c : log.extra_columns) c[n] = c[i];
-    ++n;
-  }
-  log.samples.resize(n);
-  for (auto& c : log.extra_columns) c.resize(n);
-}
-
 }  // namespace
 
 LogData parseLogText(std::string_view text, const std::string& path, LogKind kind, const LogReadOptions& options) {
@@ -521,7 +520,7 @@ ThinnedLog readLogThinned(const std::string& path, LogKind kind, const LogReadOp
       for (auto& c : log.extra_columns) c = {};
       return;
     }
-    keepLogRows(log, thinner.thin());
+    log.keepRows(thinner.thin());
   });
   if (rows == 0) dataError(path, map.header_line, 1, "log has a header but no data rows");
   if (refused) refusePoseLog(path, rows, max_rows, out.budget_rows, log.extra_names.size());

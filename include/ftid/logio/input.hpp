@@ -62,10 +62,6 @@ struct InputLog {
   std::string thinned_note;
 };
 
-/// The note for a log readLogThinned thinned: how many rows, of which class, which blocks of
-/// each class were kept, and why.
-std::string describeThinnedLog(const std::string& path, const ThinnedLog& log, std::size_t max_rows);
-
 /// Reads `path` in whichever supported format it is (recognised from its header) and, with
 /// `options.wrench_log`, pairs it with the sensor's recording. Throws DataError naming the file,
 /// line and column on any malformed input, and a DataError naming the fix when the wrench is

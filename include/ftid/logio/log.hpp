@@ -41,6 +41,9 @@ struct LogData {
 
   /// Index of an extra column by name, or -1.
   int extraIndex(const std::string& name) const;
+  /// Keeps the samples i with keep[i] != 0 (one entry per sample), in order, with their extra
+  /// values.
+  void keepRows(const std::vector<char>& keep);
 };
 
 enum class LogKind {

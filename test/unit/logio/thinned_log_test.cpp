@@ -251,13 +251,19 @@ TEST(ThinnedLog, ExtraColumnsLowerTheRowBudgetByTheirBytes) {
     header += ",x" + std::to_string(k);
     extras += "," + std::to_string(k);
   }
+  // A last extra column carries the row number: the thinning keeps each row's extras with it.
+  header += ",row";
   std::string text = header + "\n";
-  for (std::size_t i = 0; i < 3000; ++i) text += row(i, true, extras);
+  for (std::size_t i = 0; i < 3000; ++i) text += row(i, true, extras + "," + std::to_string(i));
   const ThinnedLog t = readLogThinned(writeText("extras.csv", text), LogKind::kMeasurement, {}, 1000);
-  EXPECT_EQ(t.budget_rows, 500u);
-  EXPECT_LE(t.log.samples.size(), 500u);
-  for (const auto& c : t.log.extra_columns) EXPECT_EQ(c.size(), t.log.samples.size());
+  EXPECT_EQ(t.budget_rows, rowBudget(1000, 126));
+  EXPECT_TRUE(t.thinned());
+  EXPECT_LE(t.log.samples.size(), t.budget_rows);
+  for (const auto& c : t.log.extra_columns) ASSERT_EQ(c.size(), t.log.samples.size());
   EXPECT_EQ(t.log.extra_columns[7][3], 7.0);
+  for (std::size_t j = 0; j < t.log.samples.size(); ++j) {
+    ASSERT_EQ(t.log.extra_columns[125][j], t.log.samples[j].wrench_S[0]) << j;
+  }
 }
 
 TEST(ThinnedLog, TheSmallestBudgetKeepsTheFirstRowOfEachClass) {
